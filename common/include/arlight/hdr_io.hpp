@@ -1,0 +1,92 @@
+// HDR image input and output through OpenImageIO: reads EXR, Radiance HDR (RGBE), PFM, PNG,
+// JPEG and WebP into linear float RGB; writes EXR (half or float) with arlight metadata and
+// 8-bit PNG previews. Every read is checked: a missing, truncated, unsupported or wrongly
+// shaped file raises InputError naming the file and the problem; NaN, Inf and negative
+// radiance are replaced by 0 and counted in the returned report, never passed on silently.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "arlight/error.hpp"
+#include "arlight/image.hpp"
+#include "arlight/projection.hpp"
+
+namespace arlight {
+
+// What sanitisation changed in an image.
+struct SanitizeReport {
+  std::size_t negative = 0;  // finite values < 0, set to 0
+  std::size_t nan = 0;       // NaN, set to 0
+  std::size_t inf = 0;       // +-Inf, set to 0
+  float most_negative = 0;   // the smallest finite value seen (<= 0)
+
+  std::size_t total() const { return negative + nan + inf; }
+  bool clean() const { return total() == 0; }
+  std::string summary() const;  // e.g. "clamped 12 negative (min -149.25), 0 NaN, 0 Inf values"
+};
+
+// Replaces NaN, Inf and negative channel values with 0 and counts them.
+SanitizeReport sanitize(ImageView img);
+
+// Metadata arlight stores in its EXR files (attributes "arlight:*").
+struct ImageMetadata {
+  std::optional<Projection> projection;
+  std::optional<double> shininess;
+  std::vector<std::array<float, 3>> sh_coefficients;  // index l(l+1)+m; order = sqrt(size)
+  std::optional<std::string> description;
+};
+
+struct LoadOptions {
+  std::size_t max_pixels = std::size_t(1) << 26;  // refuse larger images before allocating
+  bool strict = false;  // NaN/Inf/negative values raise InputError instead of being clamped
+};
+
+struct LoadedImage {
+  Image image;             // linear RGB
+  std::string format;      // OpenImageIO's format name, e.g. "openexr", "png"
+  bool decoded_srgb = false;  // 8/16-bit file whose sRGB encoding was undone
+  SanitizeReport sanitized;
+  ImageMetadata metadata;
+};
+
+LoadedImage load_image(const std::filesystem::path& path, const LoadOptions& options = {});
+
+struct LoadedEnvMap {
+  EnvMap env;
+  LoadedImage info;  // info.image is moved into env
+};
+
+// Loads an environment map. Its projection is `expect` if given, else the file's
+// arlight:projection attribute, else guessed from the shape (2:1 lat-long, 1:1 angle map,
+// 1:6 cube). A shape that does not fit raises InputError.
+LoadedEnvMap load_envmap(const std::filesystem::path& path,
+                         std::optional<Projection> expect = std::nullopt,
+                         const LoadOptions& options = {});
+
+enum class ExrPixel { Half, Float };
+
+// Writes an OpenEXR file (ZIP compressed) atomically: a temporary file in the same folder is
+// written, then renamed over `path`, so a failed write never leaves a broken file behind.
+// Throws std::runtime_error on failure.
+void write_exr(const std::filesystem::path& path, ConstImageView img,
+               const ImageMetadata& metadata = {}, ExrPixel pixel = ExrPixel::Half);
+
+struct PreviewOptions {
+  // Exposure in stops; std::nullopt picks it so the log-average luminance maps to 0.18.
+  std::optional<double> exposure_stops;
+};
+
+// Exposure (stops) that maps the log-average luminance of the non-black pixels to 0.18.
+double auto_exposure_stops(ConstImageView img);
+
+// 8-bit sRGB PNG for people to look at: exposure, then Reinhard's x / (1 + x) per channel,
+// then the sRGB curve. Written atomically like write_exr.
+void write_png_preview(const std::filesystem::path& path, ConstImageView img,
+                       const PreviewOptions& options = {});
+
+}  // namespace arlight

@@ -1,0 +1,284 @@
+#include "arlight/hdr_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <system_error>
+
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+namespace arlight {
+
+namespace fs = std::filesystem;
+namespace OIIO_NS = OIIO;
+
+namespace {
+
+constexpr const char* kAttrProjection = "arlight:projection";
+constexpr const char* kAttrShininess = "arlight:shininess";
+constexpr const char* kAttrShOrder = "arlight:sh_order";
+constexpr const char* kAttrShCoefficients = "arlight:sh_coefficients";
+constexpr const char* kAttrDescription = "ImageDescription";
+
+std::string quoted(const fs::path& p) {
+  // Built piecewise: `"'" + p.string() + "'"` trips GCC 12's false -Wrestrict (PR 105329).
+  std::string s(1, '\'');
+  s.append(p.string());
+  s.push_back('\'');
+  return s;
+}
+
+float srgb_to_linear(float v) {
+  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+float linear_to_srgb(float v) {
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+ImageMetadata read_metadata(const OIIO_NS::ImageSpec& spec, const fs::path& path) {
+  ImageMetadata md;
+  const std::string proj = spec.get_string_attribute(kAttrProjection);
+  if (!proj.empty()) {
+    md.projection = parse_projection(proj);
+    if (!md.projection)
+      throw InputError(quoted(path) + ": unknown " + kAttrProjection + " '" + proj +
+                       "' (expected anglemap, latlong or cube)");
+  }
+  if (const auto* p = spec.find_attribute(kAttrShininess)) {
+    if (p->type() != OIIO_NS::TypeFloat)
+      throw InputError(quoted(path) + ": attribute " + kAttrShininess + " is not a float");
+    md.shininess = *static_cast<const float*>(p->data());
+  }
+  if (const auto* p = spec.find_attribute(kAttrShCoefficients)) {
+    const OIIO_NS::TypeDesc t = p->type();
+    const std::size_t n = std::size_t(p->nvalues()) * std::size_t(t.aggregate) *
+                          std::size_t(std::max(1, t.arraylen));
+    if (t.basetype != OIIO_NS::TypeDesc::FLOAT || n % 3 != 0)
+      throw InputError(quoted(path) + ": attribute " + kAttrShCoefficients +
+                       " must be a float array of RGB triples");
+    const std::size_t count = n / 3;
+    const auto order = std::size_t(std::llround(std::sqrt(double(count))));
+    if (order * order != count)
+      throw InputError(quoted(path) + ": attribute " + kAttrShCoefficients + " holds " +
+                       std::to_string(count) + " triples, not a square number (order^2)");
+    const int declared = spec.get_int_attribute(kAttrShOrder, int(order));
+    if (std::size_t(declared) != order)
+      throw InputError(quoted(path) + ": " + kAttrShOrder + " is " + std::to_string(declared) +
+                       " but " + kAttrShCoefficients + " holds order " + std::to_string(order));
+    const float* v = static_cast<const float*>(p->data());
+    md.sh_coefficients.resize(count);
+    for (std::size_t i = 0; i < count; ++i)
+      md.sh_coefficients[i] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
+  }
+  const std::string desc = spec.get_string_attribute(kAttrDescription);
+  if (!desc.empty()) md.description = desc;
+  return md;
+}
+
+fs::path temp_sibling(const fs::path& path) {
+  static std::mt19937_64 rng{std::random_device{}()};
+  static std::mutex mutex;
+  std::uint64_t r;
+  {
+    std::lock_guard lock(mutex);
+    r = rng();
+  }
+  fs::path tmp = path;
+  tmp += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(r % 1000000);
+  tmp += path.extension();
+  return tmp;
+}
+
+void ensure_parent(const fs::path& path) {
+  if (path.has_parent_path()) fs::create_directories(path.parent_path());
+}
+
+// Writes with OpenImageIO to a temporary sibling, then renames it over `path`.
+void write_atomically(const fs::path& path, const OIIO_NS::ImageSpec& spec, const void* pixels,
+                      OIIO_NS::TypeDesc pixel_type) {
+  ensure_parent(path);
+  auto out = OIIO_NS::ImageOutput::create(path.string());
+  if (!out)
+    throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO_NS::geterror());
+  const fs::path tmp = temp_sibling(path);
+  bool ok = out->open(tmp.string(), spec) && out->write_image(pixel_type, pixels);
+  ok = out->close() && ok;
+  if (!ok) {
+    const std::string err = out->geterror();
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw std::runtime_error("cannot write " + quoted(path) + ": " + err);
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw std::runtime_error("cannot write " + quoted(path) + ": rename failed: " + ec.message());
+  }
+}
+
+std::vector<float> contiguous(ConstImageView img) {
+  std::vector<float> v(std::size_t(img.width) * img.height * 3);
+  for (int y = 0; y < img.height; ++y)
+    std::copy_n(img.pixel(0, y), 3 * std::size_t(img.width), v.data() + 3 * std::size_t(y) * img.width);
+  return v;
+}
+
+}  // namespace
+
+std::string SanitizeReport::summary() const {
+  std::ostringstream s;
+  s << "clamped " << negative << " negative";
+  if (negative) s << " (min " << most_negative << ")";
+  s << ", " << nan << " NaN, " << inf << " Inf values to 0";
+  return s.str();
+}
+
+SanitizeReport sanitize(ImageView img) {
+  SanitizeReport r;
+  for (int y = 0; y < img.height; ++y) {
+    float* p = img.pixel(0, y);
+    for (int i = 0; i < 3 * img.width; ++i) {
+      const float v = p[i];
+      if (std::isnan(v)) {
+        ++r.nan, p[i] = 0.0f;
+      } else if (std::isinf(v)) {
+        ++r.inf, p[i] = 0.0f;
+      } else if (v < 0.0f) {
+        ++r.negative, r.most_negative = std::min(r.most_negative, v), p[i] = 0.0f;
+      }
+    }
+  }
+  return r;
+}
+
+LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(quoted(path) + ": no such file");
+  if (fs::is_directory(path, ec)) throw InputError(quoted(path) + ": is a directory, not an image");
+  auto in = OIIO_NS::ImageInput::open(path.string());
+  if (!in) {
+    std::string err = OIIO_NS::geterror();
+    if (err.empty()) err = "not an image format OpenImageIO can read";
+    throw InputError(quoted(path) + ": cannot open as an image: " + err);
+  }
+  const OIIO_NS::ImageSpec spec = in->spec();
+  LoadedImage out;
+  out.format = in->format_name();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    throw InputError(quoted(path) + ": empty image (" + std::to_string(spec.width) + "x" +
+                     std::to_string(spec.height) + ", " + std::to_string(spec.nchannels) +
+                     " channels)");
+  if (spec.depth > 1) throw InputError(quoted(path) + ": volume images are not supported");
+  const std::size_t pixels = std::size_t(spec.width) * std::size_t(spec.height);
+  if (pixels > options.max_pixels)
+    throw InputError(quoted(path) + ": " + std::to_string(spec.width) + "x" +
+                     std::to_string(spec.height) + " is larger than the limit of " +
+                     std::to_string(options.max_pixels) + " pixels");
+  out.metadata = read_metadata(spec, path);
+
+  const int nch = std::min(spec.nchannels, 3);
+  std::vector<float> buf(pixels * std::size_t(nch));
+  if (!in->read_image(0, 0, 0, nch, OIIO_NS::TypeDesc::FLOAT, buf.data())) {
+    std::string err = in->geterror();
+    if (err.empty()) err = "read failed";
+    throw InputError(quoted(path) + ": cannot read pixels (truncated or corrupt?): " + err);
+  }
+  in->close();
+
+  out.image = Image(spec.width, spec.height);
+  float* dst = out.image.data();
+  for (std::size_t i = 0; i < pixels; ++i)
+    for (int c = 0; c < 3; ++c) dst[3 * i + c] = buf[i * nch + std::min(c, nch - 1)];
+
+  // 8/16-bit files hold display-encoded values; undo the sRGB curve unless they say linear.
+  const bool integer_data = !spec.format.is_floating_point();
+  const std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  if (integer_data && cs != "linear" && cs != "Linear") {
+    for (float& v : out.image.storage()) v = srgb_to_linear(v);
+    out.decoded_srgb = true;
+  }
+  out.sanitized = sanitize(out.image.view());
+  if (options.strict && !out.sanitized.clean())
+    throw InputError(quoted(path) + ": invalid pixel values: " + std::to_string(out.sanitized.negative) +
+                     " negative, " + std::to_string(out.sanitized.nan) + " NaN, " +
+                     std::to_string(out.sanitized.inf) + " Inf");
+  return out;
+}
+
+LoadedEnvMap load_envmap(const fs::path& path, std::optional<Projection> expect,
+                         const LoadOptions& options) {
+  LoadedImage info = load_image(path, options);
+  const int w = info.image.width(), h = info.image.height();
+  std::optional<Projection> proj = expect ? expect : info.metadata.projection;
+  if (!proj) proj = EnvLayout::guess_projection(w, h);
+  if (!proj)
+    throw InputError(quoted(path) + ": " + std::to_string(w) + "x" + std::to_string(h) +
+                     " is not an environment map shape (lat-long 2N x N, angle map N x N, "
+                     "cube N x 6N)");
+  try {
+    EnvLayout layout(*proj, w, h);
+    Image img = std::move(info.image);
+    return {EnvMap(layout, std::move(img)), std::move(info)};
+  } catch (const std::invalid_argument& e) {
+    throw InputError(quoted(path) + ": " + e.what());
+  }
+}
+
+void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md, ExrPixel pixel) {
+  OIIO_NS::ImageSpec spec(img.width, img.height, 3,
+                          pixel == ExrPixel::Half ? OIIO_NS::TypeDesc::HALF : OIIO_NS::TypeDesc::FLOAT);
+  spec.attribute("compression", "zip");
+  if (md.projection) spec.attribute(kAttrProjection, std::string(projection_name(*md.projection)));
+  if (md.shininess) spec.attribute(kAttrShininess, float(*md.shininess));
+  if (!md.sh_coefficients.empty()) {
+    const auto order = int(std::llround(std::sqrt(double(md.sh_coefficients.size()))));
+    if (std::size_t(order) * std::size_t(order) != md.sh_coefficients.size())
+      throw std::invalid_argument("write_exr: SH coefficient count is not a square");
+    spec.attribute(kAttrShOrder, order);
+    spec.attribute(kAttrShCoefficients,
+                   OIIO_NS::TypeDesc(OIIO_NS::TypeDesc::FLOAT, int(md.sh_coefficients.size() * 3)),
+                   md.sh_coefficients.data());
+  }
+  if (md.description) spec.attribute(kAttrDescription, *md.description);
+  const std::vector<float> pixels = contiguous(img);
+  write_atomically(path, spec, pixels.data(), OIIO_NS::TypeDesc::FLOAT);
+}
+
+double auto_exposure_stops(ConstImageView img) {
+  double log_sum = 0.0;
+  std::size_t n = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const glm::vec3 v = img.at(x, y);
+      const double lum = 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z;
+      if (lum > 0.0 && std::isfinite(lum)) log_sum += std::log(lum + 1e-6), ++n;
+    }
+  return n ? std::log2(0.18) - log_sum / double(n) / std::log(2.0) : 0.0;
+}
+
+void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
+  const double scale = std::exp2(options.exposure_stops ? *options.exposure_stops : auto_exposure_stops(img));
+  std::vector<std::uint8_t> px(std::size_t(img.width) * img.height * 3);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float v = float(img.pixel(x, y)[c] * scale);
+        if (!(v > 0.0f)) v = 0.0f;  // also NaN
+        v = std::isinf(v) ? 1.0f : v / (1.0f + v);
+        px[(std::size_t(y) * img.width + x) * 3 + c] =
+            std::uint8_t(std::lround(255.0f * std::clamp(linear_to_srgb(v), 0.0f, 1.0f)));
+      }
+  OIIO_NS::ImageSpec spec(img.width, img.height, 3, OIIO_NS::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+  write_atomically(path, spec, px.data(), OIIO_NS::TypeDesc::UINT8);
+}
+
+}  // namespace arlight

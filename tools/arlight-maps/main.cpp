@@ -1,0 +1,32 @@
+// arlight-maps: environment-map lighting from the command line.
+#include <cstdio>
+#include <exception>
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+#include "arlight/error.hpp"
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"arlight-maps: spherical harmonics, irradiance and reflection maps of HDR "
+               "environment maps"};
+  app.require_subcommand(1);
+  std::function<int()> run;
+  const arlight::maps::Runner sh = arlight::maps::add_sh_command(app);
+  app.get_subcommand("sh")->callback([&] { run = sh; });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    return run();
+  } catch (const arlight::InputError& e) {
+    std::fprintf(stderr, "arlight-maps: bad input: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "arlight-maps: error: %s\n", e.what());
+    return 1;
+  }
+}
