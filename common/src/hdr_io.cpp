@@ -184,7 +184,8 @@ LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
                      std::to_string(options.max_pixels) + " pixels");
   out.metadata = read_metadata(spec, path);
 
-  const int nch = std::min(spec.nchannels, 3);
+  // RGB(A...) keeps the first three channels; grey (+ alpha) replicates the first.
+  const int nch = spec.nchannels >= 3 ? 3 : 1;
   std::vector<float> buf(pixels * std::size_t(nch));
   if (!in->read_image(0, 0, 0, nch, OIIO_NS::TypeDesc::FLOAT, buf.data())) {
     std::string err = in->geterror();
@@ -196,7 +197,7 @@ LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
   out.image = Image(spec.width, spec.height);
   float* dst = out.image.data();
   for (std::size_t i = 0; i < pixels; ++i)
-    for (int c = 0; c < 3; ++c) dst[3 * i + c] = buf[i * nch + std::min(c, nch - 1)];
+    for (int c = 0; c < 3; ++c) dst[3 * i + c] = buf[i * nch + (nch == 3 ? c : 0)];
 
   // 8/16-bit files hold display-encoded values; undo the sRGB curve unless they say linear.
   const bool integer_data = !spec.format.is_floating_point();

@@ -292,7 +292,7 @@ ShCoeffs sh_project(const EnvMap& env, int order) {
   // the result independent of the thread count and scheduling (bit-for-bit reproducible).
   const std::size_t budget = std::size_t(1) << 22;  // doubles of partial sums, 32 MiB
   const std::size_t n_chunks =
-      std::clamp<std::size_t>(budget / (3 * n_coeff), 1, std::max<std::size_t>(1, std::min<std::size_t>(64, n_batches)));
+      std::max<std::size_t>(1, std::min({std::size_t(64), n_batches, budget / (3 * n_coeff)}));
   std::vector<double> partial(n_chunks * 3 * n_coeff, 0.0);
   const float* pixels = env.image.data();
   tbb::parallel_for(std::size_t(0), n_chunks, [&](std::size_t chunk) {
@@ -389,7 +389,6 @@ GaussLegendre gauss_legendre(int n) {
         const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
         p0 = p1, p1 = p2;
       }
-      if (n == 1) p0 = 1.0, p1 = x;
       dp = n * (x * p1 - p0) / (x * x - 1.0);
       const double dx = p1 / dp;
       x -= dx;

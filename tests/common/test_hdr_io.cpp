@@ -136,6 +136,23 @@ TEST_F(HdrIo, ReadsEveryFormat) {
   }
 }
 
+TEST_F(HdrIo, GreyAndGreyAlphaBecomeGreyRgb) {
+  for (int channels : {1, 2}) {
+    const fs::path p = dir_ / ("grey" + std::to_string(channels) + ".exr");
+    auto out = OIIO::ImageOutput::create(p.string());
+    ASSERT_TRUE(out);
+    OIIO::ImageSpec spec(2, 1, channels, OIIO::TypeDesc::FLOAT);
+    const float px[4] = {0.25f, 0.9f, 0.75f, 0.1f};  // (grey[, alpha]) per pixel
+    const float grey_only[2] = {0.25f, 0.75f};
+    ASSERT_TRUE(out->open(p.string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, channels == 2 ? px : grey_only));
+    ASSERT_TRUE(out->close());
+    const LoadedImage in = load_image(p);
+    EXPECT_EQ(in.image.at(0, 0), glm::vec3(0.25f)) << channels << " channels";
+    EXPECT_EQ(in.image.at(1, 0), glm::vec3(0.75f)) << "alpha must not leak into a colour channel";
+  }
+}
+
 TEST_F(HdrIo, MissingFileIsNamed) {
   const std::string e = error_of([&] { load_image(dir_ / "nope.exr"); });
   EXPECT_NE(e.find("nope.exr"), std::string::npos);

@@ -6,17 +6,12 @@
 
 #include "arlight/resample.hpp"
 
+#include "env_fixtures.hpp"
+
 using namespace arlight;
 
 namespace {
 
-EnvMap from_function(const EnvLayout& l, auto f) {
-  EnvMap env(l);
-  for (int y = 0; y < l.height(); ++y)
-    for (int x = 0; x < l.width(); ++x)
-      if (l.texel_valid(x, y)) env.image.set(x, y, f(l.texel_dir(x, y)));
-  return env;
-}
 
 // Solid-angle-weighted mean of channel 0.
 double sphere_mean(const EnvMap& env) {
@@ -37,7 +32,7 @@ TEST(Resample, ConstantStaysConstantBetweenEveryPair) {
   for (Projection from : kAll)
     for (Projection to : kAll) {
       const EnvLayout src = EnvLayout::for_size(from, 48);
-      const EnvMap env = from_function(src, [](glm::dvec3) { return glm::vec3(2, 3, 4); });
+      const EnvMap env = test::env_from_function(src, [](glm::dvec3) { return glm::vec3(2, 3, 4); });
       for (int size : {8, 48, 100}) {
         const EnvLayout dst = EnvLayout::for_size(to, size);
         const EnvMap out = resample(env, dst);
@@ -61,7 +56,7 @@ TEST(Resample, SmoothFunctionsSurviveEveryPair) {
   auto f = [](glm::dvec3 d) { return glm::vec3(float(1.5 + d.x + 0.5 * d.y - 0.25 * d.z)); };
   for (Projection from : kAll)
     for (Projection to : kAll) {
-      const EnvMap env = from_function(EnvLayout::for_size(from, 128), f);
+      const EnvMap env = test::env_from_function(EnvLayout::for_size(from, 128), f);
       const EnvLayout dst = EnvLayout::for_size(to, 32);
       const EnvMap out = resample(env, dst);
       double worst = 0;
@@ -112,7 +107,7 @@ TEST(Resample, PreservesTheMeanRadianceOfADetailedMap) {
     const double light = glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
     return glm::vec3(float(light + 1.0 + 0.5 * std::sin(40 * d.x) * std::cos(30 * d.y)));
   };
-  const EnvMap env = from_function(EnvLayout::for_size(Projection::LatLong, 512), f);
+  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::LatLong, 512), f);
   const double mean = sphere_mean(env);
   for (Projection to : kAll) {
     const EnvMap out = resample(env, EnvLayout::for_size(to, 32));
@@ -122,7 +117,7 @@ TEST(Resample, PreservesTheMeanRadianceOfADetailedMap) {
 
 TEST(EnvSampler, MipLevelsAverageOverTheSphere) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 64);
-  EnvMap env = from_function(l, [](glm::dvec3 d) { return glm::vec3(d.y > 0 ? 2.0f : 0.0f); });
+  EnvMap env = test::env_from_function(l, [](glm::dvec3 d) { return glm::vec3(d.y > 0 ? 2.0f : 0.0f); });
   const EnvSampler s(env);
   EXPECT_EQ(s.levels(), 7);  // 64 .. 1
   // The top level is the mean over the sphere: half the sphere at 2 -> 1.

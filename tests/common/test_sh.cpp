@@ -8,6 +8,8 @@
 
 #include "arlight/sh.hpp"
 
+#include "env_fixtures.hpp"
+
 using namespace arlight;
 
 namespace {
@@ -20,13 +22,6 @@ glm::dvec3 random_dir(std::mt19937_64& rng) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-EnvMap from_function(const EnvLayout& l, auto f) {
-  EnvMap env(l);
-  for (int y = 0; y < l.height(); ++y)
-    for (int x = 0; x < l.width(); ++x)
-      if (l.texel_valid(x, y)) env.image.set(x, y, f(l.texel_dir(x, y)));
-  return env;
-}
 
 // Unnormalized Legendre polynomial P_l(x) by the three-term recurrence.
 double legendre(int l, double x) {
@@ -198,7 +193,7 @@ TEST(ShBasis, SingleAllAndLegendreAgree) {
 // --- projection and reconstruction ------------------------------------------------------------
 
 TEST(ShProject, ConstantGivesOnlyTheDcTerm) {
-  const EnvMap env = from_function(EnvLayout::for_size(Projection::AngleMap, 256),
+  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 256),
                                    [](glm::dvec3) { return glm::vec3(1, 2, 3); });
   const ShCoeffs c = sh_project(env, 8);
   const double dc = std::sqrt(4 * kPi);
@@ -209,7 +204,7 @@ TEST(ShProject, ConstantGivesOnlyTheDcTerm) {
 
 TEST(ShProject, SingleBasisFunctionIsRecovered) {
   for (Projection p : {Projection::AngleMap, Projection::LatLong, Projection::Cube}) {
-    const EnvMap env = from_function(EnvLayout::for_size(p, 256),
+    const EnvMap env = test::env_from_function(EnvLayout::for_size(p, 256),
                                      [](glm::dvec3 d) { return glm::vec3(float(sh_basis(5, -3, d))); });
     const ShCoeffs c = sh_project(env, 10);
     for (int l = 0; l < 10; ++l)
@@ -222,7 +217,7 @@ TEST(ShProject, SingleBasisFunctionIsRecovered) {
 TEST(ShProject, ClampedCosineMatchesFunkHecke) {
   // max(0, n.d) has c_lm = pi * phong_zonal(l, 1) * Y_lm(n) (Funk-Hecke).
   const glm::dvec3 n = glm::normalize(glm::dvec3(0.3, -0.5, 0.8));
-  const EnvMap env = from_function(EnvLayout::for_size(Projection::LatLong, 512), [&](glm::dvec3 d) {
+  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::LatLong, 512), [&](glm::dvec3 d) {
     return glm::vec3(float(std::max(0.0, glm::dot(n, d))));
   });
   const ShCoeffs c = sh_project(env, 8);
@@ -233,7 +228,7 @@ TEST(ShProject, ClampedCosineMatchesFunkHecke) {
 }
 
 TEST(ShProject, IndependentOfTheThreadCount) {
-  const EnvMap env = from_function(EnvLayout::for_size(Projection::AngleMap, 96), [](glm::dvec3 d) {
+  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 96), [](glm::dvec3 d) {
     return glm::vec3(float(std::exp(3 * d.x)), float(d.y * d.y), float(1 + d.z));
   });
   const ShCoeffs all_cores = sh_project(env, 12);
