@@ -231,6 +231,21 @@ TEST_F(HdrIo, RealProbeWithNegativeValues) {
   for (float v : env.env.image.storage()) ASSERT_GE(v, 0.0f);
 }
 
+TEST_F(HdrIo, EverySharedProbeLoadsCleanlyAfterSanitising) {
+  // ../shared/probes holds 18 real probes, several with negative values; skipped without it.
+  const fs::path shared = fs::path(ARLIGHT_SOURCE_DIR) / "../shared/probes";
+  if (!fs::is_directory(shared)) GTEST_SKIP() << shared << " is not present";
+  int probes = 0;
+  for (const auto& e : fs::directory_iterator(shared)) {
+    if (e.path().extension() != ".exr") continue;
+    const LoadedEnvMap env = load_envmap(e.path());
+    EXPECT_EQ(env.env.layout.projection(), Projection::LatLong) << e.path();
+    for (float v : env.env.image.storage()) ASSERT_TRUE(v >= 0.0f && std::isfinite(v)) << e.path();
+    ++probes;
+  }
+  EXPECT_GE(probes, 10);
+}
+
 TEST_F(HdrIo, FailedWriteLeavesTheOldFileIntact) {
   const fs::path p = dir_ / "keep.exr";
   write_exr(p, gradient(8, 4).view());

@@ -108,6 +108,13 @@ TEST(Cube, FacesFollowTheOpenGLTable) {
   expect_dir(l.uv_to_dir({0.0, 5.0 / 6}), {k, k, -k});
 }
 
+TEST(Cube, TiesGoToXThenYThenZ) {
+  EXPECT_EQ(EnvLayout::cube_face_of_direction({1, 1, 1}), 0);
+  EXPECT_EQ(EnvLayout::cube_face_of_direction({-1, 1, 1}), 1);
+  EXPECT_EQ(EnvLayout::cube_face_of_direction({0.5, -1, 1}), 3);
+  EXPECT_EQ(EnvLayout::cube_face_of_direction({0, 0.5, -0.5}), 2);
+}
+
 // --- round trips ------------------------------------------------------------------------------
 
 class RoundTrip : public ::testing::TestWithParam<std::tuple<Projection, int>> {};

@@ -124,3 +124,37 @@ TEST(EnvSampler, MipLevelsAverageOverTheSphere) {
   EXPECT_NEAR(s.sample({0, 0, -1}, s.levels() - 1).x, 1.0f, 1e-4f);
   EXPECT_NEAR(s.sample({0, 1, 0}, 0).x, 2.0f, 1e-6f);
 }
+
+TEST(EnvSampler, LatLongWrapsAcrossTheSeam) {
+  // Left column 1, right column 3, all else 0: a lookup on the seam (+Z, u = 0) blends the two.
+  const EnvLayout l = EnvLayout::for_size(Projection::LatLong, 8);
+  EnvMap env(l);
+  for (int y = 0; y < l.height(); ++y) {
+    env.image.set(0, y, glm::vec3(1));
+    env.image.set(l.width() - 1, y, glm::vec3(3));
+  }
+  EXPECT_NEAR(EnvSampler(env).sample({0, 0, 1}).x, 2.0f, 1e-6f);
+}
+
+TEST(EnvSampler, CubeLookupsStayOnTheirFace) {
+  // Each face filled with its index: a lookup close to a face edge never blends in a neighbour.
+  const EnvLayout l = EnvLayout::for_size(Projection::Cube, 4);
+  EnvMap env(l);
+  for (int y = 0; y < l.height(); ++y)
+    for (int x = 0; x < l.width(); ++x) env.image.set(x, y, glm::vec3(float(y / 4)));
+  const EnvSampler s(env);
+  EXPECT_EQ(s.sample(glm::normalize(glm::dvec3(1, -0.99, 0.2))).x, 0.0f);  // bottom edge of +X
+  EXPECT_EQ(s.sample(glm::normalize(glm::dvec3(0.2, 0.99, 1))).x, 4.0f);
+  EXPECT_EQ(s.sample(glm::normalize(glm::dvec3(-0.3, -1, 0.99))).x, 3.0f);
+}
+
+TEST(EnvSampler, AngleMapRimDoesNotBleedInTheBlackOutsideTheDisk) {
+  const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 32);
+  const EnvMap env = test::env_from_function(l, [](glm::dvec3) { return glm::vec3(5.0f); });
+  const EnvSampler s(env);
+  for (double a : {0.9, 0.97, 0.995, 1.0})  // angle from -Z as a fraction of pi, up to the rim
+    for (int level : {0, 1, 3})
+      EXPECT_NEAR(s.sample({std::sin(a * std::numbers::pi), 0, -std::cos(a * std::numbers::pi)}, level).x,
+                  5.0f, 1e-5f)
+          << a << " level " << level;
+}
