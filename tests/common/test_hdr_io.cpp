@@ -1,7 +1,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
+#include <random>
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -41,6 +43,15 @@ void write_with_oiio(const fs::path& p, const Image& img, OIIO::TypeDesc type) {
   ASSERT_TRUE(out->open(p.string(), spec));
   ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, img.data()));
   ASSERT_TRUE(out->close());
+}
+
+// A PFM written by hand (OpenImageIO reads PFM but does not write it): bottom row first,
+// little-endian floats (negative scale).
+void write_pfm(const fs::path& p, const Image& img) {
+  std::ofstream f(p, std::ios::binary);
+  f << "PF\n" << img.width() << " " << img.height() << "\n-1.0\n";
+  for (int y = img.height() - 1; y >= 0; --y)
+    f.write(reinterpret_cast<const char*>(img.view().pixel(0, y)), std::streamsize(12 * img.width()));
 }
 
 std::string error_of(auto&& f) {
@@ -95,18 +106,6 @@ TEST_F(HdrIo, MetadataProjectionOverridesTheShapeGuess) {
   EXPECT_EQ(load_envmap(dir_ / "plain.exr").env.layout.projection(), Projection::LatLong);
 }
 
-namespace {
-
-// A PFM written by hand (OpenImageIO reads PFM but does not write it): bottom row first,
-// little-endian floats (negative scale).
-void write_pfm(const fs::path& p, const Image& img) {
-  std::ofstream f(p, std::ios::binary);
-  f << "PF\n" << img.width() << " " << img.height() << "\n-1.0\n";
-  for (int y = img.height() - 1; y >= 0; --y)
-    f.write(reinterpret_cast<const char*>(img.view().pixel(0, y)), std::streamsize(12 * img.width()));
-}
-
-}  // namespace
 
 TEST_F(HdrIo, ReadsEveryFormat) {
   Image img(6, 3);
@@ -180,6 +179,39 @@ TEST_F(HdrIo, UnsupportedAndCorruptFiles) {
     EXPECT_NE(e.find(name), std::string::npos) << e;
     EXPECT_NE(e.find("cannot"), std::string::npos) << e;
   }
+}
+
+TEST_F(HdrIo, CorruptedFilesLoadOrFailCleanly) {
+  // Deterministically damaged EXR, HDR and PFM files (flipped bytes, cut short): each must
+  // either load into finite, non-negative pixels or raise InputError; nothing else.
+  Image img(32, 16);
+  for (std::size_t i = 0; i < img.storage().size(); ++i) img.storage()[i] = float(i % 37) * 0.3f;
+  write_exr(dir_ / "base.exr", img.view());
+  write_with_oiio(dir_ / "base.hdr", img, OIIO::TypeDesc::FLOAT);
+  write_pfm(dir_ / "base.pfm", img);
+  std::mt19937 rng(2024);
+  int loaded = 0, refused = 0;
+  for (const char* ext : {".exr", ".hdr", ".pfm"}) {
+    std::ifstream in(dir_ / ("base" + std::string(ext)), std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), {});
+    for (int round = 0; round < 120; ++round) {
+      std::vector<char> b = bytes;
+      for (unsigned k = 0; k <= rng() % 8; ++k) b[rng() % b.size()] = char(rng());
+      if (round % 3 == 0) b.resize(rng() % b.size());
+      const fs::path p = dir_ / ("damaged" + std::string(ext));
+      std::ofstream(p, std::ios::binary | std::ios::trunc).write(b.data(), std::streamsize(b.size()));
+      try {
+        const LoadedImage r = load_image(p);
+        for (float v : r.image.storage()) ASSERT_TRUE(v >= 0.0f && std::isfinite(v));
+        ++loaded;
+      } catch (const InputError& e) {
+        ASSERT_NE(std::string(e.what()).find("damaged"), std::string::npos) << e.what();
+        ++refused;
+      }
+    }
+  }
+  EXPECT_GT(refused, 50);  // most damage is detected...
+  EXPECT_GT(loaded, 10);   // ...and a flipped pixel byte still loads (then gets sanitised)
 }
 
 TEST_F(HdrIo, WrongShapeForAnEnvironmentMap) {
