@@ -11,9 +11,9 @@ namespace {
 using namespace arlight;
 
 const EnvMap& probe_512() {
-  static const EnvMap env = resample(
-      load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
-      EnvLayout::for_size(Projection::AngleMap, 512));
+  static const EnvMap env =
+      resample(load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
+               EnvLayout::for_size(Projection::AngleMap, 512));
   return env;
 }
 
@@ -23,7 +23,14 @@ void BM_ShProject(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(sh_project(env, order));
   state.counters["texels"] = double(texel_table(env.layout)->size());
 }
-BENCHMARK(BM_ShProject)->Arg(3)->Arg(10)->Arg(35)->Arg(86)->Arg(128)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ShProject)
+    ->Arg(3)
+    ->Arg(10)
+    ->Arg(35)
+    ->Arg(86)
+    ->Arg(128)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_ShReconstruct(benchmark::State& state) {
   const EnvMap& env = probe_512();

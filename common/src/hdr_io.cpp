@@ -1,5 +1,8 @@
 #include "arlight/hdr_io.hpp"
 
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -9,9 +12,6 @@
 #include <random>
 #include <sstream>
 #include <system_error>
-
-#include <OpenImageIO/imageio.h>
-#include <unistd.h>
 
 namespace arlight {
 
@@ -58,8 +58,8 @@ ImageMetadata read_metadata(const OIIO_NS::ImageSpec& spec, const fs::path& path
   }
   if (const auto* p = spec.find_attribute(kAttrShCoefficients)) {
     const OIIO_NS::TypeDesc t = p->type();
-    const std::size_t n = std::size_t(p->nvalues()) * std::size_t(t.aggregate) *
-                          std::size_t(std::max(1, t.arraylen));
+    const std::size_t n =
+        std::size_t(p->nvalues()) * std::size_t(t.aggregate) * std::size_t(std::max(1, t.arraylen));
     if (t.basetype != OIIO_NS::TypeDesc::FLOAT || n % 3 != 0)
       throw InputError(quoted(path) + ": attribute " + kAttrShCoefficients +
                        " must be a float array of RGB triples");
@@ -105,8 +105,7 @@ void write_atomically(const fs::path& path, const OIIO_NS::ImageSpec& spec, cons
                       OIIO_NS::TypeDesc pixel_type) {
   ensure_parent(path);
   auto out = OIIO_NS::ImageOutput::create(path.string());
-  if (!out)
-    throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO_NS::geterror());
+  if (!out) throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO_NS::geterror());
   const fs::path tmp = temp_sibling(path);
   bool ok = out->open(tmp.string(), spec) && out->write_image(pixel_type, pixels);
   ok = out->close() && ok;
@@ -127,7 +126,8 @@ void write_atomically(const fs::path& path, const OIIO_NS::ImageSpec& spec, cons
 std::vector<float> contiguous(ConstImageView img) {
   std::vector<float> v(std::size_t(img.width) * img.height * 3);
   for (int y = 0; y < img.height; ++y)
-    std::copy_n(img.pixel(0, y), 3 * std::size_t(img.width), v.data() + 3 * std::size_t(y) * img.width);
+    std::copy_n(img.pixel(0, y), 3 * std::size_t(img.width),
+                v.data() + 3 * std::size_t(y) * img.width);
   return v;
 }
 
@@ -208,7 +208,8 @@ LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
   }
   out.sanitized = sanitize(out.image.view());
   if (options.strict && !out.sanitized.clean())
-    throw InputError(quoted(path) + ": invalid pixel values: " + std::to_string(out.sanitized.negative) +
+    throw InputError(quoted(path) +
+                     ": invalid pixel values: " + std::to_string(out.sanitized.negative) +
                      " negative, " + std::to_string(out.sanitized.nan) + " NaN, " +
                      std::to_string(out.sanitized.inf) + " Inf");
   return out;
@@ -234,8 +235,9 @@ LoadedEnvMap load_envmap(const fs::path& path, std::optional<Projection> expect,
 }
 
 void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md, ExrPixel pixel) {
-  OIIO_NS::ImageSpec spec(img.width, img.height, 3,
-                          pixel == ExrPixel::Half ? OIIO_NS::TypeDesc::HALF : OIIO_NS::TypeDesc::FLOAT);
+  OIIO_NS::ImageSpec spec(
+      img.width, img.height, 3,
+      pixel == ExrPixel::Half ? OIIO_NS::TypeDesc::HALF : OIIO_NS::TypeDesc::FLOAT);
   spec.attribute("compression", "zip");
   if (md.projection) spec.attribute(kAttrProjection, std::string(projection_name(*md.projection)));
   if (md.shininess) spec.attribute(kAttrShininess, float(*md.shininess));
@@ -266,7 +268,8 @@ double auto_exposure_stops(ConstImageView img) {
 }
 
 void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
-  const double scale = std::exp2(options.exposure_stops ? *options.exposure_stops : auto_exposure_stops(img));
+  const double scale =
+      std::exp2(options.exposure_stops ? *options.exposure_stops : auto_exposure_stops(img));
   std::vector<std::uint8_t> px(std::size_t(img.width) * img.height * 3);
   for (int y = 0; y < img.height; ++y)
     for (int x = 0; x < img.width; ++x)

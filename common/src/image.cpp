@@ -11,10 +11,9 @@ namespace {
 
 void check_sub(int x, int y, int w, int h, int width, int height) {
   if (x < 0 || y < 0 || w < 0 || h < 0 || x + w > width || y + h > height)
-    throw std::out_of_range("image sub-view " + std::to_string(w) + "x" + std::to_string(h) +
-                            "+" + std::to_string(x) + "+" + std::to_string(y) +
-                            " lies outside a " + std::to_string(width) + "x" +
-                            std::to_string(height) + " image");
+    throw std::out_of_range("image sub-view " + std::to_string(w) + "x" + std::to_string(h) + "+" +
+                            std::to_string(x) + "+" + std::to_string(y) + " lies outside a " +
+                            std::to_string(width) + "x" + std::to_string(height) + " image");
 }
 
 int wrap_or_clamp(int i, int n, Edge edge) {

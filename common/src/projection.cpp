@@ -1,16 +1,16 @@
 #include "arlight/projection.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <list>
 #include <mutex>
 #include <numbers>
 #include <stdexcept>
 #include <string>
-
-#include <glm/geometric.hpp>
-#include <tbb/parallel_for.h>
 
 namespace arlight {
 
@@ -50,13 +50,11 @@ glm::dvec2 anglemap_st(glm::dvec3 d) {
 // g(r) = (1 - cos(pi r)) / r through the region's boundary: along a straight edge at signed
 // distance h from the origin that is h * integral (1 - cos(pi r)) / r^2 dl (smooth, integrated
 // by Gauss-Legendre), and along the disk's rim (r = 1, g = 2) it is 2 * arc angle.
-constexpr std::array<double, 8> kGl8x = {-0.9602898564975363, -0.7966664774136267,
-                                         -0.5255324099163290, -0.1834346424956498,
-                                         0.1834346424956498,  0.5255324099163290,
-                                         0.7966664774136267,  0.9602898564975363};
-constexpr std::array<double, 8> kGl8w = {0.1012285362903763, 0.2223810344533745,
-                                         0.3137066458778873, 0.3626837833783620,
-                                         0.3626837833783620, 0.3137066458778873,
+constexpr std::array<double, 8> kGl8x = {
+    -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
+    0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
+constexpr std::array<double, 8> kGl8w = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
+                                         0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
                                          0.2223810344533745, 0.1012285362903763};
 
 double edge_flux(glm::dvec2 p, glm::dvec2 q) {
@@ -109,8 +107,8 @@ double rim_arc_inside(double s0, double s1, double t0, double t1) {
 }
 
 double anglemap_square_solid_angle(double s0, double s1, double t0, double t1) {
-  const std::array<glm::dvec2, 4> v = {glm::dvec2(s0, t0), glm::dvec2(s1, t0),
-                                       glm::dvec2(s1, t1), glm::dvec2(s0, t1)};
+  const std::array<glm::dvec2, 4> v = {glm::dvec2(s0, t0), glm::dvec2(s1, t0), glm::dvec2(s1, t1),
+                                       glm::dvec2(s0, t1)};
   double flux = 0.0;
   bool all_inside = true;
   for (const auto& c : v) all_inside = all_inside && glm::dot(c, c) <= 1.0;
@@ -155,12 +153,24 @@ glm::dvec2 latlong_uv(glm::dvec3 d) {
 glm::dvec3 cube_dir(int face, double sc, double tc) {
   glm::dvec3 d;
   switch (face) {
-    case 0: d = {1.0, -tc, -sc}; break;
-    case 1: d = {-1.0, -tc, sc}; break;
-    case 2: d = {sc, 1.0, tc}; break;
-    case 3: d = {sc, -1.0, -tc}; break;
-    case 4: d = {sc, -tc, 1.0}; break;
-    default: d = {-sc, -tc, -1.0}; break;
+    case 0:
+      d = {1.0, -tc, -sc};
+      break;
+    case 1:
+      d = {-1.0, -tc, sc};
+      break;
+    case 2:
+      d = {sc, 1.0, tc};
+      break;
+    case 3:
+      d = {sc, -1.0, -tc};
+      break;
+    case 4:
+      d = {sc, -tc, 1.0};
+      break;
+    default:
+      d = {-sc, -tc, -1.0};
+      break;
   }
   return glm::normalize(d);
 }
@@ -168,12 +178,18 @@ glm::dvec3 cube_dir(int face, double sc, double tc) {
 // (sc, tc) in [-1, 1] on the given face.
 glm::dvec2 cube_sc_tc(int face, glm::dvec3 d) {
   switch (face) {
-    case 0: return {-d.z / d.x, -d.y / d.x};
-    case 1: return {-d.z / d.x, d.y / d.x};  // ma = -x: sc = +z/|x|, tc = -y/|x|
-    case 2: return {d.x / d.y, d.z / d.y};
-    case 3: return {-d.x / d.y, d.z / d.y};  // ma = -y: sc = x/|y|, tc = -z/|y|
-    case 4: return {d.x / d.z, -d.y / d.z};
-    default: return {d.x / d.z, d.y / d.z};  // ma = -z: sc = -x/|z|, tc = -y/|z|
+    case 0:
+      return {-d.z / d.x, -d.y / d.x};
+    case 1:
+      return {-d.z / d.x, d.y / d.x};  // ma = -x: sc = +z/|x|, tc = -y/|x|
+    case 2:
+      return {d.x / d.y, d.z / d.y};
+    case 3:
+      return {-d.x / d.y, d.z / d.y};  // ma = -y: sc = x/|y|, tc = -z/|y|
+    case 4:
+      return {d.x / d.z, -d.y / d.z};
+    default:
+      return {d.x / d.z, d.y / d.z};  // ma = -z: sc = -x/|z|, tc = -y/|z|
   }
 }
 
@@ -188,9 +204,12 @@ double cube_rect_solid_angle(double a0, double a1, double b0, double b1) {
 
 std::string_view projection_name(Projection p) {
   switch (p) {
-    case Projection::AngleMap: return "anglemap";
-    case Projection::LatLong: return "latlong";
-    case Projection::Cube: return "cube";
+    case Projection::AngleMap:
+      return "anglemap";
+    case Projection::LatLong:
+      return "latlong";
+    case Projection::Cube:
+      return "cube";
   }
   return "unknown";
 }
@@ -211,9 +230,9 @@ EnvLayout::EnvLayout(Projection projection, int width, int height)
                   (projection == Projection::LatLong && width == 2 * height) ||
                   (projection == Projection::Cube && height == 6 * width);
   if (!ok) {
-    const char* want = projection == Projection::AngleMap ? "square (N x N)"
+    const char* want = projection == Projection::AngleMap  ? "square (N x N)"
                        : projection == Projection::LatLong ? "2:1 (2N x N)"
-                                                            : "1:6 (N x 6N, faces stacked)";
+                                                           : "1:6 (N x 6N, faces stacked)";
     throw std::invalid_argument(std::string(projection_name(projection)) + " must be " + want +
                                 ", got " + shape(width, height));
   }
@@ -221,9 +240,12 @@ EnvLayout::EnvLayout(Projection projection, int width, int height)
 
 EnvLayout EnvLayout::for_size(Projection projection, int n) {
   switch (projection) {
-    case Projection::AngleMap: return EnvLayout(projection, n, n);
-    case Projection::LatLong: return EnvLayout(projection, 2 * n, n);
-    case Projection::Cube: return EnvLayout(projection, n, 6 * n);
+    case Projection::AngleMap:
+      return EnvLayout(projection, n, n);
+    case Projection::LatLong:
+      return EnvLayout(projection, 2 * n, n);
+    case Projection::Cube:
+      return EnvLayout(projection, n, 6 * n);
   }
   throw std::invalid_argument("unknown projection");
 }
@@ -245,8 +267,10 @@ int EnvLayout::cube_face_of_direction(glm::dvec3 d) {
 
 glm::dvec3 EnvLayout::uv_to_dir(glm::dvec2 uv) const {
   switch (projection_) {
-    case Projection::AngleMap: return anglemap_dir(2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
-    case Projection::LatLong: return latlong_dir(uv);
+    case Projection::AngleMap:
+      return anglemap_dir(2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
+    case Projection::LatLong:
+      return latlong_dir(uv);
     case Projection::Cube: {
       const double fv = uv.y * 6.0;
       const int face = std::clamp(int(std::floor(fv)), 0, 5);
@@ -262,7 +286,8 @@ glm::dvec2 EnvLayout::dir_to_uv(glm::dvec3 d) const {
       const glm::dvec2 st = anglemap_st(d);
       return {0.5 * (st.x + 1.0), 0.5 * (1.0 - st.y)};
     }
-    case Projection::LatLong: return latlong_uv(d);
+    case Projection::LatLong:
+      return latlong_uv(d);
     case Projection::Cube: {
       const int face = cube_face_of_direction(d);
       const glm::dvec2 st = cube_sc_tc(face, d);
@@ -306,8 +331,8 @@ double EnvLayout::texel_solid_angle(int x, int y) const {
     case Projection::Cube: {
       const double n = width_;
       const int row = y % width_;
-      return cube_rect_solid_angle(2.0 * x / n - 1.0, 2.0 * (x + 1) / n - 1.0,
-                                   2.0 * row / n - 1.0, 2.0 * (row + 1) / n - 1.0);
+      return cube_rect_solid_angle(2.0 * x / n - 1.0, 2.0 * (x + 1) / n - 1.0, 2.0 * row / n - 1.0,
+                                   2.0 * (row + 1) / n - 1.0);
     }
   }
   return 0.0;
@@ -315,9 +340,8 @@ double EnvLayout::texel_solid_angle(int x, int y) const {
 
 EnvMap::EnvMap(EnvLayout layout_, Image image_) : layout(layout_), image(std::move(image_)) {
   if (image.width() != layout.width() || image.height() != layout.height())
-    throw std::invalid_argument("environment map image is " +
-                                shape(image.width(), image.height()) + " but its " +
-                                std::string(projection_name(layout.projection())) +
+    throw std::invalid_argument("environment map image is " + shape(image.width(), image.height()) +
+                                " but its " + std::string(projection_name(layout.projection())) +
                                 " layout needs " + shape(layout.width(), layout.height()));
 }
 

@@ -1,9 +1,9 @@
 #include "arlight/resample.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <tbb/parallel_for.h>
 
 namespace arlight {
 
@@ -13,7 +13,8 @@ namespace {
 std::vector<float> solid_angles(const EnvLayout& layout) {
   const auto table = texel_table(layout);
   std::vector<float> omega(layout.texel_count(), 0.0f);
-  for (std::size_t i = 0; i < table->size(); ++i) omega[table->index[i]] = float(table->solid_angle[i]);
+  for (std::size_t i = 0; i < table->size(); ++i)
+    omega[table->index[i]] = float(table->solid_angle[i]);
   return omega;
 }
 
@@ -81,7 +82,8 @@ glm::vec3 EnvSampler::sample_level(const Level& lv, glm::dvec2 uv, int face) con
 
 glm::vec3 EnvSampler::sample(glm::dvec3 dir, double level) const {
   const glm::dvec2 uv = layout_.dir_to_uv(dir);
-  const int face = layout_.projection() == Projection::Cube ? EnvLayout::cube_face_of_direction(dir) : -1;
+  const int face =
+      layout_.projection() == Projection::Cube ? EnvLayout::cube_face_of_direction(dir) : -1;
   level = std::clamp(level, 0.0, double(levels_.size() - 1));
   const int l0 = int(std::floor(level));
   const double f = level - l0;

@@ -13,17 +13,17 @@
 // the double range anyway.
 #include "arlight/sh.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <numbers>
 #include <stdexcept>
 #include <string>
-
-#include <glm/geometric.hpp>
-#include <tbb/parallel_for.h>
 
 // Multi-versioned SIMD kernels: one binary runs everywhere and uses AVX-512 or AVX+FMA where the
 // CPU has them (GCC function multiversioning). ISA names rather than arch= keep the clones'
@@ -44,8 +44,8 @@ constexpr int kMaxOrder = 4096;
 
 void check_order(int order) {
   if (order < 1 || order > kMaxOrder)
-    throw std::invalid_argument("SH order must be in [1, " + std::to_string(kMaxOrder) +
-                                "], got " + std::to_string(order));
+    throw std::invalid_argument("SH order must be in [1, " + std::to_string(kMaxOrder) + "], got " +
+                                std::to_string(order));
 }
 
 // Recurrence constants for one order: for each m, Q_m^m and then (a_lm, a_lm * b_lm) for
@@ -86,7 +86,8 @@ std::shared_ptr<const ShTables> tables_for(int order) {
 
 glm::dvec3 unit(glm::dvec3 d) {
   const double n = glm::length(d);
-  if (!(n > 0.0) || !std::isfinite(n)) throw std::invalid_argument("SH direction must be a finite non-zero vector");
+  if (!(n > 0.0) || !std::isfinite(n))
+    throw std::invalid_argument("SH direction must be a finite non-zero vector");
   return d / n;
 }
 
@@ -329,9 +330,9 @@ glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir) {
 Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout) {
   const auto t = tables_for(coeffs.order);
   if (coeffs.c.size() != std::size_t(sh_count(coeffs.order)))
-    throw std::invalid_argument("SH coefficients: expected " + std::to_string(sh_count(coeffs.order)) +
-                                " for order " + std::to_string(coeffs.order) + ", got " +
-                                std::to_string(coeffs.c.size()));
+    throw std::invalid_argument(
+        "SH coefficients: expected " + std::to_string(sh_count(coeffs.order)) + " for order " +
+        std::to_string(coeffs.order) + ", got " + std::to_string(coeffs.c.size()));
   const auto table = texel_table(layout);
   std::vector<double> flat(coeffs.c.size() * 3);
   for (std::size_t k = 0; k < coeffs.c.size(); ++k)

@@ -1,12 +1,12 @@
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
 #include <random>
-
-#include <OpenImageIO/imageio.h>
-#include <gtest/gtest.h>
 
 #include "arlight/hdr_io.hpp"
 
@@ -19,8 +19,8 @@ class HdrIo : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("arlight_hdr_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+           ("arlight_hdr_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -51,7 +51,8 @@ void write_pfm(const fs::path& p, const Image& img) {
   std::ofstream f(p, std::ios::binary);
   f << "PF\n" << img.width() << " " << img.height() << "\n-1.0\n";
   for (int y = img.height() - 1; y >= 0; --y)
-    f.write(reinterpret_cast<const char*>(img.view().pixel(0, y)), std::streamsize(12 * img.width()));
+    f.write(reinterpret_cast<const char*>(img.view().pixel(0, y)),
+            std::streamsize(12 * img.width()));
 }
 
 std::string error_of(auto&& f) {
@@ -105,7 +106,6 @@ TEST_F(HdrIo, MetadataProjectionOverridesTheShapeGuess) {
   write_exr(dir_ / "plain.exr", Image(8, 4).view());
   EXPECT_EQ(load_envmap(dir_ / "plain.exr").env.layout.projection(), Projection::LatLong);
 }
-
 
 TEST_F(HdrIo, ReadsEveryFormat) {
   Image img(6, 3);
@@ -199,7 +199,8 @@ TEST_F(HdrIo, CorruptedFilesLoadOrFailCleanly) {
       for (unsigned k = 0; k <= rng() % 8; ++k) b[rng() % b.size()] = char(rng());
       if (round % 3 == 0) b.resize(rng() % b.size());
       const fs::path p = dir_ / ("damaged" + std::string(ext));
-      std::ofstream(p, std::ios::binary | std::ios::trunc).write(b.data(), std::streamsize(b.size()));
+      std::ofstream(p, std::ios::binary | std::ios::trunc)
+          .write(b.data(), std::streamsize(b.size()));
       try {
         const LoadedImage r = load_image(p);
         for (float v : r.image.storage()) ASSERT_TRUE(v >= 0.0f && std::isfinite(v));
@@ -236,7 +237,8 @@ TEST_F(HdrIo, NanInfAndNegativeValuesAreCountedAndZeroed) {
   Image img(4, 2, glm::vec3(1.0f));
   img.set(0, 0, {-2.5f, 1.0f, 1.0f});
   img.set(1, 0, {std::numeric_limits<float>::quiet_NaN(), 1.0f, -0.5f});
-  img.set(2, 1, {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), 1.0f});
+  img.set(2, 1,
+          {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), 1.0f});
   write_exr(dir_ / "bad.exr", img.view(), {}, ExrPixel::Float);
   const LoadedImage in = load_image(dir_ / "bad.exr");
   EXPECT_EQ(in.sanitized.negative, 2u);
@@ -250,7 +252,8 @@ TEST_F(HdrIo, NanInfAndNegativeValuesAreCountedAndZeroed) {
   EXPECT_NE(in.sanitized.summary().find("2 negative"), std::string::npos);
   LoadOptions strict;
   strict.strict = true;
-  EXPECT_NE(error_of([&] { load_image(dir_ / "bad.exr", strict); }).find("1 NaN"), std::string::npos);
+  EXPECT_NE(error_of([&] { load_image(dir_ / "bad.exr", strict); }).find("1 NaN"),
+            std::string::npos);
 }
 
 TEST_F(HdrIo, RealProbeWithNegativeValues) {
@@ -304,5 +307,5 @@ TEST_F(HdrIo, PngPreviewIsTonemapped8Bit) {
   EXPECT_EQ(px[0], 0);
   EXPECT_EQ(px[3], 188);  // 1 / (1 + 1) = 0.5 linear -> sRGB 188
   EXPECT_GE(px[6], 254);
-  EXPECT_EQ(px[9], 0);    // NaN shows black
+  EXPECT_EQ(px[9], 0);  // NaN shows black
 }

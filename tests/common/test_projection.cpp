@@ -1,9 +1,9 @@
 // Pins every rule of common/CONVENTIONS.md.
-#include <cmath>
-#include <numbers>
-
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <numbers>
 
 #include "arlight/projection.hpp"
 
@@ -67,10 +67,10 @@ TEST(AngleMap, CentreIsForwardNotTheBorder) {
 
 TEST(AngleMap, OrientationRightUpAndRim) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 64);
-  expect_dir(l.uv_to_dir({1.0, 0.5}), {0, 0, 1});    // the rim is the back pole
-  expect_dir(l.uv_to_dir({0.75, 0.5}), {1, 0, 0});   // half way right: +X
+  expect_dir(l.uv_to_dir({1.0, 0.5}), {0, 0, 1});   // the rim is the back pole
+  expect_dir(l.uv_to_dir({0.75, 0.5}), {1, 0, 0});  // half way right: +X
   expect_dir(l.uv_to_dir({0.25, 0.5}), {-1, 0, 0});
-  expect_dir(l.uv_to_dir({0.5, 0.25}), {0, 1, 0});   // half way up (v grows down): +Y
+  expect_dir(l.uv_to_dir({0.5, 0.25}), {0, 1, 0});  // half way up (v grows down): +Y
   expect_dir(l.uv_to_dir({0.5, 0.75}), {0, -1, 0});
   // r is linear in the angle from -Z (Debevec's angular map).
   const double a = 0.3 * kPi;
@@ -85,11 +85,11 @@ TEST(AngleMap, OrientationRightUpAndRim) {
 
 TEST(LatLong, Orientation) {
   const EnvLayout l = EnvLayout::for_size(Projection::LatLong, 64);
-  expect_dir(l.uv_to_dir({0.5, 0.5}), {0, 0, -1});   // centre looks forward
-  expect_dir(l.uv_to_dir({0.75, 0.5}), {1, 0, 0});   // u grows towards +X
+  expect_dir(l.uv_to_dir({0.5, 0.5}), {0, 0, -1});  // centre looks forward
+  expect_dir(l.uv_to_dir({0.75, 0.5}), {1, 0, 0});  // u grows towards +X
   expect_dir(l.uv_to_dir({0.25, 0.5}), {-1, 0, 0});
-  expect_dir(l.uv_to_dir({0.0, 0.5}), {0, 0, 1});    // the seam is behind
-  expect_dir(l.uv_to_dir({0.3, 0.0}), {0, 1, 0});    // top row is up
+  expect_dir(l.uv_to_dir({0.0, 0.5}), {0, 0, 1});  // the seam is behind
+  expect_dir(l.uv_to_dir({0.3, 0.0}), {0, 1, 0});  // top row is up
   expect_dir(l.uv_to_dir({0.3, 1.0}), {0, -1, 0});
 }
 
@@ -143,10 +143,13 @@ TEST_P(RoundTrip, DirectionToUvToDirection) {
   const auto [proj, n] = GetParam();
   const EnvLayout l = EnvLayout::for_size(proj, n);
   // Random directions plus the special ones: axes, poles, near the angle map's centre and rim.
-  std::vector<glm::dvec3> dirs = {{0, 0, -1}, {1e-9, 0, -1}, {0, 1, 0}, {0, -1, 0},
-                                  {1, 0, 0},  {-1, 0, 0},   {1e-7, 2e-7, 1}, {0.6, 0.8, 1e-12}};
+  std::vector<glm::dvec3> dirs = {{0, 0, -1}, {1e-9, 0, -1}, {0, 1, 0},       {0, -1, 0},
+                                  {1, 0, 0},  {-1, 0, 0},    {1e-7, 2e-7, 1}, {0.6, 0.8, 1e-12}};
   std::uint64_t s = 12345;
-  auto rnd = [&] { s = s * 6364136223846793005ull + 1442695040888963407ull; return double(s >> 11) / double(1ull << 53); };
+  auto rnd = [&] {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return double(s >> 11) / double(1ull << 53);
+  };
   for (int i = 0; i < 2000; ++i) {
     const double z = 2 * rnd() - 1, phi = 2 * kPi * rnd(), r = std::sqrt(1 - z * z);
     dirs.push_back({r * std::cos(phi), r * std::sin(phi), z});
@@ -202,9 +205,9 @@ TEST(SolidAngle, AngleMapAgreesWithTheThesisSincWeight) {
 
 TEST(SolidAngle, RimTexelsAreClippedToTheDisk) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 64);
-  EXPECT_EQ(l.texel_solid_angle(0, 0), 0.0);     // corner: wholly outside
+  EXPECT_EQ(l.texel_solid_angle(0, 0), 0.0);  // corner: wholly outside
   EXPECT_FALSE(l.texel_valid(0, 0));
-  EXPECT_GT(l.texel_solid_angle(32, 0), 0.0);    // top middle: on the rim
+  EXPECT_GT(l.texel_solid_angle(32, 0), 0.0);  // top middle: on the rim
   // A texel whose centre is outside the disk but which overlaps it still counts, and takes the
   // back-pole direction.
   const int x = 42, y = 1;  // centre at r ~ 1.008, nearest corner at r ~ 0.988

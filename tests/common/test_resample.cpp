@@ -1,17 +1,15 @@
-#include <cmath>
-#include <numbers>
-
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "arlight/resample.hpp"
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <numbers>
 
+#include "arlight/resample.hpp"
 #include "env_fixtures.hpp"
 
 using namespace arlight;
 
 namespace {
-
 
 // Solid-angle-weighted mean of channel 0.
 double sphere_mean(const EnvMap& env) {
@@ -32,7 +30,8 @@ TEST(Resample, ConstantStaysConstantBetweenEveryPair) {
   for (Projection from : kAll)
     for (Projection to : kAll) {
       const EnvLayout src = EnvLayout::for_size(from, 48);
-      const EnvMap env = test::env_from_function(src, [](glm::dvec3) { return glm::vec3(2, 3, 4); });
+      const EnvMap env =
+          test::env_from_function(src, [](glm::dvec3) { return glm::vec3(2, 3, 4); });
       for (int size : {8, 48, 100}) {
         const EnvLayout dst = EnvLayout::for_size(to, size);
         const EnvMap out = resample(env, dst);
@@ -95,7 +94,8 @@ TEST(Resample, ShrinkingDoesNotAlias) {
     for (int y = 0; y < dst.height(); ++y)
       for (int x = 0; x < dst.width(); ++x) {
         if (!dst.texel_valid(x, y)) continue;
-        ASSERT_NEAR(out.image.at(x, y).x, 0.5f, 0.02f) << projection_name(to) << " " << x << "," << y;
+        ASSERT_NEAR(out.image.at(x, y).x, 0.5f, 0.02f)
+            << projection_name(to) << " " << x << "," << y;
       }
   }
 }
@@ -104,7 +104,8 @@ TEST(Resample, PreservesTheMeanRadianceOfADetailedMap) {
   // A small bright light plus texture: the solid-angle-weighted mean (what irradiance sees)
   // must survive shrinking to within 1 %.
   auto f = [](glm::dvec3 d) {
-    const double light = glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
+    const double light =
+        glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
     return glm::vec3(float(light + 1.0 + 0.5 * std::sin(40 * d.x) * std::cos(30 * d.y)));
   };
   const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::LatLong, 512), f);
@@ -117,7 +118,8 @@ TEST(Resample, PreservesTheMeanRadianceOfADetailedMap) {
 
 TEST(EnvSampler, MipLevelsAverageOverTheSphere) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 64);
-  EnvMap env = test::env_from_function(l, [](glm::dvec3 d) { return glm::vec3(d.y > 0 ? 2.0f : 0.0f); });
+  EnvMap env =
+      test::env_from_function(l, [](glm::dvec3 d) { return glm::vec3(d.y > 0 ? 2.0f : 0.0f); });
   const EnvSampler s(env);
   EXPECT_EQ(s.levels(), 7);  // 64 .. 1
   // The top level is the mean over the sphere: half the sphere at 2 -> 1.
@@ -154,7 +156,8 @@ TEST(EnvSampler, AngleMapRimDoesNotBleedInTheBlackOutsideTheDisk) {
   const EnvSampler s(env);
   for (double a : {0.9, 0.97, 0.995, 1.0})  // angle from -Z as a fraction of pi, up to the rim
     for (int level : {0, 1, 3})
-      EXPECT_NEAR(s.sample({std::sin(a * std::numbers::pi), 0, -std::cos(a * std::numbers::pi)}, level).x,
-                  5.0f, 1e-5f)
+      EXPECT_NEAR(
+          s.sample({std::sin(a * std::numbers::pi), 0, -std::cos(a * std::numbers::pi)}, level).x,
+          5.0f, 1e-5f)
           << a << " level " << level;
 }

@@ -1,13 +1,12 @@
-#include <cmath>
-#include <numbers>
-#include <random>
-
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "arlight/sh.hpp"
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <random>
 
+#include "arlight/sh.hpp"
 #include "env_fixtures.hpp"
 
 using namespace arlight;
@@ -21,7 +20,6 @@ glm::dvec3 random_dir(std::mt19937_64& rng) {
   const double z = u(rng), phi = a(rng), r = std::sqrt(1 - z * z);
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
-
 
 // Unnormalized Legendre polynomial P_l(x) by the three-term recurrence.
 double legendre(int l, double x) {
@@ -102,12 +100,14 @@ TEST(ShOrthonormality, EveryMOfHighBandsTo256) {
   // of the two bands below (the pairs a recurrence gets wrong first).
   const int order = 256;
   const GaussLegendre gl = gauss_legendre(order + 1);
-  std::vector<std::vector<double>> p(gl.x.size(), std::vector<double>(std::size_t(order) * (order + 1) / 2));
+  std::vector<std::vector<double>> p(gl.x.size(),
+                                     std::vector<double>(std::size_t(order) * (order + 1) / 2));
   for (std::size_t i = 0; i < gl.x.size(); ++i) sh_legendre(order, gl.x[i], p[i]);
   auto inner = [&](int l1, int l2, int m) {
     double s = 0;
     for (std::size_t i = 0; i < gl.x.size(); ++i)
-      s += gl.w[i] * p[i][std::size_t(l1) * (l1 + 1) / 2 + m] * p[i][std::size_t(l2) * (l2 + 1) / 2 + m];
+      s += gl.w[i] * p[i][std::size_t(l1) * (l1 + 1) / 2 + m] *
+           p[i][std::size_t(l2) * (l2 + 1) / 2 + m];
     return 2 * kPi * s;
   };
   double worst = 0;
@@ -125,13 +125,16 @@ TEST(ShOrthonormality, EveryMOfHighBandsTo256) {
 TEST(ShOrthonormality, RandomPairsTo256ByFullSphereQuadrature) {
   std::mt19937_64 rng(7);
   std::uniform_int_distribution<int> band(0, 255);
-  struct Pair { int l1, m1, l2, m2; };
-  std::vector<Pair> pairs = {{255, 255, 255, 255}, {255, -200, 255, -200}, {254, 3, 250, 3},
-                             {255, 0, 253, 0}};
+  struct Pair {
+    int l1, m1, l2, m2;
+  };
+  std::vector<Pair> pairs = {
+      {255, 255, 255, 255}, {255, -200, 255, -200}, {254, 3, 250, 3}, {255, 0, 253, 0}};
   for (int i = 0; i < 6; ++i) {
     const int l1 = band(rng), l2 = band(rng);
     const int m1 = std::uniform_int_distribution<int>(-l1, l1)(rng);
-    const int m2 = (i % 2 == 0 && std::abs(m1) <= l2) ? m1 : std::uniform_int_distribution<int>(-l2, l2)(rng);
+    const int m2 =
+        (i % 2 == 0 && std::abs(m1) <= l2) ? m1 : std::uniform_int_distribution<int>(-l2, l2)(rng);
     pairs.push_back({l1, m1, l2, m2});
   }
   for (const Pair& pr : pairs) {
@@ -146,7 +149,8 @@ TEST(ShOrthonormality, RandomPairsTo256ByFullSphereQuadrature) {
         s += gl.w[i] * (2 * kPi / n_phi) * sh_basis(pr.l1, pr.m1, d) * sh_basis(pr.l2, pr.m2, d);
       }
     const double want = (pr.l1 == pr.l2 && pr.m1 == pr.m2) ? 1.0 : 0.0;
-    EXPECT_NEAR(s, want, 1e-8) << "(" << pr.l1 << "," << pr.m1 << ") x (" << pr.l2 << "," << pr.m2 << ")";
+    EXPECT_NEAR(s, want, 1e-8) << "(" << pr.l1 << "," << pr.m1 << ") x (" << pr.l2 << "," << pr.m2
+                               << ")";
   }
 }
 
@@ -155,7 +159,7 @@ TEST(ShStability, NoOverflowOrNaNToOrder512AndTheAdditionTheoremHolds) {
   const int order = 512;
   std::vector<double> y(std::size_t(sh_count(order)));
   std::mt19937_64 rng(3);
-  std::vector<glm::dvec3> dirs = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, 1, 0},
+  std::vector<glm::dvec3> dirs = {{0, 0, 1},    {0, 0, -1},    {1, 0, 0},        {0, 1, 0},
                                   {1e-9, 0, 1}, {0, 1e-5, -1}, {0.6, 0.8, 1e-13}};
   for (int i = 0; i < 8; ++i) dirs.push_back(random_dir(rng));
   for (const glm::dvec3& d : dirs) {
@@ -163,7 +167,8 @@ TEST(ShStability, NoOverflowOrNaNToOrder512AndTheAdditionTheoremHolds) {
     for (double v : y) ASSERT_TRUE(std::isfinite(v));
     for (int l = 0; l < order; ++l) {
       double s = 0;
-      for (int m = -l; m <= l; ++m) s += y[std::size_t(sh_index(l, m))] * y[std::size_t(sh_index(l, m))];
+      for (int m = -l; m <= l; ++m)
+        s += y[std::size_t(sh_index(l, m))] * y[std::size_t(sh_index(l, m))];
       ASSERT_NEAR(s / ((2 * l + 1) / (4 * kPi)), 1.0, 1e-9) << "band " << l;
     }
   }
@@ -194,7 +199,7 @@ TEST(ShBasis, SingleAllAndLegendreAgree) {
 
 TEST(ShProject, ConstantGivesOnlyTheDcTerm) {
   const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 256),
-                                   [](glm::dvec3) { return glm::vec3(1, 2, 3); });
+                                             [](glm::dvec3) { return glm::vec3(1, 2, 3); });
   const ShCoeffs c = sh_project(env, 8);
   const double dc = std::sqrt(4 * kPi);
   EXPECT_NEAR(c.at(0, 0).x, 1 * dc, 1e-9);  // exact solid angles: 4 pi to rounding
@@ -204,8 +209,9 @@ TEST(ShProject, ConstantGivesOnlyTheDcTerm) {
 
 TEST(ShProject, SingleBasisFunctionIsRecovered) {
   for (Projection p : {Projection::AngleMap, Projection::LatLong, Projection::Cube}) {
-    const EnvMap env = test::env_from_function(EnvLayout::for_size(p, 256),
-                                     [](glm::dvec3 d) { return glm::vec3(float(sh_basis(5, -3, d))); });
+    const EnvMap env = test::env_from_function(EnvLayout::for_size(p, 256), [](glm::dvec3 d) {
+      return glm::vec3(float(sh_basis(5, -3, d)));
+    });
     const ShCoeffs c = sh_project(env, 10);
     for (int l = 0; l < 10; ++l)
       for (int m = -l; m <= l; ++m)
@@ -217,27 +223,30 @@ TEST(ShProject, SingleBasisFunctionIsRecovered) {
 TEST(ShProject, ClampedCosineMatchesFunkHecke) {
   // max(0, n.d) has c_lm = pi * phong_zonal(l, 1) * Y_lm(n) (Funk-Hecke).
   const glm::dvec3 n = glm::normalize(glm::dvec3(0.3, -0.5, 0.8));
-  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::LatLong, 512), [&](glm::dvec3 d) {
-    return glm::vec3(float(std::max(0.0, glm::dot(n, d))));
-  });
+  const EnvMap env = test::env_from_function(
+      EnvLayout::for_size(Projection::LatLong, 512),
+      [&](glm::dvec3 d) { return glm::vec3(float(std::max(0.0, glm::dot(n, d)))); });
   const ShCoeffs c = sh_project(env, 8);
   for (int l = 0; l < 8; ++l)
     for (int m = -l; m <= l; ++m)
-      EXPECT_NEAR(c.at(l, m).x, kPi * phong_zonal(l, 1.0) * sh_basis(l, m, n), 1e-3) << l << "," << m;
+      EXPECT_NEAR(c.at(l, m).x, kPi * phong_zonal(l, 1.0) * sh_basis(l, m, n), 1e-3)
+          << l << "," << m;
   EXPECT_NEAR(c.at(0, 0).x, std::sqrt(kPi) / 2, 1e-4);
 }
 
 TEST(ShProject, IndependentOfTheThreadCount) {
-  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 96), [](glm::dvec3 d) {
-    return glm::vec3(float(std::exp(3 * d.x)), float(d.y * d.y), float(1 + d.z));
-  });
+  const EnvMap env =
+      test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 96), [](glm::dvec3 d) {
+        return glm::vec3(float(std::exp(3 * d.x)), float(d.y * d.y), float(1 + d.z));
+      });
   const ShCoeffs all_cores = sh_project(env, 12);
   ShCoeffs one_core;
   {
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
     one_core = sh_project(env, 12);
   }
-  for (std::size_t k = 0; k < all_cores.c.size(); ++k) ASSERT_EQ(all_cores.c[k], one_core.c[k]) << k;
+  for (std::size_t k = 0; k < all_cores.c.size(); ++k)
+    ASSERT_EQ(all_cores.c[k], one_core.c[k]) << k;
 }
 
 TEST(ShReconstruct, MatchesPointEvaluationAndRecoversBandLimitedMaps) {

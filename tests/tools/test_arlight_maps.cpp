@@ -1,12 +1,12 @@
 // Runs the real arlight-maps binary.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <string>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
@@ -47,9 +47,10 @@ const std::string kProbe = std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venic
 TEST(ArlightMapsSh, WritesReconstructionPreviewAndJson) {
   const fs::path out = temp_dir("sh");
   const RunResult r = run("sh --input " + kProbe + " --order 6 --size 64 --out " + out.string() +
-                    " --json " + (out / "r.json").string());
+                          " --json " + (out / "r.json").string());
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("clamped"), std::string::npos) << "the probe's negative values are reported";
+  EXPECT_NE(r.output.find("clamped"), std::string::npos)
+      << "the probe's negative values are reported";
   ASSERT_TRUE(fs::exists(out / "reconstruction.exr"));
   ASSERT_TRUE(fs::exists(out / "reconstruction.png"));
   const auto j = nlohmann::json::parse(std::ifstream(out / "r.json"));
@@ -83,7 +84,7 @@ TEST(ArlightMapsSh, HigherOrdersFitBetter) {
   double last = 1e30;
   for (int order : {1, 4, 16}) {
     const RunResult r = run("sh --input " + kProbe + " --order " + std::to_string(order) +
-                      " --size 64 --out " + out.string());
+                            " --size 64 --out " + out.string());
     ASSERT_EQ(r.status, 0) << r.output;
     const auto j = nlohmann::json::parse(std::ifstream(out / "sh.json"));
     const double e = j["rms_error"].get<double>();
@@ -94,7 +95,8 @@ TEST(ArlightMapsSh, HigherOrdersFitBetter) {
 
 TEST(ArlightMapsSh, BadInputGivesAClearErrorAndStatus2) {
   const fs::path out = temp_dir("bad");
-  RunResult r = run("sh --input " + (out / "missing.exr").string() + " --order 3 --out " + out.string());
+  RunResult r =
+      run("sh --input " + (out / "missing.exr").string() + " --order 3 --out " + out.string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("missing.exr': no such file"), std::string::npos) << r.output;
   std::ofstream(out / "junk.exr") << "junk";

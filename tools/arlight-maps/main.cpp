@@ -1,16 +1,16 @@
 // arlight-maps: environment-map lighting from the command line.
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <functional>
-
-#include <CLI/CLI.hpp>
 
 #include "arlight/error.hpp"
 #include "commands.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app{"arlight-maps: spherical harmonics, irradiance and reflection maps of HDR "
-               "environment maps"};
+  CLI::App app{
+      "arlight-maps: spherical harmonics, irradiance and reflection maps of HDR "
+      "environment maps"};
   app.require_subcommand(1);
   std::function<int()> run;
   const arlight::maps::Runner sh = arlight::maps::add_sh_command(app);

@@ -5,10 +5,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <string>
-
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "arlight/hdr_io.hpp"
 #include "arlight/projection.hpp"
@@ -95,8 +94,8 @@ int run_sh(const ShOptions& o) {
   std::printf("  projection     %8.4f s\n  reconstruction %8.4f s\n", seconds_project,
               seconds_reconstruct);
   std::printf("  RMS error      %.6g (%.2f%% of the input's RMS)\n", rms, 100.0 * rel);
-  std::printf("  wrote %s, %s/reconstruction.png, %s/input.png, %s\n", exr.c_str(),
-              o.out.c_str(), o.out.c_str(), json_path.c_str());
+  std::printf("  wrote %s, %s/reconstruction.png, %s/input.png, %s\n", exr.c_str(), o.out.c_str(),
+              o.out.c_str(), json_path.c_str());
   return 0;
 }
 

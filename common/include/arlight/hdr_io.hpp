@@ -47,8 +47,8 @@ struct LoadOptions {
 };
 
 struct LoadedImage {
-  Image image;             // linear RGB
-  std::string format;      // OpenImageIO's format name, e.g. "openexr", "png"
+  Image image;                // linear RGB
+  std::string format;         // OpenImageIO's format name, e.g. "openexr", "png"
   bool decoded_srgb = false;  // 8/16-bit file whose sRGB encoding was undone
   SanitizeReport sanitized;
   ImageMetadata metadata;

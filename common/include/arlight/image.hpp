@@ -2,9 +2,8 @@
 #pragma once
 
 #include <cstddef>
-#include <vector>
-
 #include <glm/vec3.hpp>
+#include <vector>
 
 namespace arlight {
 
@@ -63,7 +62,9 @@ class Image {
   void set(int x, int y, glm::vec3 v) { view().set(x, y, v); }
 
   ImageView view() { return {data_.data(), width_, height_, 3 * std::ptrdiff_t(width_)}; }
-  ConstImageView view() const { return {data_.data(), width_, height_, 3 * std::ptrdiff_t(width_)}; }
+  ConstImageView view() const {
+    return {data_.data(), width_, height_, 3 * std::ptrdiff_t(width_)};
+  }
 
  private:
   int width_ = 0;

@@ -2,9 +2,8 @@
 // and sizes without aliasing.
 #pragma once
 
-#include <vector>
-
 #include <glm/vec3.hpp>
+#include <vector>
 
 #include "arlight/image.hpp"
 #include "arlight/projection.hpp"

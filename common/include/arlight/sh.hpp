@@ -5,10 +5,9 @@
 // "Order" N means bands l = 0..N-1, N^2 coefficients, coefficient (l, m) at index l(l+1)+m.
 #pragma once
 
+#include <glm/vec3.hpp>
 #include <span>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "arlight/image.hpp"
 #include "arlight/projection.hpp"
