@@ -16,6 +16,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <map>
@@ -244,7 +245,9 @@ double sh_basis(int l, int m, glm::dvec3 dir) {
   if (l < 0 || m < -l || m > l)
     throw std::invalid_argument("SH basis (l=" + std::to_string(l) + ", m=" + std::to_string(m) +
                                 ") does not exist");
-  const auto t = tables_for(l + 1);
+  // Tables of the next power-of-two order serve every band below it, so single-function
+  // calls for many different bands share a handful of tables.
+  const auto t = tables_for(int(std::bit_ceil(unsigned(l + 1))));
   const glm::dvec3 d = unit(dir);
   const int am = std::abs(m);
   double re = 1.0, im = 0.0;
