@@ -16,7 +16,6 @@
 namespace arlight {
 
 namespace fs = std::filesystem;
-namespace OIIO_NS = OIIO;
 
 namespace {
 
@@ -42,7 +41,7 @@ float linear_to_srgb(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-ImageMetadata read_metadata(const OIIO_NS::ImageSpec& spec, const fs::path& path) {
+ImageMetadata read_metadata(const OIIO::ImageSpec& spec, const fs::path& path) {
   ImageMetadata md;
   const std::string proj = spec.get_string_attribute(kAttrProjection);
   if (!proj.empty()) {
@@ -52,15 +51,15 @@ ImageMetadata read_metadata(const OIIO_NS::ImageSpec& spec, const fs::path& path
                        "' (expected anglemap, latlong or cube)");
   }
   if (const auto* p = spec.find_attribute(kAttrShininess)) {
-    if (p->type() != OIIO_NS::TypeFloat)
+    if (p->type() != OIIO::TypeFloat)
       throw InputError(quoted(path) + ": attribute " + kAttrShininess + " is not a float");
     md.shininess = *static_cast<const float*>(p->data());
   }
   if (const auto* p = spec.find_attribute(kAttrShCoefficients)) {
-    const OIIO_NS::TypeDesc t = p->type();
+    const OIIO::TypeDesc t = p->type();
     const std::size_t n =
         std::size_t(p->nvalues()) * std::size_t(t.aggregate) * std::size_t(std::max(1, t.arraylen));
-    if (t.basetype != OIIO_NS::TypeDesc::FLOAT || n % 3 != 0)
+    if (t.basetype != OIIO::TypeDesc::FLOAT || n % 3 != 0)
       throw InputError(quoted(path) + ": attribute " + kAttrShCoefficients +
                        " must be a float array of RGB triples");
     const std::size_t count = n / 3;
@@ -101,11 +100,11 @@ void ensure_parent(const fs::path& path) {
 }
 
 // Writes with OpenImageIO to a temporary sibling, then renames it over `path`.
-void write_atomically(const fs::path& path, const OIIO_NS::ImageSpec& spec, const void* pixels,
-                      OIIO_NS::TypeDesc pixel_type) {
+void write_atomically(const fs::path& path, const OIIO::ImageSpec& spec, const void* pixels,
+                      OIIO::TypeDesc pixel_type) {
   ensure_parent(path);
-  auto out = OIIO_NS::ImageOutput::create(path.string());
-  if (!out) throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO_NS::geterror());
+  auto out = OIIO::ImageOutput::create(path.string());
+  if (!out) throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO::geterror());
   const fs::path tmp = temp_sibling(path);
   bool ok = out->open(tmp.string(), spec) && out->write_image(pixel_type, pixels);
   ok = out->close() && ok;
@@ -163,13 +162,13 @@ LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(quoted(path) + ": no such file");
   if (fs::is_directory(path, ec)) throw InputError(quoted(path) + ": is a directory, not an image");
-  auto in = OIIO_NS::ImageInput::open(path.string());
+  auto in = OIIO::ImageInput::open(path.string());
   if (!in) {
-    std::string err = OIIO_NS::geterror();
+    std::string err = OIIO::geterror();
     if (err.empty()) err = "not an image format OpenImageIO can read";
     throw InputError(quoted(path) + ": cannot open as an image: " + err);
   }
-  const OIIO_NS::ImageSpec spec = in->spec();
+  const OIIO::ImageSpec spec = in->spec();
   LoadedImage out;
   out.format = in->format_name();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
@@ -187,7 +186,7 @@ LoadedImage load_image(const fs::path& path, const LoadOptions& options) {
   // RGB(A...) keeps the first three channels; grey (+ alpha) replicates the first.
   const int nch = spec.nchannels >= 3 ? 3 : 1;
   std::vector<float> buf(pixels * std::size_t(nch));
-  if (!in->read_image(0, 0, 0, nch, OIIO_NS::TypeDesc::FLOAT, buf.data())) {
+  if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, buf.data())) {
     std::string err = in->geterror();
     if (err.empty()) err = "read failed";
     throw InputError(quoted(path) + ": cannot read pixels (truncated or corrupt?): " + err);
@@ -235,9 +234,8 @@ LoadedEnvMap load_envmap(const fs::path& path, std::optional<Projection> expect,
 }
 
 void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md, ExrPixel pixel) {
-  OIIO_NS::ImageSpec spec(
-      img.width, img.height, 3,
-      pixel == ExrPixel::Half ? OIIO_NS::TypeDesc::HALF : OIIO_NS::TypeDesc::FLOAT);
+  OIIO::ImageSpec spec(img.width, img.height, 3,
+                       pixel == ExrPixel::Half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   spec.attribute("compression", "zip");
   if (md.projection) spec.attribute(kAttrProjection, std::string(projection_name(*md.projection)));
   if (md.shininess) spec.attribute(kAttrShininess, float(*md.shininess));
@@ -247,12 +245,12 @@ void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md
       throw std::invalid_argument("write_exr: SH coefficient count is not a square");
     spec.attribute(kAttrShOrder, order);
     spec.attribute(kAttrShCoefficients,
-                   OIIO_NS::TypeDesc(OIIO_NS::TypeDesc::FLOAT, int(md.sh_coefficients.size() * 3)),
+                   OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, int(md.sh_coefficients.size() * 3)),
                    md.sh_coefficients.data());
   }
   if (md.description) spec.attribute(kAttrDescription, *md.description);
   const std::vector<float> pixels = contiguous(img);
-  write_atomically(path, spec, pixels.data(), OIIO_NS::TypeDesc::FLOAT);
+  write_atomically(path, spec, pixels.data(), OIIO::TypeDesc::FLOAT);
 }
 
 double auto_exposure_stops(ConstImageView img) {
@@ -280,9 +278,9 @@ void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOp
         px[(std::size_t(y) * img.width + x) * 3 + c] =
             std::uint8_t(std::lround(255.0f * std::clamp(linear_to_srgb(v), 0.0f, 1.0f)));
       }
-  OIIO_NS::ImageSpec spec(img.width, img.height, 3, OIIO_NS::TypeDesc::UINT8);
+  OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
-  write_atomically(path, spec, px.data(), OIIO_NS::TypeDesc::UINT8);
+  write_atomically(path, spec, px.data(), OIIO::TypeDesc::UINT8);
 }
 
 }  // namespace arlight
