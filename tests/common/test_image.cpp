@@ -30,6 +30,10 @@ TEST(Image, ViewsAddressSubRectangles) {
   sub.set(2, 1, {-1, -1, -1});
   EXPECT_EQ(img.at(4, 2), glm::vec3(-1, -1, -1)) << "writes through a view reach the image";
   EXPECT_THROW(img.view().sub(6, 0, 3, 1), std::out_of_range);
+  const Image copy = copy_image(sub);
+  EXPECT_EQ(copy.width(), 3);
+  EXPECT_EQ(copy.at(2, 1), glm::vec3(-1, -1, -1));
+  EXPECT_EQ(copy.at(0, 0), glm::vec3(2, 1, 21));
   EXPECT_THROW(Image(-1, 2), std::invalid_argument);
 }
 

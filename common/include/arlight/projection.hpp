@@ -64,7 +64,7 @@ class EnvLayout {
   double texel_solid_angle(int x, int y) const;
   bool texel_valid(int x, int y) const { return texel_solid_angle(x, y) > 0.0; }
 
-  // For a cube map: the face index (0..5) of a pixel row and the view of that face.
+  // The cube face (0..5 = +X, -X, +Y, -Y, +Z, -Z) a direction falls on; ties go to X, then Y.
   static int cube_face_of_direction(glm::dvec3 dir);
 
  private:
