@@ -99,14 +99,16 @@ void ensure_parent(const fs::path& path) {
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
 }
 
-// Writes with OpenImageIO to a temporary sibling, then renames it over `path`.
+// Writes with OpenImageIO to a temporary sibling, then renames it over `path`. `row_bytes` is
+// the distance between rows of `pixels` (so views into larger images need no copy).
 void write_atomically(const fs::path& path, const OIIO::ImageSpec& spec, const void* pixels,
-                      OIIO::TypeDesc pixel_type) {
+                      OIIO::TypeDesc pixel_type, std::ptrdiff_t row_bytes) {
   ensure_parent(path);
   auto out = OIIO::ImageOutput::create(path.string());
   if (!out) throw std::runtime_error("cannot write " + quoted(path) + ": " + OIIO::geterror());
   const fs::path tmp = temp_sibling(path);
-  bool ok = out->open(tmp.string(), spec) && out->write_image(pixel_type, pixels);
+  bool ok = out->open(tmp.string(), spec) &&
+            out->write_image(pixel_type, pixels, OIIO::AutoStride, row_bytes);
   ok = out->close() && ok;
   if (!ok) {
     const std::string err = out->geterror();
@@ -120,14 +122,6 @@ void write_atomically(const fs::path& path, const OIIO::ImageSpec& spec, const v
     fs::remove(tmp, ec);
     throw std::runtime_error("cannot write " + quoted(path) + ": rename failed: " + ec.message());
   }
-}
-
-std::vector<float> contiguous(ConstImageView img) {
-  std::vector<float> v(std::size_t(img.width) * img.height * 3);
-  for (int y = 0; y < img.height; ++y)
-    std::copy_n(img.pixel(0, y), 3 * std::size_t(img.width),
-                v.data() + 3 * std::size_t(y) * img.width);
-  return v;
 }
 
 }  // namespace
@@ -249,8 +243,8 @@ void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md
                    md.sh_coefficients.data());
   }
   if (md.description) spec.attribute(kAttrDescription, *md.description);
-  const std::vector<float> pixels = contiguous(img);
-  write_atomically(path, spec, pixels.data(), OIIO::TypeDesc::FLOAT);
+  write_atomically(path, spec, img.data, OIIO::TypeDesc::FLOAT,
+                   img.stride * std::ptrdiff_t(sizeof(float)));
 }
 
 double auto_exposure_stops(ConstImageView img) {
@@ -280,7 +274,7 @@ void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOp
       }
   OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
-  write_atomically(path, spec, px.data(), OIIO::TypeDesc::UINT8);
+  write_atomically(path, spec, px.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(img.width));
 }
 
 }  // namespace arlight

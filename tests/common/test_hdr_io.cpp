@@ -98,6 +98,16 @@ TEST_F(HdrIo, ExrRoundTripWithMetadata) {
   EXPECT_EQ(files, 2);
 }
 
+TEST_F(HdrIo, WritesASubViewOfALargerImage) {
+  const Image img = gradient(8, 4);
+  write_exr(dir_ / "tile.exr", img.view().sub(2, 1, 3, 2), {}, ExrPixel::Float);
+  const LoadedImage in = load_image(dir_ / "tile.exr");
+  ASSERT_EQ(in.image.width(), 3);
+  ASSERT_EQ(in.image.height(), 2);
+  EXPECT_EQ(in.image.at(0, 0), img.at(2, 1));
+  EXPECT_EQ(in.image.at(2, 1), img.at(4, 2));
+}
+
 TEST_F(HdrIo, MetadataProjectionOverridesTheShapeGuess) {
   ImageMetadata md;
   md.projection = Projection::Cube;

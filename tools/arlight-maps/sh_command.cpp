@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 
 #include "arlight/hdr_io.hpp"
@@ -53,17 +53,16 @@ int run_sh(const ShOptions& o) {
   const auto table = texel_table(layout);
   double err2 = 0.0, ref2 = 0.0, wsum = 0.0;
   for (std::size_t i = 0; i < table->size(); ++i) {
-    const int x = int(table->index[i] % unsigned(layout.width()));
-    const int y = int(table->index[i] / unsigned(layout.width()));
-    const glm::dvec3 a(angle.image.at(x, y)), b(recon.at(x, y));
-    const double w = table->solid_angle[i];
-    err2 += w * glm::dot(a - b, a - b) / 3.0;
-    ref2 += w * glm::dot(a, a) / 3.0;
-    wsum += w;
+    const float* a = angle.image.data() + 3 * std::size_t(table->index[i]);
+    const float* b = recon.data() + 3 * std::size_t(table->index[i]);
+    for (int c = 0; c < 3; ++c) {
+      err2 += table->solid_angle[i] * (a[c] - b[c]) * (a[c] - b[c]) / 3.0;
+      ref2 += table->solid_angle[i] * a[c] * a[c] / 3.0;
+    }
+    wsum += table->solid_angle[i];
   }
   const double rms = std::sqrt(err2 / wsum), rel = ref2 > 0 ? std::sqrt(err2 / ref2) : 0.0;
 
-  fs::create_directories(o.out);
   ImageMetadata md;
   md.projection = Projection::AngleMap;
   md.description = "SH order " + std::to_string(o.order) + " reconstruction of " + o.input;
@@ -87,7 +86,9 @@ int run_sh(const ShOptions& o) {
   for (const auto& c : coeffs.c) j["coefficients"].push_back({c.x, c.y, c.z});
   const fs::path json_path = o.json.empty() ? fs::path(o.out) / "sh.json" : fs::path(o.json);
   if (json_path.has_parent_path()) fs::create_directories(json_path.parent_path());
-  std::ofstream(json_path) << j.dump(2) << "\n";
+  std::ofstream json_file(json_path);
+  json_file << j.dump(2) << "\n";
+  if (!json_file.flush()) throw std::runtime_error("cannot write " + json_path.string());
 
   std::printf("SH order %d (%d coefficients) of %s on a %dx%d angle map\n", o.order,
               sh_count(o.order), o.input.c_str(), o.size, o.size);
