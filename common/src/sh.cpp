@@ -201,6 +201,37 @@ void reconstruct_batch(const ShTables& t, const double* coeff, Batch& b) {
       });
 }
 
+// v[(k * 3 + c) * kLanes + i] = sum_lm coeff[k][lm][c] * Y_lm(dir_i) for `maps` expansions
+// sharing one basis evaluation.
+ARLIGHT_SIMD_CLONES
+void reconstruct_batch_many(const ShTables& t, const std::vector<std::vector<double>>& coeff,
+                            const Batch& b, double* v) {
+  const int maps = int(coeff.size());
+  alignas(64) double re_s[kLanes], im_s[kLanes], qa[kLanes], qb[kLanes];
+  for (int i = 0; i < maps * 3 * kLanes; ++i) v[i] = 0.0;
+  for_each_lm(
+      t, b,
+      [&](int m, const double* re, const double* im) {
+        const double s = m == 0 ? 1.0 : std::numbers::sqrt2;
+#pragma omp simd
+        for (int i = 0; i < kLanes; ++i) re_s[i] = s * re[i], im_s[i] = s * im[i];
+      },
+      [&](int l, int m, const double* q) {
+#pragma omp simd
+        for (int i = 0; i < kLanes; ++i) qa[i] = q[i] * re_s[i], qb[i] = q[i] * im_s[i];
+        for (int k = 0; k < maps; ++k) {
+          const double* p = coeff[std::size_t(k)].data() + 3 * sh_index(l, m);
+          const double* n = coeff[std::size_t(k)].data() + 3 * sh_index(l, -m);
+          for (int c = 0; c < 3; ++c) {
+            const double pc = p[c], nc = n[c];
+            double* out = v + (k * 3 + c) * kLanes;
+#pragma omp simd
+            for (int i = 0; i < kLanes; ++i) out[i] += qa[i] * pc + qb[i] * nc;
+          }
+        }
+      });
+}
+
 void fill_directions(const TexelTable& table, std::size_t first, Batch& b) {
   const std::size_t n = std::min<std::size_t>(kLanes, table.size() - first);
   b.count = int(n);
@@ -354,6 +385,38 @@ Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout) {
     }
   });
   return out;
+}
+
+void sh_evaluate_many(std::span<const ShCoeffs> coeffs, std::span<const glm::dvec3> dirs,
+                      std::span<float* const> out) {
+  if (coeffs.empty()) return;
+  if (out.size() != coeffs.size())
+    throw std::invalid_argument("sh_evaluate_many: one output per expansion expected");
+  const int order = coeffs[0].order;
+  const auto t = tables_for(order);
+  std::vector<std::vector<double>> flat;
+  for (const ShCoeffs& k : coeffs) {
+    if (k.order != order || k.c.size() != std::size_t(sh_count(order)))
+      throw std::invalid_argument("sh_evaluate_many: expansions of different orders");
+    std::vector<double>& f = flat.emplace_back(k.c.size() * 3);
+    for (std::size_t i = 0; i < k.c.size(); ++i)
+      for (int c = 0; c < 3; ++c) f[3 * i + std::size_t(c)] = k.c[i][c];
+  }
+  std::vector<double> v(coeffs.size() * 3 * kLanes);
+  Batch b;
+  for (std::size_t first = 0; first < dirs.size(); first += kLanes) {
+    b.count = int(std::min<std::size_t>(kLanes, dirs.size() - first));
+    for (int i = 0; i < kLanes; ++i) {
+      const glm::dvec3 d = i < b.count ? unit(dirs[first + std::size_t(i)]) : glm::dvec3(0, 0, 1);
+      b.x[i] = d.x, b.y[i] = d.y, b.z[i] = d.z;
+    }
+    reconstruct_batch_many(*t, flat, b, v.data());
+    for (std::size_t k = 0; k < coeffs.size(); ++k)
+      for (int i = 0; i < b.count; ++i)
+        for (int c = 0; c < 3; ++c)
+          out[k][3 * (first + std::size_t(i)) + std::size_t(c)] =
+              float(v[(k * 3 + std::size_t(c)) * kLanes + std::size_t(i)]);
+  }
 }
 
 ShCoeffs sh_convolve(const ShCoeffs& coeffs, std::span<const double> zonal) {

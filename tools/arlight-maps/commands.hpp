@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <string>
 
 namespace arlight::maps {
 
@@ -9,5 +10,11 @@ namespace arlight::maps {
 // (called after parsing; returns the process exit status).
 using Runner = std::function<int()>;
 Runner add_sh_command(CLI::App& app);
+Runner add_compute_command(CLI::App& app);
+Runner add_compare_command(CLI::App& app);
+Runner add_diff_command(CLI::App& app);
+
+// --shininess, --size, --projection, shared by compute, compare and diff.
+void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::string* projection);
 
 }  // namespace arlight::maps

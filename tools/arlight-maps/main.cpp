@@ -13,8 +13,14 @@ int main(int argc, char** argv) {
       "environment maps"};
   app.require_subcommand(1);
   std::function<int()> run;
-  const arlight::maps::Runner sh = arlight::maps::add_sh_command(app);
-  app.get_subcommand("sh")->callback([&] { run = sh; });
+  const std::pair<const char*, arlight::maps::Runner> commands[] = {
+      {"compute", arlight::maps::add_compute_command(app)},
+      {"compare", arlight::maps::add_compare_command(app)},
+      {"diff", arlight::maps::add_diff_command(app)},
+      {"sh", arlight::maps::add_sh_command(app)},
+  };
+  for (const auto& [name, runner] : commands)
+    app.get_subcommand(name)->callback([&run, r = runner] { run = r; });
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -48,6 +48,12 @@ glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir);
 // Evaluates the expansion at every valid texel of `layout` (others stay 0). All cores.
 Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout);
 
+// Evaluates several expansions of one order at many directions, computing the basis once per
+// direction: out[k][3 i + c] = sum_lm coeffs[k] (l, m)[c] Y_lm(dirs[i]). One thread; callers
+// split the directions across cores.
+void sh_evaluate_many(std::span<const ShCoeffs> coeffs, std::span<const glm::dvec3> dirs,
+                      std::span<float* const> out);
+
 // Multiplies band l by zonal[l] (spherical convolution with a zonal kernel, thesis eq. 2.31,
 // where zonal[l] already includes Lambda_l = sqrt(4 pi / (2l+1))).
 ShCoeffs sh_convolve(const ShCoeffs& coeffs, std::span<const double> zonal);

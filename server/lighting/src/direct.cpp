@@ -1,0 +1,132 @@
+// Methods `accurate` (thesis Alg. 4.1) and `bounded` (§6.2.2 with bounds derived from the lobe).
+#include <chrono>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <numbers>
+
+#include "direct.hpp"
+#include "job.hpp"
+#include "kernels.hpp"
+
+namespace arlight::lighting::detail {
+
+double bounded_cos_threshold(double s) {
+  // Dropping every point where f = c^s < T loses at most T * sum(L w) = T 4pi Lmean of the
+  // numerator, while the denominator is ~2pi/(s+1); so the value changes by at most
+  // 2 T (s+1) Lmean. Eqs. 6.1/6.2 divide by (a + eps) with eps = 1e-4 x the map's mean (~Lmean):
+  // T = 1e-3 * 1e-4 / (2 (s+1)) keeps that below 0.1 % even where the map is black.
+  constexpr double kTolerance = 1e-3 * 1e-4;
+  const double t = kTolerance / (2.0 * (s + 1.0));
+  return std::exp(std::log(t) / s);
+}
+
+double exact_cos_threshold(double s) {
+  // Below this cosine c^s < 1e-30 of the lobe's peak. Every sum holds the peak's neighbourhood
+  // (c^s ~ 1, weight ~ one texel) and radiance spans far less than 1e14 between texels, so such
+  // terms are below double precision's 1e-16 of the result: skipping them changes nothing.
+  return std::exp(-69.0 / s);
+}
+
+void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const PowerChain& chain,
+                      std::span<const double> min_cos, double* acc) {
+  const int n = chain.size();
+  constexpr int kW = int(kCellAlign);
+  const std::size_t stride = 4 * std::size_t(kW) * std::size_t(n);
+  std::vector<double> lanes(kQueries * stride, 0.0);
+  // Visit the cells within reach of the directions' bounding cone, then test each cell
+  // against every direction.
+  glm::dvec3 centre(0.0);
+  for (int q = 0; q < kQueries; ++q) centre += dirs[q];
+  centre = glm::length(centre) > 1e-12 ? glm::normalize(centre) : dirs[0];
+  double radius = 0.0;
+  for (int q = 0; q < kQueries; ++q)
+    radius = std::max(radius, std::acos(std::clamp(glm::dot(dirs[q], centre), -1.0, 1.0)));
+  const double reach = std::acos(std::clamp(min_cos[0], -1.0, 1.0)) + radius + 1e-9;
+  pts.for_cells_within(centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach),
+                       [&](const PointCells::Cell& cell) {
+                         double c = 0.0;
+                         for (int q = 0; q < kQueries; ++q)
+                           c = std::max(c, PointCells::max_cos(cell, dirs[q]));
+                         int maps = n;
+                         while (maps > 0 && c <= min_cos[std::size_t(maps - 1)]) --maps;
+                         if (maps > 0)
+                           accumulate_chain(pts, cell.begin, cell.end, dirs, chain, maps,
+                                            lanes.data());
+                       });
+  for (int q = 0; q < kQueries; ++q) reduce_lanes(lanes.data() + q * stride, n, acc + 4 * n * q);
+}
+
+void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
+  if (dirs.empty()) return;
+  glm::dvec3 centre(0.0);
+  for (const glm::dvec3& d : dirs) centre += d;
+  centre = glm::length(centre) > 1e-12 ? glm::normalize(centre) : dirs[0];
+  double radius = 0.0;
+  for (const glm::dvec3& d : dirs)
+    radius = std::max(radius, std::acos(std::clamp(glm::dot(d, centre), -1.0, 1.0)));
+  const double reach = window_ + radius + 1e-9;
+  gather_cells(pts_, centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach), gathered_);
+  const int n = chain_.size();
+  const std::size_t stride = 4 * std::size_t(kCellAlign) * std::size_t(n);
+  lanes_.resize(kQueries * stride);
+  for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
+    glm::dvec3 group[kQueries];
+    for (int q = 0; q < kQueries; ++q) group[q] = dirs[std::min(dirs.size() - 1, first + q)];
+    std::fill(lanes_.begin(), lanes_.end(), 0.0);
+    accumulate_chain(gathered_, 0, std::uint32_t(gathered_.size()), group, chain_, n,
+                     lanes_.data());
+    for (std::size_t q = 0; q < kQueries && first + q < dirs.size(); ++q)
+      reduce_lanes(lanes_.data() + q * stride, n, acc + (first + q) * 4 * std::size_t(n));
+  }
+}
+
+MapSet run_direct(const Job& job, bool bounded) {
+  const auto t0 = std::chrono::steady_clock::now();
+  // Whole-hemisphere sums: big cells keep the per-cell work small next to the sums.
+  const PointCells pts = points_from_texels(job.input, bounded ? 64 : 256);
+  const std::vector<int> order = ascending_order(job.shininess);
+  const int n = int(order.size());
+  std::vector<double> sorted, min_cos;
+  for (int k : order) {
+    const double s = job.shininess[std::size_t(k)];
+    sorted.push_back(s);
+    min_cos.push_back(bounded ? bounded_cos_threshold(s) : exact_cos_threshold(s));
+  }
+  // The lowest threshold decides which cells are visited at all (thresholds rise with s).
+  for (int k = n - 2; k >= 0; --k) min_cos[std::size_t(k)] = std::min(min_cos[std::size_t(k)], min_cos[std::size_t(k + 1)]);
+  const PowerChain chain(sorted);
+  std::vector<EnvMap> maps = blank_maps(job);
+  for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
+    // Texels in groups of kQueries (neighbours along a row share their cells).
+    std::vector<glm::dvec3> dirs;
+    std::vector<std::size_t> pixels;
+    job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
+      dirs.push_back(d);
+      pixels.push_back(pixel);
+    });
+    std::vector<double> acc(kQueries * 4 * std::size_t(n));
+    for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
+      glm::dvec3 group[kQueries];
+      for (int q = 0; q < kQueries; ++q) group[q] = dirs[std::min(dirs.size() - 1, first + q)];
+      integrate_direct(pts, group, chain, min_cos, acc.data());
+      for (std::size_t q = 0; q < kQueries && first + q < dirs.size(); ++q)
+        for (int k = 0; k < n; ++k) {
+          const double* a = acc.data() + 4 * (q * std::size_t(n) + std::size_t(k));
+          float* out =
+              maps[std::size_t(order[std::size_t(k)])].image.data() + 3 * pixels[first + q];
+          for (int c = 0; c < 3; ++c) out[c] = a[3] > 0.0 ? float(a[c] / a[3]) : 0.0f;
+        }
+    }
+    for (int k = 0; k < n; ++k) job.progress.tile_done(order[std::size_t(k)], tile);
+  });
+  MapSet result;
+  result.maps = std::move(maps);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.seconds.assign(std::size_t(n), seconds / n);
+  result.plans.assign(std::size_t(n), bounded ? "bounded: lobe window where cos^s >= 5e-8/(s+1)"
+                                              : "accurate: every input texel");
+  return result;
+}
+
+}  // namespace arlight::lighting::detail

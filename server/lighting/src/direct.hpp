@@ -1,0 +1,43 @@
+// Direct lobe integration over point cells, shared by accurate, bounded and auto.
+#pragma once
+
+#include <glm/vec3.hpp>
+#include <algorithm>
+#include <cmath>
+#include <span>
+#include <vector>
+
+#include "kernels.hpp"
+#include "points.hpp"
+
+namespace arlight::lighting::detail {
+
+// Smallest cosine the bounded method integrates for shininess s (derivation in direct.cpp).
+double bounded_cos_threshold(double s);
+// Smallest cosine whose c^s (> 1e-30) can still change a double-precision sum.
+double exact_cos_threshold(double s);
+
+// For each of the kQueries directions dirs[q]: acc[q * 4n + 4k + (0..3)] = (sum f L w, sum f w)
+// for map k of `chain` (n maps) over at least the points whose cosine with dirs[q] exceeds
+// min_cos[k] (non-decreasing in k); cells no direction reaches are skipped whole.
+void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const PowerChain& chain,
+                      std::span<const double> min_cos, double* acc);
+
+// Integrates batches of directions that lie close together (a block of texels): the cells
+// within reach of any of them are gathered once into one contiguous run, and each direction
+// then sums that run with no per-cell work. acc gets 4 x chain.size() values per direction.
+class BatchIntegrator {
+ public:
+  BatchIntegrator(const PointCells& pts, const PowerChain& chain, double min_cos)
+      : pts_(pts), chain_(chain), window_(std::acos(std::clamp(min_cos, -1.0, 1.0))) {}
+  void run(std::span<const glm::dvec3> dirs, double* acc);
+
+ private:
+  const PointCells& pts_;
+  const PowerChain& chain_;
+  double window_;  // lobe window radius (rad)
+  PointCells gathered_;
+  std::vector<double> lanes_;
+};
+
+}  // namespace arlight::lighting::detail

@@ -1,0 +1,90 @@
+// What every method implementation gets: the request, the output texels, tiling, progress and
+// cancellation.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <vector>
+
+#include "arlight/lighting.hpp"
+
+namespace arlight::lighting::detail {
+
+struct Tile {
+  int x, y, width, height;
+};
+
+// The output layout's valid texels, addressable by pixel.
+class OutputTexels {
+ public:
+  explicit OutputTexels(const EnvLayout& layout);
+  const EnvLayout& layout() const { return table_->layout; }
+  const std::vector<Tile>& tiles() const { return tiles_; }
+  // Calls fn(pixel, direction) for every valid texel of `tile` (pixel = y * width + x).
+  template <class Fn>
+  void for_each(const Tile& tile, Fn&& fn) const {
+    const int w = layout().width();
+    for (int y = tile.y; y < tile.y + tile.height; ++y)
+      for (int x = tile.x; x < tile.x + tile.width; ++x) {
+        const std::size_t pixel = std::size_t(y) * std::size_t(w) + std::size_t(x);
+        const std::int32_t e = entry_[pixel];
+        if (e >= 0) fn(pixel, glm::dvec3(table_->x[e], table_->y[e], table_->z[e]));
+      }
+  }
+
+ private:
+  std::shared_ptr<const TexelTable> table_;
+  std::vector<std::int32_t> entry_;  // index into table_, -1 off the sphere
+  std::vector<Tile> tiles_;
+};
+
+// Progress reporting and cancellation shared by the computing threads.
+class Progress {
+ public:
+  Progress(const Hooks& hooks, std::size_t total) : hooks_(hooks), total_(total) {}
+  // Throws Cancelled once a stop has been requested.
+  void check() const {
+    if (hooks_.stop.stop_requested()) throw Cancelled();
+  }
+  void tile_done(int map, const Tile& tile);
+
+ private:
+  const Hooks& hooks_;
+  std::size_t total_;
+  std::size_t done_ = 0;
+  std::mutex mutex_;
+};
+
+// Runs fn(tile) for every tile on all cores with denormals flushed; checks for cancellation
+// before each tile.
+void for_each_tile(std::span<const Tile> tiles, const Progress& progress,
+                   const std::function<void(const Tile&)>& fn);
+
+struct Job {
+  const EnvMap& input;
+  std::vector<double> shininess;  // as requested
+  const OutputTexels& output;
+  const MethodSpec& spec;
+  Progress& progress;
+};
+
+// Maps of one job, all zero, in the output layout.
+std::vector<EnvMap> blank_maps(const Job& job);
+
+// Sort order of a job's shininess (ascending), as indices into job.shininess.
+std::vector<int> ascending_order(std::span<const double> shininess);
+
+// Standard deviation (radians, per axis) of the normalized lobe max(0, cos)^s: the width the
+// methods compare with texel spacings. 1/sqrt(s) for large s; ~0.66 for the cosine lobe.
+double lobe_sigma(double s);
+
+MapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
+MapSet run_mipmap(const Job& job);
+MapSet run_sh(const Job& job);
+MapSet run_importance(const Job& job);
+MapSet run_auto(const Job& job);
+
+}  // namespace arlight::lighting::detail

@@ -1,0 +1,170 @@
+// Compiled with -ffast-math -fopenmp-simd (see CMakeLists.txt) so that the reductions vectorize
+// and exp/log map to glibc's vector math library. Inputs are sanitized (finite, >= 0) and every
+// cosine fed to log() is > 0, so the fast-math assumptions hold.
+#include "kernels.hpp"
+
+#include <xmmintrin.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#define ARLIGHT_SIMD_CLONES __attribute__((target_clones("avx512f", "fma", "default")))
+
+namespace arlight::lighting::detail {
+
+PowerChain::PowerChain(std::span<const double> ascending) {
+  for (std::size_t k = 0; k < ascending.size(); ++k) {
+    const double s = ascending[k];
+    if (s < 1.0) throw std::invalid_argument("shininess must be >= 1");
+    if (k > 0 && s < ascending[k - 1]) throw std::invalid_argument("shininess not ascending");
+    if (s == 1.0) {
+      steps_.push_back({Step::Copy, 1, s});
+      continue;
+    }
+    if (k > 0) {
+      const double ratio = s / ascending[k - 1];
+      if (ratio == std::floor(ratio) && ratio <= 64.0) {
+        steps_.push_back({Step::PowPrev, int(ratio), s});
+        continue;
+      }
+    }
+    if (s == std::floor(s) && s <= 65536.0)
+      steps_.push_back({Step::PowCos, int(s), s});
+    else
+      steps_.push_back({Step::ExpLog, 0, s});
+  }
+}
+
+namespace {
+
+constexpr int kW = int(kCellAlign);
+
+// Eight doubles: one AVX-512 register in the avx512f clone, two or four narrower ones in the
+// others. Loads and stores go through memcpy, so no alignment is assumed.
+typedef double V __attribute__((vector_size(8 * sizeof(double))));
+static_assert(kW == 8);
+
+inline V load(const double* p) {
+  V v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store(double* p, V v) { __builtin_memcpy(p, &v, sizeof v); }
+
+// out[g] = base[g]^e (e >= 1) for every group by left-to-right binary exponentiation. The bit
+// loop is outside so the groups' multiplications are independent (throughput, not latency).
+inline void int_pow(const V* base, V* out, int groups, int e) {
+  int top = 0;
+  while ((e >> (top + 1)) != 0) ++top;
+  for (int g = 0; g < groups; ++g) out[g] = base[g];
+  for (int bit = top - 1; bit >= 0; --bit) {
+    if ((e >> bit) & 1)
+      for (int g = 0; g < groups; ++g) out[g] = out[g] * out[g] * base[g];
+    else
+      for (int g = 0; g < groups; ++g) out[g] = out[g] * out[g];
+  }
+}
+
+inline V exp_log_pow(V c, double s) {
+  alignas(64) double t[kW];
+  store(t, c);
+#pragma omp simd
+  for (int j = 0; j < kW; ++j) t[j] = t[j] > 0.0 ? std::exp(s * std::log(t[j] > 0.0 ? t[j] : 1.0)) : 0.0;
+  return load(t);
+}
+
+}  // namespace
+
+// Per run of up to kMaxCellPoints points: the cosines of every group of 8 points for each of
+// the kQueries directions, then map by map the powers (from the cosines or the previous map's
+// powers, kept in small buffers) and their weighted sums in registers, added to the per-lane
+// accumulators once per run. The directions share every load of the points' radiance and
+// weight, which is what bounds a single direction's loop.
+ARLIGHT_SIMD_CLONES
+void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
+                      const glm::dvec3* dirs, const PowerChain& chain, int maps,
+                      double* lanes) {
+  constexpr int kGroups = int(kMaxCellPoints / kCellAlign);
+  constexpr int Q = kQueries;
+  const std::size_t stride = 4 * std::size_t(kW) * std::size_t(chain.size());
+  const V zero = {0, 0, 0, 0, 0, 0, 0, 0};
+  const auto& steps = chain.steps();
+  for (; begin < end; begin += kMaxCellPoints) {
+    const std::uint32_t run_end = std::min(end, begin + kMaxCellPoints);
+    const int groups = int(run_end - begin) / kW;
+    V cosine[Q][kGroups], power[2][Q][kGroups];
+    for (int q = 0; q < Q; ++q) {
+      const V dx = zero + dirs[q].x, dy = zero + dirs[q].y, dz = zero + dirs[q].z;
+      for (int g = 0; g < groups; ++g) {
+        const std::size_t i = begin + std::size_t(g) * kW;
+        const V c = dx * load(pts.x.data() + i) + dy * load(pts.y.data() + i) +
+                    dz * load(pts.z.data() + i);
+        cosine[q][g] = c > zero ? c : zero;
+      }
+    }
+    for (int k = 0; k < maps; ++k) {
+      const PowerChain::Step& step = steps[std::size_t(k)];
+      V(*cur)[kGroups] = power[k & 1];
+      V(*prev)[kGroups] = k == 0 ? cosine : power[(k - 1) & 1];
+      if (k > 0 && steps[std::size_t(k - 1)].kind == PowerChain::Step::Copy) prev = cosine;
+      V acc[Q][4];
+      for (int q = 0; q < Q; ++q) acc[q][0] = acc[q][1] = acc[q][2] = acc[q][3] = zero;
+      // The weighted sums, with f from `power_of(q, g)`, which also stores it for the next map.
+      auto accumulate = [&](auto&& power_of) {
+        for (int g = 0; g < groups; ++g) {
+          const std::size_t i = begin + std::size_t(g) * kW;
+          const V lr = load(pts.lr.data() + i), lg = load(pts.lg.data() + i);
+          const V lb = load(pts.lb.data() + i), w = load(pts.w.data() + i);
+          for (int q = 0; q < Q; ++q) {
+            const V f = power_of(q, g);
+            acc[q][0] += f * lr;
+            acc[q][1] += f * lg;
+            acc[q][2] += f * lb;
+            acc[q][3] += f * w;
+          }
+        }
+      };
+      if (step.kind == PowerChain::Step::Copy) {
+        cur = cosine;
+        accumulate([&](int q, int g) { return cosine[q][g]; });
+      } else if (step.kind == PowerChain::Step::PowPrev && step.r == 2) {
+        accumulate([&](int q, int g) { return cur[q][g] = prev[q][g] * prev[q][g]; });
+      } else if (step.kind == PowerChain::Step::PowPrev && step.r == 4) {
+        accumulate([&](int q, int g) {
+          const V p2 = prev[q][g] * prev[q][g];
+          return cur[q][g] = p2 * p2;
+        });
+      } else {
+        // Longer chains as separate passes, then the sums.
+        for (int q = 0; q < Q; ++q) {
+          if (step.kind == PowerChain::Step::PowPrev)
+            int_pow(prev[q], cur[q], groups, step.r);
+          else if (step.kind == PowerChain::Step::PowCos)
+            int_pow(cosine[q], cur[q], groups, step.r);
+          else
+            for (int g = 0; g < groups; ++g) cur[q][g] = exp_log_pow(cosine[q][g], step.s);
+        }
+        accumulate([&](int q, int g) { return cur[q][g]; });
+      }
+      for (int q = 0; q < Q; ++q) {
+        double* a = lanes + q * stride + 4 * std::size_t(kW) * std::size_t(k);
+        for (int c = 0; c < 4; ++c) store(a + c * kW, load(a + c * kW) + acc[q][c]);
+      }
+    }
+  }
+}
+
+void reduce_lanes(const double* lanes, int maps, double* acc) {
+  for (int i = 0; i < 4 * maps; ++i) {
+    double sum = 0.0;
+    for (int j = 0; j < kW; ++j) sum += lanes[i * kW + j];
+    acc[i] = sum;
+  }
+}
+
+FlushDenormals::FlushDenormals() : saved_(_mm_getcsr()) {
+  _mm_setcsr(saved_ | 0x8040u);  // FTZ | DAZ
+}
+FlushDenormals::~FlushDenormals() { _mm_setcsr(saved_); }
+
+}  // namespace arlight::lighting::detail
