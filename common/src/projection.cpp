@@ -307,6 +307,15 @@ bool EnvLayout::uv_on_sphere(glm::dvec2 uv) const {
 }
 
 glm::ivec2 EnvLayout::dir_to_texel(glm::dvec3 dir) const {
+  if (projection_ == Projection::Cube) {
+    // Per face in pixels: going through uv, (face + t) / 6 * height can round a direction on
+    // a face's bottom edge into the next face.
+    const int face = cube_face_of_direction(dir);
+    const glm::dvec2 st = cube_sc_tc(face, dir);
+    const int n = width_;
+    return {std::clamp(int(std::floor(0.5 * (st.x + 1.0) * n)), 0, n - 1),
+            face * n + std::clamp(int(std::floor(0.5 * (st.y + 1.0) * n)), 0, n - 1)};
+  }
   const glm::dvec2 p = uv_to_pixel(dir_to_uv(dir));
   return {std::clamp(int(std::floor(p.x)), 0, width_ - 1),
           std::clamp(int(std::floor(p.y)), 0, height_ - 1)};

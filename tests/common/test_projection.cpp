@@ -115,6 +115,20 @@ TEST(Cube, TiesGoToXThenYThenZ) {
   EXPECT_EQ(EnvLayout::cube_face_of_direction({0, 0.5, -0.5}), 2);
 }
 
+TEST(Cube, DirectionsOnAFaceEdgeStayOnTheirFace) {
+  // (x, -x, z) lies on the bottom edge of +X; through uv, (0 + ~1) / 6 * height used to round
+  // to the first row of -X, the opposite side of the sphere.
+  for (int n : {64, 96, 128, 256}) {
+    const EnvLayout l = EnvLayout::for_size(Projection::Cube, n);
+    for (double z : {-0.5, -0.2151, 0.0, 0.2151, 0.5}) {
+      const glm::dvec3 d = glm::normalize(glm::dvec3(0.6906, -0.6906, z));
+      const glm::ivec2 t = l.dir_to_texel(d);
+      EXPECT_EQ(t.y / n, 0) << "size " << n << " z " << z;
+      EXPECT_GT(glm::dot(l.texel_dir(t.x, t.y), d), 0.99) << "size " << n << " z " << z;
+    }
+  }
+}
+
 // --- round trips ------------------------------------------------------------------------------
 
 class RoundTrip : public ::testing::TestWithParam<std::tuple<Projection, int>> {};

@@ -1,18 +1,21 @@
 // Runs the real arlight-maps binary.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
 
 namespace fs = std::filesystem;
+using namespace arlight;
 
 namespace {
 
@@ -116,4 +119,132 @@ TEST(ArlightMaps, HelpListsTheSubcommandAndItsOptions) {
   EXPECT_EQ(r.status, 0);
   for (const char* opt : {"--input", "--order", "--size", "--json", "--out"})
     EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
+}
+
+// ---- compute / compare / diff ----------------------------------------------------------------
+
+TEST(ArlightMapsCompute, WritesEveryMapPreviewContactSheetAndJson) {
+  const fs::path out = temp_dir("compute");
+  const RunResult r = run("compute --input " + kProbe +
+                          " --method sh:12 --shininess 1,10,80 --size 32 --projection cube --out " +
+                          out.string() + " --json " + (out / "c.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(std::ifstream(out / "c.json"));
+  EXPECT_EQ(j["method"], "sh:12");
+  EXPECT_GT(j["seconds"].get<double>(), 0.0);
+  ASSERT_EQ(j["maps"].size(), 3u);
+  const double s[] = {1, 10, 80};
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(j["maps"][k]["shininess"].get<double>(), s[k]);
+    EXPECT_GE(j["maps"][k]["seconds"].get<double>(), 0.0);
+    const fs::path exr = j["maps"][k]["file"].get<std::string>();
+    ASSERT_TRUE(fs::exists(exr)) << exr;
+    EXPECT_TRUE(fs::exists(fs::path(exr).replace_extension(".png")));
+    const LoadedEnvMap m = load_envmap(exr);
+    EXPECT_EQ(m.env.layout.projection(), Projection::Cube);
+    EXPECT_EQ(m.env.layout.width(), 32);
+    EXPECT_EQ(m.info.metadata.shininess.value_or(0.0), s[k]);
+  }
+  EXPECT_TRUE(fs::exists(out / "contact_sheet.png"));
+}
+
+TEST(ArlightMapsCompute, SizeMeansNxNAngleMap2NxNLatLongNxNCubeFace) {
+  const fs::path out = temp_dir("sizes");
+  for (const auto& [proj, w, h] : {std::tuple{"anglemap", 16, 16}, std::tuple{"latlong", 32, 16},
+                                   std::tuple{"cube", 16, 96}}) {
+    const RunResult r = run(std::string("compute --input ") + kProbe +
+                            " --method mipmap --shininess 10 --size 16 --projection " + proj +
+                            " --out " + out.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    const LoadedEnvMap m = load_envmap(out / "mipmap_s10.exr");
+    EXPECT_EQ(m.env.layout.width(), w) << proj;
+    EXPECT_EQ(m.env.layout.height(), h) << proj;
+  }
+}
+
+TEST(ArlightMapsCompare, ReportsEveryMethodByTheGivenNameAgainstAccurate) {
+  const fs::path out = temp_dir("compare");
+  const std::string args = "compare --input " + kProbe +
+                           " --size 32 --methods accurate,sh:20,mipmap,auto --shininess 1,40 "
+                           "--cache-dir " + (out / "cache").string() + " --out " + out.string();
+  RunResult r = run(args + " --json " + (out / "a.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("mean error"), std::string::npos) << r.output;
+  auto j = nlohmann::json::parse(std::ifstream(out / "a.json"));
+  EXPECT_EQ(j["size"], 32);
+  ASSERT_EQ(j["methods"].size(), 4u);
+  const char* names[] = {"accurate", "sh:20", "mipmap", "auto"};
+  for (std::size_t m = 0; m < 4; ++m) {
+    EXPECT_EQ(j["methods"][m]["name"], names[m]);
+    EXPECT_GE(j["methods"][m]["seconds"].get<double>(), 0.0);
+    ASSERT_EQ(j["methods"][m]["maps"].size(), 2u);
+    for (const auto& map : j["methods"][m]["maps"]) {
+      EXPECT_GE(map["mean_error"].get<double>(), 0.0);
+      EXPECT_GE(map["max_error"].get<double>(), map["mean_error"].get<double>());
+    }
+  }
+  EXPECT_EQ(j["methods"][0]["maps"][0]["max_error"].get<double>(), 0.0);
+  EXPECT_GT(j["methods"][2]["maps"][0]["mean_error"].get<double>(),
+            j["methods"][1]["maps"][0]["mean_error"].get<double>());
+  EXPECT_FALSE(j["methods"][0].contains("cached"));
+  // Second run: the reference comes from the cache; --no-cache recomputes it.
+  r = run(args + " --json " + (out / "b.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  j = nlohmann::json::parse(std::ifstream(out / "b.json"));
+  EXPECT_TRUE(j["methods"][0].value("cached", false));
+  r = run(args + " --no-cache --json " + (out / "c.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  j = nlohmann::json::parse(std::ifstream(out / "c.json"));
+  EXPECT_FALSE(j["methods"][0].contains("cached"));
+  EXPECT_TRUE(fs::exists(out / "contact_sheet.png"));
+  // A damaged cache entry is recomputed, not trusted.
+  for (const auto& e : fs::recursive_directory_iterator(out / "cache"))
+    if (e.path().extension() == ".exr") std::ofstream(e.path()) << "junk";
+  r = run(args + " --json " + (out / "d.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  j = nlohmann::json::parse(std::ifstream(out / "d.json"));
+  EXPECT_FALSE(j["methods"][0].contains("cached"));
+}
+
+TEST(ArlightMapsDiff, SameEnvironmentIsZeroAndADarkerOneIsMeasured) {
+  const fs::path out = temp_dir("diff");
+  // A copy of the probe at half the radiance: every map is exactly half, a 50 % error.
+  LoadedEnvMap probe = load_envmap(kProbe);
+  for (float& v : probe.env.image.storage()) v *= 0.5f;
+  write_exr(out / "half.exr", probe.env.image.view(), {}, ExrPixel::Float);
+  RunResult r = run("diff --reference " + kProbe + " --test " + kProbe +
+                    " --shininess 1,20 --size 32 --json " + (out / "same.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto j = nlohmann::json::parse(std::ifstream(out / "same.json"));
+  ASSERT_EQ(j["maps"].size(), 2u);
+  for (const auto& m : j["maps"]) EXPECT_EQ(m["max_error"].get<double>(), 0.0);
+  r = run("diff --reference " + kProbe + " --test " + (out / "half.exr").string() +
+          " --shininess 1,20 --size 32 --json " + (out / "half.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  j = nlohmann::json::parse(std::ifstream(out / "half.json"));
+  for (const auto& m : j["maps"]) EXPECT_NEAR(m["mean_error"].get<double>(), 0.5, 0.01);
+}
+
+TEST(ArlightMapsCompute, BadInputGivesOneClearLineAndNonZeroStatus) {
+  const fs::path out = temp_dir("compute_bad");
+  struct Case {
+    std::string args, says;
+  };
+  const Case cases[] = {
+      {"compute --input " + kProbe + " --method fastest", "method 'fastest'"},
+      {"compute --input " + kProbe + " --shininess 1,0.5", "0.5 is below 1"},
+      {"compute --input " + kProbe + " --shininess 1,x", "'x' is not a number"},
+      {"compute --input " + kProbe + " --method mipmap --size 48", "power of two"},
+      {"compute --input " + (out / "none.exr").string(), "none.exr': no such file"},
+      {"compare --input " + kProbe + " --methods auto,bogus --size 16", "method 'bogus'"},
+      {"diff --reference " + kProbe + " --test " + (out / "none.exr").string(), "none.exr"},
+      {"compute --input " + kProbe + " --projection sphere", "--projection 'sphere'"},
+  };
+  for (const Case& c : cases) {
+    const bool has_out = c.args.rfind("diff", 0) != 0;
+    const RunResult r = run(c.args + (has_out ? " --out " + out.string() : ""));
+    EXPECT_NE(r.status, 0) << c.args;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_LE(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
+  }
 }

@@ -19,13 +19,17 @@
 
 #include <chrono>
 #include <cmath>
+#include <glm/exponential.hpp>
 #include <glm/geometric.hpp>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
+#include "arlight/resample.hpp"
+#include "arlight/sh.hpp"
 #include "direct.hpp"
 #include "job.hpp"
 #include "kernels.hpp"
@@ -47,7 +51,10 @@ class InputLevels {
 
   const PointCells& full() {
     std::lock_guard lock(mutex_);
-    if (!full_) full_ = std::make_unique<PointCells>(points_from_texels(input_));
+    if (!full_) {
+      full_ = std::make_unique<PointCells>(points_from_texels(input_));
+      full_->make_float_copy();
+    }
     return *full_;
   }
   double full_spacing() const {
@@ -56,7 +63,10 @@ class InputLevels {
   const PointCells& aggregated(int face) {
     std::lock_guard lock(mutex_);
     auto& slot = levels_[face];
-    if (!slot) slot = std::make_unique<PointCells>(points_aggregated(input_, face));
+    if (!slot) {
+      slot = std::make_unique<PointCells>(points_aggregated(input_, face));
+      slot->make_float_copy();
+    }
     return *slot;
   }
 
@@ -100,6 +110,15 @@ class CubeGrid {
     return values_.data() + 3 * ((std::size_t(f) * side_ + std::size_t(j)) * side_ + std::size_t(i));
   }
 
+  // Switches the stored values to logarithms (values below `floor` count as `floor`): sample()
+  // then interpolates log radiance. A lobe-blurred light is close to a Gaussian, a parabola in
+  // log space that the cubic follows closely, so the relative error stays small even in the
+  // dark tails next to a bright light, where interpolating radiance itself overshoots.
+  void to_log(float floor) {
+    for (float& v : values_) v = std::log(std::max(v, floor));
+    log_ = true;
+  }
+
   glm::vec3 sample(glm::dvec3 d) const {
     const int f = EnvLayout::cube_face_of_direction(d);
     const glm::dvec3 p = d / glm::dot(d, normal_[f]);
@@ -120,6 +139,7 @@ class CubeGrid {
       }
       sum += wy[j] * row;
     }
+    if (log_) return glm::vec3(glm::exp(sum));
     // Catmull-Rom can overshoot slightly below 0 next to a sharp highlight; radiance cannot.
     return glm::vec3(glm::max(sum, glm::dvec3(0.0)));
   }
@@ -136,6 +156,7 @@ class CubeGrid {
   int face_, side_;
   glm::dvec3 normal_[6], right_[6], down_[6];
   std::vector<float> values_;
+  bool log_ = false;
 };
 
 struct Plan {
@@ -148,24 +169,22 @@ struct Plan {
 Plan make_plan(double s, const AutoTuning& tuning, double full_spacing, std::size_t out_texels) {
   Plan p;
   p.sigma = lobe_sigma(s);
-  // Coarsest power-of-two cube grid that still has input_per_sigma points per sigma and is
-  // coarser than the input itself.
+  // The coarsest cube grid with input_per_sigma points per sigma, if it is coarser than the
+  // input itself (else the input texels are used as they are).
   p.input_face = 0;
   p.input_spacing = full_spacing;
-  for (int face = 2; face <= 4096; face *= 2) {
-    const double h = cube_spacing(face);
-    if (h <= full_spacing * 1.2) break;
-    if (p.sigma / h >= tuning.input_per_sigma) {
-      p.input_face = face;
-      p.input_spacing = h;
-      break;
-    }
+  const int face = std::max(2, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
+                                             tuning.input_per_sigma / p.sigma)));
+  if (cube_spacing(face) > full_spacing * 1.2) {
+    p.input_face = face;
+    p.input_spacing = cube_spacing(face);
   }
   const int grid = std::max(4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
                                              tuning.output_per_sigma / p.sigma)));
   const std::size_t grid_points = 6 * std::size_t(grid + 2 * CubeGrid::kBorder) *
                                   std::size_t(grid + 2 * CubeGrid::kBorder);
-  p.grid_face = grid_points * 2 < out_texels ? grid : 0;
+  // Interpolating costs next to nothing; the grid pays as soon as it has fewer points.
+  p.grid_face = grid_points < out_texels ? grid : 0;
   return p;
 }
 
@@ -182,18 +201,202 @@ std::string describe(const Plan& p, double seconds) {
   return o.str();
 }
 
+// SH order that resolves lobe s: the zonal coefficients of cos^s fall like exp(-l^2 / 2s), so
+// bands up to sqrt(2 s ln 1e4) keep all but 1e-4 of the lobe; the clamped cosine (s = 1) falls
+// only like l^-2.5 and its kink at the horizon wants more bands than its width suggests.
+constexpr int kMinShOrder = 24;
+constexpr int kMaxShOrder = 45;
+constexpr double kBrightCap = 8.0;
+// Grid points per sigma for the SH maps (evaluating SH is cheap next to direct sums).
+constexpr double kShGridPerSigma = 3.0;
+int sh_order_for(double s) {
+  return std::max(kMinShOrder, int(std::ceil(std::sqrt(2.0 * s * std::log(1e4)))) + 2);
+}
+
+// The input split in two: `rest`, every texel capped at kBrightCap x the mean luminance, and
+// `bright`, the few texels' excess over the cap as points carrying radiance but no weight.
+// Small, very bright lights are what makes approximations fail (SH rings around them, a
+// prefiltered cell smears them); their excess is always integrated exactly (Alg. 4.1 over
+// those texels alone) and added to the numerator of whatever handles the rest.
+struct BrightSplit {
+  EnvMap rest;
+  PointCells bright;
+  float log_floor;  // 1e-6 x the mean luminance: the darkest value grids interpolate in log
+};
+
+BrightSplit split_bright(const EnvMap& input) {
+  const auto table = texel_table(input.layout);
+  const float* px = input.image.data();
+  auto luminance = [](const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; };
+  double mean_y = 0.0, total_w = 0.0;
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    mean_y += table->solid_angle[i] * luminance(px + 3 * std::size_t(table->index[i]));
+    total_w += table->solid_angle[i];
+  }
+  const double cap = kBrightCap * mean_y / total_w;
+  BrightSplit split{input, {}, float(std::max(1e-30, 1e-6 * mean_y / total_w))};
+  EnvMap excess(input.layout);
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const std::size_t at = 3 * std::size_t(table->index[i]);
+    const double y = luminance(px + at);
+    if (y <= cap) continue;
+    for (int c = 0; c < 3; ++c) {
+      split.rest.image.data()[at + c] = float(px[at + c] * cap / y);
+      excess.image.data()[at + c] = px[at + c] - split.rest.image.data()[at + c];
+    }
+  }
+  split.bright = points_from_texels(excess, 64, true);
+  std::fill(split.bright.w.begin(), split.bright.w.end(), 0.0);
+  return split;
+}
+
+// The maps whose lobes SH resolve at kMaxShOrder: one projection, evaluated on a cube grid fine
+// enough for the narrowest of them and interpolated, except lobes with a kink (s < 4) whose maps
+// are evaluated at every output texel (interpolation across the kink of a bright light's
+// terminator would show).
+void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& ks,
+              std::vector<EnvMap>& maps, MapSet& result) {
+  const EnvMap& rest = split.rest;
+  const PointCells& bright = split.bright;
+  const auto table = texel_table(job.input.layout);
+  const auto t0 = std::chrono::steady_clock::now();
+  int order = 0;
+  double narrowest = 1e9;
+  std::vector<int> smooth, kinked;
+  for (int k : ks) {
+    const double s = job.shininess[std::size_t(k)];
+    order = std::max(order, sh_order_for(s));
+    (s < 4.0 ? kinked : smooth).push_back(k);
+    if (s >= 4.0) narrowest = std::min(narrowest, lobe_sigma(s));
+  }
+  // Project a copy of ~55k texels when the input is larger: order 45 needs far fewer.
+  std::optional<EnvMap> small;
+  if (table->size() > 60000) small = resample(rest, EnvLayout::for_size(Projection::Cube, 96));
+  const float* px = job.input.image.data();
+  (void)px;
+  const ShCoeffs coeffs = sh_project_mean_exact(small ? *small : rest, order);
+  job.progress.check();
+  // Adds the bright texels' exact share to values[k][3 i + c] at dirs[i] for the maps `group`.
+  auto add_bright = [&](const std::vector<int>& group, const std::vector<glm::dvec3>& dirs,
+                        const std::vector<float*>& values) {
+    if (bright.size() == 0 || group.empty()) return;
+    std::vector<double> sorted, min_cos;
+    for (int k : group) sorted.push_back(job.shininess[std::size_t(k)]);
+    for (double s : sorted) min_cos.push_back(exact_cos_threshold(s));
+    const PowerChain chain(sorted);
+    const int n = int(group.size());
+    std::vector<double> acc(kQueries * 4 * std::size_t(n));
+    FlushDenormals ftz;
+    for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
+      glm::dvec3 q4[kQueries];
+      for (int q = 0; q < kQueries; ++q) q4[q] = dirs[std::min(dirs.size() - 1, first + q)];
+      integrate_direct(bright, q4, chain, min_cos, acc.data());
+      for (std::size_t q = 0; q < kQueries && first + q < dirs.size(); ++q)
+        for (int m = 0; m < n; ++m) {
+          const double norm = (sorted[std::size_t(m)] + 1.0) / (2.0 * std::numbers::pi);
+          for (int c = 0; c < 3; ++c)
+            values[std::size_t(m)][3 * (first + q) + std::size_t(c)] +=
+                float(acc[4 * (q * std::size_t(n) + std::size_t(m)) + std::size_t(c)] * norm);
+        }
+    }
+  };
+  // Each group at the order its narrowest lobe needs (the kinked irradiance lobes need far fewer
+  // bands than the sharpest smooth one): truncate, then convolve.
+  auto convolved = [&](const std::vector<int>& group) {
+    int n = 1;
+    for (int k : group) n = std::max(n, sh_order_for(job.shininess[std::size_t(k)]));
+    ShCoeffs truncated(n);
+    std::copy_n(coeffs.c.begin(), truncated.c.size(), truncated.c.begin());
+    std::vector<ShCoeffs> out;
+    for (int k : group)
+      out.push_back(sh_convolve(truncated, phong_zonal_all(n, job.shininess[std::size_t(k)])));
+    return out;
+  };
+  std::vector<CubeGrid> grids;
+  if (!smooth.empty()) {
+    const std::vector<ShCoeffs> c = convolved(smooth);
+    const int face = std::max(4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
+                                               kShGridPerSigma / narrowest)));
+    for (std::size_t i = 0; i < smooth.size(); ++i) grids.emplace_back(face);
+    const int side = grids[0].side();
+    tbb::parallel_for(0, 6 * side, [&](int row) {
+      job.progress.check();
+      const int f = row / side, j = row % side;
+      std::vector<glm::dvec3> dirs;
+      for (int i = 0; i < side; ++i) dirs.push_back(grids[0].dir(f, i, j));
+      std::vector<float*> out;
+      for (CubeGrid& g : grids) out.push_back(g.value(f, 0, j));
+      sh_evaluate_many(c, dirs, out);
+      add_bright(smooth, dirs, out);
+    });
+    for (CubeGrid& g : grids) g.to_log(split.log_floor);
+  }
+  const std::vector<ShCoeffs> kinked_coeffs = convolved(kinked);
+  for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
+    std::vector<glm::dvec3> dirs;
+    std::vector<std::size_t> pixels;
+    job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
+      dirs.push_back(d);
+      pixels.push_back(pixel);
+      for (std::size_t i = 0; i < smooth.size(); ++i) {
+        const glm::vec3 v = grids[i].sample(d);
+        float* out = maps[std::size_t(smooth[i])].image.data() + 3 * pixel;
+        out[0] = v.x, out[1] = v.y, out[2] = v.z;
+      }
+    });
+    if (!kinked.empty()) {
+      std::vector<std::vector<float>> values(kinked.size(), std::vector<float>(3 * dirs.size()));
+      std::vector<float*> out;
+      for (auto& v : values) out.push_back(v.data());
+      sh_evaluate_many(kinked_coeffs, dirs, out);
+      add_bright(kinked, dirs, out);
+      for (std::size_t i = 0; i < kinked.size(); ++i)
+        for (std::size_t t = 0; t < pixels.size(); ++t)
+          for (int c = 0; c < 3; ++c)
+            maps[std::size_t(kinked[i])].image.data()[3 * pixels[t] + c] =
+                std::max(0.0f, values[i][3 * t + c]);
+    }
+    for (int k : ks) job.progress.tile_done(k, tile);
+  });
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (int k : ks) {
+    result.seconds[std::size_t(k)] = seconds / double(ks.size());
+    std::ostringstream o;
+    o.precision(3);
+    const bool kink = job.shininess[std::size_t(k)] < 4.0;
+    int n = 1;
+    for (int j : kink ? kinked : smooth) n = std::max(n, sh_order_for(job.shininess[std::size_t(j)]));
+    o << "auto: SH order " << n << " (one projection for " << ks.size() << " maps), "
+      << (kink ? "evaluated at every texel"
+                                              : "evaluated on a " + std::to_string(grids[0].side() - 4) +
+                                                    "^2 x 6 cube grid (bicubic)")
+      << "; " << seconds << " s for the group";
+    result.plans[std::size_t(k)] = o.str();
+  }
+}
+
 }  // namespace
 
 MapSet run_auto(const Job& job) {
-  InputLevels levels(job.input);
+  const auto t_split = std::chrono::steady_clock::now();
+  const BrightSplit split = split_bright(job.input);
+  const double split_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_split).count();
+  InputLevels levels(split.rest);
   const std::size_t out_texels = texel_table(job.output.layout())->size();
   const int count = int(job.shininess.size());
   std::vector<EnvMap> maps = blank_maps(job);
   MapSet result;
   result.seconds.assign(std::size_t(count), 0.0);
   result.plans.assign(std::size_t(count), "");
-  // Cheapest (widest lobe) first, so a consumer gets usable maps early.
-  for (int k : ascending_order(job.shininess)) {
+  // Wide lobes by SH, first (cheapest, so a consumer gets usable maps early).
+  std::vector<int> by_sh, direct;
+  for (int k : ascending_order(job.shininess))
+    (sh_order_for(job.shininess[std::size_t(k)]) <= kMaxShOrder ? by_sh : direct).push_back(k);
+  if (!by_sh.empty()) sh_stage(job, split, by_sh, maps, result);
+  // Narrow lobes by direct integration over prefiltered input, widest first.
+  for (int k : direct) {
     const auto t0 = std::chrono::steady_clock::now();
     const double s = job.shininess[std::size_t(k)];
     const Plan plan = make_plan(s, job.spec.tuning, levels.full_spacing(), out_texels);
@@ -204,11 +407,18 @@ MapSet run_auto(const Job& job) {
     // Integrates up to kBlock x kBlock nearby directions; values are written to out[i].
     auto integrate_block = [&](std::vector<glm::dvec3>& dirs, auto&& write) {
       BatchIntegrator batch(pts, chain, min_cos);
-      std::vector<double> acc(4 * dirs.size());
+      std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
       batch.run(dirs, acc.data());
+      if (split.bright.size() > 0) {
+        BatchIntegrator exact(split.bright, chain, exact_cos_threshold(s));
+        exact.run(dirs, lights.data());
+      }
       for (std::size_t i = 0; i < dirs.size(); ++i) {
         const double* a = acc.data() + 4 * i;
-        write(i, a[3] > 0.0 ? glm::vec3(a[0] / a[3], a[1] / a[3], a[2] / a[3]) : glm::vec3(0.0f));
+        const double* b = lights.data() + 4 * i;
+        write(i, a[3] > 0.0 ? glm::vec3((a[0] + b[0]) / a[3], (a[1] + b[1]) / a[3],
+                                        (a[2] + b[2]) / a[3])
+                            : glm::vec3(0.0f));
       }
     };
     EnvMap& map = maps[std::size_t(k)];
@@ -232,6 +442,7 @@ MapSet run_auto(const Job& job) {
           out[0] = v.x, out[1] = v.y, out[2] = v.z;
         });
       });
+      grid.to_log(split.log_floor);
       for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
         job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
           const glm::vec3 v = grid.sample(d);
@@ -262,7 +473,7 @@ MapSet run_auto(const Job& job) {
     }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    result.seconds[std::size_t(k)] = seconds;
+    result.seconds[std::size_t(k)] = seconds + split_seconds / count;
     result.plans[std::size_t(k)] = describe(plan, seconds);
   }
   result.maps = std::move(maps);

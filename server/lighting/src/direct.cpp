@@ -30,8 +30,7 @@ double exact_cos_threshold(double s) {
 void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const PowerChain& chain,
                       std::span<const double> min_cos, double* acc) {
   const int n = chain.size();
-  constexpr int kW = int(kCellAlign);
-  const std::size_t stride = 4 * std::size_t(kW) * std::size_t(n);
+  const std::size_t stride = 4 * std::size_t(kLaneWidth) * std::size_t(n);
   std::vector<double> lanes(kQueries * stride, 0.0);
   // Visit the cells within reach of the directions' bounding cone, then test each cell
   // against every direction.
@@ -65,13 +64,22 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
   for (const glm::dvec3& d : dirs)
     radius = std::max(radius, std::acos(std::clamp(glm::dot(d, centre), -1.0, 1.0)));
   const double reach = window_ + radius + 1e-9;
-  gather_cells(pts_, centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach), gathered_);
   const int n = chain_.size();
-  const std::size_t stride = 4 * std::size_t(kCellAlign) * std::size_t(n);
+  const bool single = n == 1 && pts_.has_float();
+  gather_cells(pts_, centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach), gathered_,
+               single);
+  const std::size_t stride = 4 * std::size_t(kLaneWidth) * std::size_t(n);
   lanes_.resize(kQueries * stride);
   for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
     glm::dvec3 group[kQueries];
     for (int q = 0; q < kQueries; ++q) group[q] = dirs[std::min(dirs.size() - 1, first + q)];
+    if (single) {
+      double sums[4 * kQueries] = {};
+      accumulate_single_f32(gathered_, 0, std::uint32_t(gathered_.size()), group, chain_, sums);
+      for (std::size_t q = 0; q < kQueries && first + q < dirs.size(); ++q)
+        std::copy_n(sums + 4 * q, 4, acc + (first + q) * 4);
+      continue;
+    }
     std::fill(lanes_.begin(), lanes_.end(), 0.0);
     accumulate_chain(gathered_, 0, std::uint32_t(gathered_.size()), group, chain_, n,
                      lanes_.data());

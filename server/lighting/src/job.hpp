@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "arlight/lighting.hpp"
+#include "arlight/sh.hpp"
 
 namespace arlight::lighting::detail {
 
@@ -80,6 +81,10 @@ std::vector<int> ascending_order(std::span<const double> shininess);
 // Standard deviation (radians, per axis) of the normalized lobe max(0, cos)^s: the width the
 // methods compare with texel spacings. 1/sqrt(s) for large s; ~0.66 for the cosine lobe.
 double lobe_sigma(double s);
+
+// SH projection (thesis Alg. 4.5) of env with its solid-angle mean taken out first and put back
+// into band 0 exactly, so constants are reproduced whatever the quadrature.
+ShCoeffs sh_project_mean_exact(const EnvMap& env, int order);
 
 MapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
 MapSet run_mipmap(const Job& job);

@@ -37,12 +37,12 @@ PowerChain::PowerChain(std::span<const double> ascending) {
 
 namespace {
 
-constexpr int kW = int(kCellAlign);
+constexpr int kW = kLaneWidth;
 
 // Eight doubles: one AVX-512 register in the avx512f clone, two or four narrower ones in the
 // others. Loads and stores go through memcpy, so no alignment is assumed.
 typedef double V __attribute__((vector_size(8 * sizeof(double))));
-static_assert(kW == 8);
+static_assert(kW == 8 && kCellAlign % kW == 0);
 
 inline V load(const double* p) {
   V v;
@@ -84,11 +84,12 @@ ARLIGHT_SIMD_CLONES
 void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
                       const glm::dvec3* dirs, const PowerChain& chain, int maps,
                       double* lanes) {
-  constexpr int kGroups = int(kMaxCellPoints / kCellAlign);
+  constexpr int kGroups = int(kMaxCellPoints) / kW;
   constexpr int Q = kQueries;
   const std::size_t stride = 4 * std::size_t(kW) * std::size_t(chain.size());
   const V zero = {0, 0, 0, 0, 0, 0, 0, 0};
   const auto& steps = chain.steps();
+  const bool moments = pts.has_moments();
   for (; begin < end; begin += kMaxCellPoints) {
     const std::uint32_t run_end = std::min(end, begin + kMaxCellPoints);
     const int groups = int(run_end - begin) / kW;
@@ -110,16 +111,34 @@ void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t 
       V acc[Q][4];
       for (int q = 0; q < Q; ++q) acc[q][0] = acc[q][1] = acc[q][2] = acc[q][3] = zero;
       // The weighted sums, with f from `power_of(q, g)`, which also stores it for the next map.
+      // Prefiltered points add the first-order term of the lobe over their cell: the gradient
+      // of (d.w)^s is s c^(s-1) d, applied to the radiance's first moment M_c (points.hpp).
+      const double s_k = step.s;
       auto accumulate = [&](auto&& power_of) {
         for (int g = 0; g < groups; ++g) {
           const std::size_t i = begin + std::size_t(g) * kW;
           const V lr = load(pts.lr.data() + i), lg = load(pts.lg.data() + i);
           const V lb = load(pts.lb.data() + i), w = load(pts.w.data() + i);
+          if (!moments) {
+            for (int q = 0; q < Q; ++q) {
+              const V f = power_of(q, g);
+              acc[q][0] += f * lr;
+              acc[q][1] += f * lg;
+              acc[q][2] += f * lb;
+              acc[q][3] += f * w;
+            }
+            continue;
+          }
+          V m[9];
+          for (int a = 0; a < 9; ++a) m[a] = load(pts.moment[a].data() + i);
           for (int q = 0; q < Q; ++q) {
             const V f = power_of(q, g);
-            acc[q][0] += f * lr;
-            acc[q][1] += f * lg;
-            acc[q][2] += f * lb;
+            const V c = cosine[q][g];
+            const V slope = c > zero ? s_k * f / (c > zero ? c : zero + 1.0) : zero;
+            const glm::dvec3 d = dirs[q];
+            acc[q][0] += f * lr + slope * (d.x * m[0] + d.y * m[1] + d.z * m[2]);
+            acc[q][1] += f * lg + slope * (d.x * m[3] + d.y * m[4] + d.z * m[5]);
+            acc[q][2] += f * lb + slope * (d.x * m[6] + d.y * m[7] + d.z * m[8]);
             acc[q][3] += f * w;
           }
         }
@@ -151,6 +170,113 @@ void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t 
         for (int c = 0; c < 4; ++c) store(a + c * kW, load(a + c * kW) + acc[q][c]);
       }
     }
+  }
+}
+
+namespace {
+
+constexpr int kWf = 16;
+// Sixteen floats: one AVX-512 register in the avx512f clone.
+typedef float F __attribute__((vector_size(kWf * sizeof(float))));
+static_assert(kCellAlign % kWf == 0);
+
+inline F loadf(const float* p) {
+  F v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+
+inline double hsum(F v) {
+  double s = 0.0;
+  for (int j = 0; j < kWf; ++j) s += double(v[j]);
+  return s;
+}
+
+}  // namespace
+
+ARLIGHT_SIMD_CLONES
+void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
+                           const glm::dvec3* dirs, const PowerChain& chain, double* acc) {
+  constexpr int kGroups = int(kMaxCellPoints) / kWf;
+  constexpr int Q = kQueries;
+  const PowerChain::Step& step = chain.steps()[0];
+  const bool moments = pts.has_moments();
+  const F zero = {};
+  const float s_f = float(step.s);
+  for (; begin < end; begin += kMaxCellPoints) {
+    const std::uint32_t run_end = std::min(end, begin + kMaxCellPoints);
+    const int groups = int(run_end - begin) / kWf;
+    F power[Q][kGroups];
+    for (int q = 0; q < Q; ++q) {
+      const F dx = zero + float(dirs[q].x), dy = zero + float(dirs[q].y), dz = zero + float(dirs[q].z);
+      for (int g = 0; g < groups; ++g) {
+        const std::size_t i = begin + std::size_t(g) * kWf;
+        const F c = dx * loadf(pts.fx.data() + i) + dy * loadf(pts.fy.data() + i) +
+                    dz * loadf(pts.fz.data() + i);
+        power[q][g] = c > zero ? c : zero;
+      }
+    }
+    // The cosines are kept for the moments' slope s c^(s-1) = s f / c.
+    F cosine[Q][kGroups];
+    if (moments)
+      for (int q = 0; q < Q; ++q)
+        for (int g = 0; g < groups; ++g) cosine[q][g] = power[q][g];
+    if (step.kind == PowerChain::Step::PowCos || step.kind == PowerChain::Step::PowPrev) {
+      // One step: its "previous" map is the cosine itself.
+      const int e = step.r;
+      int top = 0;
+      while ((e >> (top + 1)) != 0) ++top;
+      for (int q = 0; q < Q; ++q) {
+        F base[kGroups];
+        for (int g = 0; g < groups; ++g) base[g] = power[q][g];
+        for (int bit = top - 1; bit >= 0; --bit) {
+          if ((e >> bit) & 1)
+            for (int g = 0; g < groups; ++g) power[q][g] = power[q][g] * power[q][g] * base[g];
+          else
+            for (int g = 0; g < groups; ++g) power[q][g] = power[q][g] * power[q][g];
+        }
+      }
+    } else if (step.kind == PowerChain::Step::ExpLog) {
+      for (int q = 0; q < Q; ++q)
+        for (int g = 0; g < groups; ++g) {
+          alignas(64) float t[kWf];
+          __builtin_memcpy(t, &power[q][g], sizeof t);
+#pragma omp simd
+          for (int j = 0; j < kWf; ++j)
+            t[j] = t[j] > 0.0f ? std::exp(s_f * std::log(t[j] > 0.0f ? t[j] : 1.0f)) : 0.0f;
+          power[q][g] = loadf(t);
+        }
+    }
+    F sum[Q][4];
+    for (int q = 0; q < Q; ++q) sum[q][0] = sum[q][1] = sum[q][2] = sum[q][3] = zero;
+    for (int g = 0; g < groups; ++g) {
+      const std::size_t i = begin + std::size_t(g) * kWf;
+      const F lr = loadf(pts.flr.data() + i), lg = loadf(pts.flg.data() + i);
+      const F lb = loadf(pts.flb.data() + i), w = loadf(pts.fw.data() + i);
+      if (!moments) {
+        for (int q = 0; q < Q; ++q) {
+          const F f = power[q][g];
+          sum[q][0] += f * lr;
+          sum[q][1] += f * lg;
+          sum[q][2] += f * lb;
+          sum[q][3] += f * w;
+        }
+        continue;
+      }
+      F m[9];
+      for (int a = 0; a < 9; ++a) m[a] = loadf(pts.fmoment[a].data() + i);
+      for (int q = 0; q < Q; ++q) {
+        const F f = power[q][g], c = cosine[q][g];
+        const F slope = c > zero ? s_f * f / (c > zero ? c : zero + 1.0f) : zero;
+        const float x = float(dirs[q].x), y = float(dirs[q].y), z = float(dirs[q].z);
+        sum[q][0] += f * lr + slope * (x * m[0] + y * m[1] + z * m[2]);
+        sum[q][1] += f * lg + slope * (x * m[3] + y * m[4] + z * m[5]);
+        sum[q][2] += f * lb + slope * (x * m[6] + y * m[7] + z * m[8]);
+        sum[q][3] += f * w;
+      }
+    }
+    for (int q = 0; q < Q; ++q)
+      for (int c = 0; c < 4; ++c) acc[4 * q + c] += hsum(sum[q][c]);
   }
 }
 

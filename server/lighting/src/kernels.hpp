@@ -33,14 +33,23 @@ class PowerChain {
 
 // Directions integrated together by accumulate_chain.
 constexpr int kQueries = 4;
+// Doubles per accumulator in accumulate_chain's lanes.
+constexpr int kLaneWidth = 8;
 
 // For each of the kQueries directions dirs[q] and maps k < maps:
-//   lanes[q * stride + (4k + c) * kCellAlign + j] += the lane-j part of sum f_k L_c w (c = 0..2)
+//   lanes[q * stride + (4k + c) * kLaneWidth + j] += the lane-j part of sum f_k L_c w (c = 0..2)
 //   and of sum f_k w (c = 3) over points [begin, end) (multiples of kCellAlign),
-// with stride = 4 * kCellAlign * chain.size(). Summing the lanes gives the totals. Double
+// with stride = 4 * kLaneWidth * chain.size(). Summing the lanes gives the totals. Double
 // precision throughout.
 void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
                       const glm::dvec3* dirs, const PowerChain& chain, int maps, double* lanes);
+
+// One shininess (chain of one step) in single precision, for the auto method's windows where
+// float's 1e-7 is far below the error target and twice the lanes halve the time:
+// acc[4q + c] += sum f L_c w (c < 3), sum f w (c = 3) for each direction dirs[q]. Needs
+// pts.make_float_copy(); partial sums are added in double after every run of points.
+void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
+                           const glm::dvec3* dirs, const PowerChain& chain, double* acc);
 
 // Sums the lanes of one direction's accumulators: acc[i] for i < 4 * maps.
 void reduce_lanes(const double* lanes, int maps, double* acc);

@@ -1,10 +1,12 @@
 // Method `mipmap`: the MIP-mapping approximation of thesis §4.2, reproduced as the thesis ran it.
 // The input becomes an N x N angle map (N a power of two), glGenerateMipmap's plain 2x2 box
-// pyramid is built over the whole square (black corners included), and each output direction
+// pyramid is built over it (not weighted by solid angle, as on the GPU), and each output direction
 // samples it with trilinear filtering (textureLod, GL_LINEAR_MIPMAP_LINEAR, clamp to edge) at
 //   l_irrad = l_max - 2                                (eq. 4.2, s = 1)
 //   l_rad   = l_max - log2(min(max(s / 2, 4), N))      (eq. 4.3, s > 1)
-// with l_max = log2(N) (eq. 4.1).
+// with l_max = log2(N) (eq. 4.1). One deviation: texels outside the disk do not count in the
+// box averages. glGenerateMipmap would average the black corners into the rim, darkening the
+// coarse levels there even for a constant environment; that is a GPU artefact, not the method.
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -30,6 +32,25 @@ EnvMap working_angle_map(const EnvMap& input) {
   return resample(input, EnvLayout::for_size(Projection::AngleMap, int(n)));
 }
 
+// Bilinear lookup (clamp to edge) in which each texel counts by the part of it on the disk, so
+// the black outside never bleeds into the rim.
+glm::vec3 sample_covered(const Image& img, const std::vector<float>& cover, glm::dvec2 uv) {
+  const double px = uv.x * img.width() - 0.5, py = uv.y * img.height() - 0.5;
+  const int x0 = int(std::floor(px)), y0 = int(std::floor(py));
+  const double tx = px - x0, ty = py - y0;
+  glm::dvec3 sum(0.0);
+  double weight = 0.0;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const int x = std::clamp(x0 + i, 0, img.width() - 1), y = std::clamp(y0 + j, 0, img.height() - 1);
+      const double w = (i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty) *
+                       cover[std::size_t(y) * std::size_t(img.width()) + std::size_t(x)];
+      sum += w * glm::dvec3(img.at(x, y));
+      weight += w;
+    }
+  return weight > 0.0 ? glm::vec3(sum / weight) : glm::vec3(0.0f);
+}
+
 }  // namespace
 
 double mipmap_level(double s, int n) {
@@ -41,7 +62,17 @@ double mipmap_level(double s, int n) {
 MapSet run_mipmap(const Job& job) {
   const auto t0 = std::chrono::steady_clock::now();
   const EnvMap angle = working_angle_map(job.input);
-  const std::vector<Image> pyramid = build_mip_pyramid(angle.image);
+  // Each level with the fraction of each texel that lies on the disk.
+  std::vector<Image> pyramid{angle.image};
+  std::vector<std::vector<float>> coverage(1, std::vector<float>(angle.image.texel_count(), 0.0f));
+  for (std::uint32_t i : texel_table(angle.layout)->index) coverage[0][i] = 1.0f;
+  while (pyramid.back().width() > 1) {
+    std::vector<float> sum;
+    pyramid.push_back(downsample2x(pyramid.back().view(), coverage.back().data(), &sum));
+    const float area = float(angle.image.texel_count()) / float(pyramid.back().texel_count());
+    for (float& v : sum) v /= area;
+    coverage.push_back(std::move(sum));
+  }
   const int n = angle.layout.width();
   std::vector<double> level;
   for (double s : job.shininess) level.push_back(mipmap_level(s, n));
@@ -55,8 +86,7 @@ MapSet run_mipmap(const Job& job) {
         const int l0 = int(std::floor(l)), l1 = std::min(l0 + 1, int(pyramid.size()) - 1);
         const double t = l - l0;
         auto at = [&](int li) {
-          const Image& img = pyramid[std::size_t(li)];
-          return sample_bilinear(img.view(), uv.x * img.width(), uv.y * img.height());
+          return sample_covered(pyramid[std::size_t(li)], coverage[std::size_t(li)], uv);
         };
         glm::vec3 v = at(l0);
         if (t > 0.0) v = glm::mix(v, at(l1), float(t));

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <algorithm>
 #include <glm/vec3.hpp>
 #include <vector>
 
@@ -12,14 +13,26 @@ namespace arlight::lighting::detail {
 
 // Largest number of points in one cell (the kernels keep a cell's temporaries on the stack).
 constexpr std::uint32_t kMaxCellPoints = 256;
-// Cells are padded with zero-weight points to a multiple of this (one AVX-512 register).
-constexpr std::uint32_t kCellAlign = 8;
+// Cells are padded with zero-weight points to a multiple of this (one AVX-512 register of
+// floats, two of doubles).
+constexpr std::uint32_t kCellAlign = 16;
 
 struct PointCells {
   // Structure of arrays; the points of one cell are contiguous.
   std::vector<double> x, y, z;     // unit direction
   std::vector<double> w;           // solid angle (sr)
   std::vector<double> lr, lg, lb;  // radiance x solid angle
+  // Prefiltered points only (empty otherwise): the first moments of each channel's radiance
+  // deviation about the point, sum (L_c - mean L_c) w (w_i - dir), as x, y, z arrays for
+  // c = r, g, b. They carry the first-order term of the lobe's variation over the cell.
+  std::vector<double> moment[9];
+  bool has_moments() const { return !moment[0].empty() || !fmoment[0].empty(); }
+
+  // Single-precision copies of every array above, for the float kernel (accumulate_single_f32);
+  // empty until make_float_copy().
+  std::vector<float> fx, fy, fz, fw, flr, flg, flb, fmoment[9];
+  bool has_float() const { return !fx.empty(); }
+  void make_float_copy();
 
   struct Cell {
     std::uint32_t begin, end;
@@ -39,7 +52,7 @@ struct PointCells {
 
   double spacing = 0.0;  // typical angular distance between neighbouring points (rad)
 
-  std::size_t size() const { return x.size(); }
+  std::size_t size() const { return std::max(x.size(), fx.size()); }
 
   // Largest cosine between `d` and any point within the cone (centre, r), as an upper bound
   // padded for rounding.
@@ -62,16 +75,19 @@ struct PointCells {
 
 // Every valid texel of `env` as one point (the full-resolution input), ~points_per_cell points
 // to a cell: large cells suit whole-hemisphere sums, small ones narrow windows.
-PointCells points_from_texels(const EnvMap& env, int points_per_cell = 64);
+// With skip_black, texels with no radiance are left out (for sparse maps).
+PointCells points_from_texels(const EnvMap& env, int points_per_cell = 64, bool skip_black = false);
 
 // The texels of `env` summed into the cells of a cube grid with `face` cells per face edge: each
-// non-empty grid cell becomes one point at the solid-angle-weighted mean direction of its
-// texels, carrying their summed solid angle and radiance. This is a prefiltered, lower
-// resolution copy of the input that keeps its total power exactly.
+// non-empty grid cell becomes one point at the solid-angle-weighted mean direction of its texels,
+// carrying their summed solid angle and radiance and the radiance's first moments. This is a
+// prefiltered, lower resolution copy of the input that keeps its total power exactly.
 PointCells points_aggregated(const EnvMap& env, int face);
 
 // Copies into `out` (replacing its contents) every cell of `src` that holds a point whose cosine
 // with `centre` exceeds min_cos: the candidates of a batch of nearby directions, contiguous.
-void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out);
+// With floats_only, only the single-precision arrays (and the cells) are copied.
+void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out,
+                  bool floats_only = false);
 
 }  // namespace arlight::lighting::detail

@@ -3,16 +3,36 @@
 // coefficient Lambda_l rho_l (Alg. 4.6, eq. 2.33) and the expansions are evaluated at the output
 // texels (Alg. 4.7), one basis evaluation per texel shared by all maps.
 #include <chrono>
+#include <cmath>
+#include <numbers>
 
 #include "arlight/sh.hpp"
 #include "job.hpp"
 
 namespace arlight::lighting::detail {
 
+ShCoeffs sh_project_mean_exact(const EnvMap& env, int order) {
+  const auto table = texel_table(env.layout);
+  glm::dvec3 mean(0.0);
+  double total = 0.0;
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const float* p = env.image.data() + 3 * std::size_t(table->index[i]);
+    mean += table->solid_angle[i] * glm::dvec3(p[0], p[1], p[2]);
+    total += table->solid_angle[i];
+  }
+  mean /= total;
+  EnvMap residual = env;
+  for (std::uint32_t px : table->index)
+    for (int c = 0; c < 3; ++c) residual.image.data()[3 * std::size_t(px) + c] -= float(mean[c]);
+  ShCoeffs coeffs = sh_project(residual, order);
+  coeffs.at(0, 0) += mean * std::sqrt(4.0 * std::numbers::pi);  // a constant m is m sqrt(4 pi) Y_00
+  return coeffs;
+}
+
 MapSet run_sh(const Job& job) {
   const auto t0 = std::chrono::steady_clock::now();
   const int order = job.spec.sh_order;
-  const ShCoeffs coeffs = sh_project(job.input, order);
+  const ShCoeffs coeffs = sh_project_mean_exact(job.input, order);
   job.progress.check();
   std::vector<ShCoeffs> convolved;
   for (double s : job.shininess) convolved.push_back(sh_convolve(coeffs, phong_zonal_all(order, s)));

@@ -31,8 +31,8 @@ enum class Method {
 // How finely Method::Auto resolves each lobe (defaults measured to meet ErrorTarget; see
 // auto.cpp). Both are in texel spacings per lobe standard deviation.
 struct AutoTuning {
-  double input_per_sigma = 3.0;  // spacing of the prefiltered input it integrates
-  double output_per_sigma = 3.0;  // spacing of the grid it evaluates and interpolates
+  double input_per_sigma = 3.0;   // spacing of the prefiltered input it integrates
+  double output_per_sigma = 2.5;  // spacing of the grid it evaluates and interpolates
 };
 
 struct MethodSpec {
