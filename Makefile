@@ -3,7 +3,6 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 DEMO_PROBE ?= data/probes/venice.exr
-DEMO_ORDER ?= 35
 DEMO_OUT ?= out/demo
 
 .PHONY: all build deps configure test demo bench clean
@@ -27,13 +26,16 @@ test: deps
 
 demo: deps
 	@$(MAKE) --no-print-directory build
-	$(BUILD)/bin/arlight-maps sh --input $(DEMO_PROBE) --order $(DEMO_ORDER) --size 512 --out $(DEMO_OUT)
+	$(BUILD)/bin/arlight-maps compute --input $(DEMO_PROBE) --method auto --size 512 --out $(DEMO_OUT)
+	$(BUILD)/bin/arlight-maps compare --input $(DEMO_PROBE) --size 128 --out $(DEMO_OUT)/compare
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
-	@echo "  input.png           the probe resampled to a 512x512 angle map"
-	@echo "  reconstruction.png  the same map rebuilt from $(DEMO_ORDER)^2 SH coefficients"
-	@echo "  reconstruction.exr  the reconstruction (half-float EXR, SH coefficients in its metadata)"
-	@echo "  sh.json             coefficients, timings and the RMS error"
+	@echo "  auto_s<S>.exr / .png      irradiance (s = 1) and reflection maps (s = 10 ... 1280) of"
+	@echo "                            $(DEMO_PROBE), 512x512 angle maps, by the auto method"
+	@echo "  contact_sheet.png         all eight maps side by side; input.png is the probe itself"
+	@echo "  maps.json                 seconds per map and how auto made each one"
+	@echo "  compare/contact_sheet.png every method (rows) for every shininess (columns), 128x128"
+	@echo "  compare/compare.json      their times and errors against accurate (thesis eqs. 6.1/6.2)"
 
 bench: deps
 	@$(MAKE) --no-print-directory build
