@@ -297,4 +297,17 @@ TEST(MapError, MeanAndMaxOfRelativeDifferences) {
   EXPECT_NEAR(e.max, 1.0 / (2.0 + eps), 1e-12);
   EXPECT_NEAR(e.mean, e.max / 96.0, 1e-12);
   EXPECT_EQ(map_error(a, a).max, 0.0);
+  const EnvMap black(l);
+  EXPECT_EQ(map_error(black, black).max, 0.0);
+  EXPECT_GT(map_error(black, a).mean, 1.0);
+}
+
+TEST(Compute, BlackEnvironmentGivesBlackMaps) {
+  const EnvMap env(EnvLayout::for_size(Projection::AngleMap, 64));
+  for (const char* method : kAllMethods) {
+    const MapSet set = compute_maps(env, kThesisShininess, EnvLayout::for_size(Projection::Cube, 8),
+                                    parse_method(method));
+    for (const EnvMap& m : set.maps)
+      for (float v : m.image.storage()) ASSERT_EQ(v, 0.0f) << method;
+  }
 }

@@ -51,8 +51,11 @@ namespace arlight::lighting::detail {
 
 namespace {
 
-// Directions integrated together (one gather of nearby points): kBlock x kBlock texels.
+// Directions integrated together (one gather of nearby points): kBlock x kBlock texels, and
+// the points per cell of the inputs. Measured at 512^2, s = 1280: 8 x 8 and 64 points 320 ms;
+// 4 x 4 (359 ms), 16 x 16 (413 ms) and 32-point cells (357 ms) all cost more.
 constexpr int kBlock = 8;
+constexpr int kPointsPerCell = 64;
 
 // Typical spacing (rad) of a cube grid with `face` cells per edge.
 double cube_spacing(int face) { return std::sqrt(4.0 * std::numbers::pi / (6.0 * face * face)); }
@@ -65,7 +68,7 @@ class InputLevels {
   const PointCells& full() {
     std::lock_guard lock(mutex_);
     if (!full_) {
-      full_ = std::make_unique<PointCells>(points_from_texels(input_));
+      full_ = std::make_unique<PointCells>(points_from_texels(input_, kPointsPerCell));
       full_->make_float_copy();
     }
     return *full_;
@@ -77,7 +80,7 @@ class InputLevels {
     std::lock_guard lock(mutex_);
     auto& slot = levels_[face];
     if (!slot) {
-      slot = std::make_unique<PointCells>(points_aggregated(input_, face));
+      slot = std::make_unique<PointCells>(points_aggregated(input_, face, kPointsPerCell));
       slot->make_float_copy();
     }
     return *slot;
@@ -111,7 +114,6 @@ class CubeGrid {
   }
 
   int side() const { return side_; }
-  std::size_t point_count() const { return 6 * std::size_t(side_) * std::size_t(side_); }
 
   // Direction of grid point (i, j) of face f, i and j from 0 to side-1 (border included).
   glm::dvec3 dir(int f, int i, int j) const {
@@ -132,34 +134,44 @@ class CubeGrid {
     log_ = true;
   }
 
-  glm::vec3 sample(glm::dvec3 d) const {
+  // Where a direction falls: the 4 x 4 texels around it and their Catmull-Rom weights. The
+  // same for every grid of the same size, so it is computed once per direction.
+  struct Taps {
+    std::size_t first;  // float index of the top-left tap
+    float wx[4], wy[4];
+  };
+  Taps taps(glm::dvec3 d) const {
     const int f = EnvLayout::cube_face_of_direction(d);
     const glm::dvec3 p = d / glm::dot(d, normal_[f]);
     const double x = (glm::dot(p, right_[f]) + 1.0) * 0.5 * face_ - 0.5 + kBorder;
     const double y = (glm::dot(p, down_[f]) + 1.0) * 0.5 * face_ - 0.5 + kBorder;
     const int x0 = std::clamp(int(std::floor(x)), 1, side_ - 3);
     const int y0 = std::clamp(int(std::floor(y)), 1, side_ - 3);
-    double wx[4], wy[4];
-    catmull_rom(x - x0, wx);
-    catmull_rom(y - y0, wy);
-    glm::dvec3 sum(0.0);
-    const float* base = values_.data() + 3 * std::size_t(f) * side_ * side_;
-    for (int j = 0; j < 4; ++j) {
-      glm::dvec3 row(0.0);
-      for (int i = 0; i < 4; ++i) {
-        const float* v = base + 3 * (std::size_t(y0 - 1 + j) * side_ + std::size_t(x0 - 1 + i));
-        row += wx[i] * glm::dvec3(v[0], v[1], v[2]);
-      }
-      sum += wy[j] * row;
-    }
-    if (log_) return glm::vec3(glm::exp(sum));
-    // Catmull-Rom can overshoot slightly below 0 next to a sharp highlight; radiance cannot.
-    return glm::vec3(glm::max(sum, glm::dvec3(0.0)));
+    Taps t;
+    t.first = 3 * ((std::size_t(f) * side_ + std::size_t(y0 - 1)) * side_ + std::size_t(x0 - 1));
+    catmull_rom(float(x - x0), t.wx);
+    catmull_rom(float(y - y0), t.wy);
+    return t;
   }
 
+  glm::vec3 sample(const Taps& t) const {
+    float sum[3] = {0.0f, 0.0f, 0.0f};
+    for (int j = 0; j < 4; ++j) {
+      const float* v = values_.data() + t.first + 3 * std::size_t(j) * std::size_t(side_);
+      float row[3] = {0.0f, 0.0f, 0.0f};
+      for (int i = 0; i < 4; ++i)
+        for (int c = 0; c < 3; ++c) row[c] += t.wx[i] * v[3 * i + c];
+      for (int c = 0; c < 3; ++c) sum[c] += t.wy[j] * row[c];
+    }
+    if (log_) return {std::exp(sum[0]), std::exp(sum[1]), std::exp(sum[2])};
+    // Catmull-Rom can overshoot slightly below 0 next to a sharp highlight; radiance cannot.
+    return {std::max(sum[0], 0.0f), std::max(sum[1], 0.0f), std::max(sum[2], 0.0f)};
+  }
+  glm::vec3 sample(glm::dvec3 d) const { return sample(taps(d)); }
+
  private:
-  static void catmull_rom(double t, double* w) {
-    const double t2 = t * t, t3 = t2 * t;
+  static void catmull_rom(float t, float* w) {
+    const float t2 = t * t, t3 = t2 * t;
     w[0] = 0.5 * (-t3 + 2 * t2 - t);
     w[1] = 0.5 * (3 * t3 - 5 * t2 + 2);
     w[2] = 0.5 * (-3 * t3 + 4 * t2 + t);
@@ -175,29 +187,31 @@ class CubeGrid {
 struct Plan {
   double sigma;
   int input_face;  // 0: the input texels themselves
-  double input_spacing;
-  int grid_face;  // 0: integrate at every output texel
+  int grid_face;   // 0: integrate at every output texel
 };
 
 Plan make_plan(double s, const AutoTuning& tuning, double full_spacing, std::size_t out_texels) {
   Plan p;
   p.sigma = lobe_sigma(s);
+  // Wide lobes only come here when the input is too small for SH. Their maps then carry a
+  // light's terminator (where cos^s -> 0 and log interpolation fails) within a few sigma, so
+  // they get finer spacings, sqrt(40 / s) times: cheap, as the input is small (studio.exr at
+  // 128^2, s = 10: 11.4 % max error at 3 / 2.5 points per sigma, 0.6 % with this).
+  const double boost = std::max(1.0, std::sqrt(40.0 / s));
+  const double input_per_sigma = tuning.input_per_sigma * boost;
   // The coarsest cube grid with input_per_sigma points per sigma, if it is coarser than the
   // input itself (else the input texels are used as they are).
   p.input_face = 0;
-  p.input_spacing = full_spacing;
   const int face = std::max(2, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
-                                             tuning.input_per_sigma / p.sigma)));
-  if (cube_spacing(face) > full_spacing * 1.2) {
-    p.input_face = face;
-    p.input_spacing = cube_spacing(face);
-  }
+                                             input_per_sigma / p.sigma)));
+  if (cube_spacing(face) > full_spacing * 1.2) p.input_face = face;
   const int grid = std::max(4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
-                                             tuning.output_per_sigma / p.sigma)));
+                                             tuning.output_per_sigma * boost / p.sigma)));
   const std::size_t grid_points = 6 * std::size_t(grid + 2 * CubeGrid::kBorder) *
                                   std::size_t(grid + 2 * CubeGrid::kBorder);
   // Interpolating costs next to nothing; the grid pays as soon as it has fewer points.
-  p.grid_face = grid_points < out_texels ? grid : 0;
+  // Never across a kink: interpolation would blur the terminator of a bright light (s < 4).
+  p.grid_face = grid_points < out_texels && s >= 4.0 ? grid : 0;
   return p;
 }
 
@@ -219,11 +233,21 @@ std::string describe(const Plan& p, double seconds) {
 // only like l^-2.5 and its kink at the horizon wants more bands than its width suggests.
 constexpr int kMinShOrder = 24;
 constexpr int kMaxShOrder = 45;
+constexpr std::size_t kShProjectionTexels = 60000;
 constexpr double kBrightCap = 8.0;
 // Grid points per sigma for the SH maps (evaluating SH is cheap next to direct sums).
 constexpr double kShGridPerSigma = 3.0;
 int sh_order_for(double s) {
   return std::max(kMinShOrder, int(std::ceil(std::sqrt(2.0 * s * std::log(1e4)))) + 2);
+}
+
+// SH serves lobe s when its order is within kMaxShOrder and the input has enough texels for the
+// quadrature: below ~30 texels per coefficient the projection aliases the bright, sharp parts of
+// a probe into every band (studio.exr at 128^2: 7 % mean error at s = 10 with order 41), while
+// direct sums over so small an input are cheap anyway.
+bool sh_resolves(double s, std::size_t input_texels) {
+  const int order = sh_order_for(s);
+  return order <= kMaxShOrder && std::size_t(order) * std::size_t(order) * 30 <= input_texels;
 }
 
 // The input split in two: `rest`, every texel capped at kBrightCap x the mean luminance, and
@@ -260,6 +284,7 @@ BrightSplit split_bright(const EnvMap& input) {
   }
   split.bright = points_from_texels(excess, 64, true);
   std::fill(split.bright.w.begin(), split.bright.w.end(), 0.0);
+  split.bright.make_float_copy();
   return split;
 }
 
@@ -282,46 +307,39 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     (s < 4.0 ? kinked : smooth).push_back(k);
     if (s >= 4.0) narrowest = std::min(narrowest, lobe_sigma(s));
   }
-  // Project a copy of ~55k texels when the input is larger: order 45 needs far fewer.
+  // Project a copy of ~55k texels when the input is larger: order 45 needs no more.
   std::optional<EnvMap> small;
-  if (table->size() > 60000) small = resample(rest, EnvLayout::for_size(Projection::Cube, 96));
-  const ShCoeffs coeffs = sh_project_mean_exact(small ? *small : rest, order);
+  if (table->size() > kShProjectionTexels)
+    small = resample(rest, EnvLayout::for_size(Projection::Cube, 96));
+  const ShPair pair = sh_project_pair(small ? *small : rest, order);
   job.progress.check();
   // Adds the bright texels' exact share to values[k][3 i + c] at dirs[i] for the maps `group`.
+  // The sums are normalized by the lobe's integral 2 pi / (s + 1), as the SH convolution is.
   auto add_bright = [&](const std::vector<int>& group, const std::vector<glm::dvec3>& dirs,
                         const std::vector<float*>& values) {
-    if (bright.size() == 0 || group.empty()) return;
-    std::vector<double> sorted, min_cos;
-    for (int k : group) sorted.push_back(job.shininess[std::size_t(k)]);
-    for (double s : sorted) min_cos.push_back(exact_cos_threshold(s));
-    const PowerChain chain(sorted);
-    const int n = int(group.size());
-    std::vector<double> acc(kQueries * 4 * std::size_t(n));
+    if (bright.size() == 0 || dirs.empty()) return;
     FlushDenormals ftz;
-    for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
-      glm::dvec3 q4[kQueries];
-      for (int q = 0; q < kQueries; ++q) q4[q] = dirs[std::min(dirs.size() - 1, first + q)];
-      integrate_direct(bright, q4, chain, min_cos, acc.data());
-      for (std::size_t q = 0; q < kQueries && first + q < dirs.size(); ++q)
-        for (int m = 0; m < n; ++m) {
-          const double norm = (sorted[std::size_t(m)] + 1.0) / (2.0 * std::numbers::pi);
-          for (int c = 0; c < 3; ++c)
-            values[std::size_t(m)][3 * (first + q) + std::size_t(c)] +=
-                float(acc[4 * (q * std::size_t(n) + std::size_t(m)) + std::size_t(c)] * norm);
-        }
+    std::vector<double> acc(4 * dirs.size());
+    for (std::size_t m = 0; m < group.size(); ++m) {
+      const double s = job.shininess[std::size_t(group[m])];
+      const double one[] = {s};
+      const PowerChain chain(one);
+      BatchIntegrator(bright, chain, bounded_cos_threshold(s)).run(dirs, acc.data());
+      const double norm = (s + 1.0) / (2.0 * std::numbers::pi);
+      for (std::size_t i = 0; i < dirs.size(); ++i)
+        for (int c = 0; c < 3; ++c) values[m][3 * i + std::size_t(c)] += float(acc[4 * i + std::size_t(c)] * norm);
     }
   };
   // Each group at the order its narrowest lobe needs (the kinked irradiance lobes need far fewer
-  // bands than the sharpest smooth one): truncate, then convolve.
+  // bands than the sharpest smooth one): radiance and weight expansions (sh_method.cpp).
   auto convolved = [&](const std::vector<int>& group) {
     int n = 1;
-    for (int k : group) n = std::max(n, sh_order_for(job.shininess[std::size_t(k)]));
-    ShCoeffs truncated(n);
-    std::copy_n(coeffs.c.begin(), truncated.c.size(), truncated.c.begin());
-    std::vector<ShCoeffs> out;
-    for (int k : group)
-      out.push_back(sh_convolve(truncated, phong_zonal_all(n, job.shininess[std::size_t(k)])));
-    return out;
+    std::vector<double> s;
+    for (int k : group) {
+      n = std::max(n, sh_order_for(job.shininess[std::size_t(k)]));
+      s.push_back(job.shininess[std::size_t(k)]);
+    }
+    return sh_convolve_pair(pair, n, s);
   };
   std::vector<CubeGrid> grids;
   if (!smooth.empty()) {
@@ -335,10 +353,14 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
       const int f = row / side, j = row % side;
       std::vector<glm::dvec3> dirs;
       for (int i = 0; i < side; ++i) dirs.push_back(grids[0].dir(f, i, j));
+      std::vector<std::vector<float>> weights(sh_pair_outputs(smooth.size()) - smooth.size(),
+                                              std::vector<float>(3 * dirs.size()));
       std::vector<float*> out;
       for (CubeGrid& g : grids) out.push_back(g.value(f, 0, j));
+      for (auto& w : weights) out.push_back(w.data());
       sh_evaluate_many(c, dirs, out);
-      add_bright(smooth, dirs, out);
+      add_bright(smooth, dirs, out);  // numerators only: the first smooth.size() outputs
+      sh_divide(out, smooth.size(), dirs.size());
     });
     for (CubeGrid& g : grids) g.to_log(split.log_floor);
   }
@@ -349,18 +371,21 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
       dirs.push_back(d);
       pixels.push_back(pixel);
+      const CubeGrid::Taps taps = smooth.empty() ? CubeGrid::Taps{} : grids[0].taps(d);
       for (std::size_t i = 0; i < smooth.size(); ++i) {
-        const glm::vec3 v = grids[i].sample(d);
+        const glm::vec3 v = grids[i].sample(taps);
         float* out = maps[std::size_t(smooth[i])].image.data() + 3 * pixel;
         out[0] = v.x, out[1] = v.y, out[2] = v.z;
       }
     });
     if (!kinked.empty()) {
-      std::vector<std::vector<float>> values(kinked.size(), std::vector<float>(3 * dirs.size()));
+      std::vector<std::vector<float>> values(sh_pair_outputs(kinked.size()),
+                                             std::vector<float>(3 * dirs.size()));
       std::vector<float*> out;
       for (auto& v : values) out.push_back(v.data());
       sh_evaluate_many(kinked_coeffs, dirs, out);
       add_bright(kinked, dirs, out);
+      sh_divide(out, kinked.size(), dirs.size());
       for (std::size_t i = 0; i < kinked.size(); ++i)
         for (std::size_t t = 0; t < pixels.size(); ++t)
           for (int c = 0; c < 3; ++c)
@@ -402,9 +427,11 @@ MapSet run_auto(const Job& job) {
   result.seconds.assign(std::size_t(count), 0.0);
   result.plans.assign(std::size_t(count), "");
   // Wide lobes by SH, first (cheapest, so a consumer gets usable maps early).
+  const std::size_t sh_samples =
+      std::min<std::size_t>(texel_table(job.input.layout)->size(), kShProjectionTexels);
   std::vector<int> by_sh, direct;
   for (int k : ascending_order(job.shininess))
-    (sh_order_for(job.shininess[std::size_t(k)]) <= kMaxShOrder ? by_sh : direct).push_back(k);
+    (sh_resolves(job.shininess[std::size_t(k)], sh_samples) ? by_sh : direct).push_back(k);
   if (!by_sh.empty()) sh_stage(job, split, by_sh, maps, result);
   // Narrow lobes by direct integration over prefiltered input, widest first.
   for (int k : direct) {
@@ -421,7 +448,7 @@ MapSet run_auto(const Job& job) {
       std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
       batch.run(dirs, acc.data());
       if (split.bright.size() > 0) {
-        BatchIntegrator exact(split.bright, chain, exact_cos_threshold(s));
+        BatchIntegrator exact(split.bright, chain, bounded_cos_threshold(s));
         exact.run(dirs, lights.data());
       }
       for (std::size_t i = 0; i < dirs.size(); ++i) {

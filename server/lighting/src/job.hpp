@@ -82,9 +82,22 @@ std::vector<int> ascending_order(std::span<const double> shininess);
 // methods compare with texel spacings. 1/sqrt(s) for large s; ~0.66 for the cosine lobe.
 double lobe_sigma(double s);
 
-// SH projection (thesis Alg. 4.5) of env with its solid-angle mean taken out first and put back
-// into band 0 exactly, so constants are reproduced whatever the quadrature.
-ShCoeffs sh_project_mean_exact(const EnvMap& env, int order);
+// SH projections (thesis Alg. 4.5) of an environment's radiance and of its texels' weights (the
+// constant 1 under the same quadrature). Convolving both with a lobe and dividing gives Alg.
+// 4.1's ratio sum L w K / sum w K for the lobe K truncated to the order.
+struct ShPair {
+  ShCoeffs radiance, weight;
+};
+ShPair sh_project_pair(const EnvMap& env, int order);
+// For each shininess the convolved radiance expansion, then the weight expansions three maps to
+// one (channel j of expansion maps + k/3 is map k's weight), all truncated to `order` (<= the
+// pair's): sh_pair_outputs(maps) expansions for one evaluation.
+std::vector<ShCoeffs> sh_convolve_pair(const ShPair& pair, int order,
+                                       std::span<const double> shininess);
+std::size_t sh_pair_outputs(std::size_t maps);
+// Divides each map's evaluated radiance (values[k], count directions x 3 channels) by its
+// evaluated weight.
+void sh_divide(std::span<float* const> values, std::size_t maps, std::size_t count);
 
 MapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
 MapSet run_mipmap(const Job& job);

@@ -226,15 +226,16 @@ void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint
       const int e = step.r;
       int top = 0;
       while ((e >> (top + 1)) != 0) ++top;
-      for (int q = 0; q < Q; ++q) {
-        F base[kGroups];
-        for (int g = 0; g < groups; ++g) base[g] = power[q][g];
+      // In registers, the kQueries chains of a group interleaved: their multiplies overlap.
+      for (int g = 0; g < groups; ++g) {
+        F b[Q], r[Q];
+        for (int q = 0; q < Q; ++q) b[q] = r[q] = power[q][g];
         for (int bit = top - 1; bit >= 0; --bit) {
+          for (int q = 0; q < Q; ++q) r[q] = r[q] * r[q];
           if ((e >> bit) & 1)
-            for (int g = 0; g < groups; ++g) power[q][g] = power[q][g] * power[q][g] * base[g];
-          else
-            for (int g = 0; g < groups; ++g) power[q][g] = power[q][g] * power[q][g];
+            for (int q = 0; q < Q; ++q) r[q] = r[q] * b[q];
         }
+        for (int q = 0; q < Q; ++q) power[q][g] = r[q];
       }
     } else if (step.kind == PowerChain::Step::ExpLog) {
       for (int q = 0; q < Q; ++q)

@@ -122,7 +122,7 @@ PointCells points_from_texels(const EnvMap& env, int points_per_cell, bool skip_
   return bucket(std::move(pts), points_per_cell, false);
 }
 
-PointCells points_aggregated(const EnvMap& env, int face) {
+PointCells points_aggregated(const EnvMap& env, int face, int points_per_cell) {
   const auto table = texel_table(env.layout);
   const EnvLayout grid = EnvLayout::for_size(Projection::Cube, face);
   // Two passes: the cells' centroids and sums, then the moments about the centroids.
@@ -160,7 +160,7 @@ PointCells points_aggregated(const EnvMap& env, int face) {
   for (const Sum& s : sums)
     if (s.w > 0.0 && glm::length(s.dir) > 0.0)
       pts.push_back({s.dir, s.w, s.lw, {s.moment[0], s.moment[1], s.moment[2]}});
-  return bucket(std::move(pts), 64, true);
+  return bucket(std::move(pts), points_per_cell, true);
 }
 
 void PointCells::make_float_copy() {

@@ -82,7 +82,7 @@ PointCells points_from_texels(const EnvMap& env, int points_per_cell = 64, bool 
 // non-empty grid cell becomes one point at the solid-angle-weighted mean direction of its texels,
 // carrying their summed solid angle and radiance and the radiance's first moments. This is a
 // prefiltered, lower resolution copy of the input that keeps its total power exactly.
-PointCells points_aggregated(const EnvMap& env, int face);
+PointCells points_aggregated(const EnvMap& env, int face, int points_per_cell = 64);
 
 // Copies into `out` (replacing its contents) every cell of `src` that holds a point whose cosine
 // with `centre` exceeds min_cos: the candidates of a batch of nearby directions, contiguous.
