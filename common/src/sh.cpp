@@ -95,7 +95,7 @@ glm::dvec3 unit(glm::dvec3 d) {
 // ---- batched kernels ----------------------------------------------------------------------
 
 constexpr int kLanes = 64;  // directions processed together; the arrays stay in L1
-constexpr int kWidth = 8;    // doubles in the widest SIMD register (AVX-512)
+constexpr int kWidth = 8;   // doubles in the widest SIMD register (AVX-512)
 
 struct alignas(64) Batch {
   double x[kLanes], y[kLanes], z[kLanes];

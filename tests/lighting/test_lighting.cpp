@@ -36,7 +36,8 @@ EnvMap smooth_env(const EnvLayout& layout) {
   return test::env_from_function(layout, [](glm::dvec3 d) {
     const glm::dvec3 l1 = glm::normalize(glm::dvec3(0.3, 0.8, -0.5));
     const glm::dvec3 l2 = glm::normalize(glm::dvec3(-0.7, 0.1, 0.7));
-    const double a = std::exp(8.0 * (glm::dot(d, l1) - 1.0)), b = std::exp(20.0 * (glm::dot(d, l2) - 1.0));
+    const double a = std::exp(8.0 * (glm::dot(d, l1) - 1.0)),
+                 b = std::exp(20.0 * (glm::dot(d, l2) - 1.0));
     return glm::vec3(float(0.2 + 0.1 * d.y + 4.0 * a + 2.0 * b), float(0.25 + 3.0 * a + 1.0 * b),
                      float(0.3 + 0.15 * d.y + 1.0 * a + 3.0 * b));
   });
@@ -57,7 +58,8 @@ TEST(Method, NamesRoundTrip) {
 }
 
 TEST(Method, BadNamesSayWhatIsValid) {
-  for (const char* bad : {"fast", "sh:", "sh:x", "sh:0", "sh:500", "accurate:3", "importance:-1", ""}) {
+  for (const char* bad :
+       {"fast", "sh:", "sh:x", "sh:0", "sh:500", "accurate:3", "importance:-1", ""}) {
     try {
       parse_method(bad);
       ADD_FAILURE() << bad << " accepted";
@@ -131,12 +133,12 @@ TEST(Sh, ZonalCoefficientsReproduceTheIrradianceOfALinearEnvironment) {
   // (the mean of w over that hemisphere is 2/3 n), which SH order 2 holds exactly.
   const glm::dvec3 b(0.5, -0.2, 0.3);
   const EnvLayout l = EnvLayout::for_size(Projection::LatLong, 64);
-  const EnvMap env =
-      test::env_from_function(l, [&](glm::dvec3 d) { return glm::vec3(float(1.0 + glm::dot(b, d))); });
+  const EnvMap env = test::env_from_function(
+      l, [&](glm::dvec3 d) { return glm::vec3(float(1.0 + glm::dot(b, d))); });
   const double one[] = {1.0};
   for (const char* method : {"sh:2", "sh:8", "accurate", "auto"}) {
-    const MapSet set = compute_maps(env, one, EnvLayout::for_size(Projection::Cube, 12),
-                                    parse_method(method));
+    const MapSet set =
+        compute_maps(env, one, EnvLayout::for_size(Projection::Cube, 12), parse_method(method));
     for_valid(set.maps[0], [&](float v, glm::dvec3 n) {
       ASSERT_NEAR(v, 1.0 + 2.0 / 3.0 * glm::dot(b, n), 2e-3) << method;
     });
@@ -148,8 +150,8 @@ TEST(Mipmap, LevelsFollowEquations41To43) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 512);
   const EnvMap env = smooth_env(l);
   const double s[] = {1, 8, 10, 1280};
-  const MapSet set = compute_maps(env, s, EnvLayout::for_size(Projection::AngleMap, 16),
-                                  parse_method("mipmap"));
+  const MapSet set =
+      compute_maps(env, s, EnvLayout::for_size(Projection::AngleMap, 16), parse_method("mipmap"));
   EXPECT_NE(set.plans[0].find("level 7.0"), std::string::npos) << set.plans[0];
   EXPECT_NE(set.plans[1].find("level 7.0"), std::string::npos) << set.plans[1];
   EXPECT_NE(set.plans[2].find("level " + std::to_string(9 - std::log2(5.0))), std::string::npos)
@@ -181,7 +183,8 @@ TEST(Agreement, MethodsAgreeWithAccurateOnSmoothInput) {
     // converges with samples.
     const MapSet sh = compute_maps(env, s, l, parse_method("sh:24"));
     for (std::size_t k = 0; k < 2; ++k)
-      EXPECT_LE(map_error(ref.maps[k], sh.maps[k]).max, 0.01) << "sh:24 size " << size << " s=" << s[k];
+      EXPECT_LE(map_error(ref.maps[k], sh.maps[k]).max, 0.01)
+          << "sh:24 size " << size << " s=" << s[k];
     const MapSet few = compute_maps(env, s, l, parse_method("importance:8"));
     const MapSet many = compute_maps(env, s, l, parse_method("importance:512"));
     for (std::size_t k = 0; k < 4; ++k) {
@@ -215,7 +218,8 @@ TEST(Agreement, OutputProjectionDoesNotChangeTheAnswer) {
   const EnvLayout cube = EnvLayout::for_size(Projection::Cube, 16);
   for (const char* method : {"accurate", "auto", "sh:16"}) {
     const MapSet direct = compute_maps(env, s, cube, parse_method(method));
-    const MapSet ll = compute_maps(env, s, EnvLayout::for_size(Projection::LatLong, 128), parse_method(method));
+    const MapSet ll =
+        compute_maps(env, s, EnvLayout::for_size(Projection::LatLong, 128), parse_method(method));
     for (std::size_t k = 0; k < 2; ++k) {
       const EnvMap via = resample(ll.maps[k], cube);
       EXPECT_LE(map_error(direct.maps[k], via).mean, 0.01) << method << " s=" << s[k];

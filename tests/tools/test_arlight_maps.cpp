@@ -166,7 +166,8 @@ TEST(ArlightMapsCompare, ReportsEveryMethodByTheGivenNameAgainstAccurate) {
   const fs::path out = temp_dir("compare");
   const std::string args = "compare --input " + kProbe +
                            " --size 32 --methods accurate,sh:20,mipmap,auto --shininess 1,40 "
-                           "--cache-dir " + (out / "cache").string() + " --out " + out.string();
+                           "--cache-dir " +
+                           (out / "cache").string() + " --out " + out.string();
   RunResult r = run(args + " --json " + (out / "a.json").string());
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("mean error"), std::string::npos) << r.output;

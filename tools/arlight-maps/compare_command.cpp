@@ -36,8 +36,8 @@ struct Reference {
 // The accurate maps are cached on disk by the input's SHA-256, layout and shininess list: they
 // take minutes at 512 and never change.
 fs::path reference_dir(const CompareOptions& o, const fs::path& cache) {
-  std::string key = file_sha256(o.input).substr(0, 24) + "_" + o.projection +
-                    std::to_string(o.size) + "_s";
+  std::string key =
+      file_sha256(o.input).substr(0, 24) + "_" + o.projection + std::to_string(o.size) + "_s";
   for (double s : parse_shininess(o.shininess)) key += "-" + shininess_label(s);
   return cache / "accurate-v1" / key;
 }
@@ -107,8 +107,8 @@ int run_compare(const CompareOptions& o) {
     try {
       save_reference(ref_dir, ref);
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "arlight-maps: cannot cache the reference in %s: %s\n",
-                   ref_dir.c_str(), e.what());
+      std::fprintf(stderr, "arlight-maps: cannot cache the reference in %s: %s\n", ref_dir.c_str(),
+                   e.what());
     }
   }
 
@@ -126,7 +126,8 @@ int run_compare(const CompareOptions& o) {
       row.seconds = ref.seconds, row.cached = ref.cached, row.maps = ref.maps;
     } else {
       ProgressBar bar(names[m]);
-      lighting::MapSet set = lighting::compute_maps(input, shininess, layout, methods[m], bar.hooks());
+      lighting::MapSet set =
+          lighting::compute_maps(input, shininess, layout, methods[m], bar.hooks());
       row.seconds = set.total_seconds;
       row.maps = std::move(set.maps);
     }

@@ -51,9 +51,9 @@ int run_compute(const ComputeOptions& o) {
               o.projection.c_str(), o.size, layout.width(), layout.height());
   for (std::size_t k = 0; k < shininess.size(); ++k) {
     const std::string stem = file_stem(method) + "_s" + shininess_label(shininess[k]);
-    const fs::path file = write_map(o.out, stem, set.maps[k], shininess[k], exposure,
-                                    method.name() + " map, s = " + shininess_label(shininess[k]) +
-                                        ", of " + o.input);
+    const fs::path file =
+        write_map(o.out, stem, set.maps[k], shininess[k], exposure,
+                  method.name() + " map, s = " + shininess_label(shininess[k]) + ", of " + o.input);
     j["maps"].push_back({{"shininess", shininess[k]},
                          {"seconds", set.seconds[k]},
                          {"file", file.string()},
@@ -77,18 +77,16 @@ void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::stri
   sub->add_option("--shininess", *shininess,
                   "comma-separated shininess list: 1 = irradiance, s > 1 = Phong cos^s")
       ->capture_default_str();
-  sub->add_option("--size", *size,
-                  "N: N x N angle map, 2N x N lat-long, N x N per cube face")
+  sub->add_option("--size", *size, "N: N x N angle map, 2N x N lat-long, N x N per cube face")
       ->capture_default_str()
       ->check(CLI::Range(4, 4096));
-  sub->add_option("--projection", *projection, "anglemap, latlong or cube")
-      ->capture_default_str();
+  sub->add_option("--projection", *projection, "anglemap, latlong or cube")->capture_default_str();
 }
 
 Runner add_compute_command(CLI::App& app) {
   auto o = std::make_shared<ComputeOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "compute", "Irradiance and reflection maps of a probe by one method");
+  CLI::App* sub =
+      app.add_subcommand("compute", "Irradiance and reflection maps of a probe by one method");
   sub->add_option("--input", o->input, "HDR environment map (EXR, HDR, PFM, PNG, JPEG, WebP)")
       ->required();
   sub->add_option("--method", o->method,

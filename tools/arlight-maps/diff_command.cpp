@@ -33,12 +33,13 @@ int run_diff(const DiffOptions& o) {
   j["reference"] = o.reference;
   j["test"] = o.test;
   j["maps"] = nlohmann::json::array();
-  std::printf("%s maps of %s against %s (eqs. 6.1, 6.2):\n", method.name().c_str(),
-              o.test.c_str(), o.reference.c_str());
+  std::printf("%s maps of %s against %s (eqs. 6.1, 6.2):\n", method.name().c_str(), o.test.c_str(),
+              o.reference.c_str());
   std::printf("  %-8s %10s %10s\n", "s", "mean", "max");
   for (std::size_t k = 0; k < shininess.size(); ++k) {
     const lighting::MapError e = lighting::map_error(ref.maps[k], test.maps[k]);
-    j["maps"].push_back({{"shininess", shininess[k]}, {"mean_error", e.mean}, {"max_error", e.max}});
+    j["maps"].push_back(
+        {{"shininess", shininess[k]}, {"mean_error", e.mean}, {"max_error", e.max}});
     std::printf("  %-8s %9.2f%% %9.2f%%\n", shininess_label(shininess[k]).c_str(), 100 * e.mean,
                 100 * e.max);
   }
@@ -50,8 +51,8 @@ int run_diff(const DiffOptions& o) {
 
 Runner add_diff_command(CLI::App& app) {
   auto o = std::make_shared<DiffOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "diff", "Compare the maps of two environment maps (eqs. 6.1/6.2)");
+  CLI::App* sub =
+      app.add_subcommand("diff", "Compare the maps of two environment maps (eqs. 6.1/6.2)");
   sub->add_option("--reference", o->reference, "the reference environment map")->required();
   sub->add_option("--test", o->test, "the environment map to judge")->required();
   sub->add_option("--method", o->method, "method both map sets are computed with")

@@ -155,7 +155,8 @@ lighting::Hooks ProgressBar::hooks() {
     last_ = percent;
     constexpr int kWidth = 30;
     const int filled = percent * kWidth / 100;
-    std::fprintf(stderr, "\r%-14s [%s%s] %3d%%", label_.c_str(), std::string(std::size_t(filled), '#').c_str(),
+    std::fprintf(stderr, "\r%-14s [%s%s] %3d%%", label_.c_str(),
+                 std::string(std::size_t(filled), '#').c_str(),
                  std::string(std::size_t(kWidth - filled), '.').c_str(), percent);
     std::fflush(stderr);
   };
@@ -168,7 +169,8 @@ std::string file_sha256(const fs::path& path) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
   EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
   char buf[1 << 16];
-  while (f.read(buf, sizeof buf) || f.gcount() > 0) EVP_DigestUpdate(ctx, buf, std::size_t(f.gcount()));
+  while (f.read(buf, sizeof buf) || f.gcount() > 0)
+    EVP_DigestUpdate(ctx, buf, std::size_t(f.gcount()));
   unsigned char md[EVP_MAX_MD_SIZE];
   unsigned len = 0;
   EVP_DigestFinal_ex(ctx, md, &len);

@@ -24,7 +24,7 @@
 // - input_per_sigma 2 / output 2: s = 320 7.3 %, s = 1280 6.3 %: fails. 2 / 2.5: s = 320 6.8 %.
 //   2.5 / 2.5 passes but s = 1280 then needs the raw texels at every output texel: 4 s.
 // - 3 / 2.5 (the defaults): s = 160 3.8 %, s = 320 3.9 %, s = 1280 1.7 %, means <= 0.2 %; 8 maps
-//   in 0.7-0.9 s. Without the moments, 3 / 3 gave 17 % mean at s = 20 next to a bright light;
+//   in 0.55 s (make bench). Without the moments, 3 / 3 gave 17 % mean at s = 20 next to a light;
 //   interpolating radiance instead of its log gave up to 18.9 % max at s = 80.
 // - SH grid at 2 points per sigma: s = 80 4.7 % on studio at 256^2; at 3: 1.5 %.
 // Float precision (accumulate_single_f32) changed no error figure above at the 0.1 % level.
@@ -122,7 +122,8 @@ class CubeGrid {
     return glm::normalize(normal_[f] + a * right_[f] + b * down_[f]);
   }
   float* value(int f, int i, int j) {
-    return values_.data() + 3 * ((std::size_t(f) * side_ + std::size_t(j)) * side_ + std::size_t(i));
+    return values_.data() +
+           3 * ((std::size_t(f) * side_ + std::size_t(j)) * side_ + std::size_t(i));
   }
 
   // Switches the stored values to logarithms (values below `floor` count as `floor`): sample()
@@ -202,13 +203,13 @@ Plan make_plan(double s, const AutoTuning& tuning, double full_spacing, std::siz
   // The coarsest cube grid with input_per_sigma points per sigma, if it is coarser than the
   // input itself (else the input texels are used as they are).
   p.input_face = 0;
-  const int face = std::max(2, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
-                                             input_per_sigma / p.sigma)));
+  const int face = std::max(
+      2, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * input_per_sigma / p.sigma)));
   if (cube_spacing(face) > full_spacing * 1.2) p.input_face = face;
   const int grid = std::max(4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
                                              tuning.output_per_sigma * boost / p.sigma)));
-  const std::size_t grid_points = 6 * std::size_t(grid + 2 * CubeGrid::kBorder) *
-                                  std::size_t(grid + 2 * CubeGrid::kBorder);
+  const std::size_t grid_points =
+      6 * std::size_t(grid + 2 * CubeGrid::kBorder) * std::size_t(grid + 2 * CubeGrid::kBorder);
   // Interpolating costs next to nothing; the grid pays as soon as it has fewer points.
   // Never across a kink: interpolation would blur the terminator of a bright light (s < 4).
   p.grid_face = grid_points < out_texels && s >= 4.0 ? grid : 0;
@@ -219,11 +220,15 @@ std::string describe(const Plan& p, double seconds) {
   std::ostringstream o;
   o.precision(3);
   o << "auto: sigma " << p.sigma * 180.0 / std::numbers::pi << " deg; input ";
-  if (p.input_face) o << "prefiltered to a " << p.input_face << "^2 x 6 cube grid";
-  else o << "texels";
+  if (p.input_face)
+    o << "prefiltered to a " << p.input_face << "^2 x 6 cube grid";
+  else
+    o << "texels";
   o << "; output ";
-  if (p.grid_face) o << "from a " << p.grid_face << "^2 x 6 cube grid (bicubic)";
-  else o << "texels integrated directly";
+  if (p.grid_face)
+    o << "from a " << p.grid_face << "^2 x 6 cube grid (bicubic)";
+  else
+    o << "texels integrated directly";
   o << "; " << seconds << " s";
   return o.str();
 }
@@ -327,7 +332,8 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
       BatchIntegrator(bright, chain, bounded_cos_threshold(s)).run(dirs, acc.data());
       const double norm = (s + 1.0) / (2.0 * std::numbers::pi);
       for (std::size_t i = 0; i < dirs.size(); ++i)
-        for (int c = 0; c < 3; ++c) values[m][3 * i + std::size_t(c)] += float(acc[4 * i + std::size_t(c)] * norm);
+        for (int c = 0; c < 3; ++c)
+          values[m][3 * i + std::size_t(c)] += float(acc[4 * i + std::size_t(c)] * norm);
     }
   };
   // Each group at the order its narrowest lobe needs (the kinked irradiance lobes need far fewer
@@ -344,8 +350,8 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
   std::vector<CubeGrid> grids;
   if (!smooth.empty()) {
     const std::vector<ShCoeffs> c = convolved(smooth);
-    const int face = std::max(4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) *
-                                               kShGridPerSigma / narrowest)));
+    const int face = std::max(
+        4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * kShGridPerSigma / narrowest)));
     for (std::size_t i = 0; i < smooth.size(); ++i) grids.emplace_back(face);
     const int side = grids[0].side();
     tbb::parallel_for(0, 6 * side, [&](int row) {
@@ -402,11 +408,12 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     o.precision(3);
     const bool kink = job.shininess[std::size_t(k)] < 4.0;
     int n = 1;
-    for (int j : kink ? kinked : smooth) n = std::max(n, sh_order_for(job.shininess[std::size_t(j)]));
+    for (int j : kink ? kinked : smooth)
+      n = std::max(n, sh_order_for(job.shininess[std::size_t(j)]));
     o << "auto: SH order " << n << " (one projection for " << ks.size() << " maps), "
       << (kink ? "evaluated at every texel"
-                                              : "evaluated on a " + std::to_string(grids[0].side() - 4) +
-                                                    "^2 x 6 cube grid (bicubic)")
+               : "evaluated on a " + std::to_string(grids[0].side() - 4) +
+                     "^2 x 6 cube grid (bicubic)")
       << "; " << seconds << " s for the group";
     result.plans[std::size_t(k)] = o.str();
   }
@@ -454,9 +461,9 @@ MapSet run_auto(const Job& job) {
       for (std::size_t i = 0; i < dirs.size(); ++i) {
         const double* a = acc.data() + 4 * i;
         const double* b = lights.data() + 4 * i;
-        write(i, a[3] > 0.0 ? glm::vec3((a[0] + b[0]) / a[3], (a[1] + b[1]) / a[3],
-                                        (a[2] + b[2]) / a[3])
-                            : glm::vec3(0.0f));
+        write(i, a[3] > 0.0
+                     ? glm::vec3((a[0] + b[0]) / a[3], (a[1] + b[1]) / a[3], (a[2] + b[2]) / a[3])
+                     : glm::vec3(0.0f));
       }
     };
     EnvMap& map = maps[std::size_t(k)];

@@ -32,8 +32,7 @@ OutputTexels::OutputTexels(const EnvLayout& layout)
 void Progress::tile_done(int map, const Tile& tile) {
   std::lock_guard lock(mutex_);
   ++done_;
-  if (hooks_.on_tile)
-    hooks_.on_tile({map, tile.x, tile.y, tile.width, tile.height, done_, total_});
+  if (hooks_.on_tile) hooks_.on_tile({map, tile.x, tile.y, tile.width, tile.height, done_, total_});
 }
 
 void for_each_tile(std::span<const Tile> tiles, const Progress& progress,
@@ -54,8 +53,9 @@ std::vector<EnvMap> blank_maps(const Job& job) {
 std::vector<int> ascending_order(std::span<const double> shininess) {
   std::vector<int> order(shininess.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return shininess[std::size_t(a)] < shininess[std::size_t(b)]; });
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return shininess[std::size_t(a)] < shininess[std::size_t(b)];
+  });
   return order;
 }
 
@@ -78,12 +78,18 @@ double lobe_sigma(double s) {
 
 std::string MethodSpec::name() const {
   switch (method) {
-    case Method::Accurate: return "accurate";
-    case Method::Mipmap: return "mipmap";
-    case Method::Sh: return "sh:" + std::to_string(sh_order);
-    case Method::Bounded: return "bounded";
-    case Method::Importance: return "importance:" + std::to_string(samples);
-    case Method::Auto: return "auto";
+    case Method::Accurate:
+      return "accurate";
+    case Method::Mipmap:
+      return "mipmap";
+    case Method::Sh:
+      return "sh:" + std::to_string(sh_order);
+    case Method::Bounded:
+      return "bounded";
+    case Method::Importance:
+      return "importance:" + std::to_string(samples);
+    case Method::Auto:
+      return "auto";
   }
   return "?";
 }
@@ -100,13 +106,20 @@ MethodSpec parse_method(std::string_view text, int default_sh_order, int default
   MethodSpec spec;
   spec.sh_order = default_sh_order;
   spec.samples = default_samples;
-  if (head == "accurate") spec.method = Method::Accurate;
-  else if (head == "mipmap") spec.method = Method::Mipmap;
-  else if (head == "sh") spec.method = Method::Sh;
-  else if (head == "bounded") spec.method = Method::Bounded;
-  else if (head == "importance") spec.method = Method::Importance;
-  else if (head == "auto") spec.method = Method::Auto;
-  else throw bad("unknown method");
+  if (head == "accurate")
+    spec.method = Method::Accurate;
+  else if (head == "mipmap")
+    spec.method = Method::Mipmap;
+  else if (head == "sh")
+    spec.method = Method::Sh;
+  else if (head == "bounded")
+    spec.method = Method::Bounded;
+  else if (head == "importance")
+    spec.method = Method::Importance;
+  else if (head == "auto")
+    spec.method = Method::Auto;
+  else
+    throw bad("unknown method");
   if (colon != std::string_view::npos) {
     const std::string_view arg = text.substr(colon + 1);
     int value = 0;
@@ -128,8 +141,8 @@ MethodSpec parse_method(std::string_view text, int default_sh_order, int default
   return spec;
 }
 
-MapSet compute_maps(const EnvMap& input, std::span<const double> shininess,
-                    const EnvLayout& output, const MethodSpec& method, const Hooks& hooks) {
+MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
+                    const MethodSpec& method, const Hooks& hooks) {
   if (shininess.empty()) throw std::invalid_argument("no shininess given");
   for (double s : shininess)
     if (!(s >= 1.0) || !std::isfinite(s))
@@ -140,12 +153,24 @@ MapSet compute_maps(const EnvMap& input, std::span<const double> shininess,
   const detail::Job job{input, {shininess.begin(), shininess.end()}, texels, method, progress};
   MapSet result;
   switch (method.method) {
-    case Method::Accurate: result = detail::run_direct(job, false); break;
-    case Method::Bounded: result = detail::run_direct(job, true); break;
-    case Method::Mipmap: result = detail::run_mipmap(job); break;
-    case Method::Sh: result = detail::run_sh(job); break;
-    case Method::Importance: result = detail::run_importance(job); break;
-    case Method::Auto: result = detail::run_auto(job); break;
+    case Method::Accurate:
+      result = detail::run_direct(job, false);
+      break;
+    case Method::Bounded:
+      result = detail::run_direct(job, true);
+      break;
+    case Method::Mipmap:
+      result = detail::run_mipmap(job);
+      break;
+    case Method::Sh:
+      result = detail::run_sh(job);
+      break;
+    case Method::Importance:
+      result = detail::run_importance(job);
+      break;
+    case Method::Auto:
+      result = detail::run_auto(job);
+      break;
   }
   result.shininess = job.shininess;
   result.total_seconds =

@@ -1,10 +1,11 @@
 // Methods `accurate` (thesis Alg. 4.1) and `bounded` (§6.2.2 with bounds derived from the lobe).
+#include "direct.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <numbers>
 
-#include "direct.hpp"
 #include "job.hpp"
 #include "kernels.hpp"
 
@@ -66,8 +67,7 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
   const double reach = window_ + radius + 1e-9;
   const int n = chain_.size();
   const bool single = n == 1 && pts_.has_float();
-  gather_cells(pts_, centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach), gathered_,
-               single);
+  gather_cells(pts_, centre, reach >= std::numbers::pi ? -2.0 : std::cos(reach), gathered_, single);
   const std::size_t stride = 4 * std::size_t(kLaneWidth) * std::size_t(n);
   lanes_.resize(kQueries * stride);
   for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
@@ -101,7 +101,8 @@ MapSet run_direct(const Job& job, bool bounded) {
     min_cos.push_back(bounded ? bounded_cos_threshold(s) : exact_cos_threshold(s));
   }
   // The lowest threshold decides which cells are visited at all (thresholds rise with s).
-  for (int k = n - 2; k >= 0; --k) min_cos[std::size_t(k)] = std::min(min_cos[std::size_t(k)], min_cos[std::size_t(k + 1)]);
+  for (int k = n - 2; k >= 0; --k)
+    min_cos[std::size_t(k)] = std::min(min_cos[std::size_t(k)], min_cos[std::size_t(k + 1)]);
   const PowerChain chain(sorted);
   std::vector<EnvMap> maps = blank_maps(job);
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {

@@ -1,9 +1,9 @@
 // Direct lobe integration over point cells, shared by accurate, bounded and auto.
 #pragma once
 
-#include <glm/vec3.hpp>
 #include <algorithm>
 #include <cmath>
+#include <glm/vec3.hpp>
 #include <span>
 #include <vector>
 

@@ -69,7 +69,8 @@ inline V exp_log_pow(V c, double s) {
   alignas(64) double t[kW];
   store(t, c);
 #pragma omp simd
-  for (int j = 0; j < kW; ++j) t[j] = t[j] > 0.0 ? std::exp(s * std::log(t[j] > 0.0 ? t[j] : 1.0)) : 0.0;
+  for (int j = 0; j < kW; ++j)
+    t[j] = t[j] > 0.0 ? std::exp(s * std::log(t[j] > 0.0 ? t[j] : 1.0)) : 0.0;
   return load(t);
 }
 
@@ -82,8 +83,7 @@ inline V exp_log_pow(V c, double s) {
 // weight, which is what bounds a single direction's loop.
 ARLIGHT_SIMD_CLONES
 void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
-                      const glm::dvec3* dirs, const PowerChain& chain, int maps,
-                      double* lanes) {
+                      const glm::dvec3* dirs, const PowerChain& chain, int maps, double* lanes) {
   constexpr int kGroups = int(kMaxCellPoints) / kW;
   constexpr int Q = kQueries;
   const std::size_t stride = 4 * std::size_t(kW) * std::size_t(chain.size());
@@ -98,8 +98,8 @@ void accumulate_chain(const PointCells& pts, std::uint32_t begin, std::uint32_t 
       const V dx = zero + dirs[q].x, dy = zero + dirs[q].y, dz = zero + dirs[q].z;
       for (int g = 0; g < groups; ++g) {
         const std::size_t i = begin + std::size_t(g) * kW;
-        const V c = dx * load(pts.x.data() + i) + dy * load(pts.y.data() + i) +
-                    dz * load(pts.z.data() + i);
+        const V c =
+            dx * load(pts.x.data() + i) + dy * load(pts.y.data() + i) + dz * load(pts.z.data() + i);
         cosine[q][g] = c > zero ? c : zero;
       }
     }
@@ -208,7 +208,8 @@ void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint
     const int groups = int(run_end - begin) / kWf;
     F power[Q][kGroups];
     for (int q = 0; q < Q; ++q) {
-      const F dx = zero + float(dirs[q].x), dy = zero + float(dirs[q].y), dz = zero + float(dirs[q].z);
+      const F dx = zero + float(dirs[q].x), dy = zero + float(dirs[q].y),
+              dz = zero + float(dirs[q].z);
       for (int g = 0; g < groups; ++g) {
         const std::size_t i = begin + std::size_t(g) * kWf;
         const F c = dx * loadf(pts.fx.data() + i) + dy * loadf(pts.fy.data() + i) +

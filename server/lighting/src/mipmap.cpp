@@ -42,7 +42,8 @@ glm::vec3 sample_covered(const Image& img, const std::vector<float>& cover, glm:
   double weight = 0.0;
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
-      const int x = std::clamp(x0 + i, 0, img.width() - 1), y = std::clamp(y0 + j, 0, img.height() - 1);
+      const int x = std::clamp(x0 + i, 0, img.width() - 1),
+                y = std::clamp(y0 + j, 0, img.height() - 1);
       const double w = (i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty) *
                        cover[std::size_t(y) * std::size_t(img.width()) + std::size_t(x)];
       sum += w * glm::dvec3(img.at(x, y));
@@ -54,7 +55,7 @@ glm::vec3 sample_covered(const Image& img, const std::vector<float>& cover, glm:
 }  // namespace
 
 double mipmap_level(double s, int n) {
-  const double l_max = std::log2(double(n));                               // eq. 4.1
+  const double l_max = std::log2(double(n));                              // eq. 4.1
   if (s == 1.0) return std::max(0.0, l_max - 2.0);                        // eq. 4.2
   return l_max - std::log2(std::min(std::max(s / 2.0, 4.0), double(n)));  // eq. 4.3
 }

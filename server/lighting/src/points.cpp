@@ -67,7 +67,8 @@ PointCells bucket(std::vector<RawPoint> pts, int points_per_cell, bool moments) 
     }
     c = glm::length(c) > 0 ? glm::normalize(c) : pts[order[first]].dir;
     double cos_r = 1.0;
-    for (std::size_t i = first; i < last; ++i) cos_r = std::min(cos_r, glm::dot(c, pts[order[i]].dir));
+    for (std::size_t i = first; i < last; ++i)
+      cos_r = std::min(cos_r, glm::dot(c, pts[order[i]].dir));
     cos_r = std::clamp(cos_r, -1.0, 1.0);
     while (out.x.size() % kCellAlign) push({glm::dvec3(0.0), 0.0, glm::dvec3(0.0)});
     out.cells.push_back({begin, std::uint32_t(out.x.size()), c, cos_r,
@@ -82,15 +83,16 @@ PointCells bucket(std::vector<RawPoint> pts, int points_per_cell, bool moments) 
   }
   constexpr std::uint32_t kBlock = 16;
   for (std::uint32_t first = 0; first < out.cells.size(); first += kBlock) {
-    const std::uint32_t last = std::min<std::uint32_t>(std::uint32_t(out.cells.size()), first + kBlock);
+    const std::uint32_t last =
+        std::min<std::uint32_t>(std::uint32_t(out.cells.size()), first + kBlock);
     glm::dvec3 c(0.0);
     for (std::uint32_t i = first; i < last; ++i) c += out.cells[i].centre;
     c = glm::length(c) > 0 ? glm::normalize(c) : out.cells[first].centre;
     double r = 0.0;
     for (std::uint32_t i = first; i < last; ++i) {
       const auto& cell = out.cells[i];
-      r = std::max(r, std::acos(std::clamp(glm::dot(c, cell.centre), -1.0, 1.0)) +
-                          std::acos(cell.cos_r));
+      r = std::max(
+          r, std::acos(std::clamp(glm::dot(c, cell.centre), -1.0, 1.0)) + std::acos(cell.cos_r));
     }
     r = std::min(r, std::numbers::pi);
     out.blocks.push_back({first, last, c, std::cos(r), std::sin(r)});

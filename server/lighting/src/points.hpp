@@ -2,8 +2,8 @@
 // in cells of a cube grid so that a query can skip every cell its lobe cannot reach.
 #pragma once
 
-#include <cstdint>
 #include <algorithm>
+#include <cstdint>
 #include <glm/vec3.hpp>
 #include <vector>
 

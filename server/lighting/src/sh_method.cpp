@@ -19,8 +19,8 @@ ShPair sh_project_pair(const EnvMap& env, int order) {
   // The weights' projection depends only on the layout and order: computed once, then shared.
   static std::mutex mutex;
   static std::map<std::tuple<int, int, int, int>, std::shared_ptr<const ShCoeffs>> cache;
-  const auto key = std::tuple{int(env.layout.projection()), env.layout.width(),
-                              env.layout.height(), order};
+  const auto key =
+      std::tuple{int(env.layout.projection()), env.layout.width(), env.layout.height(), order};
   std::shared_ptr<const ShCoeffs> weight;
   {
     std::lock_guard lock(mutex);
@@ -53,7 +53,8 @@ std::vector<ShCoeffs> sh_convolve_pair(const ShPair& pair, int order,
     for (std::size_t j = 0; j < 3 && k + j < shininess.size(); ++j) {
       const std::vector<double> zonal = phong_zonal_all(order, shininess[k + j]);
       for (int l = 0; l < order; ++l)
-        for (int m = -l; m <= l; ++m) packed.at(l, m)[int(j)] = weight.at(l, m).x * zonal[std::size_t(l)];
+        for (int m = -l; m <= l; ++m)
+          packed.at(l, m)[int(j)] = weight.at(l, m).x * zonal[std::size_t(l)];
     }
     out.push_back(std::move(packed));
   }

@@ -48,8 +48,7 @@ struct MethodSpec {
 // Reads "accurate", "mipmap", "sh", "sh:N", "bounded", "importance", "importance:K", "auto".
 // A bare "sh" / "importance" takes the given default. Throws InputError naming the method and
 // the valid names.
-MethodSpec parse_method(std::string_view text, int default_sh_order = 35,
-                        int default_samples = 64);
+MethodSpec parse_method(std::string_view text, int default_sh_order = 35, int default_samples = 64);
 
 // Reports a finished output tile of one map. Tiles are rectangles of the output image.
 struct TileDone {
@@ -84,8 +83,8 @@ struct MapSet {
 // Computes one map per shininess (each >= 1) of `input` in `output`'s layout, on all cores.
 // Input and output may use any projection and size. Throws std::invalid_argument for s < 1 or
 // an empty list, Cancelled when hooks.stop is requested.
-MapSet compute_maps(const EnvMap& input, std::span<const double> shininess,
-                    const EnvLayout& output, const MethodSpec& method, const Hooks& hooks = {});
+MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
+                    const MethodSpec& method, const Hooks& hooks = {});
 
 // Errors of `test` against `reference` (same layout) over every valid texel and channel, as
 // fractions: thesis eq. 6.1 (mean of |a - v| / (a + eps)) and eq. 6.2 (max of the same), with
