@@ -372,18 +372,16 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
   }
   const std::vector<ShCoeffs> kinked_coeffs = convolved(kinked);
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
-    std::vector<glm::dvec3> dirs;
-    std::vector<std::size_t> pixels;
-    job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
-      dirs.push_back(d);
-      pixels.push_back(pixel);
-      const CubeGrid::Taps taps = smooth.empty() ? CubeGrid::Taps{} : grids[0].taps(d);
-      for (std::size_t i = 0; i < smooth.size(); ++i) {
-        const glm::vec3 v = grids[i].sample(taps);
-        float* out = maps[std::size_t(smooth[i])].image.data() + 3 * pixel;
-        out[0] = v.x, out[1] = v.y, out[2] = v.z;
+    const auto [dirs, pixels] = job.output.collect(tile);
+    if (!smooth.empty())
+      for (std::size_t t = 0; t < dirs.size(); ++t) {
+        const CubeGrid::Taps taps = grids[0].taps(dirs[t]);
+        for (std::size_t i = 0; i < smooth.size(); ++i) {
+          const glm::vec3 v = grids[i].sample(taps);
+          float* out = maps[std::size_t(smooth[i])].image.data() + 3 * pixels[t];
+          out[0] = v.x, out[1] = v.y, out[2] = v.z;
+        }
       }
-    });
     if (!kinked.empty()) {
       std::vector<std::vector<float>> values(sh_pair_outputs(kinked.size()),
                                              std::vector<float>(3 * dirs.size()));
@@ -450,7 +448,7 @@ MapSet run_auto(const Job& job) {
     const PowerChain chain(one);
     const double min_cos = bounded_cos_threshold(s);
     // Integrates up to kBlock x kBlock nearby directions; values are written to out[i].
-    auto integrate_block = [&](std::vector<glm::dvec3>& dirs, auto&& write) {
+    auto integrate_block = [&](const std::vector<glm::dvec3>& dirs, auto&& write) {
       BatchIntegrator batch(pts, chain, min_cos);
       std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
       batch.run(dirs, acc.data());
@@ -502,12 +500,7 @@ MapSet run_auto(const Job& job) {
           for (int x0 = tile.x; x0 < tile.x + tile.width; x0 += kBlock) {
             const Tile block{x0, y0, std::min(kBlock, tile.x + tile.width - x0),
                              std::min(kBlock, tile.y + tile.height - y0)};
-            std::vector<glm::dvec3> dirs;
-            std::vector<std::size_t> pixels;
-            job.output.for_each(block, [&](std::size_t pixel, glm::dvec3 d) {
-              dirs.push_back(d);
-              pixels.push_back(pixel);
-            });
+            const auto [dirs, pixels] = job.output.collect(block);
             integrate_block(dirs, [&](std::size_t q, glm::vec3 v) {
               float* out = map.image.data() + 3 * pixels[q];
               out[0] = v.x, out[1] = v.y, out[2] = v.z;

@@ -107,12 +107,7 @@ MapSet run_direct(const Job& job, bool bounded) {
   std::vector<EnvMap> maps = blank_maps(job);
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
     // Texels in groups of kQueries (neighbours along a row share their cells).
-    std::vector<glm::dvec3> dirs;
-    std::vector<std::size_t> pixels;
-    job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
-      dirs.push_back(d);
-      pixels.push_back(pixel);
-    });
+    const auto [dirs, pixels] = job.output.collect(tile);
     std::vector<double> acc(kQueries * 4 * std::size_t(n));
     for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
       glm::dvec3 group[kQueries];

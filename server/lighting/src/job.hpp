@@ -18,6 +18,12 @@ struct Tile {
   int x, y, width, height;
 };
 
+// The directions and pixels of a tile's valid texels, as parallel arrays (for batched sums).
+struct TileTexels {
+  std::vector<glm::dvec3> dirs;
+  std::vector<std::size_t> pixels;
+};
+
 // The output layout's valid texels, addressable by pixel.
 class OutputTexels {
  public:
@@ -34,6 +40,14 @@ class OutputTexels {
         const std::int32_t e = entry_[pixel];
         if (e >= 0) fn(pixel, glm::dvec3(table_->x[e], table_->y[e], table_->z[e]));
       }
+  }
+  TileTexels collect(const Tile& tile) const {
+    TileTexels t;
+    for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
+      t.dirs.push_back(d);
+      t.pixels.push_back(pixel);
+    });
+    return t;
   }
 
  private:

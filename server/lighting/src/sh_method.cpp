@@ -85,12 +85,7 @@ MapSet run_sh(const Job& job) {
   std::vector<EnvMap> maps = blank_maps(job);
   const int count = int(maps.size());
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
-    std::vector<glm::dvec3> dirs;
-    std::vector<std::size_t> pixels;
-    job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
-      dirs.push_back(d);
-      pixels.push_back(pixel);
-    });
+    const auto [dirs, pixels] = job.output.collect(tile);
     std::vector<std::vector<float>> values(sh_pair_outputs(std::size_t(count)),
                                            std::vector<float>(3 * dirs.size()));
     std::vector<float*> out;
