@@ -1,0 +1,90 @@
+// Recorded sensor streams: what a phone or webcam sent, frame by frame, so that captures can be
+// replayed, simulated and judged. The format (a folder with a JSON manifest, JPEG frames and an
+// optional IMU log) is specified in protocol/RECORDING.md.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/vec3.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace arlight::recording {
+
+inline constexpr int kFormatVersion = 1;
+inline constexpr const char* kFormatName = "arlight-recording";
+inline constexpr const char* kManifestName = "recording.json";
+// Largest frame file a reader accepts (a 4K JPEG at top quality is ~5 MiB).
+inline constexpr std::uintmax_t kMaxFrameBytes = 32u << 20;
+
+// Pinhole intrinsics in pixels, OpenCV's convention (x right, y down, principal point cx, cy)
+// with OpenCV's distortion coefficients k1, k2, p1, p2, k3.
+struct CameraIntrinsics {
+  int width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::array<double, 5> distortion{};
+};
+
+struct Frame {
+  std::string file;      // relative to the recording's folder, e.g. "frames/000000.jpg"
+  double timestamp = 0;  // seconds since the recording started
+  double exposure = 0;   // exposure time, seconds
+  double gain = 1;       // analogue gain (ISO / 100)
+  // Unit quaternion rotating camera coordinates (x right, y up, looking down -z) into the
+  // gravity-aligned world frame (+Y up).
+  glm::dquat orientation{1, 0, 0, 0};
+  // Empty when the frame is usable; otherwise why not (zero exposure, a quaternion that is not
+  // a rotation, a missing or truncated image, ...). Readers keep such frames so consumers can
+  // skip them with the reason; they never stop the rest of the recording from being read.
+  std::string problem;
+};
+
+struct ImuSample {
+  double timestamp = 0;   // seconds, same clock as the frames
+  glm::dvec3 gyro{0.0};   // rad/s, camera coordinates as for Frame::orientation
+  glm::dvec3 accel{0.0};  // m/s^2 specific force (gravity included), camera coordinates
+};
+
+struct Recording {
+  std::filesystem::path folder;
+  int version = kFormatVersion;
+  std::string device_id;  // optional; keys per-device camera response curves
+  CameraIntrinsics camera;
+  std::vector<Frame> frames;
+  std::vector<ImuSample> imu;  // optional raw IMU samples, timestamps non-decreasing
+};
+
+// Reads and checks a recording folder. Anything that makes the recording as a whole unusable
+// (no or unparsable manifest, wrong format or a newer version, missing or mistyped fields, bad
+// intrinsics, a malformed IMU log) raises InputError naming the file and the field; problems
+// confined to one frame are recorded in that Frame's `problem`.
+Recording read_recording(const std::filesystem::path& folder);
+
+// The bytes of frame i's JPEG, checked again (size limit, JPEG start and end markers), or
+// InputError naming the file.
+std::vector<std::uint8_t> read_frame_bytes(const Recording& rec, std::size_t i);
+
+// Writes a recording frame by frame: images go to REC/frames/ as they are added, the manifest
+// (and IMU log) when finish() is called, atomically (temporary file, then rename), so an
+// interrupted writer leaves no manifest that claims missing frames.
+class RecordingWriter {
+ public:
+  RecordingWriter(std::filesystem::path folder, const CameraIntrinsics& camera,
+                  std::string device_id = {});
+  // Stores the encoded JPEG and its metadata; returns the frame's index.
+  std::size_t add_frame(const std::vector<std::uint8_t>& jpeg, double timestamp, double exposure,
+                        double gain, const glm::dquat& orientation);
+  void add_imu(const ImuSample& sample);
+  void finish();
+  const std::filesystem::path& folder() const { return folder_; }
+
+ private:
+  std::filesystem::path folder_;
+  Recording rec_;
+  bool finished_ = false;
+};
+
+}  // namespace arlight::recording
