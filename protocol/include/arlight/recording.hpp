@@ -3,7 +3,7 @@
 // optional IMU log) is specified in protocol/RECORDING.md.
 #pragma once
 
-#include <array>
+#include "arlight/camera.hpp"
 #include <cstdint>
 #include <filesystem>
 #include <glm/gtc/quaternion.hpp>
@@ -20,13 +20,8 @@ inline constexpr const char* kManifestName = "recording.json";
 // Largest frame file a reader accepts (a 4K JPEG at top quality is ~5 MiB).
 inline constexpr std::uintmax_t kMaxFrameBytes = 32u << 20;
 
-// Pinhole intrinsics in pixels, OpenCV's convention (x right, y down, principal point cx, cy)
-// with OpenCV's distortion coefficients k1, k2, p1, p2, k3.
-struct CameraIntrinsics {
-  int width = 0, height = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::array<double, 5> distortion{};
-};
+// Pinhole intrinsics in pixels, OpenCV's convention (common/include/arlight/camera.hpp).
+using CameraIntrinsics = arlight::CameraIntrinsics;
 
 struct Frame {
   std::string file;      // relative to the recording's folder, e.g. "frames/000000.jpg"
