@@ -13,6 +13,8 @@
 #include <sstream>
 #include <system_error>
 
+#include "arlight/atomic_file.hpp"
+
 namespace arlight {
 
 namespace fs = std::filesystem;
@@ -79,20 +81,6 @@ ImageMetadata read_metadata(const OIIO::ImageSpec& spec, const fs::path& path) {
   const std::string desc = spec.get_string_attribute(kAttrDescription);
   if (!desc.empty()) md.description = desc;
   return md;
-}
-
-fs::path temp_sibling(const fs::path& path) {
-  static std::mt19937_64 rng{std::random_device{}()};
-  static std::mutex mutex;
-  std::uint64_t r;
-  {
-    std::lock_guard lock(mutex);
-    r = rng();
-  }
-  fs::path tmp = path;
-  tmp += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(r % 1000000);
-  tmp += path.extension();
-  return tmp;
 }
 
 void ensure_parent(const fs::path& path) {

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
 
 namespace arlight {
@@ -95,13 +96,7 @@ void CameraResponse::save(const std::filesystem::path& path) const {
   j["response"] = name_;
   j["linear_of_code"] = nlohmann::json::array();
   for (const auto& ch : table_) j["linear_of_code"].push_back(ch);
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << j.dump() << "\n";
-    if (!f.flush()) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  std::filesystem::rename(tmp, path);
+  write_file_atomically(path, j.dump() + "\n");
 }
 
 CameraResponse CameraResponse::load(const std::filesystem::path& path) {

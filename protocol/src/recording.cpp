@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
 
 namespace arlight::recording {
@@ -124,18 +125,6 @@ std::vector<ImuSample> read_imu(const fs::path& path) {
     out.push_back({v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}});
   }
   return out;
-}
-
-// Writes `text` to `path` through a temporary file in the same folder and a rename.
-void write_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << text;
-    f.flush();
-    if (!f) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
 }
 
 }  // namespace
@@ -302,10 +291,10 @@ void RecordingWriter::finish() {
     for (const ImuSample& s : rec_.imu)
       csv << s.timestamp << ',' << s.gyro.x << ',' << s.gyro.y << ',' << s.gyro.z << ','
           << s.accel.x << ',' << s.accel.y << ',' << s.accel.z << '\n';
-    write_atomically(folder_ / "imu.csv", csv.str());
+    write_file_atomically(folder_ / "imu.csv", csv.str());
     j["imu"] = "imu.csv";
   }
-  write_atomically(folder_ / kManifestName, j.dump(1) + "\n");
+  write_file_atomically(folder_ / kManifestName, j.dump(1) + "\n");
   finished_ = true;
 }
 

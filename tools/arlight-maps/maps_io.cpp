@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
@@ -135,9 +136,7 @@ void write_contact_sheet(const fs::path& path, const std::vector<SheetRow>& rows
 
 void write_json(const fs::path& path, const nlohmann::json& j) {
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
-  std::ofstream f(path);
-  f << j.dump(2) << "\n";
-  if (!f.flush()) throw std::runtime_error("cannot write " + path.string());
+  write_file_atomically(path, j.dump(2) + "\n");
 }
 
 ProgressBar::ProgressBar(std::string label) : label_(std::move(label)), tty_(isatty(2) != 0) {}

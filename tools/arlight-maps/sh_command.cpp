@@ -14,6 +14,7 @@
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
 #include "commands.hpp"
+#include "maps_io.hpp"
 
 namespace arlight::maps {
 
@@ -85,10 +86,7 @@ int run_sh(const ShOptions& o) {
   j["coefficients"] = nlohmann::json::array();
   for (const auto& c : coeffs.c) j["coefficients"].push_back({c.x, c.y, c.z});
   const fs::path json_path = o.json.empty() ? fs::path(o.out) / "sh.json" : fs::path(o.json);
-  if (json_path.has_parent_path()) fs::create_directories(json_path.parent_path());
-  std::ofstream json_file(json_path);
-  json_file << j.dump(2) << "\n";
-  if (!json_file.flush()) throw std::runtime_error("cannot write " + json_path.string());
+  write_json(json_path, j);
 
   std::printf("SH order %d (%d coefficients) of %s on a %dx%d angle map\n", o.order,
               sh_count(o.order), o.input.c_str(), o.size, o.size);
