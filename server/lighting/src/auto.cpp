@@ -398,8 +398,7 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     }
     for (int k : ks) job.progress.tile_done(k, tile);
   });
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = seconds_since(t0);
   for (int k : ks) {
     result.seconds[std::size_t(k)] = seconds / double(ks.size());
     std::ostringstream o;
@@ -422,8 +421,7 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
 MapSet run_auto(const Job& job) {
   const auto t_split = std::chrono::steady_clock::now();
   const BrightSplit split = split_bright(job.input);
-  const double split_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_split).count();
+  const double split_seconds = seconds_since(t_split);
   InputLevels levels(split.rest);
   const std::size_t out_texels = texel_table(job.output.layout())->size();
   const int count = int(job.shininess.size());
@@ -509,8 +507,7 @@ MapSet run_auto(const Job& job) {
         job.progress.tile_done(k, tile);
       });
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double seconds = seconds_since(t0);
     result.seconds[std::size_t(k)] = seconds + split_seconds / count;
     result.plans[std::size_t(k)] = describe(plan, seconds);
   }

@@ -46,6 +46,20 @@ void for_each_tile(std::span<const Tile> tiles, const Progress& progress,
   progress.check();
 }
 
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+MapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
+                    std::vector<std::string> plans) {
+  MapSet result;
+  const double share = seconds_since(t0) / double(std::max<std::size_t>(1, maps.size()));
+  result.seconds.assign(maps.size(), share);
+  result.maps = std::move(maps);
+  result.plans = std::move(plans);
+  return result;
+}
+
 std::vector<EnvMap> blank_maps(const Job& job) {
   return std::vector<EnvMap>(job.shininess.size(), EnvMap(job.output.layout()));
 }
@@ -173,8 +187,7 @@ MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, cons
       break;
   }
   result.shininess = job.shininess;
-  result.total_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.total_seconds = detail::seconds_since(t0);
   return result;
 }
 

@@ -123,14 +123,10 @@ MapSet run_direct(const Job& job, bool bounded) {
     }
     for (int k = 0; k < n; ++k) job.progress.tile_done(order[std::size_t(k)], tile);
   });
-  MapSet result;
-  result.maps = std::move(maps);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.seconds.assign(std::size_t(n), seconds / n);
-  result.plans.assign(std::size_t(n), bounded ? "bounded: lobe window where cos^s >= 5e-8/(s+1)"
-                                              : "accurate: every input texel");
-  return result;
+  return joint_result(std::move(maps), t0,
+                      std::vector<std::string>(
+                          std::size_t(n), bounded ? "bounded: lobe window where cos^s >= 5e-8/(s+1)"
+                                                  : "accurate: every input texel"));
 }
 
 }  // namespace arlight::lighting::detail

@@ -81,14 +81,10 @@ MapSet run_importance(const Job& job) {
     });
     for (int m = 0; m < count; ++m) job.progress.tile_done(m, tile);
   });
-  MapSet result;
-  result.maps = std::move(maps);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.seconds.assign(std::size_t(count), seconds / count);
-  result.plans.assign(std::size_t(count),
-                      "importance: " + std::to_string(k_samples) + " Hammersley lobe samples");
-  return result;
+  return joint_result(
+      std::move(maps), t0,
+      std::vector<std::string>(std::size_t(count), "importance: " + std::to_string(k_samples) +
+                                                       " Hammersley lobe samples"));
 }
 
 }  // namespace arlight::lighting::detail

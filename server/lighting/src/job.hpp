@@ -3,10 +3,12 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "arlight/lighting.hpp"
@@ -85,6 +87,14 @@ struct Job {
   const MethodSpec& spec;
   Progress& progress;
 };
+
+// Seconds since t0.
+double seconds_since(std::chrono::steady_clock::time_point t0);
+
+// The result of a method that makes all its maps in one pass started at t0: the pass's time is
+// shared equally between the maps (MapSet::seconds).
+MapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
+                    std::vector<std::string> plans);
 
 // Maps of one job, all zero, in the output layout.
 std::vector<EnvMap> blank_maps(const Job& job);

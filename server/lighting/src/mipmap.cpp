@@ -97,15 +97,11 @@ MapSet run_mipmap(const Job& job) {
     });
     for (int k = 0; k < count; ++k) job.progress.tile_done(k, tile);
   });
-  MapSet result;
-  result.maps = std::move(maps);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.seconds.assign(std::size_t(count), seconds / count);
+  std::vector<std::string> plans;
   for (double l : level)
-    result.plans.push_back("mipmap: level " + std::to_string(l) + " of a " + std::to_string(n) +
-                           "^2 angle map");
-  return result;
+    plans.push_back("mipmap: level " + std::to_string(l) + " of a " + std::to_string(n) +
+                    "^2 angle map");
+  return joint_result(std::move(maps), t0, std::move(plans));
 }
 
 }  // namespace arlight::lighting::detail

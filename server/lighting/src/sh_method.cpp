@@ -99,13 +99,9 @@ MapSet run_sh(const Job& job) {
       job.progress.tile_done(k, tile);
     }
   });
-  MapSet result;
-  result.maps = std::move(maps);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.seconds.assign(std::size_t(count), seconds / count);
-  result.plans.assign(std::size_t(count), "sh: order " + std::to_string(order));
-  return result;
+  return joint_result(
+      std::move(maps), t0,
+      std::vector<std::string>(std::size_t(count), "sh: order " + std::to_string(order)));
 }
 
 }  // namespace arlight::lighting::detail
