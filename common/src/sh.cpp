@@ -353,6 +353,29 @@ ShCoeffs sh_project(const EnvMap& env, int order) {
   return out;
 }
 
+void sh_accumulate(ShCoeffs& coeffs, std::span<const glm::dvec3> dirs,
+                   std::span<const glm::dvec3> values) {
+  if (dirs.size() != values.size())
+    throw std::invalid_argument("sh_accumulate: " + std::to_string(dirs.size()) +
+                                " directions but " + std::to_string(values.size()) + " values");
+  const auto t = tables_for(coeffs.order);
+  std::vector<double> acc(3 * coeffs.c.size(), 0.0);
+  Batch b;
+  for (std::size_t first = 0; first < dirs.size(); first += kLanes) {
+    b.count = int(std::min<std::size_t>(kLanes, dirs.size() - first));
+    for (int i = 0; i < kLanes; ++i) {
+      const bool live = i < b.count;
+      const glm::dvec3 d = live ? unit(dirs[first + i]) : glm::dvec3(0.0);
+      const glm::dvec3 v = live ? values[first + i] : glm::dvec3(0.0);
+      b.x[i] = d.x, b.y[i] = d.y, b.z[i] = d.z;
+      b.v[0][i] = v.x, b.v[1][i] = v.y, b.v[2][i] = v.z;
+    }
+    project_batch(*t, b, acc.data());
+  }
+  for (std::size_t k = 0; k < coeffs.c.size(); ++k)
+    for (int c = 0; c < 3; ++c) coeffs.c[k][c] += acc[3 * k + c];
+}
+
 glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir) {
   std::vector<double> y(std::size_t(sh_count(coeffs.order)));
   sh_basis_all(coeffs.order, dir, y);

@@ -42,6 +42,11 @@ void sh_legendre(int order, double z, std::span<double> out);
 // texels of L * Y_lm(dir) * solid angle. Runs on all cores; accumulates in double.
 ShCoeffs sh_project(const EnvMap& env, int order);
 
+// Adds sum_i values[i] * Y_lm(dirs[i]) to every coefficient: an incremental projection, e.g. of
+// the change of a few texels (values = change of radiance * solid angle). One thread.
+void sh_accumulate(ShCoeffs& coeffs, std::span<const glm::dvec3> dirs,
+                   std::span<const glm::dvec3> values);
+
 // sum_lm c_lm Y_lm(dir)
 glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir);
 

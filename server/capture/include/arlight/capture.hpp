@@ -1,0 +1,118 @@
+// HDR environment-map capture from camera frames and device orientation (thesis ch. 3, after
+// Kán [Kán15]): each frame is linearised with the inverse camera response and its exposure,
+// aligned to what has been captured so far, and accumulated into an environment map as
+// sum(w * L) and sum(w); low-order SH of the map are kept current from the texels each frame
+// changes. One CaptureSession per capturing device; not thread-safe (the daemon serialises a
+// session's frames), but sessions are independent.
+#pragma once
+
+#include <cstdint>
+#include <glm/gtc/quaternion.hpp>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/image.hpp"
+#include "arlight/projection.hpp"
+#include "arlight/response.hpp"
+#include "arlight/sh.hpp"
+
+namespace cv {
+class Mat;
+}
+
+namespace arlight::capture {
+
+struct CaptureOptions {
+  EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 512);
+  int sh_order = 8;   // live SH: bands 0..sh_order-1 (>= 3)
+  bool align = true;  // feature-based drift correction (Kán's alignment)
+  // Alignment: ORB features matched between the frame and the map rendered into the camera.
+  int align_min_inliers = 12;       // fewer -> keep the sensor orientation (with the last offset)
+  double align_max_step_deg = 3.0;  // a correction larger than this is treated as a mismatch
+  // The correction follows the alignments with a constant drift rate (a gyro bias) fitted to
+  // the last seconds of them: each alignment moves the offset by `align_smoothing` of what it
+  // measured (so one bad match cannot jump).
+  double align_smoothing = 0.6;
+  double align_max_drift_deg_per_s = 3.0;
+  int align_every = 1;  // try the alignment on every n-th frame; the others extrapolate
+};
+
+// What one frame carries besides its pixels.
+struct FrameInfo {
+  double timestamp = 0;
+  double exposure = 0;                 // seconds, > 0
+  double gain = 1;                     // > 0; radiance = linear / (exposure * gain)
+  glm::dquat orientation{1, 0, 0, 0};  // camera -> world, from the device's sensors
+};
+
+struct FrameResult {
+  bool used = false;
+  std::string skipped_reason;          // set when !used
+  glm::dquat orientation{1, 0, 0, 0};  // the orientation the frame was accumulated with
+  bool aligned = false;                // the feature alignment produced this frame's correction
+  int align_inliers = 0;
+  std::string align_note;     // why the alignment was not used, when it was tried
+  double correction_deg = 0;  // angle between the sensor and the used orientation
+  std::size_t texels_changed = 0;
+  double decode_ms = 0, linearize_ms = 0, align_ms = 0, project_ms = 0, sh_ms = 0;
+  double total_ms() const { return decode_ms + linearize_ms + align_ms + project_ms + sh_ms; }
+};
+
+// The accumulators of a session (what a checkpoint has to keep), in `layout`'s texel order.
+struct Accumulators {
+  std::vector<float> weighted_radiance;  // sum(w * L), 3 floats per texel
+  std::vector<float> weight;             // sum(w), 1 float per texel
+};
+
+class CaptureSession {
+ public:
+  // Throws std::invalid_argument for unusable intrinsics or options.
+  CaptureSession(const CameraIntrinsics& camera, CameraResponse response,
+                 CaptureOptions options = {});
+  ~CaptureSession();
+  CaptureSession(CaptureSession&&) noexcept;
+  CaptureSession& operator=(CaptureSession&&) noexcept;
+
+  // Decodes a JPEG (or any format OpenCV reads) and adds it. Never throws for bad input: a
+  // frame that cannot be used comes back with used = false and the reason.
+  FrameResult add_encoded(std::span<const std::uint8_t> bytes, const FrameInfo& info);
+  // Adds an 8-bit BGR image (OpenCV's channel order) of the camera's size.
+  FrameResult add_image(const cv::Mat& bgr8, const FrameInfo& info);
+
+  const EnvLayout& layout() const;
+  const CameraIntrinsics& camera() const;
+  const CameraResponse& response() const;
+  const CaptureOptions& options() const;
+
+  // The captured environment: sum(w * L) / sum(w); texels never seen are 0.
+  EnvMap environment() const;
+  // sum(w) per texel as a one-channel image in the layout (0 = never seen).
+  std::vector<float> weights() const;
+  // Fraction of the sphere's solid angle seen by at least one frame.
+  double coverage() const;
+  // SH coefficients of environment(), kept current incrementally.
+  const ShCoeffs& sh() const;
+
+  std::size_t frames_added() const;  // frames offered
+  std::size_t frames_used() const;
+
+  // The state to checkpoint, and a session restored from it (same camera, layout, order).
+  Accumulators accumulators() const;
+  void restore(const Accumulators& acc);  // throws std::invalid_argument on a size mismatch
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Why a frame's metadata cannot be used, or empty when it can (exposure and gain positive and
+// finite, orientation a finite unit quaternion within 1e-3).
+std::string check_frame_info(const FrameInfo& info);
+
+// Angle in degrees of the rotation between two orientations.
+double angle_between_deg(const glm::dquat& a, const glm::dquat& b);
+
+}  // namespace arlight::capture

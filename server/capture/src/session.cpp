@@ -1,0 +1,561 @@
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "align.hpp"
+#include "arlight/capture.hpp"
+#include "linearize.hpp"
+
+namespace arlight::capture {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+// Mean angular size (radians) of a valid texel of the layout.
+double texel_angle(const TexelTable& table) {
+  return std::sqrt(4.0 * std::numbers::pi / double(table.size()));
+}
+
+// Largest angle between the optical axis and a ray through the image's edge.
+double half_field_of_view(const PinholeCamera& cam) {
+  const CameraIntrinsics& k = cam.intrinsics();
+  double widest = 0.0;
+  const double xs[] = {-0.5, k.width * 0.5 - 0.5, k.width - 0.5};
+  const double ys[] = {-0.5, k.height * 0.5 - 0.5, k.height - 0.5};
+  for (double x : xs)
+    for (double y : ys)
+      widest = std::max(widest, std::acos(std::clamp(-cam.unproject({x, y}).z, -1.0, 1.0)));
+  return widest;
+}
+
+// Intrinsics of the same camera with its image reduced by `factor` (block centres).
+CameraIntrinsics reduced(const CameraIntrinsics& k, int factor) {
+  CameraIntrinsics r = k;
+  r.width = (k.width + factor - 1) / factor;
+  r.height = (k.height + factor - 1) / factor;
+  r.fx = k.fx / factor, r.fy = k.fy / factor;
+  r.cx = (k.cx - 0.5 * (factor - 1)) / factor;
+  r.cy = (k.cy - 0.5 * (factor - 1)) / factor;
+  return r;
+}
+
+bool has_distortion(const CameraIntrinsics& k) {
+  return std::any_of(k.distortion.begin(), k.distortion.end(), [](double d) { return d != 0.0; });
+}
+
+}  // namespace
+
+std::string check_frame_info(const FrameInfo& info) {
+  if (!std::isfinite(info.exposure) || !(info.exposure > 0.0))
+    return "exposure must be a positive number of seconds (got " + std::to_string(info.exposure) +
+           ")";
+  if (!std::isfinite(info.gain) || !(info.gain > 0.0))
+    return "gain must be positive (got " + std::to_string(info.gain) + ")";
+  const glm::dquat& q = info.orientation;
+  if (!std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
+    return "orientation is not a finite quaternion";
+  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  if (std::abs(norm - 1.0) > 1e-3)
+    return "orientation is not a unit quaternion (norm " + std::to_string(norm) + ")";
+  return {};
+}
+
+double angle_between_deg(const glm::dquat& a, const glm::dquat& b) {
+  const double d = std::abs(glm::dot(glm::normalize(a), glm::normalize(b)));
+  return 2.0 * std::acos(std::min(1.0, d)) * 180.0 / std::numbers::pi;
+}
+
+struct CaptureSession::Impl {
+  CameraIntrinsics camera;
+  PinholeCamera pinhole;
+  CameraResponse response;
+  CaptureOptions options;
+  std::shared_ptr<const TexelTable> table;
+  // The valid texels grouped in 16 x 16 tiles of the layout, each tile with a bounding cone,
+  // so a frame only visits the tiles its field of view can reach.
+  struct Tile {
+    std::size_t begin, end;  // range in `order`
+    glm::vec3 centre;        // unit
+    float radius;            // radians: every texel direction of the tile is within it
+  };
+  std::vector<Tile> tiles;
+  std::vector<std::uint32_t> order;        // texel-table index of each entry, tile by tile
+  std::vector<float> dir_x, dir_y, dir_z;  // their unit directions (float), same order
+  double field_radius = 0.0;               // half field of view of the camera plus a margin
+
+  void build_tiles() {
+    constexpr int kTile = 16;
+    const int w = options.layout.width(), h = options.layout.height();
+    const int tw = (w + kTile - 1) / kTile, th = (h + kTile - 1) / kTile;
+    std::vector<std::vector<std::uint32_t>> members(std::size_t(tw) * th);
+    for (std::size_t i = 0; i < table->size(); ++i) {
+      const std::uint32_t t = table->index[i];
+      const int x = int(t % std::uint32_t(w)), y = int(t / std::uint32_t(w));
+      members[std::size_t(y / kTile) * tw + x / kTile].push_back(std::uint32_t(i));
+    }
+    for (const auto& m : members) {
+      if (m.empty()) continue;
+      glm::dvec3 sum(0.0);
+      for (std::uint32_t i : m) sum += glm::dvec3(table->x[i], table->y[i], table->z[i]);
+      const glm::dvec3 c = glm::length(sum) > 1e-9 ? glm::normalize(sum) : glm::dvec3(0, 0, 1);
+      double radius = 0.0;
+      for (std::uint32_t i : m)
+        radius = std::max(
+            radius,
+            std::acos(std::clamp(glm::dot(c, glm::dvec3(table->x[i], table->y[i], table->z[i])),
+                                 -1.0, 1.0)));
+      tiles.push_back({order.size(), order.size() + m.size(), glm::vec3(c), float(radius + 1e-3)});
+      for (std::uint32_t i : m) {
+        order.push_back(i);
+        dir_x.push_back(float(table->x[i]));
+        dir_y.push_back(float(table->y[i]));
+        dir_z.push_back(float(table->z[i]));
+      }
+    }
+  }
+
+  std::vector<float> weighted_radiance;  // sum(w * L) per layout texel, RGB
+  std::vector<float> weight;             // sum(w) per layout texel
+  ShCoeffs sh;
+  double covered_solid_angle = 0.0;
+  std::size_t added = 0, used = 0;
+
+  int factor = 1;  // linearised frames are reduced by this
+  CameraIntrinsics reduced_camera;
+  double cos_field = -1.0;  // texels with d . forward below this are outside the view
+  PinholeCamera align_camera{CameraIntrinsics{}};
+  std::vector<glm::dvec3> align_rays;          // camera ray of each alignment-image pixel
+  std::array<std::uint8_t, 4096> gray_code{};  // linear [0, 1] (sqrt-spaced) -> 8-bit code
+  glm::dquat offset{1, 0, 0, 0};  // world-frame drift correction: used = offset * sensor
+  int frames_since_align = 0;
+  glm::dvec3 drift_rate{0.0};  // world-frame rotation vector per second of the offset
+  double last_time = 0;
+  bool has_time = false;
+  static constexpr double kRateWindow = 4.0;  // seconds of alignments the drift rate is fitted to
+  std::deque<std::pair<double, glm::dvec3>> history;  // (time, measured offset rotation vector)
+
+  Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
+      : camera(k), pinhole(k), response(std::move(r)), options(std::move(o)) {
+    if (k.width < 1 || k.height < 1 || !(k.fx > 0) || !(k.fy > 0) || !std::isfinite(k.cx) ||
+        !std::isfinite(k.cy))
+      throw std::invalid_argument("capture: camera intrinsics are not usable (size " +
+                                  size_text(k.width, k.height) + ", fx " + std::to_string(k.fx) +
+                                  ", fy " + std::to_string(k.fy) + ")");
+    if (options.align_every < 1) throw std::invalid_argument("capture: align_every must be >= 1");
+    if (options.sh_order < 3 || options.sh_order > 64)
+      throw std::invalid_argument("capture: SH order must be in [3, 64], got " +
+                                  std::to_string(options.sh_order));
+    table = texel_table(options.layout);
+    build_tiles();
+    weighted_radiance.assign(options.layout.texel_count() * 3, 0.0f);
+    weight.assign(options.layout.texel_count(), 0.0f);
+    sh = ShCoeffs(options.sh_order);
+
+    // Reduce frames until a pixel spans about one texel (finer only aliases), and align at
+    // twice that resolution, where features are still sharp but cheap to find.
+    const double pixel_angle = 1.0 / std::max(k.fx, k.fy);
+    factor = std::max(1, int(std::floor(texel_angle(*table) / pixel_angle)));
+    reduced_camera = reduced(k, factor);
+    field_radius = half_field_of_view(pinhole) + 0.02;
+    cos_field = std::cos(std::min(std::numbers::pi, field_radius));
+    const int align_factor = std::max(1, factor / 2);
+    align_camera = PinholeCamera(reduced(k, align_factor));
+    const CameraIntrinsics& ak = align_camera.intrinsics();
+    align_rays.resize(std::size_t(ak.width) * ak.height);
+    for (int y = 0; y < ak.height; ++y)
+      for (int x = 0; x < ak.width; ++x)
+        align_rays[std::size_t(y) * ak.width + x] = align_camera.unproject({x, y});
+    for (std::size_t i = 0; i < gray_code.size(); ++i) {
+      const double t = double(i) / double(gray_code.size() - 1);
+      gray_code[i] = std::uint8_t(std::lround(255.0 * response.encode(float(t * t), 1)));
+    }
+  }
+
+  glm::vec3 texel_radiance(std::size_t texel) const {
+    const float w = weight[texel];
+    if (!(w > 0.0f)) return glm::vec3(0.0f);
+    const float* p = &weighted_radiance[3 * texel];
+    return glm::vec3(p[0], p[1], p[2]) / w;
+  }
+
+  // The map's radiance at continuous texel coordinates p (texel centres at +0.5): bilinear
+  // over sum(w L) and sum(w), so texels without data do not darken their neighbours.
+  bool lookup_texel(glm::dvec2 p, glm::vec3& radiance) const {
+    const EnvLayout& layout = options.layout;
+    const int w = layout.width(), h = layout.height();
+    p -= 0.5;
+    const int x0 = int(std::floor(p.x)), y0 = int(std::floor(p.y));
+    const float fx = float(p.x - x0), fy = float(p.y - y0);
+    const bool wrap = layout.projection() == Projection::LatLong;
+    glm::vec3 sum_wl(0.0f);
+    float sum_w = 0.0f;
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        const int x = wrap ? (x0 + dx + w) % w : std::clamp(x0 + dx, 0, w - 1);
+        const int y = std::clamp(y0 + dy, 0, h - 1);
+        const float f = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
+        const std::size_t i = std::size_t(y) * w + x;
+        const float* q = &weighted_radiance[3 * i];
+        sum_wl += f * glm::vec3(q[0], q[1], q[2]);
+        sum_w += f * weight[i];
+      }
+    if (!(sum_w > 0.0f)) return false;
+    radiance = sum_wl / sum_w;
+    return true;
+  }
+
+  // The map rendered into the alignment camera at `orientation`, 8-bit gray through the frame's
+  // exposure and the camera response (so it looks like the frame), and where it has data.
+  // Texel coordinates are computed exactly on a grid of every 4th pixel and interpolated in
+  // between, except in cells that straddle a seam of the projection (lat-long wrap, the angle
+  // map's back pole) and on cube maps, where every pixel is computed.
+  void render_view(const glm::dquat& orientation, double exposure_gain, cv::Mat& gray,
+                   cv::Mat& mask) const {
+    const CameraIntrinsics& ak = align_camera.intrinsics();
+    const EnvLayout& layout = options.layout;
+    const int w = ak.width, h = ak.height;
+    gray.create(h, w, CV_8U);
+    mask.create(h, w, CV_8U);
+    const glm::dmat3 rot = glm::mat3_cast(orientation);
+    const auto texel_of = [&](int x, int y) {
+      return layout.uv_to_pixel(layout.dir_to_uv(rot * align_rays[std::size_t(y) * w + x]));
+    };
+    constexpr int kStep = 4;
+    const int gw = (w - 1) / kStep + 2, gh = (h - 1) / kStep + 2;
+    std::vector<glm::dvec2> grid(std::size_t(gw) * gh);
+    for (int gy = 0; gy < gh; ++gy)
+      for (int gx = 0; gx < gw; ++gx)
+        grid[std::size_t(gy) * gw + gx] =
+            texel_of(std::min(gx * kStep, w - 1), std::min(gy * kStep, h - 1));
+    const bool cube = layout.projection() == Projection::Cube;
+    const double seam = 0.1 * std::max(layout.width(), layout.height());
+    const float top = float(gray_code.size() - 1);
+    for (int gy = 0; gy + 1 < gh; ++gy)
+      for (int gx = 0; gx + 1 < gw; ++gx) {
+        const glm::dvec2 c00 = grid[std::size_t(gy) * gw + gx],
+                         c10 = grid[std::size_t(gy) * gw + gx + 1],
+                         c01 = grid[std::size_t(gy + 1) * gw + gx],
+                         c11 = grid[std::size_t(gy + 1) * gw + gx + 1];
+        const double spread =
+            std::max({glm::length(c10 - c00), glm::length(c01 - c00), glm::length(c11 - c00)});
+        const bool exact = cube || spread > seam;
+        const int x_end = std::min(w, (gx + 1) * kStep), y_end = std::min(h, (gy + 1) * kStep);
+        const double sx = double(std::min((gx + 1) * kStep, w - 1) - gx * kStep);
+        const double sy = double(std::min((gy + 1) * kStep, h - 1) - gy * kStep);
+        for (int y = gy * kStep; y < y_end; ++y) {
+          auto* g = gray.ptr<std::uint8_t>(y);
+          auto* m = mask.ptr<std::uint8_t>(y);
+          const double ty = sy > 0 ? (y - gy * kStep) / sy : 0.0;
+          for (int x = gx * kStep; x < x_end; ++x) {
+            glm::dvec2 p;
+            if (exact) {
+              p = texel_of(x, y);
+            } else {
+              const double tx = sx > 0 ? (x - gx * kStep) / sx : 0.0;
+              p = (1 - ty) * ((1 - tx) * c00 + tx * c10) + ty * ((1 - tx) * c01 + tx * c11);
+            }
+            glm::vec3 l;
+            const bool seen = cube ? lookup_nearest(rot * align_rays[std::size_t(y) * w + x], l)
+                                   : lookup_texel(p, l);
+            if (!seen) {
+              g[x] = 0, m[x] = 0;
+              continue;
+            }
+            const float lum =
+                (0.2126f * l.x + 0.7152f * l.y + 0.0722f * l.z) * float(exposure_gain);
+            g[x] = gray_code[std::size_t(std::sqrt(std::clamp(lum, 0.0f, 1.0f)) * top + 0.5f)];
+            m[x] = 255;
+          }
+        }
+      }
+  }
+
+  // Cube maps: the nearest texel (faces do not continue across the stored image).
+  bool lookup_nearest(const glm::dvec3& dir, glm::vec3& radiance) const {
+    const glm::ivec2 t = options.layout.dir_to_texel(dir);
+    const std::size_t i = std::size_t(t.y) * options.layout.width() + t.x;
+    radiance = texel_radiance(i);
+    return weight[i] > 0.0f;
+  }
+
+  // The drift model: the offset turns at a constant rate (a gyro bias). The rate is the
+  // least-squares slope of the measured offsets (as rotation vectors) over the last few
+  // seconds, used once they span long enough to tell drift from noise; frames between
+  // alignments, and stretches without features, are corrected by extrapolating it.
+  glm::dquat predict_offset(double timestamp) {
+    const double dt = std::isfinite(timestamp) && has_time ? timestamp - last_time : 0.0;
+    if (std::isfinite(timestamp)) last_time = timestamp, has_time = true;
+    if (dt > 0.0 && dt < 5.0 && glm::length(drift_rate) > 0.0)
+      offset = glm::normalize(
+          glm::angleAxis(glm::length(drift_rate) * dt, glm::normalize(drift_rate)) * offset);
+    return offset;
+  }
+
+  static glm::dvec3 rotation_vector(glm::dquat q) {
+    if (q.w < 0) q = -q;
+    const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    if (s < 1e-15) return glm::dvec3(0.0);
+    return (2.0 * std::atan2(s, q.w) / s) * glm::dvec3(q.x, q.y, q.z);
+  }
+
+  void update_offset(const glm::dquat& measured_offset, double timestamp) {
+    const glm::dvec3 r = rotation_vector(measured_offset * glm::conjugate(offset));
+    if (glm::length(r) > 0.0)
+      offset = glm::normalize(
+          glm::angleAxis(options.align_smoothing * glm::length(r), glm::normalize(r)) * offset);
+    if (!std::isfinite(timestamp)) return;
+    history.push_back({timestamp, rotation_vector(measured_offset)});
+    while (!history.empty() && history.front().first < timestamp - kRateWindow) history.pop_front();
+    if (history.size() < 15 || timestamp - history.front().first < 0.5 * kRateWindow) return;
+    double st = 0, stt = 0;
+    glm::dvec3 sv(0.0), stv(0.0);
+    for (const auto& [t, v] : history) st += t, stt += t * t, sv += v, stv += t * v;
+    const double n = double(history.size()), den = n * stt - st * st;
+    if (!(den > 0.0)) return;
+    drift_rate = (n * stv - st * sv) / den;
+    const double max_rate = glm::radians(options.align_max_drift_deg_per_s);
+    if (glm::length(drift_rate) > max_rate) drift_rate *= max_rate / glm::length(drift_rate);
+  }
+
+  // Kán's alignment: a corrected orientation for the frame, or the sensor's with the predicted
+  // offset when the features do not allow one.
+  glm::dquat align(const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
+                   FrameResult& result) {
+    const glm::dquat predicted = glm::normalize(predict_offset(info.timestamp) * sensor);
+    if (!(covered_solid_angle > 0.0)) return predicted;  // nothing captured yet to align with
+    if (++frames_since_align < options.align_every) return predicted;
+    frames_since_align = 0;
+    cv::Mat rendered, mask;
+    render_view(predicted, info.exposure * info.gain, rendered, mask);
+    if (cv::countNonZero(mask) < int(mask.total() / 5)) {
+      result.align_note = "less than 20 % of the view captured before";
+      return predicted;
+    }
+    // The frame at the alignment resolution, blurred about as much as the map's two
+    // resamplings (frame -> texels -> view) blur the rendering, so corners sit alike in both.
+    const CameraIntrinsics& ak = align_camera.intrinsics();
+    cv::Mat gray, small;
+    cv::cvtColor(bgr8, gray, cv::COLOR_BGR2GRAY);
+    cv::resize(gray, small, cv::Size(ak.width, ak.height), 0, 0, cv::INTER_AREA);
+    const double blur = 0.5 * texel_angle(*table) * ak.fx;  // half a texel, in pixels
+    cv::GaussianBlur(small, small, cv::Size(0, 0), std::max(0.5, blur));
+    const double radius = glm::radians(options.align_max_step_deg) * ak.fx;
+    const RotationFit fit =
+        align_to_rendered(small, rendered, mask, align_camera, options.align_min_inliers, radius);
+    result.align_inliers = fit.inliers;
+    if (!fit.ok) {
+      result.align_note = fit.why;
+      return predicted;
+    }
+    const glm::dquat correction = glm::quat_cast(fit.rotation);  // camera frame
+    const double step = angle_between_deg(correction, glm::dquat(1, 0, 0, 0));
+    if (step > options.align_max_step_deg) {  // a jump this large is a mismatch, not drift
+      result.align_note = "rejected a " + std::to_string(step) + " degree correction";
+      return predicted;
+    }
+    const glm::dquat measured = glm::normalize(predicted * correction);
+    update_offset(glm::normalize(measured * glm::conjugate(sensor)), info.timestamp);
+    result.aligned = true;
+    return glm::normalize(offset * sensor);
+  }
+
+  // Projects the linearised frame into the map (thesis ch. 3: every texel's direction meets the
+  // image plane; the reduced frame is sampled bilinearly there) and updates the live SH.
+  void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
+    const auto t0 = Clock::now();
+    const glm::mat3 to_camera = glm::transpose(glm::mat3(glm::mat3_cast(orientation)));
+    const glm::vec3 forward = glm::vec3(glm::mat3_cast(orientation) * glm::dvec3(0, 0, -1));
+    const float cos_limit = float(cos_field);
+    const bool distorted = has_distortion(camera);
+    const CameraIntrinsics& rk = reduced_camera;
+    const float fx = float(rk.fx), fy = float(rk.fy), cx = float(rk.cx), cy = float(rk.cy);
+    const float max_x = float(frame.width - 1), max_y = float(frame.height - 1);
+    std::vector<glm::dvec3> changed_dirs, changed_values;
+    for (const Tile& tile : tiles) {
+      const float off_axis = std::acos(std::clamp(glm::dot(tile.centre, forward), -1.0f, 1.0f));
+      if (off_axis - tile.radius > float(field_radius)) continue;
+      for (std::size_t k = tile.begin; k < tile.end; ++k) {
+        if (dir_x[k] * forward.x + dir_y[k] * forward.y + dir_z[k] * forward.z < cos_limit)
+          continue;
+        const std::size_t i = order[k];
+        const glm::vec3 c = to_camera * glm::vec3(dir_x[k], dir_y[k], dir_z[k]);
+        if (!(c.z < 0.0f)) continue;
+        float px, py;
+        if (!distorted) {
+          px = fx * (c.x / -c.z) + cx;
+          py = fy * (-c.y / -c.z) + cy;
+        } else {
+          const auto p = pinhole.project(glm::dvec3(c));
+          if (!p) continue;
+          px = float((p->x - 0.5 * (factor - 1)) / factor);
+          py = float((p->y - 0.5 * (factor - 1)) / factor);
+        }
+        if (!(px >= 0.0f && py >= 0.0f && px <= max_x && py <= max_y)) continue;
+        const int x0 = std::min(int(px), frame.width - 2 < 0 ? 0 : frame.width - 2);
+        const int y0 = std::min(int(py), frame.height - 2 < 0 ? 0 : frame.height - 2);
+        const int x1 = std::min(x0 + 1, frame.width - 1), y1 = std::min(y0 + 1, frame.height - 1);
+        const float ax = px - float(x0), ay = py - float(y0);
+        const float f[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+        const std::size_t s[4] = {
+            std::size_t(y0) * frame.width + x0, std::size_t(y0) * frame.width + x1,
+            std::size_t(y1) * frame.width + x0, std::size_t(y1) * frame.width + x1};
+        float sw = 0.0f, r = 0.0f, g = 0.0f, b = 0.0f;
+        for (int k = 0; k < 4; ++k) {
+          sw += f[k] * frame.weight[s[k]];
+          const float* q = &frame.weighted_radiance[3 * s[k]];
+          r += f[k] * q[0], g += f[k] * q[1], b += f[k] * q[2];
+        }
+        if (!(sw > 1e-6f)) continue;
+        const std::size_t texel = table->index[i];
+        const glm::vec3 before = texel_radiance(texel);
+        const bool was_covered = weight[texel] > 0.0f;
+        float* acc = &weighted_radiance[3 * texel];
+        acc[0] += r, acc[1] += g, acc[2] += b;
+        weight[texel] += sw;
+        const glm::vec3 change = texel_radiance(texel) - before;
+        if (!was_covered) covered_solid_angle += table->solid_angle[i];
+        if (change != glm::vec3(0.0f)) {
+          changed_dirs.emplace_back(table->x[i], table->y[i], table->z[i]);
+          changed_values.push_back(glm::dvec3(change) * table->solid_angle[i]);
+        }
+      }
+    }
+    result.texels_changed = changed_dirs.size();
+    result.project_ms = ms_since(t0);
+    // Live SH: only the change of the texels this frame touched is projected (eq. 2.29 is
+    // linear in L), so the coefficients equal a full projection of the current map.
+    const auto t1 = Clock::now();
+    sh_accumulate(sh, changed_dirs, changed_values);
+    result.sh_ms = ms_since(t1);
+  }
+
+  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result) {
+    if (std::string why = check_frame_info(info); !why.empty()) {
+      result.skipped_reason = why;
+      return result;
+    }
+    if (bgr8.type() != CV_8UC3) {
+      result.skipped_reason = "image is not 8-bit, 3-channel";
+      return result;
+    }
+    if (bgr8.cols != camera.width || bgr8.rows != camera.height) {
+      result.skipped_reason = "image is " + size_text(bgr8.cols, bgr8.rows) +
+                              ", the camera's intrinsics say " +
+                              size_text(camera.width, camera.height);
+      return result;
+    }
+    const double exposure_gain = info.exposure * info.gain;
+    auto t0 = Clock::now();
+    const LinearFrame frame = linearize(bgr8, response, exposure_gain, factor);
+    result.linearize_ms = ms_since(t0);
+    const glm::dquat sensor = glm::normalize(info.orientation);
+    t0 = Clock::now();
+    result.orientation = options.align ? align(bgr8, info, sensor, result) : sensor;
+    result.align_ms = ms_since(t0);
+    result.correction_deg = angle_between_deg(result.orientation, sensor);
+    project(frame, result.orientation, result);
+    result.used = true;
+    ++used;
+    return result;
+  }
+};
+
+CaptureSession::CaptureSession(const CameraIntrinsics& camera, CameraResponse response,
+                               CaptureOptions options)
+    : impl_(std::make_unique<Impl>(camera, std::move(response), std::move(options))) {}
+CaptureSession::~CaptureSession() = default;
+CaptureSession::CaptureSession(CaptureSession&&) noexcept = default;
+CaptureSession& CaptureSession::operator=(CaptureSession&&) noexcept = default;
+
+FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
+                                        const FrameInfo& info) {
+  ++impl_->added;
+  FrameResult result;
+  const auto t0 = Clock::now();
+  cv::Mat image;
+  try {
+    const cv::Mat buffer(1, int(bytes.size()), CV_8U, const_cast<std::uint8_t*>(bytes.data()));
+    if (!bytes.empty()) image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+  } catch (const cv::Exception&) {
+    image.release();
+  }
+  result.decode_ms = ms_since(t0);
+  if (image.empty()) {
+    result.skipped_reason = "cannot decode the image (" + std::to_string(bytes.size()) + " bytes)";
+    return result;
+  }
+  return impl_->add(image, info, result);
+}
+
+FrameResult CaptureSession::add_image(const cv::Mat& bgr8, const FrameInfo& info) {
+  ++impl_->added;
+  return impl_->add(bgr8, info, FrameResult{});
+}
+
+const EnvLayout& CaptureSession::layout() const { return impl_->options.layout; }
+const CameraIntrinsics& CaptureSession::camera() const { return impl_->camera; }
+const CameraResponse& CaptureSession::response() const { return impl_->response; }
+const CaptureOptions& CaptureSession::options() const { return impl_->options; }
+
+EnvMap CaptureSession::environment() const {
+  EnvMap env(impl_->options.layout);
+  float* out = env.image.data();
+  for (std::size_t t = 0; t < impl_->weight.size(); ++t) {
+    const glm::vec3 l = impl_->texel_radiance(t);
+    out[3 * t] = l.x, out[3 * t + 1] = l.y, out[3 * t + 2] = l.z;
+  }
+  return env;
+}
+
+std::vector<float> CaptureSession::weights() const { return impl_->weight; }
+
+double CaptureSession::coverage() const {
+  return impl_->covered_solid_angle / (4.0 * std::numbers::pi);
+}
+
+const ShCoeffs& CaptureSession::sh() const { return impl_->sh; }
+std::size_t CaptureSession::frames_added() const { return impl_->added; }
+std::size_t CaptureSession::frames_used() const { return impl_->used; }
+
+Accumulators CaptureSession::accumulators() const {
+  return {impl_->weighted_radiance, impl_->weight};
+}
+
+void CaptureSession::restore(const Accumulators& acc) {
+  Impl& s = *impl_;
+  if (acc.weight.size() != s.weight.size() ||
+      acc.weighted_radiance.size() != s.weighted_radiance.size())
+    throw std::invalid_argument("capture: accumulators of " + std::to_string(acc.weight.size()) +
+                                " texels do not fit a map of " + std::to_string(s.weight.size()));
+  for (std::size_t t = 0; t < acc.weight.size(); ++t)
+    if (!std::isfinite(acc.weight[t]) || acc.weight[t] < 0.0f ||
+        !std::isfinite(acc.weighted_radiance[3 * t]) ||
+        !std::isfinite(acc.weighted_radiance[3 * t + 1]) ||
+        !std::isfinite(acc.weighted_radiance[3 * t + 2]))
+      throw std::invalid_argument(
+          "capture: accumulators hold a non-finite or negative value at "
+          "texel " +
+          std::to_string(t));
+  s.weighted_radiance = acc.weighted_radiance;
+  s.weight = acc.weight;
+  s.covered_solid_angle = 0.0;
+  for (std::size_t i = 0; i < s.table->size(); ++i)
+    if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
+  s.sh = sh_project(environment(), s.options.sh_order);
+}
+
+}  // namespace arlight::capture

@@ -1,0 +1,272 @@
+// arlight-capture: runs the capture library over a recorded sensor stream and writes the HDR
+// environment map it builds, a coverage picture and a JSON report; or, with --calibrate,
+// recovers the camera response from a bracketed recording.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "arlight/atomic_file.hpp"
+#include "arlight/calibration.hpp"
+#include "arlight/capture.hpp"
+#include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/recording.hpp"
+#include "arlight/truth.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+
+namespace {
+
+struct Options {
+  fs::path recording, out, json, response_dir, response_out;
+  std::string response = "";  // srgb | filmic | FILE; empty: the device's curve or srgb
+  std::string projection = "anglemap";
+  std::string calibrate;  // robertson | debevec
+  int size = 512;
+  int sh_order = 8;
+  bool no_align = false;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The response the frames are linearised with, and where it came from.
+CameraResponse choose_response(const Options& o, const recording::Recording& rec) {
+  if (o.response == "srgb") return CameraResponse::srgb();
+  if (o.response == "filmic") return CameraResponse::filmic();
+  if (!o.response.empty()) return CameraResponse::load(o.response);
+  if (!o.response_dir.empty() && !rec.device_id.empty())
+    if (auto r = capture::ResponseStore(o.response_dir).find(rec.device_id)) {
+      std::printf("using %s's camera response from %s\n", rec.device_id.c_str(),
+                  o.response_dir.c_str());
+      return *r;
+    }
+  return CameraResponse::srgb();
+}
+
+void write_json(const fs::path& path, const nlohmann::json& j) {
+  if (path.has_parent_path()) fs::create_directories(path.parent_path());
+  write_file_atomically(path, j.dump(2) + "\n");
+}
+
+int run_calibration(const Options& o, const recording::Recording& rec) {
+  const auto method = capture::parse_calibration_method(o.calibrate);
+  if (!method) throw InputError("--calibrate: expected robertson or debevec, got " + o.calibrate);
+  if (o.response_out.empty() && o.response_dir.empty())
+    throw InputError("--calibrate needs --response-out FILE or --response-dir DIR");
+  std::vector<cv::Mat> images;
+  std::vector<double> times;
+  glm::dquat first_view{1, 0, 0, 0};
+  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+    const auto& f = rec.frames[i];
+    if (!f.problem.empty()) {
+      std::fprintf(stderr, "frame %zu skipped: %s\n", i, f.problem.c_str());
+      continue;
+    }
+    const std::vector<std::uint8_t> bytes = recording::read_frame_bytes(rec, i);
+    cv::Mat im = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    if (im.empty() || im.cols != rec.camera.width || im.rows != rec.camera.height) {
+      std::fprintf(stderr, "frame %zu skipped: not a %dx%d image\n", i, rec.camera.width,
+                   rec.camera.height);
+      continue;
+    }
+    // A bracket is one view: frames that look elsewhere would calibrate garbage.
+    if (!images.empty() && capture::angle_between_deg(f.orientation, first_view) > 2.0)
+      throw InputError("'" + rec.folder.string() + "' is not a bracket: frame " +
+                       std::to_string(i) + " looks " +
+                       std::to_string(capture::angle_between_deg(f.orientation, first_view)) +
+                       " degrees away from the first (record one view at several exposures, "
+                       "e.g. arlight-sim --bracket 7)");
+    if (images.empty()) first_view = f.orientation;
+    images.push_back(im);
+    times.push_back(f.exposure * f.gain);
+  }
+  const CameraResponse r = capture::calibrate_response(images, times, *method);
+  if (!o.response_out.empty()) {
+    r.save(o.response_out);
+    std::printf("camera response (%s, %zu frames) written to %s\n", o.calibrate.c_str(),
+                images.size(), o.response_out.c_str());
+  }
+  if (!o.response_dir.empty()) {
+    if (rec.device_id.empty())
+      throw InputError("'" + rec.folder.string() +
+                       "' has no device_id, so --response-dir cannot file its curve");
+    capture::ResponseStore(o.response_dir).save(rec.device_id, r);
+    std::printf("camera response stored for device %s in %s\n", rec.device_id.c_str(),
+                o.response_dir.c_str());
+  }
+  return 0;
+}
+
+// 8-bit picture of where the map has data: black never seen, grey to white by summed weight.
+void write_coverage_png(const fs::path& path, const capture::CaptureSession& s) {
+  const std::vector<float> w = s.weights();
+  const EnvLayout& layout = s.layout();
+  float top = 0.0f;
+  for (float v : w) top = std::max(top, v);
+  cv::Mat img(layout.height(), layout.width(), CV_8U);
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) {
+      const float v = w[std::size_t(y) * layout.width() + x];
+      img.at<std::uint8_t>(y, x) =
+          v > 0.0f ? std::uint8_t(64 + std::lround(191.0f * std::min(1.0f, v / top))) : 0;
+    }
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", img, png);
+  write_file_atomically(path, std::string(png.begin(), png.end()));
+}
+
+int run_capture(const Options& o, const recording::Recording& rec) {
+  if (o.out.empty()) throw InputError("--out ENV.exr is required");
+  const auto projection = parse_projection(o.projection);
+  if (!projection) throw InputError("--projection: expected anglemap, latlong or cube");
+  if (o.size < 16 || o.size > 4096) throw InputError("--size must be in [16, 4096]");
+  capture::CaptureOptions options;
+  options.layout = EnvLayout::for_size(*projection, o.size);
+  options.sh_order = o.sh_order;
+  options.align = !o.no_align;
+  capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
+  const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
+
+  nlohmann::json skipped = nlohmann::json::array(), per_frame = nlohmann::json::array();
+  std::vector<double> total_ms, decode_ms, linearize_ms, align_ms, project_ms, sh_ms;
+  double squared_error = 0.0;
+  std::size_t compared = 0, aligned = 0;
+  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+    const recording::Frame& f = rec.frames[i];
+    std::string reason = f.problem;
+    capture::FrameResult r;
+    if (reason.empty()) {
+      try {
+        const std::vector<std::uint8_t> bytes = recording::read_frame_bytes(rec, i);
+        r = session.add_encoded(bytes, {f.timestamp, f.exposure, f.gain, f.orientation});
+        reason = r.skipped_reason;
+      } catch (const InputError& e) {
+        reason = e.what();
+      }
+    }
+    if (!reason.empty()) {
+      skipped.push_back({{"frame", i}, {"reason", reason}});
+      continue;
+    }
+    total_ms.push_back(r.total_ms());
+    decode_ms.push_back(r.decode_ms), linearize_ms.push_back(r.linearize_ms);
+    align_ms.push_back(r.align_ms), project_ms.push_back(r.project_ms), sh_ms.push_back(r.sh_ms);
+    aligned += r.aligned ? 1 : 0;
+    nlohmann::json row = {{"frame", i},
+                          {"ms", r.total_ms()},
+                          {"aligned", r.aligned},
+                          {"inliers", r.align_inliers},
+                          {"correction_deg", r.correction_deg},
+                          {"align_note", r.align_note},
+                          {"texels_changed", r.texels_changed}};
+    if (truth && i < truth->poses.size()) {
+      const double e = capture::angle_between_deg(r.orientation, truth->poses[i].orientation);
+      squared_error += e * e;
+      ++compared;
+      row["error_deg"] = e;
+    }
+    per_frame.push_back(row);
+  }
+
+  const EnvMap env = session.environment();
+  ImageMetadata meta;
+  meta.projection = *projection;
+  for (const glm::dvec3& c : session.sh().c)
+    meta.sh_coefficients.push_back({float(c.x), float(c.y), float(c.z)});
+  meta.description = "captured by arlight-capture from " + rec.folder.string();
+  if (o.out.has_parent_path()) fs::create_directories(o.out.parent_path());
+  write_exr(o.out, env.image.view(), meta);
+  fs::path png = o.out, coverage_png = o.out;
+  png.replace_extension(".png");
+  coverage_png.replace_filename(o.out.stem().string() + "_coverage.png");
+  write_png_preview(png, env.image.view());
+  write_coverage_png(coverage_png, session);
+
+  nlohmann::json j;
+  j["frames"] = rec.frames.size();
+  j["frames_used"] = session.frames_used();
+  j["coverage"] = session.coverage();
+  j["median_frame_ms"] = median(total_ms);
+  j["stages_median_ms"] = {{"decode", median(decode_ms)},
+                           {"linearize", median(linearize_ms)},
+                           {"align", median(align_ms)},
+                           {"project", median(project_ms)},
+                           {"sh", median(sh_ms)}};
+  j["aligned_frames"] = aligned;
+  if (compared) j["orientation_rms_deg"] = std::sqrt(squared_error / double(compared));
+  j["sh_order"] = session.sh().order;
+  j["sh"] = nlohmann::json::array();
+  for (const glm::dvec3& c : session.sh().c) j["sh"].push_back({c.x, c.y, c.z});
+  j["skipped"] = skipped;
+  j["per_frame"] = per_frame;
+  j["response"] = session.response().name();
+  j["map"] = o.out.string();
+  if (!o.json.empty()) write_json(o.json, j);
+
+  std::printf("%zu of %zu frames used (%zu aligned), coverage %.1f %%, median %.2f ms per frame\n",
+              std::size_t(session.frames_used()), rec.frames.size(), aligned,
+              100.0 * session.coverage(), median(total_ms));
+  if (compared)
+    std::printf("orientation error vs truth: %.3f deg RMS\n",
+                j["orientation_rms_deg"].get<double>());
+  for (const auto& s : skipped)
+    std::fprintf(stderr, "frame %zu skipped: %s\n", s["frame"].get<std::size_t>(),
+                 s["reason"].get<std::string>().c_str());
+  std::printf("wrote %s, %s, %s\n", o.out.c_str(), png.c_str(), coverage_png.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"arlight-capture: an HDR environment map from a recorded sensor stream"};
+  Options o;
+  app.add_option("--recording", o.recording, "recording folder (protocol/RECORDING.md)")
+      ->required();
+  app.add_option("--out", o.out,
+                 "environment map to write (EXR; a .png preview and "
+                 "_coverage.png are written beside it)");
+  app.add_option("--size", o.size, "map size: angle map NxN, lat-long 2NxN, cube N a face")
+      ->default_val(512);
+  app.add_option("--projection", o.projection, "anglemap | latlong | cube")
+      ->default_val("anglemap");
+  app.add_flag("--no-align", o.no_align, "use the sensor orientations as they are");
+  app.add_option("--sh-order", o.sh_order, "live SH order (bands)")->default_val(8);
+  app.add_option("--json", o.json, "write a JSON report here");
+  app.add_option("--response", o.response,
+                 "camera response: srgb | filmic | FILE (default: the device's curve from "
+                 "--response-dir, else srgb)");
+  app.add_option("--response-dir", o.response_dir, "folder of per-device response curves");
+  app.add_option("--calibrate", o.calibrate,
+                 "robertson | debevec: calibrate the camera response from a bracketed "
+                 "recording (arlight-sim --bracket) instead of capturing");
+  app.add_option("--response-out", o.response_out, "with --calibrate: write the curve here");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    const recording::Recording rec = recording::read_recording(o.recording);
+    return o.calibrate.empty() ? run_capture(o, rec) : run_calibration(o, rec);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "arlight-capture: bad input: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "arlight-capture: error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,38 @@
+// arlight-sim: what a phone would record standing inside an HDR environment map, with the
+// ground truth next to it (tools/README.md; formats in protocol/RECORDING.md).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "marker.hpp"
+#include "trajectory.hpp"
+
+namespace arlight::sim {
+
+struct SimOptions {
+  std::filesystem::path env;  // the probe
+  std::filesystem::path out;  // the recording folder
+  int frames = 300;
+  double fps = 30;
+  int width = 640, height = 480;
+  double hfov_deg = 60;
+  TrajectoryKind trajectory = TrajectoryKind::Sweep;
+  std::string response = "srgb";  // srgb, filmic or a response JSON file
+  bool auto_exposure = true;
+  double gyro_drift_deg_per_s = 0;
+  double noise = 0.002;  // read noise sigma; 0 = a noiseless sensor (no shot noise either)
+  double vignetting = 0.05;
+  int jpeg_quality = 90;
+  std::optional<MarkerSpec> marker;
+  std::uint64_t seed = 0;
+  int bracket = 0;  // > 0: that many frames of one view, one stop apart
+};
+
+// Renders the recording and its ground truth. Throws InputError for bad input (an unreadable
+// probe or response file, an --out folder that is not a recording); returns the frame count.
+int simulate(const SimOptions& options);
+
+}  // namespace arlight::sim

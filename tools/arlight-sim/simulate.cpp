@@ -1,0 +1,262 @@
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/recording.hpp"
+#include "arlight/resample.hpp"
+#include "arlight/response.hpp"
+#include "arlight/truth.hpp"
+#include "imaging.hpp"
+#include "noise.hpp"
+#include "sim.hpp"
+
+namespace arlight::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kImuRate = 200;               // Hz
+constexpr double kOrientationNoiseDeg = 0.02;  // per axis, white, per frame
+constexpr double kGyroNoise = 0.002;           // rad/s per axis and sample
+constexpr double kAccelNoise = 0.02;           // m/s^2 per axis and sample
+constexpr double kGravity = 9.81;
+constexpr int kMeterCols = 16, kMeterRows = 12;  // the auto-exposure's metering grid
+constexpr int kSuper = 4;                        // supersampling where the marker is
+
+CameraResponse load_response(const std::string& name) {
+  if (name == "srgb") return CameraResponse::srgb();
+  if (name == "filmic") return CameraResponse::filmic();
+  return CameraResponse::load(name);  // InputError naming the file
+}
+
+// An --out folder is either absent, empty, or an earlier recording (which is replaced).
+void prepare_output(const fs::path& out) {
+  std::error_code ec;
+  const std::string q = "--out '" + out.string() + "'";
+  if (fs::exists(out, ec)) {
+    if (!fs::is_directory(out, ec)) throw InputError(q + ": exists and is not a folder");
+    if (!fs::is_empty(out, ec)) {
+      if (!fs::is_regular_file(out / recording::kManifestName, ec))
+        throw InputError(q + ": a non-empty folder that is not a recording (no " +
+                         recording::kManifestName + "); refusing to write into it");
+      // Manifest first: an interrupted cleanup never leaves a manifest without its frames.
+      fs::remove(out / recording::kManifestName);
+      fs::remove(out / "imu.csv");
+      fs::remove_all(out / "frames");
+      fs::remove_all(out / recording::kTruthFolder);
+    }
+  }
+  fs::create_directories(out);
+}
+
+// The true environment as a lat-long map (the probe itself when it is one).
+EnvMap latlong_truth(const EnvMap& env) {
+  if (env.layout.projection() == Projection::LatLong) return env;
+  const int n = env.layout.projection() == Projection::Cube ? 2 * env.layout.face_size()
+                                                            : std::max(16, env.layout.width() / 2);
+  return resample(env, EnvLayout::for_size(Projection::LatLong, n));
+}
+
+// The rendered scene: the environment at infinity and, optionally, the marker on the floor.
+struct Scene {
+  const EnvSampler& env;
+  const std::optional<MarkerScene>& marker;
+
+  glm::vec3 radiance(const glm::dvec3& origin, const glm::dvec3& dir) const {
+    if (marker)
+      if (const auto m = marker->hit(origin, dir)) return *m;
+    return env.sample(dir, 0.0);
+  }
+};
+
+}  // namespace
+
+int simulate(const SimOptions& o) {
+  const CameraResponse response = load_response(o.response);
+  LoadedEnvMap probe = load_envmap(o.env);
+  if (!probe.info.sanitized.clean())
+    std::fprintf(stderr, "arlight-sim: %s: %s\n", o.env.string().c_str(),
+                 probe.info.sanitized.summary().c_str());
+  const EnvMap& env = probe.env;
+  prepare_output(o.out);
+
+  const CameraIntrinsics intrinsics = CameraIntrinsics::from_fov(o.width, o.height, o.hfov_deg);
+  const PinholeCamera camera(intrinsics);
+  const double vfov_deg =
+      2.0 * std::atan(std::tan(0.5 * o.hfov_deg * kDeg) * o.height / o.width) / kDeg;
+  const bool bracket = o.bracket > 0;
+  const int n = bracket ? o.bracket : o.frames;
+  const double duration = (n - 1) / o.fps;
+
+  // Where the camera is: a trajectory, or one fixed view (yaw 0, pitch 0) for a bracket.
+  TrajectoryParams tp;
+  tp.kind = o.trajectory;
+  tp.duration = duration;
+  tp.hfov_deg = o.hfov_deg;
+  tp.vfov_deg = vfov_deg;
+  if (o.marker) tp.target = o.marker->centre;
+  tp.seed = o.seed;
+  const Trajectory trajectory(tp);
+  const std::function<Pose(double)> pose_at = [&](double t) {
+    return bracket ? Pose{} : trajectory.at(t);
+  };
+  const std::function<glm::dvec3(double)> omega_at = [&](double t) {
+    return bracket ? glm::dvec3(0.0) : trajectory.angular_velocity(t);
+  };
+  std::vector<Pose> poses;
+  for (int i = 0; i < n; ++i) poses.push_back(pose_at(i / o.fps));
+
+  const EnvSampler sampler(env);
+  std::optional<MarkerScene> marker;
+  if (o.marker) marker.emplace(*o.marker, upper_hemisphere_irradiance_mean(env));
+  const Scene scene{sampler, marker};
+
+  // Unit camera-space direction of every pixel centre, computed once.
+  std::vector<glm::dvec3> pixel_dir(std::size_t(o.width) * std::size_t(o.height));
+  tbb::parallel_for(0, o.height, [&](int y) {
+    for (int x = 0; x < o.width; ++x)
+      pixel_dir[std::size_t(y) * std::size_t(o.width) + std::size_t(x)] =
+          camera.unproject({double(x), double(y)});
+  });
+
+  // Exposure: meter each view's mean luminance on a coarse grid, then run the auto-exposure.
+  std::vector<double> metered(std::size_t(n), 0.0);
+  tbb::parallel_for(0, n, [&](int i) {
+    double sum = 0;
+    for (int gy = 0; gy < kMeterRows; ++gy)
+      for (int gx = 0; gx < kMeterCols; ++gx) {
+        const glm::dvec2 px((gx + 0.5) * o.width / kMeterCols - 0.5,
+                            (gy + 0.5) * o.height / kMeterRows - 0.5);
+        const Pose& p = poses[std::size_t(i)];
+        sum += luminance(scene.radiance(p.position, p.orientation * camera.unproject(px)));
+      }
+    metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
+  });
+  const std::vector<ExposureSetting> settings =
+      bracket ? bracket_exposures(metered[0], n) : auto_exposure(metered, o.auto_exposure);
+
+  SensorParams sp;
+  sp.read_noise = o.noise;
+  sp.shot_noise = o.noise > 0 ? 1e-4 : 0.0;
+  sp.vignetting = o.vignetting;
+  sp.seed = o.seed;
+  const Sensor sensor(intrinsics, sp, response);
+
+  // One frame: scene radiance per pixel (4x4 supersampled where the marker sheet may be, so
+  // its edges are anti-aliased), then the sensor, then JPEG.
+  auto render = [&](int i) {
+    const Pose& pose = poses[std::size_t(i)];
+    const PixelBox box = marker ? marker->footprint(camera, pose) : PixelBox{};
+    cv::Mat bgr(o.height, o.width, CV_8UC3);
+    tbb::parallel_for(0, o.height, [&](int y) {
+      std::vector<glm::vec3> row(std::size_t(o.width));
+      for (int x = 0; x < o.width; ++x) {
+        const glm::dvec3 dir =
+            pose.orientation * pixel_dir[std::size_t(y) * std::size_t(o.width) + std::size_t(x)];
+        glm::vec3 l;
+        bool done = false;
+        if (x >= box.x0 && x <= box.x1 && y >= box.y0 && y <= box.y1) {
+          glm::dvec3 sum(0.0);
+          bool touched = false;
+          for (int sy = 0; sy < kSuper; ++sy)
+            for (int sx = 0; sx < kSuper; ++sx) {
+              const glm::dvec2 sub(x - 0.5 + (sx + 0.5) / kSuper, y - 0.5 + (sy + 0.5) / kSuper);
+              const glm::dvec3 d = pose.orientation * camera.unproject(sub);
+              const auto m = marker->hit(pose.position, d);
+              touched |= m.has_value();
+              sum += glm::dvec3(m ? *m : sampler.sample(d, 0.0));
+            }
+          if (touched) l = glm::vec3(sum / double(kSuper * kSuper)), done = true;
+        }
+        if (!done) l = sampler.sample(dir, 0.0);
+        row[std::size_t(x)] = l;
+      }
+      sensor.expose_row(std::uint64_t(i), y, row.data(), settings[std::size_t(i)],
+                        bgr.ptr<std::uint8_t>(y));
+    });
+    std::vector<std::uint8_t> jpeg;
+    if (!cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
+      throw std::runtime_error("JPEG encoding failed");
+    return jpeg;
+  };
+
+  // What the phone's orientation sensor reports: heading drift about world +Y (an IMU with
+  // accelerometer tilt correction drifts only in heading) and a little white noise.
+  const double drift_sign = (hash64(o.seed, Stream::DriftSign) & 1) ? 1.0 : -1.0;
+  const double drift = drift_sign * o.gyro_drift_deg_per_s * kDeg;  // rad/s about world +Y
+  auto sensor_orientation = [&](int i) {
+    const double t = i / o.fps;
+    glm::dvec3 v;
+    for (int a = 0; a < 3; ++a)
+      v[a] = kOrientationNoiseDeg * kDeg * normal(hash64(o.seed, Stream::OrientationNoise, i, a));
+    const double angle = glm::length(v);
+    const glm::dquat noise = angle > 0 ? glm::angleAxis(angle, v / angle) : glm::dquat(1, 0, 0, 0);
+    return glm::normalize(glm::angleAxis(drift * t, glm::dvec3(0, 1, 0)) *
+                          poses[std::size_t(i)].orientation * noise);
+  };
+
+  recording::RecordingWriter writer(o.out, intrinsics, "arlight-sim");
+  constexpr int kBatch = 8;  // frames rendered concurrently, then written in order
+  for (int first = 0; first < n; first += kBatch) {
+    const int count = std::min(kBatch, n - first);
+    std::vector<std::vector<std::uint8_t>> jpegs(static_cast<std::size_t>(count));
+    tbb::parallel_for(0, count, [&](int k) { jpegs[std::size_t(k)] = render(first + k); });
+    for (int k = 0; k < count; ++k) {
+      const int i = first + k;
+      writer.add_frame(jpegs[std::size_t(k)], i / o.fps, settings[std::size_t(i)].exposure,
+                       settings[std::size_t(i)].gain, sensor_orientation(i));
+    }
+  }
+
+  // IMU at 200 Hz: gyro = true angular velocity + the drift (in camera coordinates) + noise,
+  // accelerometer = gravity's reaction in camera coordinates + noise.
+  const long samples = std::lround(std::floor(duration * kImuRate + 1e-9)) + 1;
+  for (long k = 0; k < samples; ++k) {
+    const double t = k / kImuRate;
+    const glm::dquat to_camera = glm::conjugate(pose_at(t).orientation);
+    recording::ImuSample s;
+    s.timestamp = t;
+    s.gyro = omega_at(t) + to_camera * glm::dvec3(0, drift, 0);
+    s.accel = to_camera * glm::dvec3(0, kGravity, 0);
+    for (int a = 0; a < 3; ++a) {
+      s.gyro[a] += kGyroNoise * normal(hash64(o.seed, Stream::GyroNoise, std::uint64_t(k), a));
+      s.accel[a] += kAccelNoise * normal(hash64(o.seed, Stream::AccelNoise, std::uint64_t(k), a));
+    }
+    writer.add_imu(s);
+  }
+
+  // The ground truth, before the manifest: a complete recording always has its truth.
+  const fs::path truth_dir = o.out / recording::kTruthFolder;
+  fs::create_directories(truth_dir);
+  ImageMetadata meta;
+  meta.projection = Projection::LatLong;
+  meta.description = "arlight-sim ground truth: " + o.env.string();
+  const EnvMap truth_env = latlong_truth(env);
+  write_exr(truth_dir / "env.exr", truth_env.image.view(), meta);
+  response.save(truth_dir / "response.json");
+  recording::Truth truth;
+  truth.probe = o.env.string();
+  truth.radiance_scale = 1.0;
+  truth.response = response.name();
+  truth.gyro_drift_deg_per_s = drift_sign * o.gyro_drift_deg_per_s;
+  truth.poses = poses;
+  if (marker) {
+    truth.marker = recording::MarkerTruth{"DICT_4X4_50", marker->spec().id, marker->spec().size_m,
+                                          marker->pose()};
+    for (const Pose& p : poses) truth.marker_visible.push_back(marker->visible(camera, p));
+  }
+  recording::write_truth(o.out, truth);
+  writer.finish();
+  return n;
+}
+
+}  // namespace arlight::sim
