@@ -28,6 +28,12 @@ demo: deps
 	@$(MAKE) --no-print-directory build
 	$(BUILD)/bin/arlight-maps compute --input $(DEMO_PROBE) --method auto --size 512 --out $(DEMO_OUT)
 	$(BUILD)/bin/arlight-maps compare --input $(DEMO_PROBE) --size 128 --out $(DEMO_OUT)/compare
+	$(BUILD)/bin/arlight-sim --env $(DEMO_PROBE) --out $(DEMO_OUT)/capture/recording --frames 300 \
+	  --gyro-drift 0.5 --seed 1
+	$(BUILD)/bin/arlight-capture --recording $(DEMO_OUT)/capture/recording \
+	  --out $(DEMO_OUT)/capture/env.exr --json $(DEMO_OUT)/capture/capture.json
+	$(BUILD)/bin/arlight-maps diff --reference $(DEMO_OUT)/capture/recording/truth/env.exr \
+	  --test $(DEMO_OUT)/capture/env.exr --method auto --size 128 --json $(DEMO_OUT)/capture/diff.json
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
 	@echo "  auto_s<S>.exr / .png      irradiance (s = 1) and reflection maps (s = 10 ... 1280) of"
@@ -36,6 +42,11 @@ demo: deps
 	@echo "  maps.json                 seconds per map and how auto made each one"
 	@echo "  compare/contact_sheet.png every method (rows) for every shininess (columns), 128x128"
 	@echo "  compare/compare.json      their times and errors against accurate (thesis eqs. 6.1/6.2)"
+	@echo "  capture/recording/        a simulated phone sweeping $(DEMO_PROBE) (300 frames, 0.5 deg/s"
+	@echo "                            gyro drift), with its ground truth in truth/"
+	@echo "  capture/env.exr / .png    the HDR environment map captured from it; env_coverage.png"
+	@echo "  capture/capture.json      coverage, ms per frame, orientation error vs truth, live SH"
+	@echo "  capture/diff.json         its irradiance/reflection maps against the truth's"
 
 bench: deps
 	@$(MAKE) --no-print-directory build

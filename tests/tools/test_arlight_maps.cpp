@@ -13,28 +13,16 @@
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
+#include "support/run_tool.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
 
 namespace {
 
-struct RunResult {
-  int status;
-  std::string output;  // stdout and stderr
-};
+using test::RunResult;
 
-RunResult run(const std::string& args) {
-  const std::string cmd = std::string(ARLIGHT_MAPS_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  RunResult r{-1, {}};
-  if (!p) return r;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, p)) r.output.append(buf, n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+RunResult run(const std::string& args) { return test::run_tool(ARLIGHT_MAPS_EXE, args); }
 
 fs::path temp_dir(const char* name) {
   fs::path d = fs::temp_directory_path() / ("arlight_maps_test_" + std::string(name));

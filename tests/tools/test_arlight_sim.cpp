@@ -24,6 +24,7 @@
 #include "arlight/resample.hpp"
 #include "arlight/response.hpp"
 #include "arlight/truth.hpp"
+#include "support/run_tool.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
@@ -33,22 +34,9 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-struct RunResult {
-  int status;
-  std::string output;  // stdout and stderr
-};
+using test::RunResult;
 
-RunResult run(const std::string& args) {
-  const std::string cmd = std::string(ARLIGHT_SIM_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  RunResult r{-1, {}};
-  if (!p) return r;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, p)) r.output.append(buf, n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+RunResult run(const std::string& args) { return test::run_tool(ARLIGHT_SIM_EXE, args); }
 
 fs::path temp_dir(const std::string& name) {
   fs::path d = fs::temp_directory_path() / ("arlight_sim_test_" + name);
@@ -400,6 +388,18 @@ TEST(ArlightSim, MarkerIsDetectedWhereTheTruthPutsIt) {
   EXPECT_LT(sum / corners_total, 0.6);
   EXPECT_GE(double(corners_within_1px), 0.9 * corners_total);
   RecordProperty("mean_corner_error_px", std::to_string(sum / corners_total));
+}
+
+TEST(ArlightSim, HdrModeDarkensEverySecondFrameByTheStopsAsked) {
+  const fs::path out =
+      simulate("hdr", "--frames 8 --size 160x120 --auto-exposure off --hdr-stops 3");
+  const Recording rec = read_recording(out);
+  ASSERT_EQ(rec.frames.size(), 8u);
+  const double normal = rec.frames[0].exposure * rec.frames[0].gain;
+  for (std::size_t i = 0; i < 8; ++i)
+    EXPECT_NEAR(rec.frames[i].exposure * rec.frames[i].gain, i % 2 ? normal / 8 : normal,
+                1e-9 * normal)
+        << i;
 }
 
 TEST(ArlightSim, BracketIsOneViewOneStopApart) {

@@ -32,6 +32,7 @@ struct Options {
   std::string calibrate;  // robertson | debevec
   int size = 512;
   int sh_order = 8;
+  int align_every = 0;  // 0: the library's default
   bool no_align = false;
 };
 
@@ -137,6 +138,8 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   options.layout = EnvLayout::for_size(*projection, o.size);
   options.sh_order = o.sh_order;
   options.align = !o.no_align;
+  if (o.align_every < 0) throw InputError("--align-every must be >= 1");
+  if (o.align_every > 0) options.align_every = o.align_every;
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
@@ -245,6 +248,8 @@ int main(int argc, char** argv) {
       ->default_val("anglemap");
   app.add_flag("--no-align", o.no_align, "use the sensor orientations as they are");
   app.add_option("--sh-order", o.sh_order, "live SH order (bands)")->default_val(8);
+  app.add_option("--align-every", o.align_every,
+                 "align every n-th frame (the others extrapolate the drift); default 1");
   app.add_option("--json", o.json, "write a JSON report here");
   app.add_option("--response", o.response,
                  "camera response: srgb | filmic | FILE (default: the device's curve from "

@@ -88,6 +88,9 @@ int main(int argc, char** argv) {
   app.add_option("--response", o.response, "camera response: srgb, filmic or a JSON file")
       ->capture_default_str();
   app.add_option("--auto-exposure", auto_exposure, "on or off")->capture_default_str();
+  app.add_option("--hdr-stops", o.hdr_stops,
+                 "every second frame this many stops darker (HDR capture mode); 0: off")
+      ->capture_default_str();
   app.add_option("--gyro-drift", o.gyro_drift_deg_per_s, "heading drift, degrees per second")
       ->capture_default_str();
   app.add_option("--noise", o.noise, "read noise sigma (linear, full scale = 1); 0: no noise")
@@ -128,6 +131,8 @@ int main(int argc, char** argv) {
     if (auto_exposure != "on" && auto_exposure != "off")
       throw InputError("--auto-exposure '" + auto_exposure + "': use on or off");
     o.auto_exposure = auto_exposure == "on";
+    if (!(o.hdr_stops >= 0 && o.hdr_stops <= 10))
+      throw InputError("--hdr-stops must be in [0, 10]");
     if (!(o.gyro_drift_deg_per_s >= 0) || o.gyro_drift_deg_per_s > 100)
       throw InputError("--gyro-drift: must be 0..100 degrees per second");
     if (!(o.noise >= 0) || o.noise > 1) throw InputError("--noise: must be 0..1");

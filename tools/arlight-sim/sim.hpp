@@ -22,6 +22,9 @@ struct SimOptions {
   TrajectoryKind trajectory = TrajectoryKind::Sweep;
   std::string response = "srgb";  // srgb, filmic or a response JSON file
   bool auto_exposure = true;
+  // > 0: every second frame is exposed this many stops below the auto-exposure (a capture
+  // app's HDR mode, so that light sources are seen unclipped).
+  double hdr_stops = 0;
   double gyro_drift_deg_per_s = 0;
   double noise = 0.002;  // read noise sigma; 0 = a noiseless sensor (no shot noise either)
   double vignetting = 0.05;

@@ -141,8 +141,11 @@ int simulate(const SimOptions& o) {
       }
     metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
   });
-  const std::vector<ExposureSetting> settings =
+  std::vector<ExposureSetting> settings =
       bracket ? bracket_exposures(metered[0], n) : auto_exposure(metered, o.auto_exposure);
+  if (!bracket && o.hdr_stops > 0)
+    for (std::size_t i = 1; i < settings.size(); i += 2)
+      settings[i] = split_exposure(settings[i].product() * std::exp2(-o.hdr_stops));
 
   SensorParams sp;
   sp.read_noise = o.noise;
