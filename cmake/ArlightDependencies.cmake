@@ -27,6 +27,8 @@ macro(arlight_find_pkgconfig prefix module)
   endif()
 endmacro()
 
+find_package(Threads REQUIRED)
+
 # common: images, HDR I/O, math
 arlight_find(OpenImageIO DEB libopenimageio-dev CONFIG)
 arlight_find(OpenEXR DEB libopenexr-dev CONFIG)

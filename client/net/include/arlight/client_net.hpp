@@ -1,0 +1,111 @@
+// The protocol client (protocol/PROTOCOL.md): connect to arlightd, handshake, send intrinsics
+// and frames, receive lighting updates and assemble map tiles into maps. Sends are made from
+// the caller's thread; a background thread reads, verifies and decodes what the server sends.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/capture.hpp"
+#include "arlight/projection.hpp"
+#include "arlight/sh.hpp"
+
+namespace arlight::client {
+
+// The server refused something or the connection failed; `code` is the wire ErrorCode's name
+// when the server sent an Error ("Unauthorized", ...), "Network" or "Protocol" otherwise.
+class ClientError : public std::runtime_error {
+ public:
+  ClientError(std::string code, const std::string& message)
+      : std::runtime_error(code + ": " + message), code_(std::move(code)) {}
+  const std::string& code() const { return code_; }
+
+ private:
+  std::string code_;
+};
+
+struct Welcome {
+  std::string session_id;
+  std::string server_version;
+  bool resumed = false;
+  std::uint64_t frames_processed = 0;
+};
+
+struct LightingUpdate {
+  std::uint64_t frame_sequence = 0;
+  bool frame_used = false;
+  std::string reason;
+  ShCoeffs sh;
+  glm::vec3 dominant_direction{0.0f}, dominant_colour{0.0f};
+  double coverage = 0;
+  std::uint64_t frames_processed = 0, frames_dropped = 0;
+  std::chrono::steady_clock::time_point received;
+};
+
+// A map set as it arrives: level-0 tiles fill `maps`; complete once MapSetComplete came.
+struct MapSet {
+  std::uint32_t id = 0;
+  std::vector<double> shininess;
+  std::vector<EnvMap> maps;
+  std::vector<std::size_t> texels_received;  // per map, level 0
+  bool preview_received = false;             // the coarse tiles of every map
+  bool complete = false;
+  double server_seconds = 0;
+};
+
+class Client {
+ public:
+  Client();
+  ~Client();  // closes
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  // Connects and handshakes; throws ClientError (e.g. code "Unauthorized").
+  Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,
+                  const std::string& token, const std::string& client_name = "arlight-client-net",
+                  const std::string& resume_session = {},
+                  std::chrono::milliseconds timeout = std::chrono::seconds(10));
+
+  void send_intrinsics(const CameraIntrinsics& camera);
+  void send_jpeg_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width,
+                       int height, std::span<const std::uint8_t> jpeg);
+  void request_maps(const std::vector<double>& shininess, int size,
+                    Projection projection = Projection::AngleMap, const std::string& method = "auto");
+  void ping(std::uint64_t nonce);
+  void bye();
+  void send_raw(std::span<const std::uint8_t> bytes);  // tests: anything at all
+  void close();
+
+  // Called on the reader thread.
+  std::function<void(const LightingUpdate&)> on_update;
+  std::function<void(const MapSet&)> on_map_set_complete;
+
+  // Waits until pred() (evaluated under the client's lock) holds, the connection ends or the
+  // timeout passes; returns pred().
+  bool wait_for(const std::function<bool()>& pred, std::chrono::milliseconds timeout);
+
+  // State, read under the lock in wait_for predicates or via these copies.
+  std::optional<LightingUpdate> last_update() const;
+  std::optional<MapSet> last_complete_maps() const;
+  std::optional<std::pair<std::string, std::string>> server_error() const;  // code, message
+  bool connected() const;
+  std::uint64_t updates_received() const;
+  std::uint64_t map_sets_completed() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace arlight::client

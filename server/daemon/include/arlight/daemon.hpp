@@ -1,0 +1,61 @@
+// arlightd: the lighting daemon. Phones and webcams connect over TCP (protocol/PROTOCOL.md),
+// stream frames and orientation, and get live SH after every frame and map sets (irradiance and
+// reflection maps) in the background while they capture. Sessions checkpoint to the data
+// folder and can be resumed after a disconnect or a restart.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "arlight/wire.hpp"
+
+namespace arlight::daemon {
+
+struct DaemonConfig {
+  std::string listen_host = "127.0.0.1";
+  std::uint16_t listen_port = 7878;   // 0: an ephemeral port (tests)
+  std::string admin_host = "127.0.0.1";
+  std::uint16_t admin_port = 7879;    // 0: ephemeral
+  bool admin_enabled = true;
+  std::filesystem::path data_dir = "arlight-data";
+  std::filesystem::path tokens_file;  // required: "<device-id> <token>" lines
+  int threads = 0;                    // network threads; 0: hardware concurrency
+  int workers = 0;                    // frame-processing threads; 0: hardware concurrency
+  int max_sessions = 32;              // live sessions at once
+  double idle_timeout_s = 300;        // a session without a connection is closed (kept on disk)
+  double checkpoint_interval_s = 2;
+  int map_size = 512;                 // capture map: angle map N x N
+  wire::WireLimits limits;
+  std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
+};
+
+// Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
+// idle_timeout_s, checkpoint_interval_s, map_size) over `config`. InputError names the file and key.
+void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
+
+// "host:port" -> host, port; InputError otherwise.
+void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port);
+
+class Daemon {
+ public:
+  // Loads the tokens and binds the ports (InputError / std::runtime_error naming what failed).
+  explicit Daemon(DaemonConfig config);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  void start();                      // runs the network and worker threads
+  void stop();                       // closes everything, checkpoints every session
+  void wait();                       // until stop() (e.g. from a signal handler thread)
+  std::uint16_t port() const;
+  std::uint16_t admin_port() const;  // 0 when disabled
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace arlight::daemon

@@ -1,0 +1,68 @@
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "arlight/daemon.hpp"
+#include "arlight/error.hpp"
+
+namespace arlight::daemon {
+
+void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+    throw InputError("'" + text + "': expected HOST:PORT");
+  const std::string p = text.substr(colon + 1);
+  if (p.size() > 5 || !std::all_of(p.begin(), p.end(), ::isdigit) || std::stoi(p) > 65535)
+    throw InputError("'" + text + "': the port must be a number 0-65535");
+  host = text.substr(0, colon);
+  port = std::uint16_t(std::stoi(p));
+}
+
+void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
+  const std::string where = "config '" + path.string() + "'";
+  std::ifstream in(path);
+  if (!in) throw InputError(where + ": cannot read it");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(where + ": not JSON: " + e.what());
+  }
+  if (!j.is_object()) throw InputError(where + ": expected a JSON object");
+  for (const auto& [key, value] : j.items()) {
+    try {
+      if (key == "listen")
+        parse_endpoint(value.get<std::string>(), c.listen_host, c.listen_port);
+      else if (key == "admin") {
+        const std::string a = value.get<std::string>();
+        c.admin_enabled = !a.empty();
+        if (c.admin_enabled) parse_endpoint(a, c.admin_host, c.admin_port);
+      } else if (key == "data_dir")
+        c.data_dir = value.get<std::string>();
+      else if (key == "tokens")
+        c.tokens_file = value.get<std::string>();
+      else if (key == "threads")
+        c.threads = value.get<int>();
+      else if (key == "workers")
+        c.workers = value.get<int>();
+      else if (key == "max_sessions")
+        c.max_sessions = value.get<int>();
+      else if (key == "idle_timeout_s")
+        c.idle_timeout_s = value.get<double>();
+      else if (key == "checkpoint_interval_s")
+        c.checkpoint_interval_s = value.get<double>();
+      else if (key == "map_size")
+        c.map_size = value.get<int>();
+      else if (key == "tls_cert" || key == "tls_key") {
+        if (!value.get<std::string>().empty())
+          throw InputError("TLS is not built into this arlightd yet; terminate TLS in front of it");
+      } else
+        throw InputError("unknown key");
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(where + ": " + key + ": " + e.what());
+    } catch (const InputError& e) {
+      throw InputError(where + ": " + key + ": " + e.what());
+    }
+  }
+}
+
+}  // namespace arlight::daemon

@@ -1,0 +1,340 @@
+#include "arlight/daemon.hpp"
+
+#include <openssl/rand.h>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/thread_pool.hpp>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "arlight/admin_http.hpp"
+#include "arlight/error.hpp"
+#include "arlight/metrics.hpp"
+#include "connection.hpp"
+#include "tokens.hpp"
+
+namespace arlight::daemon {
+
+namespace asio = boost::asio;
+using asio::ip::tcp;
+
+namespace {
+
+constexpr const char* kServerVersion = "arlightd 0.1.0";
+
+std::string new_session_id() {
+  unsigned char bytes[16];
+  if (RAND_bytes(bytes, sizeof bytes) != 1) throw std::runtime_error("no randomness for a session id");
+  static const char* hex = "0123456789abcdef";
+  std::string id;
+  for (unsigned char b : bytes) id += hex[b >> 4], id += hex[b & 15];
+  return id;
+}
+
+bool valid_session_id(const std::string& id) {
+  return !id.empty() && id.size() <= 64 &&
+         std::all_of(id.begin(), id.end(), [](char c) {
+           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                  c == '-';
+         });
+}
+
+unsigned hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
+
+}  // namespace
+
+struct Daemon::Impl {
+  DaemonConfig config;
+  TokenStore tokens;
+  asio::io_context io;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  asio::thread_pool workers;
+  tcp::acceptor acceptor{io};
+  admin::Registry metrics;
+  SessionEnv session_env;
+  ConnectionEnv connection_env;
+  std::unique_ptr<admin::AdminServer> admin_server;
+  asio::steady_timer housekeeping{io};
+  std::vector<std::thread> threads;
+  std::uint16_t bound_port = 0;
+
+  std::mutex sessions_mutex;
+  std::map<std::string, std::shared_ptr<Session>> sessions;
+  std::mutex connections_mutex;
+  std::vector<std::weak_ptr<Connection>> connections;
+
+  std::mutex stop_mutex;
+  std::condition_variable stopped_cv;
+  bool stopped = false;
+
+  // Logging of bad input is rate-limited: a flood of garbage must not flood the log.
+  std::mutex log_mutex;
+  Clock::time_point log_window = Clock::now();
+  int log_lines = 0, log_suppressed = 0;
+
+  admin::Gauge& sessions_gauge;
+
+  explicit Impl(DaemonConfig c)
+      : config(std::move(c)),
+        tokens(TokenStore::load(config.tokens_file)),
+        workers(config.workers > 0 ? unsigned(config.workers) : hardware_threads()),
+        sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
+    session_env.data_dir = config.data_dir;
+    session_env.map_size = config.map_size;
+    session_env.limits = config.limits;
+    session_env.workers = &workers;
+    session_env.frames_received =
+        &metrics.counter("arlight_frames_received_total", "camera frames received");
+    session_env.frames_processed =
+        &metrics.counter("arlight_frames_processed_total", "frames merged into a session's map");
+    session_env.frames_dropped = &metrics.counter(
+        "arlight_frames_dropped_total", "frames replaced by a newer one before processing");
+    session_env.frames_skipped =
+        &metrics.counter("arlight_frames_skipped_total", "frames refused by the capture library");
+    session_env.map_sets =
+        &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
+    const std::vector<double> ms = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1};
+    session_env.processing_seconds = &metrics.histogram(
+        "arlight_frame_processing_seconds", "capture time per frame", ms);
+    session_env.update_latency_seconds = &metrics.histogram(
+        "arlight_update_latency_seconds", "frame received to LightingUpdate sent", ms);
+    session_env.map_set_seconds = &metrics.histogram(
+        "arlight_map_set_seconds", "time to compute and send a map set", {0.1, 0.5, 1, 2, 5, 10, 30});
+    std::filesystem::create_directories(config.data_dir / "sessions");
+
+    connection_env.limits = config.limits;
+    connection_env.max_send_queue_bytes = config.max_send_queue_bytes;
+    connection_env.server_version = kServerVersion;
+    connection_env.open_session = [this](const wire::Hello& h, wire::ErrorCode& code,
+                                         std::string& why) { return open_session(h, code, why); };
+    connection_env.log = [this](const std::string& line) { log(line); };
+
+    const tcp::endpoint ep(asio::ip::make_address(config.listen_host), config.listen_port);
+    acceptor.open(ep.protocol());
+    acceptor.set_option(tcp::acceptor::reuse_address(true));
+    boost::system::error_code ec;
+    acceptor.bind(ep, ec);
+    if (ec)
+      throw std::runtime_error("cannot listen on " + config.listen_host + ":" +
+                               std::to_string(config.listen_port) + ": " + ec.message());
+    acceptor.listen();
+    bound_port = acceptor.local_endpoint().port();
+
+    if (config.admin_enabled) {
+      admin::AdminHandlers h;
+      h.metrics = [this] { return metrics.render(); };
+      h.sessions_json = [this] { return sessions_json(); };
+      h.envmap_png = [this](const std::string& id) -> std::optional<std::vector<std::uint8_t>> {
+        std::lock_guard lock(sessions_mutex);
+        const auto it = sessions.find(id);
+        if (it == sessions.end()) return std::nullopt;
+        return it->second->envmap_png();
+      };
+      h.healthy = [this] { return acceptor.is_open(); };
+      admin_server =
+          std::make_unique<admin::AdminServer>(io, config.admin_host, config.admin_port, h);
+    }
+  }
+
+  void log(const std::string& line) {
+    std::lock_guard lock(log_mutex);
+    const auto now = Clock::now();
+    if (now - log_window > std::chrono::seconds(10)) {
+      if (log_suppressed) spdlog::warn("({} more such messages suppressed)", log_suppressed);
+      log_window = now, log_lines = 0, log_suppressed = 0;
+    }
+    if (++log_lines <= 20)
+      spdlog::warn("{}", line);
+    else
+      ++log_suppressed;
+  }
+
+  std::string sessions_json() {
+    nlohmann::json j = nlohmann::json::array();
+    std::lock_guard lock(sessions_mutex);
+    for (const auto& [id, s] : sessions) j.push_back(s->summary());
+    return j.dump();
+  }
+
+  std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
+                                        std::string& why) {
+    const std::string device = h.device_id() ? h.device_id()->str() : "";
+    const std::string token = h.auth_token() ? h.auth_token()->str() : "";
+    if (!tokens.check(device, token)) {
+      code = wire::ErrorCode::Unauthorized;
+      why = "unauthorized: unknown device or wrong token";
+      return nullptr;
+    }
+    const std::string resume = h.resume_session() ? h.resume_session()->str() : "";
+    std::lock_guard lock(sessions_mutex);
+    if (!resume.empty()) {
+      if (!valid_session_id(resume)) {
+        code = wire::ErrorCode::BadMessage;
+        why = "resume_session: not a session id";
+        return nullptr;
+      }
+      std::shared_ptr<Session> s;
+      if (const auto it = sessions.find(resume); it != sessions.end()) {
+        s = it->second;
+      } else {
+        try {
+          s = Session::load(resume, session_env);
+        } catch (const InputError& e) {
+          code = wire::ErrorCode::Internal;
+          why = e.what();
+          return nullptr;
+        }
+        if (s) sessions.emplace(resume, s);
+      }
+      if (!s || s->device_id() != device) {
+        code = wire::ErrorCode::SessionNotFound;
+        why = "no session " + resume + " for this device";
+        return nullptr;
+      }
+      sessions_gauge.set(double(sessions.size()));
+      return s;
+    }
+    if (int(sessions.size()) >= config.max_sessions) {
+      code = wire::ErrorCode::Busy;
+      why = "the server carries its maximum of " + std::to_string(config.max_sessions) +
+            " sessions";
+      return nullptr;
+    }
+    auto s = std::make_shared<Session>(new_session_id(), device, session_env);
+    sessions.emplace(s->id(), s);
+    sessions_gauge.set(double(sessions.size()));
+    return s;
+  }
+
+  void accept() {
+    acceptor.async_accept(asio::make_strand(io), [this](boost::system::error_code ec,
+                                                        tcp::socket socket) {
+      if (ec) {
+        if (acceptor.is_open()) accept();
+        return;
+      }
+      auto c = std::make_shared<Connection>(std::move(socket), connection_env);
+      {
+        std::lock_guard lock(connections_mutex);
+        std::erase_if(connections, [](const auto& w) { return w.expired(); });
+        connections.push_back(c);
+      }
+      c->start();
+      accept();
+    });
+  }
+
+  // Every second: checkpoint what changed (at the configured interval) and close sessions idle
+  // past the timeout (they stay on disk for a resume).
+  Clock::time_point last_checkpoint = Clock::now();
+  void schedule_housekeeping() {
+    housekeeping.expires_after(std::chrono::milliseconds(250));
+    housekeeping.async_wait([this](boost::system::error_code ec) {
+      if (ec) return;
+      const auto now = Clock::now();
+      std::vector<std::shared_ptr<Session>> all;
+      {
+        std::lock_guard lock(sessions_mutex);
+        for (auto& [id, s] : sessions) all.push_back(s);
+      }
+      if (now - last_checkpoint >= std::chrono::duration<double>(config.checkpoint_interval_s)) {
+        last_checkpoint = now;
+        asio::post(workers, [all] {
+          for (const auto& s : all) {
+            try {
+              s->checkpoint();
+            } catch (const std::exception& e) {
+              spdlog::error("checkpoint of session {} failed: {}", s->id(), e.what());
+            }
+          }
+        });
+      }
+      for (const auto& s : all)
+        if (!s->attached() &&
+            now - s->last_activity() > std::chrono::duration<double>(config.idle_timeout_s)) {
+          asio::post(workers, [this, s] {
+            s->checkpoint();
+            s->shutdown();
+            std::lock_guard lock(sessions_mutex);
+            sessions.erase(s->id());
+            sessions_gauge.set(double(sessions.size()));
+          });
+        }
+      schedule_housekeeping();
+    });
+  }
+};
+
+Daemon::Daemon(DaemonConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+Daemon::~Daemon() { stop(); }
+
+void Daemon::start() {
+  Impl& d = *impl_;
+  d.work.emplace(d.io.get_executor());
+  d.accept();
+  if (d.admin_server) d.admin_server->start();
+  d.schedule_housekeeping();
+  const unsigned n = d.config.threads > 0 ? unsigned(d.config.threads) : hardware_threads();
+  for (unsigned i = 0; i < n; ++i) d.threads.emplace_back([&d] { d.io.run(); });
+  spdlog::info("arlightd listening on {}:{} (admin {}), data in {}", d.config.listen_host,
+               port(), admin_port(), d.config.data_dir.string());
+}
+
+void Daemon::stop() {
+  Impl& d = *impl_;
+  {
+    std::lock_guard lock(d.stop_mutex);
+    if (d.stopped) return;
+    d.stopped = true;
+  }
+  asio::post(d.io, [&d] {
+    boost::system::error_code e;
+    d.acceptor.close(e);
+    d.housekeeping.cancel();
+    if (d.admin_server) d.admin_server->stop();
+  });
+  {
+    std::lock_guard lock(d.connections_mutex);
+    for (auto& w : d.connections)
+      if (auto c = w.lock()) c->close();
+  }
+  std::vector<std::shared_ptr<Session>> all;
+  {
+    std::lock_guard lock(d.sessions_mutex);
+    for (auto& [id, s] : d.sessions) all.push_back(s);
+  }
+  for (const auto& s : all) {
+    s->shutdown();
+    try {
+      s->checkpoint();
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint of session {} failed: {}", s->id(), e.what());
+    }
+  }
+  d.work.reset();
+  d.io.stop();
+  for (auto& t : d.threads)
+    if (t.joinable()) t.join();
+  d.workers.join();
+  d.stopped_cv.notify_all();
+}
+
+void Daemon::wait() {
+  std::unique_lock lock(impl_->stop_mutex);
+  impl_->stopped_cv.wait(lock, [this] { return impl_->stopped; });
+}
+
+std::uint16_t Daemon::port() const { return impl_->bound_port; }
+
+std::uint16_t Daemon::admin_port() const {
+  return impl_->admin_server ? impl_->admin_server->port() : 0;
+}
+
+}  // namespace arlight::daemon

@@ -1,0 +1,85 @@
+// arlightd: the lighting daemon (see README.md and protocol/PROTOCOL.md).
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <cstdio>
+#include <spdlog/spdlog.h>
+#include <thread>
+
+#include "arlight/daemon.hpp"
+#include "arlight/error.hpp"
+
+using namespace arlight;
+
+int main(int argc, char** argv) {
+  CLI::App app{"arlightd: builds HDR environment maps from phones' and webcams' frames and "
+               "streams lighting back"};
+  daemon::DaemonConfig c;
+  std::string listen, admin, config, tls_cert, tls_key;
+  std::string data_dir, tokens;
+  app.add_option("--config", config, "JSON config file (flags given here override it)");
+  app.add_option("--listen", listen, "HOST:PORT for clients (default 127.0.0.1:7878)");
+  app.add_option("--admin", admin, "HOST:PORT of the admin HTTP server (default 127.0.0.1:7879; '' off)");
+  app.add_option("--data-dir", data_dir, "where sessions and response curves are kept");
+  app.add_option("--tokens", tokens, "file of '<device-id> <token>' lines");
+  app.add_option("--threads", c.threads, "network threads (0: one per core)");
+  app.add_option("--workers", c.workers, "frame-processing threads (0: one per core)");
+  app.add_option("--max-sessions", c.max_sessions, "live sessions at once");
+  app.add_option("--idle-timeout", c.idle_timeout_s, "seconds before a disconnected session closes");
+  app.add_option("--tls-cert", tls_cert, "TLS certificate (not built in yet)");
+  app.add_option("--tls-key", tls_key, "TLS key (not built in yet)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (!config.empty()) {
+      daemon::DaemonConfig from_file;
+      daemon::load_config_file(config, from_file);
+      // Flags override the file: apply the file first, then what was given on the line.
+      const daemon::DaemonConfig flags = c;
+      c = from_file;
+      if (app.count("--threads")) c.threads = flags.threads;
+      if (app.count("--workers")) c.workers = flags.workers;
+      if (app.count("--max-sessions")) c.max_sessions = flags.max_sessions;
+      if (app.count("--idle-timeout")) c.idle_timeout_s = flags.idle_timeout_s;
+    }
+    if (!listen.empty()) daemon::parse_endpoint(listen, c.listen_host, c.listen_port);
+    if (app.count("--admin")) {
+      c.admin_enabled = !admin.empty();
+      if (c.admin_enabled) daemon::parse_endpoint(admin, c.admin_host, c.admin_port);
+    }
+    if (!data_dir.empty()) c.data_dir = data_dir;
+    if (!tokens.empty()) c.tokens_file = tokens;
+    if (!tls_cert.empty() || !tls_key.empty())
+      throw InputError("TLS is not built into this arlightd yet; terminate TLS in front of it");
+    if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
+
+    // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    daemon::Daemon d(c);
+    d.start();
+    std::printf("arlightd: listening on %s:%u, admin on %u\n", c.listen_host.c_str(),
+                unsigned(d.port()), unsigned(d.admin_port()));
+    std::fflush(stdout);
+    std::thread signals([&] {
+      int sig = 0;
+      sigwait(&set, &sig);
+      spdlog::info("signal {}: stopping", sig);
+      d.stop();
+    });
+    d.wait();
+    signals.detach();
+    return 0;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "arlightd: bad input: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "arlightd: error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,511 @@
+#include "session.hpp"
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <boost/asio/post.hpp>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "arlight/atomic_file.hpp"
+#include "arlight/calibration.hpp"
+#include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/lighting.hpp"
+#include "arlight/resample.hpp"
+
+namespace arlight::daemon {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr char kAccumMagic[8] = {'A', 'R', 'L', 'A', 'C', 'C', '0', '1'};
+constexpr int kTile = 64;  // level-0 tile side sent to clients
+
+std::uint64_t fnv1a(const std::string& bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+json camera_json(const CameraIntrinsics& k) {
+  return {{"width", k.width}, {"height", k.height}, {"fx", k.fx},          {"fy", k.fy},
+          {"cx", k.cx},       {"cy", k.cy},         {"distortion", k.distortion}};
+}
+
+CameraIntrinsics camera_from_json(const json& j) {
+  CameraIntrinsics k;
+  k.width = j.at("width"), k.height = j.at("height");
+  k.fx = j.at("fx"), k.fy = j.at("fy"), k.cx = j.at("cx"), k.cy = j.at("cy");
+  k.distortion = j.at("distortion").get<std::array<double, 5>>();
+  return k;
+}
+
+bool same_camera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
+         a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
+}
+
+fs::path session_dir(const SessionEnv& env, const std::string& id) {
+  return env.data_dir / "sessions" / id;
+}
+
+CameraResponse device_response(const SessionEnv& env, const std::string& device) {
+  try {
+    if (auto r = capture::ResponseStore(env.data_dir / "responses").find(device)) return *r;
+  } catch (const InputError&) {
+  }
+  return CameraResponse::srgb();
+}
+
+// The direction and radiance of a single light that best explains bands 0-1 of the SH: the
+// direction of the luminance-weighted linear band, its intensity per channel by least squares.
+void dominant_light(const ShCoeffs& sh, glm::vec3& direction, glm::vec3& colour) {
+  const auto band1 = [&](int c) {  // (x, y, z) components: Y_1^1 ~ x, Y_1^-1 ~ y, Y_1^0 ~ z
+    return glm::dvec3(sh.at(1, 1)[c], sh.at(1, -1)[c], sh.at(1, 0)[c]);
+  };
+  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
+  const double n = glm::length(lum);
+  const glm::dvec3 d = n > 0 ? lum / n : glm::dvec3(0, 1, 0);
+  direction = glm::vec3(d);
+  const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));  // |Y_1m| for a unit direction
+  for (int c = 0; c < 3; ++c)
+    colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
+}
+
+}  // namespace
+
+Session::Session(std::string id, std::string device_id, const SessionEnv& env)
+    : id_(std::move(id)), device_id_(std::move(device_id)), env_(env) {}
+
+Session::~Session() { shutdown(); }
+
+std::string Session::set_camera(const CameraIntrinsics& camera) {
+  const CameraResponse response = device_response(env_, device_id_);
+  std::lock_guard lock(mutex_);
+  if (camera_) {
+    if (!same_camera(*camera_, camera))
+      return "the session's camera is " + std::to_string(camera_->width) + "x" +
+             std::to_string(camera_->height) + " with other intrinsics; start a new session";
+    return {};
+  }
+  capture::CaptureOptions o;
+  o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
+  try {
+    capture_ = std::make_unique<capture::CaptureSession>(camera, response, o);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  camera_ = camera;
+  response_name_ = response.name();
+  dirty_ = true;
+  return {};
+}
+
+bool Session::has_camera() const {
+  std::lock_guard lock(mutex_);
+  return camera_.has_value();
+}
+
+void Session::attach(Sink sink) {
+  std::lock_guard lock(mutex_);
+  sink_ = std::move(sink);
+  last_activity_ = Clock::now();
+}
+
+void Session::detach() {
+  std::lock_guard lock(mutex_);
+  sink_ = nullptr;
+  last_activity_ = Clock::now();
+}
+
+bool Session::attached() const {
+  std::lock_guard lock(mutex_);
+  return bool(sink_);
+}
+
+Clock::time_point Session::last_activity() const {
+  std::lock_guard lock(mutex_);
+  return last_activity_;
+}
+
+std::uint64_t Session::frames_processed() const {
+  std::lock_guard lock(mutex_);
+  return processed_;
+}
+
+void Session::send(std::vector<std::uint8_t> message) {
+  Sink sink;
+  {
+    std::lock_guard lock(mutex_);
+    sink = sink_;
+  }
+  if (sink) sink(std::move(message));
+}
+
+void Session::submit(FrameJob job) {
+  env_.frames_received->inc();
+  std::lock_guard lock(mutex_);
+  ++received_;
+  last_activity_ = Clock::now();
+  if (pending_) {  // the waiting frame is stale now: the newest wins
+    ++dropped_;
+    env_.frames_dropped->inc();
+  }
+  pending_ = std::move(job);
+  if (!busy_) {
+    busy_ = true;
+    boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
+  }
+}
+
+void Session::process() {
+  std::lock_guard serial(process_mutex_);
+  for (;;) {
+    FrameJob job;
+    {
+      std::lock_guard lock(mutex_);
+      if (!pending_ || !capture_) {
+        busy_ = false;
+        return;
+      }
+      job = std::move(*pending_);
+      pending_.reset();
+    }
+    const auto t0 = Clock::now();
+    capture::FrameResult r;
+    if (job.format == wire::PixelFormat::Jpeg) {
+      r = capture_->add_encoded(job.data, job.info);
+    } else {
+      cv::Mat rgb(job.height, job.width, CV_8UC3, job.data.data()), bgr;
+      cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+      r = capture_->add_image(bgr, job.info);
+    }
+    env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
+    std::vector<std::uint8_t> update;
+    {
+      std::lock_guard lock(mutex_);
+      if (r.used) {
+        ++processed_;
+        env_.frames_processed->inc();
+        dirty_ = true;
+      } else {
+        ++skipped_;
+        env_.frames_skipped->inc();
+      }
+      last_sequence_ = std::max(last_sequence_, job.sequence);
+      update = lighting_update(r, job.sequence);
+      maybe_start_maps();
+    }
+    send(std::move(update));
+    env_.update_latency_seconds->observe(
+        std::chrono::duration<double>(Clock::now() - job.received).count());
+  }
+}
+
+std::vector<std::uint8_t> Session::lighting_update(const capture::FrameResult& r,
+                                                   std::uint64_t seq) {
+  const ShCoeffs& sh = capture_->sh();
+  std::vector<float> flat;
+  flat.reserve(sh.c.size() * 3);
+  for (const glm::dvec3& c : sh.c) flat.insert(flat.end(), {float(c.x), float(c.y), float(c.z)});
+  glm::vec3 dir, colour;
+  dominant_light(sh, dir, colour);
+  flatbuffers::FlatBufferBuilder b(1024 + flat.size() * 4);
+  const wire::Vec3 d(dir.x, dir.y, dir.z), c(colour.x, colour.y, colour.z);
+  const auto m = wire::CreateLightingUpdate(
+      b, seq, r.used, b.CreateString(r.skipped_reason), std::uint8_t(sh.order),
+      b.CreateVector(flat), &d, &c, float(capture_->coverage()), processed_, dropped_);
+  b.Finish(wire::CreateEnvelope(b, wire::Message::LightingUpdate, m.Union()),
+           wire::EnvelopeIdentifier());
+  return wire::frame_message(b);
+}
+
+std::string Session::request_maps(MapRequest r) {
+  if (r.shininess.empty() || r.shininess.size() > env_.limits.max_maps)
+    return "RequestMaps: between 1 and " + std::to_string(env_.limits.max_maps) +
+           " shininess values";
+  for (double s : r.shininess)
+    if (!(s >= 1.0 && s <= 1e6)) return "RequestMaps: shininess must be in [1, 1e6]";
+  if (r.size < 8 || std::uint32_t(r.size) > env_.limits.max_map_size)
+    return "RequestMaps: size must be in [8, " + std::to_string(env_.limits.max_map_size) + "]";
+  try {
+    lighting::parse_method(r.method);
+  } catch (const InputError& e) {
+    return std::string("RequestMaps: ") + e.what();
+  }
+  std::lock_guard lock(mutex_);
+  request_ = std::move(r);
+  maps_coverage_ = -1.0;  // a new request is computed at once
+  dirty_ = true;
+  maybe_start_maps();
+  return {};
+}
+
+// Recompute when the map has changed enough since the last set: 5 % more of the sphere seen,
+// or 150 more frames merged in (content refined). One computation at a time; a trigger while
+// one runs starts another when it ends.
+void Session::maybe_start_maps() {
+  if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
+  const double coverage = capture_->coverage();
+  const bool changed = maps_coverage_ < 0.0 || coverage >= maps_coverage_ + 0.05 ||
+                       processed_ >= maps_frames_ + 150;
+  if (!changed) return;
+  if (maps_running_) {
+    maps_again_ = true;
+    return;
+  }
+  maps_running_ = true;
+  maps_again_ = false;
+  maps_coverage_ = coverage;
+  maps_frames_ = processed_;
+  const std::uint32_t set = ++map_set_;
+  if (map_thread_.joinable()) map_thread_.join();  // finished already (maps_running_ was false)
+  // `this`, not a shared_ptr: the thread must never hold the last reference (~Session joins
+  // it); ~Session stops and joins it before any member goes away.
+  map_thread_ = std::jthread([this, request = *request_, input = capture_->environment(), set,
+                              coverage](std::stop_token stop) mutable {
+    compute_maps_thread(stop, std::move(request), std::move(input), set, coverage);
+  });
+}
+
+void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
+                                  std::uint32_t set, double coverage) {
+  const auto t0 = Clock::now();
+  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
+  const wire::Projection wire_projection = wire::Projection(int(request.projection));
+  lighting::Hooks hooks;
+  hooks.stop = stop;
+  std::size_t last_reported = 0;
+  hooks.on_tile = [&](const lighting::TileDone& t) {
+    if (t.done * 10 / t.total == last_reported) return;  // every tenth
+    last_reported = t.done * 10 / t.total;
+    flatbuffers::FlatBufferBuilder b(128);
+    const auto m = wire::CreateProgress(b, set, std::uint32_t(t.done), std::uint32_t(t.total));
+    b.Finish(wire::CreateEnvelope(b, wire::Message::Progress, m.Union()),
+             wire::EnvelopeIdentifier());
+    send(wire::frame_message(b));
+  };
+  try {
+    lighting::MapSet maps;
+    // Below the live path: the frames of every session come first.
+    tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
+    arena.execute([&] {
+      maps = lighting::compute_maps(input, request.shininess, layout,
+                                    lighting::parse_method(request.method), hooks);
+    });
+    const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
+                                  int h) {
+      std::vector<float> px(std::size_t(w) * h * 3);
+      for (int r = 0; r < h; ++r)
+        std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
+                    sizeof(float) * 3 * std::size_t(w));
+      flatbuffers::FlatBufferBuilder b(1024 + px.size() * 2);
+      const auto data = b.CreateVector(wire::encode_half_rgb(px.data(), px.size() / 3));
+      const auto m = wire::CreateMapTile(b, set, std::uint16_t(map),
+                                         float(request.shininess[std::size_t(map)]),
+                                         wire_projection, std::uint32_t(layout.width()),
+                                         std::uint32_t(layout.height()), std::uint8_t(level),
+                                         std::uint32_t(x), std::uint32_t(y), std::uint32_t(w),
+                                         std::uint32_t(h), data);
+      b.Finish(wire::CreateEnvelope(b, wire::Message::MapTile, m.Union()),
+               wire::EnvelopeIdentifier());
+      return wire::frame_message(b);
+    };
+    // Coarse first: each map 4x smaller in one tile (a preview the client can use at once),
+    // then the full-resolution tiles.
+    for (std::size_t k = 0; k < maps.maps.size() && !stop.stop_requested(); ++k) {
+      Image coarse = downsample2x(downsample2x(maps.maps[k].image.view()).view());
+      send(tile_message(int(k), coarse, 2, 0, 0, coarse.width(), coarse.height()));
+    }
+    for (std::size_t k = 0; k < maps.maps.size(); ++k)
+      for (int y = 0; y < layout.height() && !stop.stop_requested(); y += kTile)
+        for (int x = 0; x < layout.width(); x += kTile)
+          send(tile_message(int(k), maps.maps[k].image, 0, x, y,
+                            std::min(kTile, layout.width() - x),
+                            std::min(kTile, layout.height() - y)));
+    if (!stop.stop_requested()) {
+      const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      flatbuffers::FlatBufferBuilder b(128);
+      const auto m = wire::CreateMapSetComplete(b, set, std::uint16_t(maps.maps.size()),
+                                                float(seconds), float(coverage));
+      b.Finish(wire::CreateEnvelope(b, wire::Message::MapSetComplete, m.Union()),
+               wire::EnvelopeIdentifier());
+      send(wire::frame_message(b));
+      env_.map_sets->inc();
+      env_.map_set_seconds->observe(seconds);
+    }
+  } catch (const lighting::Cancelled&) {
+  } catch (const std::exception& e) {
+    send(wire::make_error(wire::ErrorCode::Internal, std::string("map computation: ") + e.what()));
+  }
+  std::lock_guard lock(mutex_);
+  maps_running_ = false;
+  if (maps_again_ && !stop.stop_requested()) {
+    // Start the next set from a fresh thread: this one cannot join itself.
+    boost::asio::post(*env_.workers, [self = shared_from_this()] {
+      std::lock_guard l(self->mutex_);
+      self->maps_coverage_ = -1.0;
+      self->maybe_start_maps();
+    });
+  }
+}
+
+void Session::shutdown() {
+  if (map_thread_.joinable()) {
+    map_thread_.request_stop();
+    map_thread_.join();
+  }
+  std::lock_guard serial(process_mutex_);  // a frame being processed finishes first
+}
+
+void Session::checkpoint() {
+  capture::Accumulators acc;
+  json meta;
+  int generation;
+  {
+    std::lock_guard lock(mutex_);
+    if (!dirty_ || !capture_) return;
+    acc = capture_->accumulators();
+    generation = ++checkpoint_generation_;
+    meta = {{"format", "arlight-session"},
+            {"version", 1},
+            {"id", id_},
+            {"device_id", device_id_},
+            {"camera", camera_json(*camera_)},
+            {"response", response_name_},
+            {"map_size", env_.map_size},
+            {"frames_received", received_},
+            {"frames_processed", processed_},
+            {"frames_dropped", dropped_},
+            {"frames_skipped", skipped_},
+            {"last_sequence", last_sequence_}};
+    if (request_)
+      meta["request"] = {{"shininess", request_->shininess},
+                         {"size", request_->size},
+                         {"projection", std::string(projection_name(request_->projection))},
+                         {"method", request_->method}};
+    dirty_ = false;
+  }
+  const fs::path dir = session_dir(env_, id_);
+  fs::create_directories(dir);
+  std::string bytes(kAccumMagic, sizeof kAccumMagic);
+  const std::uint64_t texels = acc.weight.size();
+  bytes.append(reinterpret_cast<const char*>(&texels), sizeof texels);
+  bytes.append(reinterpret_cast<const char*>(acc.weighted_radiance.data()),
+               acc.weighted_radiance.size() * sizeof(float));
+  bytes.append(reinterpret_cast<const char*>(acc.weight.data()), acc.weight.size() * sizeof(float));
+  // The accumulators go to a new file; the manifest that names it (with its checksum) is
+  // renamed in last, so a crash at any point leaves the previous checkpoint whole.
+  const std::string name = "accum-" + std::to_string(generation) + ".bin";
+  write_file_atomically(dir / name, bytes);
+  meta["accumulators"] = name;
+  meta["checksum"] = fnv1a(bytes);
+  write_file_atomically(dir / "session.json", meta.dump(1) + "\n");
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string f = entry.path().filename().string();
+    if (f.starts_with("accum-") && f != name) fs::remove(entry.path());
+  }
+}
+
+std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& env) {
+  const fs::path dir = session_dir(env, id);
+  const fs::path manifest = dir / "session.json";
+  if (!fs::exists(manifest)) return nullptr;
+  const std::string where = "session checkpoint '" + manifest.string() + "'";
+  try {
+    const json meta = json::parse(std::ifstream(manifest));
+    if (meta.at("format") != "arlight-session" || meta.at("version") != 1)
+      throw InputError(where + ": not a version 1 session checkpoint");
+    auto s = std::make_shared<Session>(id, meta.at("device_id").get<std::string>(), env);
+    if (meta.at("map_size").get<int>() != env.map_size)
+      throw InputError(where + ": its map size differs from this daemon's");
+    const std::string why = s->set_camera(camera_from_json(meta.at("camera")));
+    if (!why.empty()) throw InputError(where + ": " + why);
+    std::ifstream in(dir / meta.at("accumulators").get<std::string>(), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (fnv1a(bytes) != meta.at("checksum").get<std::uint64_t>())
+      throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
+    std::uint64_t texels = 0;
+    if (bytes.size() < sizeof kAccumMagic + sizeof texels ||
+        std::memcmp(bytes.data(), kAccumMagic, sizeof kAccumMagic) != 0)
+      throw InputError(where + ": the accumulator file has no ARLACC01 header");
+    std::memcpy(&texels, bytes.data() + sizeof kAccumMagic, sizeof texels);
+    const std::size_t offset = sizeof kAccumMagic + sizeof texels;
+    if (bytes.size() != offset + texels * 4 * sizeof(float))
+      throw InputError(where + ": the accumulator file has the wrong size");
+    capture::Accumulators acc;
+    acc.weighted_radiance.resize(texels * 3);
+    acc.weight.resize(texels);
+    std::memcpy(acc.weighted_radiance.data(), bytes.data() + offset, texels * 3 * sizeof(float));
+    std::memcpy(acc.weight.data(), bytes.data() + offset + texels * 3 * sizeof(float),
+                texels * sizeof(float));
+    s->capture_->restore(acc);
+    s->received_ = meta.at("frames_received"), s->processed_ = meta.at("frames_processed");
+    s->dropped_ = meta.at("frames_dropped"), s->skipped_ = meta.at("frames_skipped");
+    s->last_sequence_ = meta.at("last_sequence");
+    if (meta.contains("request")) {
+      const json& r = meta["request"];
+      MapRequest req;
+      req.shininess = r.at("shininess").get<std::vector<double>>();
+      req.size = r.at("size");
+      req.projection = parse_projection(r.at("projection").get<std::string>()).value();
+      req.method = r.at("method");
+      s->request_ = req;
+    }
+    s->dirty_ = false;
+    return s;
+  } catch (const json::exception& e) {
+    throw InputError(where + ": " + e.what());
+  } catch (const std::invalid_argument& e) {
+    throw InputError(where + ": " + e.what());
+  } catch (const std::bad_optional_access&) {
+    throw InputError(where + ": unknown projection");
+  }
+}
+
+json Session::summary() const {
+  std::lock_guard lock(mutex_);
+  json j = {{"id", id_},
+            {"device_id", device_id_},
+            {"connected", bool(sink_)},
+            {"frames_received", received_},
+            {"frames_processed", processed_},
+            {"frames_dropped", dropped_},
+            {"frames_skipped", skipped_},
+            {"last_sequence", last_sequence_},
+            {"map_sets", map_set_},
+            {"coverage", capture_ ? capture_->coverage() : 0.0}};
+  return j;
+}
+
+std::vector<std::uint8_t> Session::envmap_png() const {
+  EnvMap env(EnvLayout::for_size(Projection::AngleMap, 8));
+  {
+    std::lock_guard lock(mutex_);
+    if (capture_) env = capture_->environment();
+  }
+  // Exposure to mid-grey, Reinhard, sRGB: as write_png_preview does for files.
+  const double scale = std::exp2(auto_exposure_stops(env.image.view()));
+  const CameraResponse srgb = CameraResponse::srgb();
+  cv::Mat out(env.image.height(), env.image.width(), CV_8UC3);
+  for (int y = 0; y < out.rows; ++y)
+    for (int x = 0; x < out.cols; ++x) {
+      const glm::vec3 v = env.image.at(x, y) * float(scale);
+      for (int c = 0; c < 3; ++c)
+        out.at<cv::Vec3b>(y, x)[2 - c] =
+            cv::saturate_cast<uchar>(255.0f * srgb.encode(v[c] / (1.0f + v[c]), c));
+    }
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", out, png);
+  return png;
+}
+
+}  // namespace arlight::daemon

@@ -1,0 +1,126 @@
+// One capturing device's session: its capture state (arlight_capture), counters, the latest map
+// request and computation, and its checkpoint in the data folder. Frames arrive from the
+// network threads and are processed on the worker pool, one at a time per session, newest
+// first: a frame that arrives while another is still waiting replaces it (and is counted as
+// dropped), so a flood never queues without bound.
+#pragma once
+
+#include <boost/asio/thread_pool.hpp>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "arlight/capture.hpp"
+#include "arlight/metrics.hpp"
+#include "arlight/wire.hpp"
+
+namespace arlight::daemon {
+
+using Clock = std::chrono::steady_clock;
+
+// What every session shares: where it lives on disk, its limits, the worker pool, metrics.
+struct SessionEnv {
+  std::filesystem::path data_dir;
+  int map_size = 512;
+  wire::WireLimits limits;
+  boost::asio::thread_pool* workers = nullptr;
+  admin::Counter* frames_received = nullptr;
+  admin::Counter* frames_processed = nullptr;
+  admin::Counter* frames_dropped = nullptr;
+  admin::Counter* frames_skipped = nullptr;
+  admin::Counter* map_sets = nullptr;
+  admin::Histogram* processing_seconds = nullptr;
+  admin::Histogram* update_latency_seconds = nullptr;
+  admin::Histogram* map_set_seconds = nullptr;
+};
+
+struct FrameJob {
+  std::uint64_t sequence = 0;
+  capture::FrameInfo info;
+  wire::PixelFormat format = wire::PixelFormat::Jpeg;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> data;
+  Clock::time_point received;
+};
+
+struct MapRequest {
+  std::vector<double> shininess;
+  int size = 128;
+  Projection projection = Projection::AngleMap;
+  std::string method = "auto";
+};
+
+// Sends one framed message to the session's client; thread-safe; a no-op when detached.
+using Sink = std::function<void(std::vector<std::uint8_t>)>;
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(std::string id, std::string device_id, const SessionEnv& env);
+  ~Session();
+
+  // A checkpointed session from DATA/sessions/<id>/, or nullptr when there is none;
+  // InputError when it is damaged.
+  static std::shared_ptr<Session> load(const std::string& id, const SessionEnv& env);
+
+  const std::string& id() const { return id_; }
+  const std::string& device_id() const { return device_id_; }
+
+  // The camera the frames come from. The first call creates the capture state, linearising
+  // with the device's calibrated curve (DATA/responses/<device>.json) or sRGB; later calls must
+  // describe the same camera. Returns why not, or empty.
+  std::string set_camera(const CameraIntrinsics& camera);
+  bool has_camera() const;
+
+  void attach(Sink sink);
+  void detach();
+  bool attached() const;
+  Clock::time_point last_activity() const;
+
+  void submit(FrameJob job);              // newest wins
+  std::string request_maps(MapRequest r);  // empty, or why the request is refused
+  std::uint64_t frames_processed() const;
+
+  void checkpoint();   // writes DATA/sessions/<id>/ if anything changed since the last one
+  void shutdown();     // cancels the map computation and waits for running work
+  nlohmann::json summary() const;
+  std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
+
+ private:
+  void process();  // on the worker pool
+  std::vector<std::uint8_t> lighting_update(const capture::FrameResult& r, std::uint64_t seq);
+  void maybe_start_maps();  // with mutex_ held
+  void compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
+                           std::uint32_t map_set, double coverage);
+  void send(std::vector<std::uint8_t> message);
+
+  std::string id_, device_id_;
+  SessionEnv env_;
+  mutable std::mutex mutex_;  // everything below
+  std::unique_ptr<capture::CaptureSession> capture_;
+  std::optional<CameraIntrinsics> camera_;
+  std::string response_name_ = "srgb";
+  Sink sink_;
+  std::optional<FrameJob> pending_;
+  bool busy_ = false;  // a process() is queued or running
+  std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
+  bool dirty_ = false;
+  int checkpoint_generation_ = 0;
+  Clock::time_point last_activity_ = Clock::now();
+  std::optional<MapRequest> request_;
+  std::uint32_t map_set_ = 0;
+  double maps_coverage_ = -1.0;  // coverage the last started map set saw
+  std::uint64_t maps_frames_ = 0;
+  bool maps_running_ = false, maps_again_ = false;
+  std::jthread map_thread_;
+  std::mutex process_mutex_;  // held while a frame is processed
+};
+
+}  // namespace arlight::daemon

@@ -1,0 +1,23 @@
+// Per-device tokens: a file of "<device-id> <token>" lines, '#' comments. Tokens are compared in
+// constant time, so a client cannot learn a token byte by byte from response times.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+
+namespace arlight::daemon {
+
+class TokenStore {
+ public:
+  // InputError naming the file and line for anything but blank, comment or two-field lines,
+  // duplicate devices and an empty file.
+  static TokenStore load(const std::filesystem::path& path);
+  bool check(const std::string& device_id, const std::string& token) const;
+  std::size_t size() const { return tokens_.size(); }
+
+ private:
+  std::map<std::string, std::string> tokens_;
+};
+
+}  // namespace arlight::daemon

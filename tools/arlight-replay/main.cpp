@@ -1,0 +1,184 @@
+// arlight-replay: streams a recording to arlightd as a phone would and writes what came back
+// (the last live SH, the map set as EXR files, a JSON summary).
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "arlight/atomic_file.hpp"
+#include "arlight/client_net.hpp"
+#include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/recording.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+void split_endpoint(const std::string& s, std::string& host, std::uint16_t& port) {
+  const auto colon = s.rfind(':');
+  if (colon == std::string::npos || colon == 0) throw InputError("--server: expected HOST:PORT");
+  host = s.substr(0, colon);
+  try {
+    const int p = std::stoi(s.substr(colon + 1));
+    if (p < 1 || p > 65535) throw std::out_of_range("port");
+    port = std::uint16_t(p);
+  } catch (const std::exception&) {
+    throw InputError("--server: '" + s + "' has no valid port");
+  }
+}
+
+std::vector<double> parse_list(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    try {
+      out.push_back(std::stod(item));
+    } catch (const std::exception&) {
+      throw InputError("--maps: '" + item + "' is not a number");
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"arlight-replay: stream a recording to arlightd and save what it sends back"};
+  std::string server, token, recording_dir, device, resume, out = "out/replay", json_path;
+  std::string maps = "1,10,20,40,80,160,320,1280";
+  int map_size = 128;
+  double timeout_s = 120;
+  bool realtime = false;
+  app.add_option("--server", server, "arlightd HOST:PORT")->required();
+  app.add_option("--token", token, "this device's token")->required();
+  app.add_option("--recording", recording_dir, "recording folder")->required();
+  app.add_option("--device", device, "device id (default: the recording's)");
+  app.add_flag("--realtime", realtime,
+               "send at the recording's pace (default: each frame after the previous one's "
+               "update, so every frame is processed)");
+  app.add_option("--maps", maps, "shininess list to request; '' requests none")
+      ->capture_default_str();
+  app.add_option("--map-size", map_size, "size of the requested maps")->capture_default_str();
+  app.add_option("--resume", resume, "continue this session id");
+  app.add_option("--out", out, "folder for sh.json, maps/ and replay.json")->capture_default_str();
+  app.add_option("--json", json_path, "also write the summary here");
+  app.add_option("--timeout", timeout_s, "seconds to wait for updates and the map set")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    std::string host;
+    std::uint16_t port = 0;
+    split_endpoint(server, host, port);
+    const recording::Recording rec = recording::read_recording(recording_dir);
+    const std::vector<double> shininess = maps.empty() ? std::vector<double>{} : parse_list(maps);
+    const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
+
+    client::Client c;
+    const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device,
+                                        token, "arlight-replay", resume);
+    std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");
+    c.send_intrinsics(rec.camera);
+    if (!shininess.empty()) c.request_maps(shininess, map_size);
+
+    std::size_t sent = 0;
+    std::uint64_t last_sequence = 0;
+    const auto start = Clock::now();
+    for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+      const auto& f = rec.frames[i];
+      if (!f.problem.empty()) {
+        std::fprintf(stderr, "frame %zu not sent: %s\n", i, f.problem.c_str());
+        continue;
+      }
+      std::vector<std::uint8_t> bytes;
+      try {
+        bytes = recording::read_frame_bytes(rec, i);
+      } catch (const InputError& e) {
+        std::fprintf(stderr, "frame %zu not sent: %s\n", i, e.what());
+        continue;
+      }
+      if (realtime)
+        std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
+                                                  std::chrono::duration<double>(f.timestamp)));
+      const std::uint64_t seq = w.frames_processed + i + 1;
+      c.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+                        rec.camera.height, bytes);
+      ++sent;
+      last_sequence = seq;
+      if (!realtime &&
+          !c.wait_for([&] {
+            const auto u = c.last_update();
+            return (u && u->frame_sequence >= seq) || c.server_error();
+          }, timeout))
+        throw std::runtime_error("no update for frame " + std::to_string(i));
+      if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
+    }
+    // The last frame's update, then a map set computed after it.
+    c.wait_for([&] {
+      const auto u = c.last_update();
+      return u && u->frame_sequence >= last_sequence;
+    }, timeout);
+    const std::uint64_t sets_before = c.map_sets_completed();
+    if (!shininess.empty())
+      c.wait_for([&] { return c.map_sets_completed() > sets_before || c.server_error(); },
+                 timeout);
+    if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
+
+    fs::create_directories(out);
+    const auto u = c.last_update();
+    nlohmann::json j;
+    j["session_id"] = w.session_id;
+    j["resumed"] = w.resumed;
+    j["frames_sent"] = sent;
+    j["updates_received"] = c.updates_received();
+    j["map_sets_completed"] = c.map_sets_completed();
+    if (u) {
+      j["frames_processed"] = u->frames_processed;
+      j["frames_dropped"] = u->frames_dropped;
+      j["coverage"] = u->coverage;
+      j["sh_order"] = u->sh.order;
+      j["sh"] = nlohmann::json::array();
+      for (const auto& s : u->sh.c) j["sh"].push_back({s.x, s.y, s.z});
+      j["dominant_direction"] = {u->dominant_direction.x, u->dominant_direction.y,
+                                 u->dominant_direction.z};
+      j["dominant_colour"] = {u->dominant_colour.x, u->dominant_colour.y, u->dominant_colour.z};
+    }
+    j["maps"] = nlohmann::json::array();
+    if (const auto m = c.last_complete_maps()) {
+      fs::create_directories(fs::path(out) / "maps");
+      for (std::size_t k = 0; k < m->maps.size(); ++k) {
+        std::ostringstream name;
+        name << "s" << m->shininess[k] << ".exr";
+        const fs::path p = fs::path(out) / "maps" / name.str();
+        ImageMetadata meta;
+        meta.projection = m->maps[k].layout.projection();
+        meta.shininess = m->shininess[k];
+        write_exr(p, m->maps[k].image.view(), meta);
+        j["maps"].push_back({{"shininess", m->shininess[k]}, {"file", p.string()}});
+      }
+      j["map_set_seconds"] = m->server_seconds;
+    }
+    const std::string text = j.dump(2) + "\n";
+    write_file_atomically(fs::path(out) / "replay.json", text);
+    if (!json_path.empty()) write_file_atomically(json_path, text);
+    c.bye();
+    std::printf("%zu frames sent, %llu processed, %llu map sets; results in %s\n", sent,
+                static_cast<unsigned long long>(u ? u->frames_processed : 0),
+                static_cast<unsigned long long>(c.map_sets_completed()), out.c_str());
+    return 0;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "arlight-replay: bad input: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "arlight-replay: %s\n", e.what());
+    return 1;
+  }
+}
