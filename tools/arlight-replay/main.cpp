@@ -121,15 +121,18 @@ int main(int argc, char** argv) {
         throw std::runtime_error("no update for frame " + std::to_string(i));
       if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
     }
-    // The last frame's update, then a map set computed after it.
+    // The last frame's update, then a map set computed from the map with every frame in it
+    // (the daemon computes one when frames stop arriving).
     c.wait_for([&] {
       const auto u = c.last_update();
       return u && u->frame_sequence >= last_sequence;
     }, timeout);
-    const std::uint64_t sets_before = c.map_sets_completed();
-    if (!shininess.empty())
-      c.wait_for([&] { return c.map_sets_completed() > sets_before || c.server_error(); },
-                 timeout);
+    const std::uint64_t processed = c.last_update() ? c.last_update()->frames_processed : 0;
+    if (!shininess.empty() && !c.wait_for([&] {
+          const auto m = c.last_complete_maps();
+          return (m && m->frames >= processed) || c.server_error();
+        }, timeout))
+      std::fprintf(stderr, "arlight-replay: no map set with all frames within the timeout\n");
     if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
 
     fs::create_directories(out);
@@ -165,6 +168,7 @@ int main(int argc, char** argv) {
         j["maps"].push_back({{"shininess", m->shininess[k]}, {"file", p.string()}});
       }
       j["map_set_seconds"] = m->server_seconds;
+      j["map_set_frames"] = m->frames;
     }
     const std::string text = j.dump(2) + "\n";
     write_file_atomically(fs::path(out) / "replay.json", text);

@@ -129,6 +129,8 @@ struct Client::Impl {
           if (it != building.end()) {
             it->second.complete = true;
             it->second.server_seconds = m->seconds();
+            it->second.coverage = m->coverage();
+            it->second.frames = m->frames();
             last_complete = std::move(it->second);
             building.erase(building.begin(), std::next(it));  // older sets are stale
             ++completed;

@@ -63,6 +63,7 @@ struct Daemon::Impl {
   asio::steady_timer housekeeping{io};
   std::vector<std::thread> threads;
   std::uint16_t bound_port = 0;
+  std::atomic<bool> accepting{true};  // /healthz, read from the admin threads
 
   std::mutex sessions_mutex;
   std::map<std::string, std::shared_ptr<Session>> sessions;
@@ -136,7 +137,7 @@ struct Daemon::Impl {
         if (it == sessions.end()) return std::nullopt;
         return it->second->envmap_png();
       };
-      h.healthy = [this] { return acceptor.is_open(); };
+      h.healthy = [this] { return accepting.load(); };
       admin_server =
           std::make_unique<admin::AdminServer>(io, config.admin_host, config.admin_port, h);
     }
@@ -255,6 +256,7 @@ struct Daemon::Impl {
           }
         });
       }
+      for (const auto& s : all) s->on_idle(now);
       for (const auto& s : all)
         if (!s->attached() &&
             now - s->last_activity() > std::chrono::duration<double>(config.idle_timeout_s)) {
@@ -294,6 +296,7 @@ void Daemon::stop() {
     if (d.stopped) return;
     d.stopped = true;
   }
+  d.accepting = false;
   asio::post(d.io, [&d] {
     boost::system::error_code e;
     d.acceptor.close(e);

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <thread>
 
@@ -11,6 +12,10 @@
 using namespace arlight;
 
 int main(int argc, char** argv) {
+  // A peer or a log reader that goes away must not kill the daemon: writes then fail with
+  // EPIPE instead of raising SIGPIPE. Logs go to stderr; stdout carries the one "listening" line.
+  std::signal(SIGPIPE, SIG_IGN);
+  spdlog::set_default_logger(spdlog::stderr_color_mt("arlightd"));
   CLI::App app{"arlightd: builds HDR environment maps from phones' and webcams' frames and "
                "streams lighting back"};
   daemon::DaemonConfig c;

@@ -154,7 +154,7 @@ void Session::submit(FrameJob job) {
   env_.frames_received->inc();
   std::lock_guard lock(mutex_);
   ++received_;
-  last_activity_ = Clock::now();
+  last_activity_ = last_frame_ = Clock::now();
   if (pending_) {  // the waiting frame is stale now: the newest wins
     ++dropped_;
     env_.frames_dropped->inc();
@@ -271,13 +271,22 @@ void Session::maybe_start_maps() {
   // `this`, not a shared_ptr: the thread must never hold the last reference (~Session joins
   // it); ~Session stops and joins it before any member goes away.
   map_thread_ = std::jthread([this, request = *request_, input = capture_->environment(), set,
-                              coverage](std::stop_token stop) mutable {
-    compute_maps_thread(stop, std::move(request), std::move(input), set, coverage);
+                              coverage, frames = processed_](std::stop_token stop) mutable {
+    compute_maps_thread(stop, std::move(request), std::move(input), set, coverage, frames);
   });
 }
 
+void Session::on_idle(Clock::time_point now) {
+  std::lock_guard lock(mutex_);
+  if (processed_ > maps_frames_ && !pending_ && !busy_ &&
+      now - last_frame_ > std::chrono::milliseconds(500)) {
+    maps_coverage_ = -1.0;  // force: the map changed and nothing newer is coming right now
+    maybe_start_maps();
+  }
+}
+
 void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
-                                  std::uint32_t set, double coverage) {
+                                  std::uint32_t set, double coverage, std::uint64_t frames) {
   const auto t0 = Clock::now();
   const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
   const wire::Projection wire_projection = wire::Projection(int(request.projection));
@@ -335,7 +344,7 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
       const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
       flatbuffers::FlatBufferBuilder b(128);
       const auto m = wire::CreateMapSetComplete(b, set, std::uint16_t(maps.maps.size()),
-                                                float(seconds), float(coverage));
+                                                float(seconds), float(coverage), frames);
       b.Finish(wire::CreateEnvelope(b, wire::Message::MapSetComplete, m.Union()),
                wire::EnvelopeIdentifier());
       send(wire::frame_message(b));

@@ -88,6 +88,9 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
   std::uint64_t frames_processed() const;
 
+  // Called periodically: when frames stopped arriving for a moment and the map changed since
+  // the last map set, computes one now (the user has paused or finished capturing).
+  void on_idle(Clock::time_point now);
   void checkpoint();   // writes DATA/sessions/<id>/ if anything changed since the last one
   void shutdown();     // cancels the map computation and waits for running work
   nlohmann::json summary() const;
@@ -98,7 +101,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::vector<std::uint8_t> lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   void maybe_start_maps();  // with mutex_ held
   void compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
-                           std::uint32_t map_set, double coverage);
+                           std::uint32_t map_set, double coverage, std::uint64_t frames);
   void send(std::vector<std::uint8_t> message);
 
   std::string id_, device_id_;
@@ -114,6 +117,7 @@ class Session : public std::enable_shared_from_this<Session> {
   bool dirty_ = false;
   int checkpoint_generation_ = 0;
   Clock::time_point last_activity_ = Clock::now();
+  Clock::time_point last_frame_ = Clock::now();
   std::optional<MapRequest> request_;
   std::uint32_t map_set_ = 0;
   double maps_coverage_ = -1.0;  // coverage the last started map set saw

@@ -62,6 +62,8 @@ struct MapSet {
   bool preview_received = false;             // the coarse tiles of every map
   bool complete = false;
   double server_seconds = 0;
+  double coverage = 0;          // of the environment map the set was computed from
+  std::uint64_t frames = 0;     // frames merged into that map
 };
 
 class Client {

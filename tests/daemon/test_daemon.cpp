@@ -1,0 +1,291 @@
+// Integration tests of arlightd: the real daemon binary on an ephemeral loopback port, driven by
+// arlight-replay, arlight-capture and the client library; kill -9 and resume; bad messages;
+// the admin endpoints.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+#include <thread>
+
+#include "arlight/client_net.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/recording.hpp"
+#include "arlight/wire.hpp"
+#include "support/run_tool.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kToken = "test-token-0123456789";
+
+// arlightd as a child process on ephemeral ports; killed (SIGKILL) when destroyed.
+class DaemonProcess {
+ public:
+  DaemonProcess(const fs::path& dir) {
+    fs::create_directories(dir);
+    std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
+    int out[2];
+    if (pipe(out) != 0) throw std::runtime_error("pipe");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(out[1], 1);
+      close(out[0]);
+      const std::string data = (dir / "data").string(), tokens = (dir / "tokens").string();
+      execl(ARLIGHTD_EXE, ARLIGHTD_EXE, "--listen", "127.0.0.1:0", "--admin", "127.0.0.1:0",
+            "--data-dir", data.c_str(), "--tokens", tokens.c_str(), "--idle-timeout", "600",
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(out[1]);
+    // A line on stdout names the ports ("arlightd: listening on 127.0.0.1:P, admin on A").
+    const std::regex ports(R"(listening on 127\.0\.0\.1:(\d+), admin on (\d+))");
+    std::string line, seen;
+    std::smatch m;
+    char c;
+    while (read(out[0], &c, 1) == 1) {
+      if (c != '\n') {
+        line += c;
+        continue;
+      }
+      if (std::regex_search(line, m, ports)) break;
+      seen += line + "\n";
+      line.clear();
+    }
+    close(out[0]);
+    if (m.empty()) {
+      kill9();
+      throw std::runtime_error("arlightd did not start: '" + seen + line + "'");
+    }
+    port_ = std::uint16_t(std::stoi(m[1])), admin_ = std::uint16_t(std::stoi(m[2]));
+  }
+  ~DaemonProcess() { kill9(); }
+  void kill9() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+    }
+  }
+  std::uint16_t port() const { return port_; }
+  std::uint16_t admin() const { return admin_; }
+  std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
+
+ private:
+  pid_t pid_ = -1;
+  std::uint16_t port_ = 0, admin_ = 0;
+};
+
+// A minimal HTTP/1.0 GET: status code and body.
+std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path) {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::socket s(io);
+  s.connect({boost::asio::ip::make_address("127.0.0.1"), port});
+  const std::string req = "GET " + path + " HTTP/1.0\r\nHost: localhost\r\n\r\n";
+  boost::asio::write(s, boost::asio::buffer(req));
+  std::string all;
+  boost::system::error_code ec;
+  char buf[4096];
+  for (;;) {
+    const std::size_t n = s.read_some(boost::asio::buffer(buf), ec);
+    all.append(buf, n);
+    if (ec) break;
+  }
+  const int status = all.size() > 12 ? std::stoi(all.substr(9, 3)) : -1;
+  const auto body = all.find("\r\n\r\n");
+  return {status, body == std::string::npos ? "" : all.substr(body + 4)};
+}
+
+const fs::path& sample_recording() {  // 60 frames of venice, 320x240, shared by the tests of a process
+  static const fs::path rec = [] {
+    const fs::path r = test::fresh_temp_dir("daemon_rec") / "rec";
+    const auto s = test::run_tool(ARLIGHT_SIM_EXE,
+                                  "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                      "/data/probes/venice.exr --out " + r.string() +
+                                      " --frames 60 --size 320x240 --seed 4");
+    if (s.status != 0) throw std::runtime_error(s.output);
+    return r;
+  }();
+  return rec;
+}
+
+json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
+
+}  // namespace
+
+TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
+  const fs::path dir = test::fresh_temp_dir("daemon_replay");
+  DaemonProcess d(dir / "daemon");
+  const auto r = test::run_tool(ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " +
+                                                        kToken + " --recording " +
+                                                        sample_recording().string() + " --out " +
+                                                        (dir / "replay").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto c = test::run_tool(ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() +
+                                                         " --out " + (dir / "env.exr").string() +
+                                                         " --json " + (dir / "c.json").string());
+  ASSERT_EQ(c.status, 0) << c.output;
+  const json replay = read_json(dir / "replay" / "replay.json"), offline = read_json(dir / "c.json");
+  EXPECT_EQ(replay["frames_processed"], 60);
+  EXPECT_EQ(replay["frames_dropped"], 0);
+  ASSERT_EQ(replay["sh"].size(), offline["sh"].size());
+  const double dc = offline["sh"][0][1].get<double>();
+  for (std::size_t k = 0; k < offline["sh"].size(); ++k)
+    for (int ch = 0; ch < 3; ++ch)
+      EXPECT_NEAR(replay["sh"][k][ch].get<double>(), offline["sh"][k][ch].get<double>(), 1e-5 * dc)
+          << "coefficient " << k << " channel " << ch;
+  // A complete set of the 8 maps; the irradiance map keeps the environment's mean radiance.
+  ASSERT_EQ(replay["maps"].size(), 8u);
+  const LoadedEnvMap s1 = load_envmap(replay["maps"][0]["file"].get<std::string>());
+  const auto table = texel_table(s1.env.layout);
+  double sum = 0, area = 0;
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const float* p = s1.env.image.data() + 3 * std::size_t(table->index[i]);
+    sum += table->solid_angle[i] * p[1], area += table->solid_angle[i];
+  }
+  const double env_mean = dc / (4 * std::numbers::pi * std::sqrt(1 / (4 * std::numbers::pi)));
+  EXPECT_NEAR(sum / area, env_mean, 0.02 * env_mean);
+}
+
+TEST(Arlightd, WrongTokenGetsUnauthorizedAndNothingElse) {
+  const fs::path dir = test::fresh_temp_dir("daemon_token");
+  DaemonProcess d(dir / "daemon");
+  client::Client c;
+  try {
+    c.connect("127.0.0.1", d.port(), "arlight-sim", "not-the-token");
+    FAIL() << "connected with a wrong token";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "Unauthorized") << e.what();
+  }
+  client::Client unknown;
+  EXPECT_THROW(unknown.connect("127.0.0.1", d.port(), "someone-else", kToken), client::ClientError);
+}
+
+TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
+  const fs::path dir = test::fresh_temp_dir("daemon_bad");
+  DaemonProcess d(dir / "daemon");
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  client::Client good;
+  good.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  good.send_intrinsics(rec.camera);
+  const auto send_frame = [&](std::uint64_t seq) {
+    const auto& f = rec.frames[seq % rec.frames.size()];
+    good.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+                         rec.camera.height, recording::read_frame_bytes(rec, seq % rec.frames.size()));
+    ASSERT_TRUE(good.wait_for([&] {
+      const auto u = good.last_update();
+      return u && u->frame_sequence >= seq;
+    }, 20s)) << "no update for frame " << seq;
+  };
+  send_frame(1);
+
+  // Each misbehaving client handshakes properly first, then sends `bytes`.
+  const auto expect_error = [&](const std::vector<std::uint8_t>& bytes, const std::string& code) {
+    client::Client bad;
+    bad.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    bad.send_raw(bytes);
+    EXPECT_TRUE(bad.wait_for([&] { return !bad.connected(); }, 10s)) << "still open after " << code;
+    const auto e = bad.server_error();
+    ASSERT_TRUE(e.has_value()) << code;
+    EXPECT_EQ(e->first, code) << e->second;
+  };
+  // Garbage with a plausible length.
+  std::vector<std::uint8_t> garbage = {64, 0, 0, 0};
+  for (int i = 0; i < 64; ++i) garbage.push_back(std::uint8_t(i * 37 + 11));
+  expect_error(garbage, "BadMessage");
+  // A length over the limit: refused before anything is allocated.
+  expect_error({0, 0, 0, 0x40}, "TooLarge");
+  // A real message cut short but framed with the shorter length: fails the verifier.
+  std::vector<std::uint8_t> ping = wire::make_ping(7);
+  std::vector<std::uint8_t> cut(ping.begin(), ping.begin() + 4 + 12);
+  cut[0] = 12, cut[1] = cut[2] = cut[3] = 0;
+  expect_error(cut, "BadMessage");
+  // A frame before the camera's intrinsics.
+  {
+    client::Client early;
+    early.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    const auto& f = rec.frames[0];
+    early.send_jpeg_frame(1, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+                          rec.camera.height, recording::read_frame_bytes(rec, 0));
+    EXPECT_TRUE(early.wait_for([&] { return !early.connected(); }, 10s));
+    ASSERT_TRUE(early.server_error().has_value());
+    EXPECT_EQ(early.server_error()->first, "OutOfOrder");
+  }
+  // The good session carried on through all of it.
+  send_frame(2);
+  send_frame(3);
+  EXPECT_TRUE(good.connected());
+  EXPECT_FALSE(good.server_error().has_value());
+}
+
+TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
+  const fs::path dir = test::fresh_temp_dir("daemon_resume");
+  std::string session, before_png;
+  {
+    DaemonProcess d(dir / "daemon");
+    const auto r = test::run_tool(ARLIGHT_REPLAY_EXE,
+                                  "--server " + d.server() + " --token " + kToken +
+                                      " --recording " + sample_recording().string() + " --maps '' --out " +
+                                      (dir / "replay").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    session = read_json(dir / "replay" / "replay.json")["session_id"];
+    std::this_thread::sleep_for(3s);  // past the 2 s checkpoint interval
+    const auto [status, png] = http_get(d.admin(), "/sessions/" + session + "/envmap.png");
+    ASSERT_EQ(status, 200);
+    before_png = png;
+    d.kill9();
+  }
+  DaemonProcess again(dir / "daemon");
+  // Not in memory any more: /sessions is empty until the client resumes.
+  EXPECT_EQ(http_get(again.admin(), "/sessions/" + session + "/envmap.png").first, 404);
+  client::Client c;
+  const client::Welcome w = c.connect("127.0.0.1", again.port(), "arlight-sim", kToken,
+                                      "test", session);
+  EXPECT_TRUE(w.resumed);
+  EXPECT_EQ(w.session_id, session);
+  EXPECT_EQ(w.frames_processed, 60u);
+  const auto [status, png] = http_get(again.admin(), "/sessions/" + session + "/envmap.png");
+  ASSERT_EQ(status, 200);
+  EXPECT_TRUE(png == before_png) << "the resumed map differs from the checkpointed one";
+  // Someone else's device cannot take it over; an unknown id is refused.
+  client::Client other;
+  EXPECT_THROW(other.connect("127.0.0.1", again.port(), "arlight-sim", kToken, "t", "deadbeef"),
+               client::ClientError);
+}
+
+TEST(Arlightd, AdminEndpointsAnswer) {
+  const fs::path dir = test::fresh_temp_dir("daemon_admin");
+  DaemonProcess d(dir / "daemon");
+  client::Client c;
+  const auto w = c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  EXPECT_EQ(http_get(d.admin(), "/healthz").first, 200);
+  const auto [ms, metrics] = http_get(d.admin(), "/metrics");
+  EXPECT_EQ(ms, 200);
+  for (const char* name : {"arlight_sessions", "arlight_frames_received_total",
+                           "arlight_frames_processed_total", "arlight_frames_dropped_total",
+                           "arlight_frame_processing_seconds_bucket",
+                           "arlight_update_latency_seconds_count", "arlight_map_sets_total"})
+    EXPECT_NE(metrics.find(name), std::string::npos) << name;
+  const auto [ss, sessions] = http_get(d.admin(), "/sessions");
+  EXPECT_EQ(ss, 200);
+  const json j = json::parse(sessions);
+  ASSERT_EQ(j.size(), 1u);
+  EXPECT_EQ(j[0]["id"], w.session_id);
+  EXPECT_EQ(http_get(d.admin(), "/sessions/nope/envmap.png").first, 404);
+}
