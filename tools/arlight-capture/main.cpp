@@ -33,6 +33,7 @@ struct Options {
   int size = 512;
   int sh_order = 8;
   int align_every = 0;  // 0: the library's default
+  int align_width = 0;  // 0: the library's default
   bool no_align = false;
 };
 
@@ -140,6 +141,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   options.align = !o.no_align;
   if (o.align_every < 0) throw InputError("--align-every must be >= 1");
   if (o.align_every > 0) options.align_every = o.align_every;
+  if (o.align_width > 0) options.align_max_width = o.align_width;
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
@@ -248,6 +250,8 @@ int main(int argc, char** argv) {
       ->default_val("anglemap");
   app.add_flag("--no-align", o.no_align, "use the sensor orientations as they are");
   app.add_option("--sh-order", o.sh_order, "live SH order (bands)")->default_val(8);
+  app.add_option("--align-width", o.align_width,
+                 "largest width of the frame the alignment works on; default 320");
   app.add_option("--align-every", o.align_every,
                  "align every n-th frame (the others extrapolate the drift); default 1");
   app.add_option("--json", o.json, "write a JSON report here");

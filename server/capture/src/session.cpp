@@ -172,7 +172,8 @@ struct CaptureSession::Impl {
     reduced_camera = reduced(k, factor);
     field_radius = half_field_of_view(pinhole) + 0.02;
     cos_field = std::cos(std::min(std::numbers::pi, field_radius));
-    const int align_factor = std::max(1, factor / 2);
+    int align_factor = std::max(1, factor / 2);
+    while ((k.width + align_factor - 1) / align_factor > options.align_max_width) ++align_factor;
     align_camera = PinholeCamera(reduced(k, align_factor));
     const CameraIntrinsics& ak = align_camera.intrinsics();
     align_rays.resize(std::size_t(ak.width) * ak.height);
@@ -320,7 +321,7 @@ struct CaptureSession::Impl {
     if (!std::isfinite(timestamp)) return;
     history.push_back({timestamp, rotation_vector(measured_offset)});
     while (!history.empty() && history.front().first < timestamp - kRateWindow) history.pop_front();
-    if (history.size() < 15 || timestamp - history.front().first < 0.5 * kRateWindow) return;
+    if (history.size() < 8 || timestamp - history.front().first < 0.5 * kRateWindow) return;
     double st = 0, stt = 0;
     glm::dvec3 sv(0.0), stv(0.0);
     for (const auto& [t, v] : history) st += t, stt += t * t, sv += v, stv += t * v;
@@ -350,7 +351,10 @@ struct CaptureSession::Impl {
     const CameraIntrinsics& ak = align_camera.intrinsics();
     cv::Mat gray, small;
     cv::cvtColor(bgr8, gray, cv::COLOR_BGR2GRAY);
-    cv::resize(gray, small, cv::Size(ak.width, ak.height), 0, 0, cv::INTER_AREA);
+    if (gray.cols == ak.width && gray.rows == ak.height)
+      small = gray;
+    else
+      cv::resize(gray, small, cv::Size(ak.width, ak.height), 0, 0, cv::INTER_AREA);
     const double blur = 0.5 * texel_angle(*table) * ak.fx;  // half a texel, in pixels
     cv::GaussianBlur(small, small, cv::Size(0, 0), std::max(0.5, blur));
     const double radius = glm::radians(options.align_max_step_deg) * ak.fx;
@@ -443,7 +447,9 @@ struct CaptureSession::Impl {
     result.sh_ms = ms_since(t1);
   }
 
-  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result) {
+  // `scale` > 1: the image was decoded already reduced by that factor (JPEG DCT scaling).
+  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result,
+                  int scale = 1) {
     if (std::string why = check_frame_info(info); !why.empty()) {
       result.skipped_reason = why;
       return result;
@@ -452,15 +458,17 @@ struct CaptureSession::Impl {
       result.skipped_reason = "image is not 8-bit, 3-channel";
       return result;
     }
-    if (bgr8.cols != camera.width || bgr8.rows != camera.height) {
-      result.skipped_reason = "image is " + size_text(bgr8.cols, bgr8.rows) +
+    const int want_w = (camera.width + scale - 1) / scale,
+              want_h = (camera.height + scale - 1) / scale;
+    if (bgr8.cols != want_w || bgr8.rows != want_h) {
+      result.skipped_reason = "image is " + size_text(bgr8.cols * scale, bgr8.rows * scale) +
                               ", the camera's intrinsics say " +
                               size_text(camera.width, camera.height);
       return result;
     }
     const double exposure_gain = info.exposure * info.gain;
     auto t0 = Clock::now();
-    const LinearFrame frame = linearize(bgr8, response, exposure_gain, factor);
+    const LinearFrame frame = linearize(bgr8, response, exposure_gain, factor / scale);
     result.linearize_ms = ms_since(t0);
     const glm::dquat sensor = glm::normalize(info.orientation);
     t0 = Clock::now();
@@ -487,9 +495,16 @@ FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
   FrameResult result;
   const auto t0 = Clock::now();
   cv::Mat image;
+  // When frames are reduced anyway, let the JPEG decoder do the first 2x in the DCT domain
+  // (about 2.5x faster to decode); the alignment works at that resolution.
+  const int scale = impl_->options.fast_decode && impl_->factor % 2 == 0 && impl_->factor >= 4 &&
+                            impl_->camera.width % 2 == 0 && impl_->camera.height % 2 == 0
+                        ? 2
+                        : 1;
   try {
     const cv::Mat buffer(1, int(bytes.size()), CV_8U, const_cast<std::uint8_t*>(bytes.data()));
-    if (!bytes.empty()) image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+    if (!bytes.empty())
+      image = cv::imdecode(buffer, scale == 2 ? cv::IMREAD_REDUCED_COLOR_2 : cv::IMREAD_COLOR);
   } catch (const cv::Exception&) {
     image.release();
   }
@@ -498,7 +513,7 @@ FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
     result.skipped_reason = "cannot decode the image (" + std::to_string(bytes.size()) + " bytes)";
     return result;
   }
-  return impl_->add(image, info, result);
+  return impl_->add(image, info, result, scale);
 }
 
 FrameResult CaptureSession::add_image(const cv::Mat& bgr8, const FrameInfo& info) {

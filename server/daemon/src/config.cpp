@@ -52,6 +52,8 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.checkpoint_interval_s = value.get<double>();
       else if (key == "map_size")
         c.map_size = value.get<int>();
+      else if (key == "align_every")
+        c.align_every = value.get<int>();
       else if (key == "tls_cert" || key == "tls_key") {
         if (!value.get<std::string>().empty())
           throw InputError("TLS is not built into this arlightd yet; terminate TLS in front of it");

@@ -55,6 +55,7 @@ struct Daemon::Impl {
   asio::io_context io;
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
   asio::thread_pool workers;
+  asio::thread_pool disk{1};  // checkpoints (fsync) stay off the frame workers
   tcp::acceptor acceptor{io};
   admin::Registry metrics;
   SessionEnv session_env;
@@ -88,6 +89,8 @@ struct Daemon::Impl {
         sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
+    session_env.align_every = config.align_every;
+    session_env.align_max_width = config.align_max_width;
     session_env.limits = config.limits;
     session_env.workers = &workers;
     session_env.frames_received =
@@ -246,7 +249,7 @@ struct Daemon::Impl {
       }
       if (now - last_checkpoint >= std::chrono::duration<double>(config.checkpoint_interval_s)) {
         last_checkpoint = now;
-        asio::post(workers, [all] {
+        asio::post(disk, [all] {
           for (const auto& s : all) {
             try {
               s->checkpoint();
@@ -260,7 +263,7 @@ struct Daemon::Impl {
       for (const auto& s : all)
         if (!s->attached() &&
             now - s->last_activity() > std::chrono::duration<double>(config.idle_timeout_s)) {
-          asio::post(workers, [this, s] {
+          asio::post(disk, [this, s] {
             s->checkpoint();
             s->shutdown();
             std::lock_guard lock(sessions_mutex);
@@ -326,6 +329,7 @@ void Daemon::stop() {
   for (auto& t : d.threads)
     if (t.joinable()) t.join();
   d.workers.join();
+  d.disk.join();
   d.stopped_cv.notify_all();
 }
 

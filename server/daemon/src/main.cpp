@@ -30,6 +30,8 @@ int main(int argc, char** argv) {
   app.add_option("--workers", c.workers, "frame-processing threads (0: one per core)");
   app.add_option("--max-sessions", c.max_sessions, "live sessions at once");
   app.add_option("--idle-timeout", c.idle_timeout_s, "seconds before a disconnected session closes");
+  app.add_option("--align-every", c.align_every,
+                 "feature alignment on every n-th frame of a session (default 3)");
   app.add_option("--tls-cert", tls_cert, "TLS certificate (not built in yet)");
   app.add_option("--tls-key", tls_key, "TLS key (not built in yet)");
   try {
@@ -48,6 +50,7 @@ int main(int argc, char** argv) {
       if (app.count("--workers")) c.workers = flags.workers;
       if (app.count("--max-sessions")) c.max_sessions = flags.max_sessions;
       if (app.count("--idle-timeout")) c.idle_timeout_s = flags.idle_timeout_s;
+      if (app.count("--align-every")) c.align_every = flags.align_every;
     }
     if (!listen.empty()) daemon::parse_endpoint(listen, c.listen_host, c.listen_port);
     if (app.count("--admin")) {

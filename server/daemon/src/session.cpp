@@ -98,6 +98,8 @@ std::string Session::set_camera(const CameraIntrinsics& camera) {
   }
   capture::CaptureOptions o;
   o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
+  o.align_every = std::max(1, env_.align_every);
+  o.align_max_width = std::max(32, env_.align_max_width);
   try {
     capture_ = std::make_unique<capture::CaptureSession>(camera, response, o);
   } catch (const std::invalid_argument& e) {

@@ -30,6 +30,8 @@ using Clock = std::chrono::steady_clock;
 struct SessionEnv {
   std::filesystem::path data_dir;
   int map_size = 512;
+  int align_every = 3;
+  int align_max_width = 160;
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   admin::Counter* frames_received = nullptr;

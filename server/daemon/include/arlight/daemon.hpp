@@ -28,12 +28,18 @@ struct DaemonConfig {
   double idle_timeout_s = 300;        // a session without a connection is closed (kept on disk)
   double checkpoint_interval_s = 2;
   int map_size = 512;                 // capture map: angle map N x N
+  // Feature alignment on every n-th frame of a session, on the frame reduced to at most
+  // align_max_width (the drift model extrapolates in between): at 30 fps, every 3rd frame at
+  // 160 pixels keeps a 0.5 deg/s drift to ~0.3 deg RMS (bench/RESULTS.md) while no frame costs
+  // more than ~12 ms, so the live path never stalls behind an alignment.
+  int align_every = 3;
+  int align_max_width = 160;
   wire::WireLimits limits;
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, checkpoint_interval_s, map_size) over `config`. InputError names the file and key.
+// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers) over `config`. InputError names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
 // "host:port" -> host, port; InputError otherwise.
