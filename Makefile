@@ -34,6 +34,7 @@ demo: deps
 	  --out $(DEMO_OUT)/capture/env.exr --json $(DEMO_OUT)/capture/capture.json
 	$(BUILD)/bin/arlight-maps diff --reference $(DEMO_OUT)/capture/recording/truth/env.exr \
 	  --test $(DEMO_OUT)/capture/env.exr --method auto --size 128 --json $(DEMO_OUT)/capture/diff.json
+	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
 	@echo "  auto_s<S>.exr / .png      irradiance (s = 1) and reflection maps (s = 10 ... 1280) of"
@@ -47,6 +48,10 @@ demo: deps
 	@echo "  capture/env.exr / .png    the HDR environment map captured from it; env_coverage.png"
 	@echo "  capture/capture.json      coverage, ms per frame, orientation error vs truth, live SH"
 	@echo "  capture/diff.json         its irradiance/reflection maps against the truth's"
+	@echo "  daemon/replay/            the same recording streamed to arlightd by arlight-replay:"
+	@echo "                            replay.json (live SH, coverage, counts), maps/s<S>.exr"
+	@echo "  daemon/envmap.png         the daemon's live environment map (admin HTTP), metrics.txt,"
+	@echo "                            sessions.json, arlightd.log; daemon/data/ its checkpoint"
 
 bench: deps
 	@$(MAKE) --no-print-directory build

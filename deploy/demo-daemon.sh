@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# The daemon part of `make demo`: starts arlightd on a free loopback port with a fresh token,
+# replays a recording into it as a phone would (arlight-replay), saves what came back and the
+# admin endpoints' answers, and stops the daemon (SIGTERM: it checkpoints its sessions).
+# Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR
+set -euo pipefail
+build=$1 rec=$2 out=$3
+rm -rf "$out"
+mkdir -p "$out"
+token=$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')
+device=$(sed -n 's/.*"device_id": *"\([^"]*\)".*/\1/p' "$rec/recording.json" | head -1)
+printf '# written by make demo\n%s %s\n' "${device:-arlight-sim}" "$token" > "$out/tokens"
+"$build/bin/arlightd" --listen 127.0.0.1:0 --admin 127.0.0.1:0 --data-dir "$out/data" \
+  --tokens "$out/tokens" > "$out/arlightd.out" 2> "$out/arlightd.log" &
+pid=$!
+trap 'kill -TERM $pid 2>/dev/null || true; wait $pid 2>/dev/null || true' EXIT
+for _ in $(seq 100); do
+  grep -q 'listening on' "$out/arlightd.out" 2>/dev/null && break
+  sleep 0.1
+done
+port=$(sed -n 's/.*listening on 127\.0\.0\.1:\([0-9]*\),.*/\1/p' "$out/arlightd.out")
+admin=$(sed -n 's/.*admin on \([0-9]*\).*/\1/p' "$out/arlightd.out")
+[ -n "$port" ] || { echo "arlightd did not start:"; cat "$out/arlightd.log"; exit 1; }
+echo "arlightd on 127.0.0.1:$port (admin $admin)"
+"$build/bin/arlight-replay" --server "127.0.0.1:$port" --token "$token" --recording "$rec" \
+  --out "$out/replay"
+# The admin endpoints, with bash's /dev/tcp (no curl needed).
+http_get() {
+  exec 3<>"/dev/tcp/127.0.0.1/$admin"
+  printf 'GET %s HTTP/1.0\r\nHost: localhost\r\n\r\n' "$1" >&3
+  sed '1,/^\r$/d' <&3
+  exec 3<&-
+}
+http_get /metrics > "$out/metrics.txt"
+http_get /sessions > "$out/sessions.json"
+session=$(sed -n 's/.*"session_id": *"\([^"]*\)".*/\1/p' "$out/replay/replay.json")
+http_get "/sessions/$session/envmap.png" > "$out/envmap.png"
