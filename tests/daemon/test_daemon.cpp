@@ -112,13 +112,14 @@ std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path
   return {status, body == std::string::npos ? "" : all.substr(body + 4)};
 }
 
-const fs::path& sample_recording() {  // 60 frames of venice, 320x240, shared by the tests of a process
+const fs::path&
+sample_recording() {  // 60 frames of venice, 320x240, shared by the tests of a process
   static const fs::path rec = [] {
     const fs::path r = test::fresh_temp_dir("daemon_rec") / "rec";
-    const auto s = test::run_tool(ARLIGHT_SIM_EXE,
-                                  "--env " + std::string(ARLIGHT_SOURCE_DIR) +
-                                      "/data/probes/venice.exr --out " + r.string() +
-                                      " --frames 60 --size 320x240 --seed 4");
+    const auto s =
+        test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                            "/data/probes/venice.exr --out " + r.string() +
+                                            " --frames 60 --size 320x240 --seed 4");
     if (s.status != 0) throw std::runtime_error(s.output);
     return r;
   }();
@@ -132,16 +133,18 @@ json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
   const fs::path dir = test::fresh_temp_dir("daemon_replay");
   DaemonProcess d(dir / "daemon");
-  const auto r = test::run_tool(ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " +
-                                                        kToken + " --recording " +
-                                                        sample_recording().string() + " --out " +
-                                                        (dir / "replay").string());
+  const auto r = test::run_tool(
+      ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + kToken + " --recording " +
+                              sample_recording().string() + " --out " + (dir / "replay").string());
   ASSERT_EQ(r.status, 0) << r.output;
+  // The offline capture with the daemon's settings (alignment every 3rd frame at 160 px).
   const auto c = test::run_tool(ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() +
                                                          " --out " + (dir / "env.exr").string() +
-                                                         " --json " + (dir / "c.json").string());
+                                                         " --json " + (dir / "c.json").string() +
+                                                         " --align-every 3 --align-width 160");
   ASSERT_EQ(c.status, 0) << c.output;
-  const json replay = read_json(dir / "replay" / "replay.json"), offline = read_json(dir / "c.json");
+  const json replay = read_json(dir / "replay" / "replay.json"),
+             offline = read_json(dir / "c.json");
   EXPECT_EQ(replay["frames_processed"], 60);
   EXPECT_EQ(replay["frames_dropped"], 0);
   ASSERT_EQ(replay["sh"].size(), offline["sh"].size());
@@ -187,11 +190,15 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
   const auto send_frame = [&](std::uint64_t seq) {
     const auto& f = rec.frames[seq % rec.frames.size()];
     good.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
-                         rec.camera.height, recording::read_frame_bytes(rec, seq % rec.frames.size()));
-    ASSERT_TRUE(good.wait_for([&] {
-      const auto u = good.last_update();
-      return u && u->frame_sequence >= seq;
-    }, 20s)) << "no update for frame " << seq;
+                         rec.camera.height,
+                         recording::read_frame_bytes(rec, seq % rec.frames.size()));
+    ASSERT_TRUE(good.wait_for(
+        [&] {
+          const auto u = good.last_update();
+          return u && u->frame_sequence >= seq;
+        },
+        20s))
+        << "no update for frame " << seq;
   };
   send_frame(1);
 
@@ -239,10 +246,10 @@ TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
   std::string session, before_png;
   {
     DaemonProcess d(dir / "daemon");
-    const auto r = test::run_tool(ARLIGHT_REPLAY_EXE,
-                                  "--server " + d.server() + " --token " + kToken +
-                                      " --recording " + sample_recording().string() + " --maps '' --out " +
-                                      (dir / "replay").string());
+    const auto r =
+        test::run_tool(ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + kToken +
+                                               " --recording " + sample_recording().string() +
+                                               " --maps '' --out " + (dir / "replay").string());
     ASSERT_EQ(r.status, 0) << r.output;
     session = read_json(dir / "replay" / "replay.json")["session_id"];
     std::this_thread::sleep_for(3s);  // past the 2 s checkpoint interval
@@ -255,8 +262,8 @@ TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
   // Not in memory any more: /sessions is empty until the client resumes.
   EXPECT_EQ(http_get(again.admin(), "/sessions/" + session + "/envmap.png").first, 404);
   client::Client c;
-  const client::Welcome w = c.connect("127.0.0.1", again.port(), "arlight-sim", kToken,
-                                      "test", session);
+  const client::Welcome w =
+      c.connect("127.0.0.1", again.port(), "arlight-sim", kToken, "test", session);
   EXPECT_TRUE(w.resumed);
   EXPECT_EQ(w.session_id, session);
   EXPECT_EQ(w.frames_processed, 60u);
@@ -269,6 +276,37 @@ TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
                client::ClientError);
 }
 
+TEST(Arlightd, CalibrationSetStoresTheDevicesCurve) {
+  const fs::path dir = test::fresh_temp_dir("daemon_calibration");
+  const fs::path bracket = dir / "bracket";
+  const auto s =
+      test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                          "/data/probes/venice.exr --out " + bracket.string() +
+                                          " --bracket 7 --response filmic --size 320x240");
+  ASSERT_EQ(s.status, 0) << s.output;
+  const recording::Recording rec = recording::read_recording(bracket);
+  std::vector<client::CalibrationFrame> frames;
+  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+    const auto& f = rec.frames[i];
+    frames.push_back(
+        {{f.timestamp, f.exposure, f.gain, f.orientation}, recording::read_frame_bytes(rec, i)});
+  }
+  DaemonProcess d(dir / "daemon");
+  client::Client c;
+  c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  c.send_calibration_set("robertson", rec.camera.width, rec.camera.height, frames);
+  ASSERT_TRUE(c.wait_for([&] { return c.calibration_result().has_value(); }, 60s));
+  EXPECT_TRUE(c.calibration_result()->stored) << c.calibration_result()->message;
+  EXPECT_TRUE(fs::exists(dir / "daemon" / "data" / "responses" / "arlight-sim.json"));
+  // One exposure only cannot calibrate: a result saying why, and the connection stays.
+  std::vector<client::CalibrationFrame> same(3, frames[3]);
+  c.send_calibration_set("robertson", rec.camera.width, rec.camera.height, same);
+  ASSERT_TRUE(c.wait_for([&] { return !c.calibration_result()->stored; }, 60s));
+  EXPECT_NE(c.calibration_result()->message.find("exposure"), std::string::npos)
+      << c.calibration_result()->message;
+  EXPECT_TRUE(c.connected());
+}
+
 TEST(Arlightd, AdminEndpointsAnswer) {
   const fs::path dir = test::fresh_temp_dir("daemon_admin");
   DaemonProcess d(dir / "daemon");
@@ -277,10 +315,10 @@ TEST(Arlightd, AdminEndpointsAnswer) {
   EXPECT_EQ(http_get(d.admin(), "/healthz").first, 200);
   const auto [ms, metrics] = http_get(d.admin(), "/metrics");
   EXPECT_EQ(ms, 200);
-  for (const char* name : {"arlight_sessions", "arlight_frames_received_total",
-                           "arlight_frames_processed_total", "arlight_frames_dropped_total",
-                           "arlight_frame_processing_seconds_bucket",
-                           "arlight_update_latency_seconds_count", "arlight_map_sets_total"})
+  for (const char* name :
+       {"arlight_sessions", "arlight_frames_received_total", "arlight_frames_processed_total",
+        "arlight_frames_dropped_total", "arlight_frame_processing_seconds_bucket",
+        "arlight_update_latency_seconds_count", "arlight_map_sets_total"})
     EXPECT_NE(metrics.find(name), std::string::npos) << name;
   const auto [ss, sessions] = http_get(d.admin(), "/sessions");
   EXPECT_EQ(ss, 200);

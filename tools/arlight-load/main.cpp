@@ -40,8 +40,8 @@ double percentile(std::vector<double> v, double p) {
 void run_session(const std::string& host, std::uint16_t port, const std::string& device,
                  const std::string& token, const recording::Recording& rec,
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
-                 const std::vector<std::size_t>& usable, double rate, double duration,
-                 bool maps, SessionReport& report) {
+                 const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
+                 SessionReport& report) {
   try {
     client::Client c;
     std::mutex m;
@@ -84,10 +84,12 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
       ++report.sent;
     }
     // Let the last updates arrive.
-    c.wait_for([&] {
-      std::lock_guard lock(m);
-      return report.processed + report.dropped >= report.sent;
-    }, std::chrono::seconds(5));
+    c.wait_for(
+        [&] {
+          std::lock_guard lock(m);
+          return report.processed + report.dropped >= report.sent;
+        },
+        std::chrono::seconds(5));
     if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
     report.map_sets = c.map_sets_completed();
     c.bye();
@@ -175,19 +177,19 @@ int main(int argc, char** argv) {
     j["frames_sent"] = sent;
     j["frames_processed"] = processed;
     j["frames_dropped"] = dropped;
-    j["latency_ms"] = {{"p50", percentile(all, 50)},
-                       {"p95", percentile(all, 95)},
-                       {"p99", percentile(all, 99)}};
+    j["latency_ms"] = {
+        {"p50", percentile(all, 50)}, {"p95", percentile(all, 95)}, {"p99", percentile(all, 99)}};
     j["map_sets_completed"] = map_sets;
     j["rate"] = rate;
     j["duration_s"] = duration;
     if (!json_path.empty()) write_file_atomically(json_path, j.dump(2) + "\n");
-    std::printf("%d sessions (%d failed): %llu frames sent, %llu processed, %llu dropped; "
-                "latency p50 %.1f ms, p95 %.1f ms, p99 %.1f ms; %llu map sets\n",
-                sessions, failed, static_cast<unsigned long long>(sent),
-                static_cast<unsigned long long>(processed), static_cast<unsigned long long>(dropped),
-                percentile(all, 50), percentile(all, 95), percentile(all, 99),
-                static_cast<unsigned long long>(map_sets));
+    std::printf(
+        "%d sessions (%d failed): %llu frames sent, %llu processed, %llu dropped; "
+        "latency p50 %.1f ms, p95 %.1f ms, p99 %.1f ms; %llu map sets\n",
+        sessions, failed, static_cast<unsigned long long>(sent),
+        static_cast<unsigned long long>(processed), static_cast<unsigned long long>(dropped),
+        percentile(all, 50), percentile(all, 95), percentile(all, 99),
+        static_cast<unsigned long long>(map_sets));
     for (const auto& e : j["errors"]) std::fprintf(stderr, "%s\n", e.get<std::string>().c_str());
     return failed ? 1 : 0;
   } catch (const InputError& e) {

@@ -83,8 +83,8 @@ int main(int argc, char** argv) {
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
 
     client::Client c;
-    const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device,
-                                        token, "arlight-replay", resume);
+    const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device, token,
+                                        "arlight-replay", resume);
     std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");
     c.send_intrinsics(rec.camera);
     if (!shininess.empty()) c.request_maps(shininess, map_size);
@@ -113,25 +113,30 @@ int main(int argc, char** argv) {
                         rec.camera.height, bytes);
       ++sent;
       last_sequence = seq;
-      if (!realtime &&
-          !c.wait_for([&] {
-            const auto u = c.last_update();
-            return (u && u->frame_sequence >= seq) || c.server_error();
-          }, timeout))
+      if (!realtime && !c.wait_for(
+                           [&] {
+                             const auto u = c.last_update();
+                             return (u && u->frame_sequence >= seq) || c.server_error();
+                           },
+                           timeout))
         throw std::runtime_error("no update for frame " + std::to_string(i));
       if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
     }
     // The last frame's update, then a map set computed from the map with every frame in it
     // (the daemon computes one when frames stop arriving).
-    c.wait_for([&] {
-      const auto u = c.last_update();
-      return u && u->frame_sequence >= last_sequence;
-    }, timeout);
+    c.wait_for(
+        [&] {
+          const auto u = c.last_update();
+          return u && u->frame_sequence >= last_sequence;
+        },
+        timeout);
     const std::uint64_t processed = c.last_update() ? c.last_update()->frames_processed : 0;
-    if (!shininess.empty() && !c.wait_for([&] {
-          const auto m = c.last_complete_maps();
-          return (m && m->frames >= processed) || c.server_error();
-        }, timeout))
+    if (!shininess.empty() && !c.wait_for(
+                                  [&] {
+                                    const auto m = c.last_complete_maps();
+                                    return (m && m->frames >= processed) || c.server_error();
+                                  },
+                                  timeout))
       std::fprintf(stderr, "arlight-replay: no map set with all frames within the timeout\n");
     if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
 

@@ -31,6 +31,7 @@ struct Client::Impl {
   std::uint64_t updates = 0, completed = 0;
   std::map<std::uint32_t, MapSet> building;
   std::optional<MapSet> last_complete;
+  std::optional<CalibrationResult> calibration;
   std::vector<double> requested_shininess;
   Client* owner = nullptr;
 
@@ -139,6 +140,12 @@ struct Client::Impl {
           }
           break;
         }
+        case M::CalibrationResult: {
+          const auto* m = e.message_as_CalibrationResult();
+          calibration = CalibrationResult{m->stored(), m->method() ? m->method()->str() : "",
+                                          m->message() ? m->message()->str() : "", m->frames()};
+          break;
+        }
         default:
           break;  // Progress, Pong: nothing to keep
       }
@@ -201,8 +208,8 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   if (ec) throw ClientError("Network", "cannot resolve " + host + ": " + ec.message());
   asio::connect(d.socket, endpoints, ec);
   if (ec)
-    throw ClientError("Network",
-                      "cannot connect to " + host + ":" + std::to_string(port) + ": " + ec.message());
+    throw ClientError(
+        "Network", "cannot connect to " + host + ":" + std::to_string(port) + ": " + ec.message());
   d.socket.set_option(tcp::no_delay(true), ec);
   {
     std::lock_guard lock(d.mutex);
@@ -255,9 +262,27 @@ void Client::request_maps(const std::vector<double>& shininess, int size, Projec
   flatbuffers::FlatBufferBuilder b(256);
   std::vector<float> s(shininess.begin(), shininess.end());
   const auto m = wire::CreateRequestMaps(b, b.CreateVector(s), std::uint32_t(size),
-                                         wire::Projection(int(projection)),
-                                         b.CreateString(method));
+                                         wire::Projection(int(projection)), b.CreateString(method));
   b.Finish(wire::CreateEnvelope(b, wire::Message::RequestMaps, m.Union()),
+           wire::EnvelopeIdentifier());
+  impl_->send(wire::frame_message(b));
+}
+
+void Client::send_calibration_set(const std::string& method, int width, int height,
+                                  const std::vector<CalibrationFrame>& frames) {
+  flatbuffers::FlatBufferBuilder b(1024);
+  std::vector<flatbuffers::Offset<wire::CameraFrame>> offsets;
+  std::uint64_t seq = 0;
+  for (const CalibrationFrame& f : frames) {
+    const wire::Quat q(f.info.orientation.w, f.info.orientation.x, f.info.orientation.y,
+                       f.info.orientation.z);
+    const auto data = b.CreateVector(f.jpeg.data(), f.jpeg.size());
+    offsets.push_back(wire::CreateCameraFrame(b, ++seq, f.info.timestamp, f.info.exposure,
+                                              f.info.gain, &q, wire::PixelFormat::Jpeg,
+                                              std::uint32_t(width), std::uint32_t(height), data));
+  }
+  const auto m = wire::CreateCalibrationSet(b, b.CreateString(method), b.CreateVector(offsets));
+  b.Finish(wire::CreateEnvelope(b, wire::Message::CalibrationSet, m.Union()),
            wire::EnvelopeIdentifier());
   impl_->send(wire::frame_message(b));
 }
@@ -288,10 +313,10 @@ bool Client::wait_for(const std::function<bool()>& pred, std::chrono::millisecon
       lock.unlock();
       return pred();
     }
-    impl_->changed.wait_for(lock, std::min<std::chrono::milliseconds>(
-                                      std::chrono::milliseconds(50),
-                                      std::chrono::duration_cast<std::chrono::milliseconds>(
-                                          end - Clock::now())));
+    impl_->changed.wait_for(
+        lock, std::min<std::chrono::milliseconds>(
+                  std::chrono::milliseconds(50),
+                  std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now())));
   }
 }
 
@@ -306,6 +331,10 @@ std::optional<MapSet> Client::last_complete_maps() const {
 std::optional<std::pair<std::string, std::string>> Client::server_error() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->error;
+}
+std::optional<CalibrationResult> Client::calibration_result() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->calibration;
 }
 bool Client::connected() const {
   std::lock_guard lock(impl_->mutex);

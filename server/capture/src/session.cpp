@@ -448,8 +448,7 @@ struct CaptureSession::Impl {
   }
 
   // `scale` > 1: the image was decoded already reduced by that factor (JPEG DCT scaling).
-  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result,
-                  int scale = 1) {
+  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result, int scale = 1) {
     if (std::string why = check_frame_info(info); !why.empty()) {
       result.skipped_reason = why;
       return result;

@@ -6,7 +6,6 @@
 #include <boost/asio/write.hpp>
 #include <cmath>
 
-
 namespace arlight::daemon {
 
 namespace asio = boost::asio;
@@ -34,25 +33,24 @@ void Connection::close() {
 
 void Connection::read_header() {
   if (closing_) return;
-  asio::async_read(socket_, asio::buffer(header_),
-                   asio::bind_executor(strand_, [self = shared_from_this()](
-                                                    boost::system::error_code ec, std::size_t) {
-                     if (ec) {  // the peer went away: the session stays for a resume
-                       if (self->session_) self->session_->detach();
-                       return;
-                     }
-                     std::string why;
-                     const auto size =
-                         wire::read_header(std::span<const std::uint8_t, wire::kHeaderBytes>(
-                                               self->header_),
-                                           self->env_.limits.max_message_bytes, why);
-                     if (!size)
-                       return self->fail(why.starts_with("message of")
-                                             ? wire::ErrorCode::TooLarge
-                                             : wire::ErrorCode::BadMessage,
-                                         why);
-                     self->read_payload(*size);
-                   }));
+  asio::async_read(
+      socket_, asio::buffer(header_),
+      asio::bind_executor(
+          strand_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+            if (ec) {  // the peer went away: the session stays for a resume
+              if (self->session_) self->session_->detach();
+              return;
+            }
+            std::string why;
+            const auto size =
+                wire::read_header(std::span<const std::uint8_t, wire::kHeaderBytes>(self->header_),
+                                  self->env_.limits.max_message_bytes, why);
+            if (!size)
+              return self->fail(why.starts_with("message of") ? wire::ErrorCode::TooLarge
+                                                              : wire::ErrorCode::BadMessage,
+                                why);
+            self->read_payload(*size);
+          }));
 }
 
 void Connection::read_payload(std::uint32_t size) {
@@ -140,12 +138,13 @@ void Connection::handle(const wire::Envelope& e) {
       c.fx = k.fx(), c.fy = k.fy(), c.cx = k.cx(), c.cy = k.cy();
       if (k.distortion()) {
         if (k.distortion()->size() > 5)
-          return fail(wire::ErrorCode::BadMessage, "CameraIntrinsics: more than 5 distortion terms");
+          return fail(wire::ErrorCode::BadMessage,
+                      "CameraIntrinsics: more than 5 distortion terms");
         for (flatbuffers::uoffset_t i = 0; i < k.distortion()->size(); ++i)
           c.distortion[i] = k.distortion()->Get(i);
       }
-      const bool finite = std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) &&
-                          std::isfinite(c.cy);
+      const bool finite =
+          std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy);
       if (c.width < 1 || c.height < 1 || !finite || !(c.fx > 0) || !(c.fy > 0) ||
           std::uint64_t(c.width) * std::uint64_t(c.height) > env_.limits.max_frame_pixels)
         return fail(wire::ErrorCode::BadMessage,
@@ -170,9 +169,29 @@ void Connection::handle(const wire::Envelope& e) {
       if (!why.empty()) return fail(wire::ErrorCode::BadMessage, why);
       return;
     }
-    case M::CalibrationSet:
-      return fail(wire::ErrorCode::Unsupported,
-                  "CalibrationSet: calibrate with arlight-capture --calibrate for now");
+    case M::CalibrationSet: {
+      const wire::CalibrationSet& set = *e.message_as_CalibrationSet();
+      const auto* frames = set.frames();
+      if (!frames || frames->size() < 2 || frames->size() > 16)
+        return fail(wire::ErrorCode::BadMessage, "CalibrationSet: 2 to 16 frames");
+      std::vector<std::vector<std::uint8_t>> jpegs;
+      std::vector<double> times;
+      for (flatbuffers::uoffset_t i = 0; i < frames->size(); ++i) {
+        const wire::CameraFrame* f = frames->Get(i);
+        const double t = f->exposure() * f->gain();
+        const std::uint64_t pixels = std::uint64_t(f->width()) * f->height();
+        if (!f->data() || f->data()->size() == 0 || f->format() != wire::PixelFormat::Jpeg ||
+            pixels == 0 || pixels > env_.limits.max_frame_pixels || !std::isfinite(t) || !(t > 0.0))
+          return fail(wire::ErrorCode::BadMessage,
+                      "CalibrationSet: frame " + std::to_string(i) +
+                          " needs JPEG data, a size within the limits and exposure x gain > 0");
+        jpegs.emplace_back(f->data()->begin(), f->data()->end());
+        times.push_back(t);
+      }
+      session_->calibrate(std::move(jpegs), std::move(times),
+                          set.method() ? set.method()->str() : "robertson");
+      return;
+    }
     case M::Ping:
       return send(wire::make_pong(e.message_as_Ping()->nonce()));
     case M::Bye:
@@ -189,10 +208,10 @@ void Connection::handle(const wire::Envelope& e) {
 
 void Connection::handle_hello(const wire::Hello& m) {
   if (m.protocol_version() != wire::kProtocolVersion)
-    return fail(wire::ErrorCode::Unsupported,
-                "protocol version " + std::to_string(m.protocol_version()) +
-                    " is not supported (this server speaks " +
-                    std::to_string(wire::kProtocolVersion) + ")");
+    return fail(wire::ErrorCode::Unsupported, "protocol version " +
+                                                  std::to_string(m.protocol_version()) +
+                                                  " is not supported (this server speaks " +
+                                                  std::to_string(wire::kProtocolVersion) + ")");
   wire::ErrorCode code = wire::ErrorCode::Unknown;
   std::string why;
   session_ = env_.open_session(m, code, why);
@@ -206,9 +225,9 @@ void Connection::handle_hello(const wire::Hello& m) {
   const auto limits =
       wire::CreateLimits(b, env_.limits.max_message_bytes, env_.limits.max_frame_pixels,
                          env_.limits.max_map_size, env_.limits.max_maps);
-  const auto welcome = wire::CreateWelcome(b, b.CreateString(session_->id()),
-                                           b.CreateString(env_.server_version), resumed,
-                                           session_->frames_processed(), limits);
+  const auto welcome =
+      wire::CreateWelcome(b, b.CreateString(session_->id()), b.CreateString(env_.server_version),
+                          resumed, session_->frames_processed(), limits);
   b.Finish(wire::CreateEnvelope(b, wire::Message::Welcome, welcome.Union()),
            wire::EnvelopeIdentifier());
   send(wire::frame_message(b));
@@ -218,18 +237,18 @@ void Connection::handle_frame(const wire::CameraFrame& m) {
   if (!session_->has_camera())
     return fail(wire::ErrorCode::OutOfOrder, "CameraFrame before CameraIntrinsics");
   if (!m.data() || m.data()->size() == 0)
-    return fail(wire::ErrorCode::BadMessage, "CameraFrame " + std::to_string(m.sequence()) +
-                                                 ": no image data");
+    return fail(wire::ErrorCode::BadMessage,
+                "CameraFrame " + std::to_string(m.sequence()) + ": no image data");
   const std::uint64_t pixels = std::uint64_t(m.width()) * m.height();
   if (pixels == 0 || pixels > env_.limits.max_frame_pixels)
     return fail(wire::ErrorCode::TooLarge, "CameraFrame " + std::to_string(m.sequence()) + ": " +
                                                std::to_string(m.width()) + "x" +
                                                std::to_string(m.height()) + " pixels");
   if (m.format() == wire::PixelFormat::Rgb8 && m.data()->size() != pixels * 3)
-    return fail(wire::ErrorCode::BadMessage,
-                "CameraFrame " + std::to_string(m.sequence()) + ": RGB8 data of " +
-                    std::to_string(m.data()->size()) + " bytes for " + std::to_string(pixels) +
-                    " pixels");
+    return fail(wire::ErrorCode::BadMessage, "CameraFrame " + std::to_string(m.sequence()) +
+                                                 ": RGB8 data of " +
+                                                 std::to_string(m.data()->size()) + " bytes for " +
+                                                 std::to_string(pixels) + " pixels");
   if (m.format() != wire::PixelFormat::Jpeg && m.format() != wire::PixelFormat::Rgb8)
     return fail(wire::ErrorCode::Unsupported, "CameraFrame: unknown pixel format");
   FrameJob job;
@@ -237,8 +256,10 @@ void Connection::handle_frame(const wire::CameraFrame& m) {
   job.info.timestamp = m.timestamp();
   job.info.exposure = m.exposure();
   job.info.gain = m.gain();
-  if (const wire::Quat* q = m.orientation()) job.info.orientation = glm::dquat(q->w(), q->x(), q->y(), q->z());
-  else job.info.orientation = glm::dquat(0, 0, 0, 0);  // the capture library refuses it with a reason
+  if (const wire::Quat* q = m.orientation())
+    job.info.orientation = glm::dquat(q->w(), q->x(), q->y(), q->z());
+  else
+    job.info.orientation = glm::dquat(0, 0, 0, 0);  // the capture library refuses it with a reason
   job.format = m.format();
   job.width = int(m.width()), job.height = int(m.height());
   job.data.assign(m.data()->begin(), m.data()->end());

@@ -43,7 +43,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
   void handle_hello(const wire::Hello& m);
   void handle_frame(const wire::CameraFrame& m);
   void fail(wire::ErrorCode code, const std::string& message);  // Error, then close
-  void send(std::vector<std::uint8_t> message);                  // from any thread
+  void send(std::vector<std::uint8_t> message);                 // from any thread
   void write_next();
 
   boost::asio::ip::tcp::socket socket_;

@@ -30,7 +30,8 @@ constexpr const char* kServerVersion = "arlightd 0.1.0";
 
 std::string new_session_id() {
   unsigned char bytes[16];
-  if (RAND_bytes(bytes, sizeof bytes) != 1) throw std::runtime_error("no randomness for a session id");
+  if (RAND_bytes(bytes, sizeof bytes) != 1)
+    throw std::runtime_error("no randomness for a session id");
   static const char* hex = "0123456789abcdef";
   std::string id;
   for (unsigned char b : bytes) id += hex[b >> 4], id += hex[b & 15];
@@ -38,11 +39,9 @@ std::string new_session_id() {
 }
 
 bool valid_session_id(const std::string& id) {
-  return !id.empty() && id.size() <= 64 &&
-         std::all_of(id.begin(), id.end(), [](char c) {
-           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                  c == '-';
-         });
+  return !id.empty() && id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '-';
+  });
 }
 
 unsigned hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
@@ -101,15 +100,15 @@ struct Daemon::Impl {
         "arlight_frames_dropped_total", "frames replaced by a newer one before processing");
     session_env.frames_skipped =
         &metrics.counter("arlight_frames_skipped_total", "frames refused by the capture library");
-    session_env.map_sets =
-        &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
+    session_env.map_sets = &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
     const std::vector<double> ms = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1};
-    session_env.processing_seconds = &metrics.histogram(
-        "arlight_frame_processing_seconds", "capture time per frame", ms);
+    session_env.processing_seconds =
+        &metrics.histogram("arlight_frame_processing_seconds", "capture time per frame", ms);
     session_env.update_latency_seconds = &metrics.histogram(
         "arlight_update_latency_seconds", "frame received to LightingUpdate sent", ms);
-    session_env.map_set_seconds = &metrics.histogram(
-        "arlight_map_set_seconds", "time to compute and send a map set", {0.1, 0.5, 1, 2, 5, 10, 30});
+    session_env.map_set_seconds =
+        &metrics.histogram("arlight_map_set_seconds", "time to compute and send a map set",
+                           {0.1, 0.5, 1, 2, 5, 10, 30});
     std::filesystem::create_directories(config.data_dir / "sessions");
 
     connection_env.limits = config.limits;
@@ -206,8 +205,8 @@ struct Daemon::Impl {
     }
     if (int(sessions.size()) >= config.max_sessions) {
       code = wire::ErrorCode::Busy;
-      why = "the server carries its maximum of " + std::to_string(config.max_sessions) +
-            " sessions";
+      why =
+          "the server carries its maximum of " + std::to_string(config.max_sessions) + " sessions";
       return nullptr;
     }
     auto s = std::make_shared<Session>(new_session_id(), device, session_env);
@@ -217,21 +216,21 @@ struct Daemon::Impl {
   }
 
   void accept() {
-    acceptor.async_accept(asio::make_strand(io), [this](boost::system::error_code ec,
-                                                        tcp::socket socket) {
-      if (ec) {
-        if (acceptor.is_open()) accept();
-        return;
-      }
-      auto c = std::make_shared<Connection>(std::move(socket), connection_env);
-      {
-        std::lock_guard lock(connections_mutex);
-        std::erase_if(connections, [](const auto& w) { return w.expired(); });
-        connections.push_back(c);
-      }
-      c->start();
-      accept();
-    });
+    acceptor.async_accept(
+        asio::make_strand(io), [this](boost::system::error_code ec, tcp::socket socket) {
+          if (ec) {
+            if (acceptor.is_open()) accept();
+            return;
+          }
+          auto c = std::make_shared<Connection>(std::move(socket), connection_env);
+          {
+            std::lock_guard lock(connections_mutex);
+            std::erase_if(connections, [](const auto& w) { return w.expired(); });
+            connections.push_back(c);
+          }
+          c->start();
+          accept();
+        });
   }
 
   // Every second: checkpoint what changed (at the configured interval) and close sessions idle
@@ -288,8 +287,8 @@ void Daemon::start() {
   d.schedule_housekeeping();
   const unsigned n = d.config.threads > 0 ? unsigned(d.config.threads) : hardware_threads();
   for (unsigned i = 0; i < n; ++i) d.threads.emplace_back([&d] { d.io.run(); });
-  spdlog::info("arlightd listening on {}:{} (admin {}), data in {}", d.config.listen_host,
-               port(), admin_port(), d.config.data_dir.string());
+  spdlog::info("arlightd listening on {}:{} (admin {}), data in {}", d.config.listen_host, port(),
+               admin_port(), d.config.data_dir.string());
 }
 
 void Daemon::stop() {

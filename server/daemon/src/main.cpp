@@ -1,9 +1,10 @@
 // arlightd: the lighting daemon (see README.md and protocol/PROTOCOL.md).
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
 #include <thread>
 
 #include "arlight/daemon.hpp"
@@ -16,20 +17,23 @@ int main(int argc, char** argv) {
   // EPIPE instead of raising SIGPIPE. Logs go to stderr; stdout carries the one "listening" line.
   std::signal(SIGPIPE, SIG_IGN);
   spdlog::set_default_logger(spdlog::stderr_color_mt("arlightd"));
-  CLI::App app{"arlightd: builds HDR environment maps from phones' and webcams' frames and "
-               "streams lighting back"};
+  CLI::App app{
+      "arlightd: builds HDR environment maps from phones' and webcams' frames and "
+      "streams lighting back"};
   daemon::DaemonConfig c;
   std::string listen, admin, config, tls_cert, tls_key;
   std::string data_dir, tokens;
   app.add_option("--config", config, "JSON config file (flags given here override it)");
   app.add_option("--listen", listen, "HOST:PORT for clients (default 127.0.0.1:7878)");
-  app.add_option("--admin", admin, "HOST:PORT of the admin HTTP server (default 127.0.0.1:7879; '' off)");
+  app.add_option("--admin", admin,
+                 "HOST:PORT of the admin HTTP server (default 127.0.0.1:7879; '' off)");
   app.add_option("--data-dir", data_dir, "where sessions and response curves are kept");
   app.add_option("--tokens", tokens, "file of '<device-id> <token>' lines");
   app.add_option("--threads", c.threads, "network threads (0: one per core)");
   app.add_option("--workers", c.workers, "frame-processing threads (0: one per core)");
   app.add_option("--max-sessions", c.max_sessions, "live sessions at once");
-  app.add_option("--idle-timeout", c.idle_timeout_s, "seconds before a disconnected session closes");
+  app.add_option("--idle-timeout", c.idle_timeout_s,
+                 "seconds before a disconnected session closes");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 3)");
   app.add_option("--tls-cert", tls_cert, "TLS certificate (not built in yet)");

@@ -36,8 +36,8 @@ std::uint64_t fnv1a(const std::string& bytes) {
 }
 
 json camera_json(const CameraIntrinsics& k) {
-  return {{"width", k.width}, {"height", k.height}, {"fx", k.fx},          {"fy", k.fy},
-          {"cx", k.cx},       {"cy", k.cy},         {"distortion", k.distortion}};
+  return {{"width", k.width}, {"height", k.height},        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+          {"cy", k.cy},       {"distortion", k.distortion}};
 }
 
 CameraIntrinsics camera_from_json(const json& j) {
@@ -76,8 +76,7 @@ void dominant_light(const ShCoeffs& sh, glm::vec3& direction, glm::vec3& colour)
   const glm::dvec3 d = n > 0 ? lum / n : glm::dvec3(0, 1, 0);
   direction = glm::vec3(d);
   const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));  // |Y_1m| for a unit direction
-  for (int c = 0; c < 3; ++c)
-    colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
+  for (int c = 0; c < 3; ++c) colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
 }
 
 }  // namespace
@@ -222,9 +221,9 @@ std::vector<std::uint8_t> Session::lighting_update(const capture::FrameResult& r
   dominant_light(sh, dir, colour);
   flatbuffers::FlatBufferBuilder b(1024 + flat.size() * 4);
   const wire::Vec3 d(dir.x, dir.y, dir.z), c(colour.x, colour.y, colour.z);
-  const auto m = wire::CreateLightingUpdate(
-      b, seq, r.used, b.CreateString(r.skipped_reason), std::uint8_t(sh.order),
-      b.CreateVector(flat), &d, &c, float(capture_->coverage()), processed_, dropped_);
+  const auto m = wire::CreateLightingUpdate(b, seq, r.used, b.CreateString(r.skipped_reason),
+                                            std::uint8_t(sh.order), b.CreateVector(flat), &d, &c,
+                                            float(capture_->coverage()), processed_, dropped_);
   b.Finish(wire::CreateEnvelope(b, wire::Message::LightingUpdate, m.Union()),
            wire::EnvelopeIdentifier());
   return wire::frame_message(b);
@@ -257,8 +256,8 @@ std::string Session::request_maps(MapRequest r) {
 void Session::maybe_start_maps() {
   if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
   const double coverage = capture_->coverage();
-  const bool changed = maps_coverage_ < 0.0 || coverage >= maps_coverage_ + 0.05 ||
-                       processed_ >= maps_frames_ + 150;
+  const bool changed =
+      maps_coverage_ < 0.0 || coverage >= maps_coverage_ + 0.05 || processed_ >= maps_frames_ + 150;
   if (!changed) return;
   if (maps_running_) {
     maps_again_ = true;
@@ -320,12 +319,10 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
                     sizeof(float) * 3 * std::size_t(w));
       flatbuffers::FlatBufferBuilder b(1024 + px.size() * 2);
       const auto data = b.CreateVector(wire::encode_half_rgb(px.data(), px.size() / 3));
-      const auto m = wire::CreateMapTile(b, set, std::uint16_t(map),
-                                         float(request.shininess[std::size_t(map)]),
-                                         wire_projection, std::uint32_t(layout.width()),
-                                         std::uint32_t(layout.height()), std::uint8_t(level),
-                                         std::uint32_t(x), std::uint32_t(y), std::uint32_t(w),
-                                         std::uint32_t(h), data);
+      const auto m = wire::CreateMapTile(
+          b, set, std::uint16_t(map), float(request.shininess[std::size_t(map)]), wire_projection,
+          std::uint32_t(layout.width()), std::uint32_t(layout.height()), std::uint8_t(level),
+          std::uint32_t(x), std::uint32_t(y), std::uint32_t(w), std::uint32_t(h), data);
       b.Finish(wire::CreateEnvelope(b, wire::Message::MapTile, m.Union()),
                wire::EnvelopeIdentifier());
       return wire::frame_message(b);
@@ -367,6 +364,46 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
       self->maybe_start_maps();
     });
   }
+}
+
+void Session::calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vector<double> times,
+                        std::string method) {
+  boost::asio::post(*env_.workers, [self = shared_from_this(), jpegs = std::move(jpegs),
+                                    times = std::move(times), method = std::move(method)] {
+    bool stored = false;
+    std::string message;
+    try {
+      const auto m = capture::parse_calibration_method(method.empty() ? "robertson" : method);
+      if (!m) throw InputError("method must be robertson or debevec, not '" + method + "'");
+      std::vector<cv::Mat> images;
+      for (std::size_t i = 0; i < jpegs.size(); ++i) {
+        cv::Mat im = cv::imdecode(jpegs[i], cv::IMREAD_COLOR);
+        if (im.empty()) throw InputError("frame " + std::to_string(i) + " does not decode");
+        images.push_back(im);
+      }
+      const CameraResponse r = capture::calibrate_response(images, times, *m);
+      capture::ResponseStore(self->env_.data_dir / "responses").save(self->device_id_, r);
+      stored = true;
+      message = "stored for device " + self->device_id_;
+      // A session that has not merged a frame yet starts over with the new curve.
+      std::lock_guard serial(self->process_mutex_);
+      std::lock_guard lock(self->mutex_);
+      if (self->capture_ && self->processed_ == 0) {
+        capture::CaptureOptions o = self->capture_->options();
+        self->capture_ = std::make_unique<capture::CaptureSession>(*self->camera_, r, o);
+        self->response_name_ = r.name();
+        message += "; this session uses it";
+      }
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+    flatbuffers::FlatBufferBuilder b(256);
+    const auto res = wire::CreateCalibrationResult(
+        b, stored, b.CreateString(method), std::uint32_t(jpegs.size()), b.CreateString(message));
+    b.Finish(wire::CreateEnvelope(b, wire::Message::CalibrationResult, res.Union()),
+             wire::EnvelopeIdentifier());
+    self->send(wire::frame_message(b));
+  });
 }
 
 void Session::shutdown() {

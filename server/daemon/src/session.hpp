@@ -86,15 +86,19 @@ class Session : public std::enable_shared_from_this<Session> {
   bool attached() const;
   Clock::time_point last_activity() const;
 
-  void submit(FrameJob job);              // newest wins
+  void submit(FrameJob job);               // newest wins
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
+  // Response calibration from one view at several exposures (JPEGs, exposure x gain each), on
+  // the worker pool; answers with a CalibrationResult.
+  void calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vector<double> times,
+                 std::string method);
   std::uint64_t frames_processed() const;
 
   // Called periodically: when frames stopped arriving for a moment and the map changed since
   // the last map set, computes one now (the user has paused or finished capturing).
   void on_idle(Clock::time_point now);
-  void checkpoint();   // writes DATA/sessions/<id>/ if anything changed since the last one
-  void shutdown();     // cancels the map computation and waits for running work
+  void checkpoint();  // writes DATA/sessions/<id>/ if anything changed since the last one
+  void shutdown();    // cancels the map computation and waits for running work
   nlohmann::json summary() const;
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
 

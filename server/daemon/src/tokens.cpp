@@ -22,8 +22,7 @@ TokenStore TokenStore::load(const std::filesystem::path& path) {
     std::string device, token, extra;
     if (!(fields >> device)) continue;  // blank or comment
     if (!(fields >> token) || (fields >> extra))
-      throw InputError(where + ": line " + std::to_string(n) +
-                       ": expected '<device-id> <token>'");
+      throw InputError(where + ": line " + std::to_string(n) + ": expected '<device-id> <token>'");
     if (token.size() < 8)
       throw InputError(where + ": line " + std::to_string(n) + ": token shorter than 8 characters");
     if (!store.tokens_.emplace(device, token).second)

@@ -62,8 +62,20 @@ struct MapSet {
   bool preview_received = false;             // the coarse tiles of every map
   bool complete = false;
   double server_seconds = 0;
-  double coverage = 0;          // of the environment map the set was computed from
-  std::uint64_t frames = 0;     // frames merged into that map
+  double coverage = 0;       // of the environment map the set was computed from
+  std::uint64_t frames = 0;  // frames merged into that map
+};
+
+struct CalibrationResult {
+  bool stored = false;
+  std::string method, message;
+  std::uint32_t frames = 0;
+};
+
+// One exposure of a calibration set.
+struct CalibrationFrame {
+  capture::FrameInfo info;
+  std::vector<std::uint8_t> jpeg;
 };
 
 class Client {
@@ -83,7 +95,11 @@ class Client {
   void send_jpeg_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width,
                        int height, std::span<const std::uint8_t> jpeg);
   void request_maps(const std::vector<double>& shininess, int size,
-                    Projection projection = Projection::AngleMap, const std::string& method = "auto");
+                    Projection projection = Projection::AngleMap,
+                    const std::string& method = "auto");
+  // One view at several exposures; the server answers with a CalibrationResult.
+  void send_calibration_set(const std::string& method, int width, int height,
+                            const std::vector<CalibrationFrame>& frames);
   void ping(std::uint64_t nonce);
   void bye();
   void send_raw(std::span<const std::uint8_t> bytes);  // tests: anything at all
@@ -101,6 +117,7 @@ class Client {
   std::optional<LightingUpdate> last_update() const;
   std::optional<MapSet> last_complete_maps() const;
   std::optional<std::pair<std::string, std::string>> server_error() const;  // code, message
+  std::optional<CalibrationResult> calibration_result() const;
   bool connected() const;
   std::uint64_t updates_received() const;
   std::uint64_t map_sets_completed() const;

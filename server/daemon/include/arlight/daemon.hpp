@@ -16,9 +16,9 @@ namespace arlight::daemon {
 
 struct DaemonConfig {
   std::string listen_host = "127.0.0.1";
-  std::uint16_t listen_port = 7878;   // 0: an ephemeral port (tests)
+  std::uint16_t listen_port = 7878;  // 0: an ephemeral port (tests)
   std::string admin_host = "127.0.0.1";
-  std::uint16_t admin_port = 7879;    // 0: ephemeral
+  std::uint16_t admin_port = 7879;  // 0: ephemeral
   bool admin_enabled = true;
   std::filesystem::path data_dir = "arlight-data";
   std::filesystem::path tokens_file;  // required: "<device-id> <token>" lines
@@ -27,7 +27,7 @@ struct DaemonConfig {
   int max_sessions = 32;              // live sessions at once
   double idle_timeout_s = 300;        // a session without a connection is closed (kept on disk)
   double checkpoint_interval_s = 2;
-  int map_size = 512;                 // capture map: angle map N x N
+  int map_size = 512;  // capture map: angle map N x N
   // Feature alignment on every n-th frame of a session, on the frame reduced to at most
   // align_max_width (the drift model extrapolates in between): at 30 fps, every 3rd frame at
   // 160 pixels keeps a 0.5 deg/s drift to ~0.3 deg RMS (bench/RESULTS.md) while no frame costs
@@ -39,7 +39,8 @@ struct DaemonConfig {
 };
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers) over `config`. InputError names the file and key.
+// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers) over `config`. InputError
+// names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
 // "host:port" -> host, port; InputError otherwise.
@@ -53,9 +54,9 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
-  void start();                      // runs the network and worker threads
-  void stop();                       // closes everything, checkpoints every session
-  void wait();                       // until stop() (e.g. from a signal handler thread)
+  void start();  // runs the network and worker threads
+  void stop();   // closes everything, checkpoints every session
+  void wait();   // until stop() (e.g. from a signal handler thread)
   std::uint16_t port() const;
   std::uint16_t admin_port() const;  // 0 when disabled
 
