@@ -35,6 +35,7 @@ struct Options {
   int align_every = 0;  // 0: the library's default
   int align_width = 0;  // 0: the library's default
   bool no_align = false;
+  bool align_async = false;
 };
 
 double median(std::vector<double> v) {
@@ -142,6 +143,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   if (o.align_every < 0) throw InputError("--align-every must be >= 1");
   if (o.align_every > 0) options.align_every = o.align_every;
   if (o.align_width > 0) options.align_max_width = o.align_width;
+  options.align_async = o.align_async;
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
@@ -250,6 +252,8 @@ int main(int argc, char** argv) {
       ->default_val("anglemap");
   app.add_flag("--no-align", o.no_align, "use the sensor orientations as they are");
   app.add_option("--sh-order", o.sh_order, "live SH order (bands)")->default_val(8);
+  app.add_flag("--align-async", o.align_async,
+               "measure alignments on another thread, apply them at the next frame (as arlightd)");
   app.add_option("--align-width", o.align_width,
                  "largest width of the frame the alignment works on; default 320");
   app.add_option("--align-every", o.align_every,

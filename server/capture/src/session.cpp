@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
+#include <future>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <numbers>
@@ -142,6 +143,14 @@ struct CaptureSession::Impl {
   std::array<std::uint8_t, 4096> gray_code{};  // linear [0, 1] (sqrt-spaced) -> 8-bit code
   glm::dquat offset{1, 0, 0, 0};  // world-frame drift correction: used = offset * sensor
   int frames_since_align = 0;
+  // One alignment: what it was measured against, and the fit.
+  struct Measurement {
+    glm::dquat predicted{1, 0, 0, 0}, sensor{1, 0, 0, 0};
+    double timestamp = 0;
+    cv::Mat frame, rendered, mask;
+    RotationFit fit;
+  };
+  std::future<Measurement> pending_alignment;  // align_async: measured on another thread
   glm::dvec3 drift_rate{0.0};  // world-frame rotation vector per second of the offset
   double last_time = 0;
   bool has_time = false;
@@ -336,45 +345,64 @@ struct CaptureSession::Impl {
   // offset when the features do not allow one.
   glm::dquat align(const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
                    FrameResult& result) {
+    // An alignment measured in the background from an earlier frame is applied first, at this
+    // frame whatever the timing, so results do not depend on thread scheduling.
+    if (pending_alignment.valid()) apply_alignment(pending_alignment.get(), result);
     const glm::dquat predicted = glm::normalize(predict_offset(info.timestamp) * sensor);
     if (!(covered_solid_angle > 0.0)) return predicted;  // nothing captured yet to align with
     if (++frames_since_align < options.align_every) return predicted;
     frames_since_align = 0;
-    cv::Mat rendered, mask;
-    render_view(predicted, info.exposure * info.gain, rendered, mask);
-    if (cv::countNonZero(mask) < int(mask.total() / 5)) {
+    Measurement m;
+    m.predicted = predicted, m.sensor = sensor, m.timestamp = info.timestamp;
+    render_view(predicted, info.exposure * info.gain, m.rendered, m.mask);
+    if (cv::countNonZero(m.mask) < int(m.mask.total() / 5)) {
       result.align_note = "less than 20 % of the view captured before";
       return predicted;
     }
     // The frame at the alignment resolution, blurred about as much as the map's two
     // resamplings (frame -> texels -> view) blur the rendering, so corners sit alike in both.
     const CameraIntrinsics& ak = align_camera.intrinsics();
-    cv::Mat gray, small;
+    cv::Mat gray;
     cv::cvtColor(bgr8, gray, cv::COLOR_BGR2GRAY);
     if (gray.cols == ak.width && gray.rows == ak.height)
-      small = gray;
+      m.frame = gray;
     else
-      cv::resize(gray, small, cv::Size(ak.width, ak.height), 0, 0, cv::INTER_AREA);
+      cv::resize(gray, m.frame, cv::Size(ak.width, ak.height), 0, 0, cv::INTER_AREA);
     const double blur = 0.5 * texel_angle(*table) * ak.fx;  // half a texel, in pixels
-    cv::GaussianBlur(small, small, cv::Size(0, 0), std::max(0.5, blur));
+    cv::GaussianBlur(m.frame, m.frame, cv::Size(0, 0), std::max(0.5, blur));
     const double radius = glm::radians(options.align_max_step_deg) * ak.fx;
-    const RotationFit fit =
-        align_to_rendered(small, rendered, mask, align_camera, options.align_min_inliers, radius);
-    result.align_inliers = fit.inliers;
-    if (!fit.ok) {
-      result.align_note = fit.why;
+    // The features and the fit need nothing of the session but these copies.
+    auto measure = [m = std::move(m), camera = align_camera, radius,
+                    min_inliers = options.align_min_inliers]() mutable {
+      m.fit = align_to_rendered(m.frame, m.rendered, m.mask, camera, min_inliers, radius);
+      m.rendered.release(), m.mask.release(), m.frame.release();
+      return std::move(m);
+    };
+    if (options.align_async) {
+      pending_alignment = std::async(std::launch::async, std::move(measure));
+      result.align_note = "measured in the background, applied at the next frame";
       return predicted;
     }
-    const glm::dquat correction = glm::quat_cast(fit.rotation);  // camera frame
+    apply_alignment(measure(), result);
+    return glm::normalize(offset * sensor);
+  }
+
+  // Turns a measured correction into the drift offset (or says why not).
+  void apply_alignment(const Measurement& m, FrameResult& result) {
+    result.align_inliers = m.fit.inliers;
+    if (!m.fit.ok) {
+      result.align_note = m.fit.why;
+      return;
+    }
+    const glm::dquat correction = glm::quat_cast(m.fit.rotation);  // camera frame
     const double step = angle_between_deg(correction, glm::dquat(1, 0, 0, 0));
     if (step > options.align_max_step_deg) {  // a jump this large is a mismatch, not drift
       result.align_note = "rejected a " + std::to_string(step) + " degree correction";
-      return predicted;
+      return;
     }
-    const glm::dquat measured = glm::normalize(predicted * correction);
-    update_offset(glm::normalize(measured * glm::conjugate(sensor)), info.timestamp);
+    const glm::dquat measured = glm::normalize(m.predicted * correction);
+    update_offset(glm::normalize(measured * glm::conjugate(m.sensor)), m.timestamp);
     result.aligned = true;
-    return glm::normalize(offset * sensor);
   }
 
   // Projects the linearised frame into the map (thesis ch. 3: every texel's direction meets the

@@ -99,6 +99,7 @@ std::string Session::set_camera(const CameraIntrinsics& camera) {
   o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
   o.align_every = std::max(1, env_.align_every);
   o.align_max_width = std::max(32, env_.align_max_width);
+  o.align_async = true;  // a frame never waits for feature matching
   try {
     capture_ = std::make_unique<capture::CaptureSession>(camera, response, o);
   } catch (const std::invalid_argument& e) {

@@ -39,6 +39,10 @@ struct CaptureOptions {
   double align_max_drift_deg_per_s = 3.0;
   int align_every = 1;  // try the alignment on every n-th frame; the others extrapolate
   int align_max_width = 320;  // the alignment works on the frame reduced to at most this wide
+  // Measure the alignment (features, fit) on another thread and apply it at the next frame,
+  // so a frame never waits for it (the daemon's live path). The result does not depend on
+  // timing: the next frame waits for the measurement if it is not done yet.
+  bool align_async = false;
   // JPEG frames that are reduced by 4 or more anyway are decoded at half size in the DCT
   // domain (libjpeg scaling): 2.5x faster decoding; codes are then averaged over 2x2 before
   // linearisation, a bias only at high-contrast edges.
