@@ -112,10 +112,11 @@ std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path
   return {status, body == std::string::npos ? "" : all.substr(body + 4)};
 }
 
-const fs::path&
-sample_recording() {  // 60 frames of venice, 320x240, shared by the tests of a process
+// 60 frames of venice, 320x240, shared by the tests of one process (ctest runs tests in
+// parallel processes, so the folder is per process).
+const fs::path& sample_recording() {
   static const fs::path rec = [] {
-    const fs::path r = test::fresh_temp_dir("daemon_rec") / "rec";
+    const fs::path r = test::fresh_temp_dir("daemon_rec_" + std::to_string(getpid())) / "rec";
     const auto s =
         test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
                                             "/data/probes/venice.exr --out " + r.string() +

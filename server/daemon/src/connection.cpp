@@ -84,9 +84,13 @@ void Connection::send(std::vector<std::uint8_t> message) {
     self->out_bytes_ += m.size();
     self->out_.push_back(std::move(m));
     if (self->out_bytes_ > self->env_.max_send_queue_bytes && !self->closing_) {
-      // A client that does not read would make us hold everything we send it.
-      self->out_.clear();
-      self->out_bytes_ = 0;
+      // A client that does not read would make us hold everything we send it. The message
+      // being written (the front, while writing_) must stay alive until its write ends.
+      const std::size_t keep = self->writing_ ? 1 : 0;
+      while (self->out_.size() > keep) {
+        self->out_bytes_ -= self->out_.back().size();
+        self->out_.pop_back();
+      }
       self->fail(wire::ErrorCode::Busy, "client reads too slowly; closing");
       return;
     }
