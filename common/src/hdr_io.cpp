@@ -247,7 +247,7 @@ double auto_exposure_stops(ConstImageView img) {
   return n ? std::log2(0.18) - log_sum / double(n) / std::log(2.0) : 0.0;
 }
 
-void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
+std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOptions& options) {
   const double scale =
       std::exp2(options.exposure_stops ? *options.exposure_stops : auto_exposure_stops(img));
   std::vector<std::uint8_t> px(std::size_t(img.width) * img.height * 3);
@@ -260,6 +260,11 @@ void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOp
         px[(std::size_t(y) * img.width + x) * 3 + c] =
             std::uint8_t(std::lround(255.0f * std::clamp(linear_to_srgb(v), 0.0f, 1.0f)));
       }
+  return px;
+}
+
+void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
+  const std::vector<std::uint8_t> px = preview_pixels(img, options);
   OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
   write_atomically(path, spec, px.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(img.width));

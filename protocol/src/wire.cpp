@@ -3,8 +3,12 @@
 #include <Imath/half.h>
 #include <zstd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
+
+#include "arlight/error.hpp"
 
 namespace arlight::wire {
 
@@ -119,6 +123,19 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
     }
   }
   return out;
+}
+
+void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+    throw InputError("'" + text + "': expected HOST:PORT");
+  const std::string p = text.substr(colon + 1);
+  if (p.size() > 5 ||
+      !std::all_of(p.begin(), p.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; }) ||
+      std::stoi(p) > 65535)
+    throw InputError("'" + text + "': the port must be a number 0-65535");
+  host = text.substr(0, colon);
+  port = std::uint16_t(std::stoi(p));
 }
 
 const char* message_name(Message type) { return EnumNameMessage(type); }

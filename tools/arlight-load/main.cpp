@@ -14,6 +14,7 @@
 #include "arlight/client_net.hpp"
 #include "arlight/error.hpp"
 #include "arlight/recording.hpp"
+#include "arlight/wire.hpp"
 
 using namespace arlight;
 using Clock = std::chrono::steady_clock;
@@ -126,11 +127,9 @@ int main(int argc, char** argv) {
     if (sessions < 1 || sessions > 1000) throw InputError("--sessions must be in [1, 1000]");
     if (!(duration > 0 && duration <= 3600)) throw InputError("--duration must be in (0, 3600]");
     if (!(rate > 0 && rate <= 1000)) throw InputError("--rate must be in (0, 1000]");
-    const auto colon = server.rfind(':');
-    if (colon == std::string::npos) throw InputError("--server: expected HOST:PORT");
-    const std::string host = server.substr(0, colon);
-    const int port = std::atoi(server.c_str() + colon + 1);
-    if (port < 1 || port > 65535) throw InputError("--server: bad port");
+    std::string host;
+    std::uint16_t port = 0;
+    wire::parse_endpoint(server, host, port);
     const recording::Recording rec = recording::read_recording(recording_dir);
     std::vector<std::vector<std::uint8_t>> jpegs(rec.frames.size());
     std::vector<std::size_t> usable;
@@ -145,8 +144,8 @@ int main(int argc, char** argv) {
     std::vector<std::thread> threads;
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
-        run_session(host, std::uint16_t(port), device.empty() ? rec.device_id : device, token, rec,
-                    jpegs, usable, rate, duration, maps, reports[std::size_t(s)]);
+        run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
+                    rate, duration, maps, reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
 
@@ -168,6 +167,7 @@ int main(int argc, char** argv) {
                                   {"frames_processed", r.processed},
                                   {"frames_dropped", r.dropped},
                                   {"map_sets_completed", r.map_sets},
+                                  {"map_set_ms", r.map_set_ms},
                                   {"latency_ms_p50", percentile(r.latency_ms, 50)},
                                   {"latency_ms_p99", percentile(r.latency_ms, 99)},
                                   {"failed", r.failed}});

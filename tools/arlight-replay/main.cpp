@@ -12,25 +12,13 @@
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/recording.hpp"
+#include "arlight/wire.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-void split_endpoint(const std::string& s, std::string& host, std::uint16_t& port) {
-  const auto colon = s.rfind(':');
-  if (colon == std::string::npos || colon == 0) throw InputError("--server: expected HOST:PORT");
-  host = s.substr(0, colon);
-  try {
-    const int p = std::stoi(s.substr(colon + 1));
-    if (p < 1 || p > 65535) throw std::out_of_range("port");
-    port = std::uint16_t(p);
-  } catch (const std::exception&) {
-    throw InputError("--server: '" + s + "' has no valid port");
-  }
-}
 
 std::vector<double> parse_list(const std::string& text) {
   std::vector<double> out;
@@ -77,7 +65,7 @@ int main(int argc, char** argv) {
   try {
     std::string host;
     std::uint16_t port = 0;
-    split_endpoint(server, host, port);
+    wire::parse_endpoint(server, host, port);
     const recording::Recording rec = recording::read_recording(recording_dir);
     const std::vector<double> shininess = maps.empty() ? std::vector<double>{} : parse_list(maps);
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));

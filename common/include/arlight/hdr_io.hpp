@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <cstddef>
 #include <filesystem>
 #include <optional>
@@ -84,8 +85,11 @@ struct PreviewOptions {
 // Exposure (stops) that maps the log-average luminance of the non-black pixels to 0.18.
 double auto_exposure_stops(ConstImageView img);
 
-// 8-bit sRGB PNG for people to look at: exposure, then Reinhard's x / (1 + x) per channel,
-// then the sRGB curve. Written atomically like write_exr.
+// 8-bit sRGB pixels (RGB, row-major) for people to look at: exposure, then Reinhard's
+// x / (1 + x) per channel, then the sRGB curve.
+std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOptions& options = {});
+
+// preview_pixels() as a PNG file, written atomically like write_exr.
 void write_png_preview(const std::filesystem::path& path, ConstImageView img,
                        const PreviewOptions& options = {});
 

@@ -50,4 +50,7 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
 
 const char* message_name(Message type);
 
+// "host:port" (port 0-65535) -> host, port; InputError naming the text otherwise.
+void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port);
+
 }  // namespace arlight::wire

@@ -6,17 +6,6 @@
 
 namespace arlight::daemon {
 
-void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port) {
-  const auto colon = text.rfind(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
-    throw InputError("'" + text + "': expected HOST:PORT");
-  const std::string p = text.substr(colon + 1);
-  if (p.size() > 5 || !std::all_of(p.begin(), p.end(), ::isdigit) || std::stoi(p) > 65535)
-    throw InputError("'" + text + "': the port must be a number 0-65535");
-  host = text.substr(0, colon);
-  port = std::uint16_t(std::stoi(p));
-}
-
 void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
   const std::string where = "config '" + path.string() + "'";
   std::ifstream in(path);
@@ -31,11 +20,11 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
   for (const auto& [key, value] : j.items()) {
     try {
       if (key == "listen")
-        parse_endpoint(value.get<std::string>(), c.listen_host, c.listen_port);
+        wire::parse_endpoint(value.get<std::string>(), c.listen_host, c.listen_port);
       else if (key == "admin") {
         const std::string a = value.get<std::string>();
         c.admin_enabled = !a.empty();
-        if (c.admin_enabled) parse_endpoint(a, c.admin_host, c.admin_port);
+        if (c.admin_enabled) wire::parse_endpoint(a, c.admin_host, c.admin_port);
       } else if (key == "data_dir")
         c.data_dir = value.get<std::string>();
       else if (key == "tokens")

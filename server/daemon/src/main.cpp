@@ -56,10 +56,10 @@ int main(int argc, char** argv) {
       if (app.count("--idle-timeout")) c.idle_timeout_s = flags.idle_timeout_s;
       if (app.count("--align-every")) c.align_every = flags.align_every;
     }
-    if (!listen.empty()) daemon::parse_endpoint(listen, c.listen_host, c.listen_port);
+    if (!listen.empty()) wire::parse_endpoint(listen, c.listen_host, c.listen_port);
     if (app.count("--admin")) {
       c.admin_enabled = !admin.empty();
-      if (c.admin_enabled) daemon::parse_endpoint(admin, c.admin_host, c.admin_port);
+      if (c.admin_enabled) wire::parse_endpoint(admin, c.admin_host, c.admin_port);
     }
     if (!data_dir.empty()) c.data_dir = data_dir;
     if (!tokens.empty()) c.tokens_file = tokens;

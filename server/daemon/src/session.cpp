@@ -541,17 +541,10 @@ std::vector<std::uint8_t> Session::envmap_png() const {
     std::lock_guard lock(mutex_);
     if (capture_) env = capture_->environment();
   }
-  // Exposure to mid-grey, Reinhard, sRGB: as write_png_preview does for files.
-  const double scale = std::exp2(auto_exposure_stops(env.image.view()));
-  const CameraResponse srgb = CameraResponse::srgb();
-  cv::Mat out(env.image.height(), env.image.width(), CV_8UC3);
-  for (int y = 0; y < out.rows; ++y)
-    for (int x = 0; x < out.cols; ++x) {
-      const glm::vec3 v = env.image.at(x, y) * float(scale);
-      for (int c = 0; c < 3; ++c)
-        out.at<cv::Vec3b>(y, x)[2 - c] =
-            cv::saturate_cast<uchar>(255.0f * srgb.encode(v[c] / (1.0f + v[c]), c));
-    }
+  std::vector<std::uint8_t> rgb = preview_pixels(env.image.view());  // as the PNG files
+  cv::Mat out;
+  cv::cvtColor(cv::Mat(env.image.height(), env.image.width(), CV_8UC3, rgb.data()), out,
+               cv::COLOR_RGB2BGR);
   std::vector<std::uint8_t> png;
   cv::imencode(".png", out, png);
   return png;

@@ -43,8 +43,6 @@ struct DaemonConfig {
 // names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
-// "host:port" -> host, port; InputError otherwise.
-void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port);
 
 class Daemon {
  public:
