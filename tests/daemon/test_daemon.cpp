@@ -2,6 +2,9 @@
 // arlight-replay, arlight-capture and the client library; kill -9 and resume; bad messages;
 // the admin endpoints.
 #include <gtest/gtest.h>
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509v3.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -38,7 +41,7 @@ const std::string kToken = "test-token-0123456789";
 // arlightd as a child process on ephemeral ports; killed (SIGKILL) when destroyed.
 class DaemonProcess {
  public:
-  DaemonProcess(const fs::path& dir) {
+  explicit DaemonProcess(const fs::path& dir, const std::vector<std::string>& extra_args = {}) {
     fs::create_directories(dir);
     std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
     int out[2];
@@ -47,10 +50,22 @@ class DaemonProcess {
     if (pid_ == 0) {
       dup2(out[1], 1);
       close(out[0]);
-      const std::string data = (dir / "data").string(), tokens = (dir / "tokens").string();
-      execl(ARLIGHTD_EXE, ARLIGHTD_EXE, "--listen", "127.0.0.1:0", "--admin", "127.0.0.1:0",
-            "--data-dir", data.c_str(), "--tokens", tokens.c_str(), "--idle-timeout", "600",
-            static_cast<char*>(nullptr));
+      std::vector<std::string> args = {ARLIGHTD_EXE,
+                                       "--listen",
+                                       "127.0.0.1:0",
+                                       "--admin",
+                                       "127.0.0.1:0",
+                                       "--data-dir",
+                                       (dir / "data").string(),
+                                       "--tokens",
+                                       (dir / "tokens").string(),
+                                       "--idle-timeout",
+                                       "600"};
+      args.insert(args.end(), extra_args.begin(), extra_args.end());
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(ARLIGHTD_EXE, argv.data());
       _exit(127);
     }
     close(out[1]);
@@ -129,6 +144,38 @@ const fs::path& sample_recording() {
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 
+// A self-signed P-256 certificate for `names` (subjectAltName), valid for an hour, written as
+// PEM to `cert` and its key to `key` (made with OpenSSL here: no openssl program needed).
+void write_self_signed_certificate(const fs::path& cert, const fs::path& key,
+                                   const char* names = "IP:127.0.0.1,DNS:localhost") {
+  EVP_PKEY* pkey = EVP_EC_gen("P-256");
+  X509* x = X509_new();
+  X509_set_version(x, 2);
+  ASN1_INTEGER_set(X509_get_serialNumber(x), 1);
+  X509_gmtime_adj(X509_getm_notBefore(x), -60);
+  X509_gmtime_adj(X509_getm_notAfter(x), 3600);
+  X509_set_pubkey(x, pkey);
+  X509_NAME* name = X509_get_subject_name(x);
+  X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
+                             reinterpret_cast<const unsigned char*>("arlight test"), -1, -1, 0);
+  X509_set_issuer_name(x, name);
+  X509V3_CTX ctx;
+  X509V3_set_ctx_nodb(&ctx);
+  X509V3_set_ctx(&ctx, x, x, nullptr, nullptr, 0);
+  X509_EXTENSION* san = X509V3_EXT_conf_nid(nullptr, &ctx, NID_subject_alt_name, names);
+  X509_add_ext(x, san, -1);
+  X509_EXTENSION_free(san);
+  X509_sign(x, pkey, EVP_sha256());
+  FILE* f = std::fopen(cert.c_str(), "w");
+  PEM_write_X509(f, x);
+  std::fclose(f);
+  f = std::fopen(key.c_str(), "w");
+  PEM_write_PrivateKey(f, pkey, nullptr, nullptr, 0, nullptr, nullptr);
+  std::fclose(f);
+  X509_free(x);
+  EVP_PKEY_free(pkey);
+}
+
 }  // namespace
 
 TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
@@ -140,10 +187,10 @@ TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
   ASSERT_EQ(r.status, 0) << r.output;
   // The offline capture with the daemon's settings (alignment every 3rd frame at 160 px,
   // measured in the background and applied at the next frame).
-  const auto c = test::run_tool(ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() +
-                                                         " --out " + (dir / "env.exr").string() +
-                                                         " --json " + (dir / "c.json").string() +
-                                                         " --align-every 3 --align-width 160 --align-async");
+  const auto c = test::run_tool(
+      ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() + " --out " +
+                               (dir / "env.exr").string() + " --json " + (dir / "c.json").string() +
+                               " --align-every 3 --align-width 160 --align-async");
   ASSERT_EQ(c.status, 0) << c.output;
   const json replay = read_json(dir / "replay" / "replay.json"),
              offline = read_json(dir / "c.json");
@@ -328,4 +375,75 @@ TEST(Arlightd, AdminEndpointsAnswer) {
   ASSERT_EQ(j.size(), 1u);
   EXPECT_EQ(j[0]["id"], w.session_id);
   EXPECT_EQ(http_get(d.admin(), "/sessions/nope/envmap.png").first, 404);
+}
+
+TEST(Arlightd, TlsSessionsWorkAndPlainOrUntrustedClientsAreRefused) {
+  const fs::path dir = test::fresh_temp_dir("daemon_tls");
+  write_self_signed_certificate(dir / "cert.pem", dir / "key.pem");
+  write_self_signed_certificate(dir / "other.pem", dir / "other-key.pem");
+  DaemonProcess d(dir / "daemon", {"--tls-cert", (dir / "cert.pem").string(), "--tls-key",
+                                   (dir / "key.pem").string()});
+  // A replay over TLS, trusting the daemon's certificate, gets its updates and maps.
+  const auto r =
+      test::run_tool(ARLIGHT_REPLAY_EXE,
+                     "--server " + d.server() + " --token " + kToken + " --recording " +
+                         sample_recording().string() + " --tls-ca " + (dir / "cert.pem").string() +
+                         " --maps 1,80 --map-size 64" + " --out " + (dir / "replay").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json summary = read_json(dir / "replay" / "replay.json");
+  EXPECT_EQ(summary.at("updates_received").get<int>(), 60) << summary.dump();
+  EXPECT_GE(summary.at("map_sets_completed").get<int>(), 1) << summary.dump();
+
+  // A client that does not trust the certificate stops at the handshake.
+  client::Client untrusted;
+  untrusted.use_tls({.enabled = true, .ca_file = (dir / "other.pem").string()});
+  try {
+    untrusted.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    FAIL() << "connected trusting another certificate";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "TLS") << e.what();
+  }
+  // A trusted certificate that names another host does not pass for 127.0.0.1.
+  write_self_signed_certificate(dir / "named.pem", dir / "named-key.pem", "DNS:elsewhere.example");
+  {
+    DaemonProcess named(dir / "named", {"--tls-cert", (dir / "named.pem").string(), "--tls-key",
+                                        (dir / "named-key.pem").string()});
+    client::Client wrong_name;
+    wrong_name.use_tls({.enabled = true, .ca_file = (dir / "named.pem").string()});
+    try {
+      wrong_name.connect("127.0.0.1", named.port(), "arlight-sim", kToken);
+      FAIL() << "connected to a certificate for another name";
+    } catch (const client::ClientError& e) {
+      EXPECT_EQ(e.code(), "TLS") << e.what();
+    }
+  }
+  // Plain TCP to a TLS port gets no Welcome, and the daemon serves TLS clients after it.
+  client::Client plain;
+  EXPECT_THROW(plain.connect("127.0.0.1", d.port(), "arlight-sim", kToken, "plain", {}, 3s),
+               client::ClientError);
+  client::Client again;
+  again.use_tls({.enabled = true, .ca_file = (dir / "cert.pem").string()});
+  EXPECT_FALSE(again.connect("127.0.0.1", d.port(), "arlight-sim", kToken).session_id.empty());
+}
+
+TEST(Arlightd, UnusableTlsFilesStopItNamingTheFile) {
+  const fs::path dir = test::fresh_temp_dir("daemon_tls_bad");
+  write_self_signed_certificate(dir / "cert.pem", dir / "key.pem");
+  write_self_signed_certificate(dir / "other.pem", dir / "other-key.pem");
+  std::ofstream(dir / "tokens") << "arlight-sim " << kToken << "\n";
+  const std::string base = "--listen 127.0.0.1:0 --admin '' --data-dir " + (dir / "data").string() +
+                           " --tokens " + (dir / "tokens").string();
+  const auto missing =
+      test::run_tool(ARLIGHTD_EXE, base + " --tls-cert " + (dir / "nope.pem").string() +
+                                       " --tls-key " + (dir / "key.pem").string());
+  EXPECT_EQ(missing.status, 2) << missing.output;
+  EXPECT_NE(missing.output.find("nope.pem"), std::string::npos) << missing.output;
+  const auto mismatched =
+      test::run_tool(ARLIGHTD_EXE, base + " --tls-cert " + (dir / "cert.pem").string() +
+                                       " --tls-key " + (dir / "other-key.pem").string());
+  EXPECT_EQ(mismatched.status, 2) << mismatched.output;
+  EXPECT_NE(mismatched.output.find("other-key.pem"), std::string::npos) << mismatched.output;
+  const auto half =
+      test::run_tool(ARLIGHTD_EXE, base + " --tls-cert " + (dir / "cert.pem").string());
+  EXPECT_EQ(half.status, 2) << half.output;
 }

@@ -42,9 +42,10 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
                  const std::string& token, const recording::Recording& rec,
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
                  const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
-                 SessionReport& report) {
+                 const client::TlsOptions& tls, SessionReport& report) {
   try {
     client::Client c;
+    c.use_tls(tls);
     std::mutex m;
     std::map<std::uint64_t, Clock::time_point> sent_at;
     Clock::time_point first;
@@ -118,6 +119,9 @@ int main(int argc, char** argv) {
   app.add_option("--device", device, "device id (default: the recording's)");
   app.add_flag("--maps", maps, "also request the 8 thesis maps at 128 in every session");
   app.add_option("--json", json_path, "write the report here");
+  client::TlsOptions tls;
+  app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
+  app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -130,6 +134,7 @@ int main(int argc, char** argv) {
     std::string host;
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
+    tls.enabled = tls.enabled || !tls.ca_file.empty();
     const recording::Recording rec = recording::read_recording(recording_dir);
     std::vector<std::vector<std::uint8_t>> jpegs(rec.frames.size());
     std::vector<std::size_t> usable;
@@ -145,7 +150,7 @@ int main(int argc, char** argv) {
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
         run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
-                    rate, duration, maps, reports[std::size_t(s)]);
+                    rate, duration, maps, tls, reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
 

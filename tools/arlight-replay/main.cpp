@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
   app.add_option("--resume", resume, "continue this session id");
   app.add_option("--out", out, "folder for sh.json, maps/ and replay.json")->capture_default_str();
   app.add_option("--json", json_path, "also write the summary here");
+  client::TlsOptions tls;
+  app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
+  app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
   app.add_option("--timeout", timeout_s, "seconds to wait for updates and the map set")
       ->capture_default_str();
   try {
@@ -71,6 +74,8 @@ int main(int argc, char** argv) {
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
 
     client::Client c;
+    tls.enabled = tls.enabled || !tls.ca_file.empty();
+    c.use_tls(tls);
     const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device, token,
                                         "arlight-replay", resume);
     std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");

@@ -1,12 +1,18 @@
 #include "arlight/client_net.hpp"
 
+#include <openssl/ssl.h>
+
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/read.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/asio/write.hpp>
 #include <cstring>
+#include <deque>
 #include <thread>
+#include <variant>
 
 #include "arlight/wire.hpp"
 
@@ -15,16 +21,33 @@ namespace arlight::client {
 namespace asio = boost::asio;
 using asio::ip::tcp;
 using Clock = std::chrono::steady_clock;
+using TlsStream = asio::ssl::stream<tcp::socket>;
 
+// Bytes a caller may queue ahead of the network before send() waits: bounded memory, and a
+// frame source faster than the link slows down instead of piling frames up.
+constexpr std::size_t kMaxQueuedBytes = 16u << 20;
+
+// All network I/O runs on one thread (`io_thread`) as asynchronous operations, so a TLS stream
+// is never read and written from two threads at once; callers' sends are posted to it.
 struct Client::Impl {
   asio::io_context io;
-  tcp::socket socket{io};
-  std::mutex send_mutex;
-  std::thread reader;
+  TlsOptions tls_options;
+  std::unique_ptr<asio::ssl::context> tls_context;
+  std::variant<tcp::socket, TlsStream> stream{std::in_place_index<0>, io};
+  std::thread io_thread;
+
+  // Read state (io thread only).
+  std::uint8_t header[wire::kHeaderBytes];
+  std::vector<std::uint8_t> payload;
+  wire::WireLimits limits{.max_message_bytes = 64u << 20};
+  // Write state (io thread only), apart from queued_bytes (under `mutex`).
+  std::deque<std::vector<std::uint8_t>> out;
+  bool writing = false;
 
   mutable std::mutex mutex;  // state below
   std::condition_variable changed;
   bool open = false;
+  std::size_t queued_bytes = 0;
   std::optional<Welcome> welcome;
   std::optional<LightingUpdate> last_update;
   std::optional<std::pair<std::string, std::string>> error;
@@ -35,11 +58,52 @@ struct Client::Impl {
   std::vector<double> requested_shininess;
   Client* owner = nullptr;
 
-  void send(const std::vector<std::uint8_t>& bytes) {
-    std::lock_guard lock(send_mutex);
-    boost::system::error_code ec;
-    asio::write(socket, asio::buffer(bytes), ec);
-    if (ec) throw ClientError("Network", "send failed: " + ec.message());
+  tcp::socket::lowest_layer_type& socket() {
+    return std::visit([](auto& s) -> tcp::socket::lowest_layer_type& { return s.lowest_layer(); },
+                      stream);
+  }
+
+  // From any thread: queues the message for the io thread (waits while too much is queued).
+  void send(std::vector<std::uint8_t> bytes) {
+    {
+      std::unique_lock lock(mutex);
+      changed.wait(lock, [&] { return !open || queued_bytes < kMaxQueuedBytes; });
+      if (!open)
+        throw ClientError("Network",
+                          "send failed: " + (error ? error->second : std::string("not connected")));
+      queued_bytes += bytes.size();
+    }
+    asio::post(io, [this, b = std::move(bytes)]() mutable {
+      out.push_back(std::move(b));
+      if (!writing) write_next();
+    });
+  }
+
+  void write_next() {
+    if (out.empty()) {
+      writing = false;
+      return;
+    }
+    writing = true;
+    std::visit(
+        [this](auto& s) {
+          asio::async_write(s, asio::buffer(out.front()),
+                            [this](boost::system::error_code ec, std::size_t) {
+                              {
+                                std::lock_guard lock(mutex);
+                                queued_bytes -= out.front().size();
+                                changed.notify_all();
+                              }
+                              out.pop_front();
+                              if (ec) {
+                                out.clear();
+                                writing = false;
+                                return fail("Network", "send failed: " + ec.message());
+                              }
+                              write_next();
+                            });
+        },
+        stream);
   }
 
   void fail(const std::string& code, const std::string& message) {
@@ -49,26 +113,38 @@ struct Client::Impl {
     changed.notify_all();
   }
 
-  void read_loop() {
-    wire::WireLimits limits;
-    limits.max_message_bytes = 64u << 20;
-    std::vector<std::uint8_t> payload;
-    for (;;) {
-      std::uint8_t header[wire::kHeaderBytes];
-      boost::system::error_code ec;
-      asio::read(socket, asio::buffer(header), ec);
-      if (ec) return fail("Network", "connection closed: " + ec.message());
-      std::string why;
-      const auto size = wire::read_header(std::span<const std::uint8_t, 4>(header),
-                                          limits.max_message_bytes, why);
-      if (!size) return fail("Protocol", why);
-      payload.resize(*size);
-      asio::read(socket, asio::buffer(payload), ec);
-      if (ec) return fail("Network", "connection closed: " + ec.message());
-      const wire::Envelope* e = wire::verify_envelope(payload, why);
-      if (!e) return fail("Protocol", why);
-      handle(*e);
-    }
+  // The read loop: header, payload (length checked before allocating), verify, handle, again.
+  void read_header() {
+    std::visit(
+        [this](auto& s) {
+          asio::async_read(
+              s, asio::buffer(header), [this](boost::system::error_code ec, std::size_t) {
+                if (ec) return fail("Network", "connection closed: " + ec.message());
+                std::string why;
+                const auto size = wire::read_header(std::span<const std::uint8_t, 4>(header),
+                                                    limits.max_message_bytes, why);
+                if (!size) return fail("Protocol", why);
+                payload.resize(*size);
+                read_payload();
+              });
+        },
+        stream);
+  }
+
+  void read_payload() {
+    std::visit(
+        [this](auto& s) {
+          asio::async_read(s, asio::buffer(payload),
+                           [this](boost::system::error_code ec, std::size_t) {
+                             if (ec) return fail("Network", "connection closed: " + ec.message());
+                             std::string why;
+                             const wire::Envelope* e = wire::verify_envelope(payload, why);
+                             if (!e) return fail("Protocol", why);
+                             handle(*e);
+                             read_header();
+                           });
+        },
+        stream);
   }
 
   void handle(const wire::Envelope& e) {
@@ -198,24 +274,59 @@ Client::Client() : impl_(std::make_unique<Impl>()) { impl_->owner = this; }
 
 Client::~Client() { close(); }
 
+void Client::use_tls(const TlsOptions& options) {
+  Impl& d = *impl_;
+  d.tls_options = options;
+  if (!options.enabled) {
+    d.tls_context.reset();
+    return;
+  }
+  d.tls_context = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+  d.tls_context->set_options(asio::ssl::context::default_workarounds |
+                             asio::ssl::context::no_sslv2 | asio::ssl::context::no_sslv3 |
+                             asio::ssl::context::no_tlsv1 | asio::ssl::context::no_tlsv1_1);
+  boost::system::error_code ec;
+  if (options.ca_file.empty())
+    d.tls_context->set_default_verify_paths(ec);
+  else
+    d.tls_context->load_verify_file(options.ca_file, ec);
+  if (ec)
+    throw ClientError("TLS", "cannot load trusted certificates" +
+                                 (options.ca_file.empty() ? "" : " from " + options.ca_file) +
+                                 ": " + ec.message());
+  d.tls_context->set_verify_mode(options.verify ? asio::ssl::verify_peer : asio::ssl::verify_none);
+}
+
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                         const std::string& token, const std::string& client_name,
                         const std::string& resume_session, std::chrono::milliseconds timeout) {
   Impl& d = *impl_;
+  if (d.io_thread.joinable()) throw ClientError("Network", "already connected");
   boost::system::error_code ec;
   tcp::resolver resolver(d.io);
   const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
   if (ec) throw ClientError("Network", "cannot resolve " + host + ": " + ec.message());
-  asio::connect(d.socket, endpoints, ec);
-  if (ec)
-    throw ClientError(
-        "Network", "cannot connect to " + host + ":" + std::to_string(port) + ": " + ec.message());
-  d.socket.set_option(tcp::no_delay(true), ec);
+  if (d.tls_context) d.stream.emplace<TlsStream>(d.io, *d.tls_context);
+  const std::string where = host + ":" + std::to_string(port);
+  asio::connect(d.socket(), endpoints, ec);
+  if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
+  d.socket().set_option(tcp::no_delay(true), ec);
+  if (auto* tls = std::get_if<TlsStream>(&d.stream)) {
+    // Server name indication, and the certificate must name the host (or its IP address).
+    SSL_set_tlsext_host_name(tls->native_handle(), host.c_str());
+    if (d.tls_options.verify) tls->set_verify_callback(asio::ssl::host_name_verification(host));
+    tls->handshake(asio::ssl::stream_base::client, ec);
+    if (ec) {
+      d.socket().close();
+      throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
+    }
+  }
   {
     std::lock_guard lock(d.mutex);
     d.open = true;
   }
-  d.reader = std::thread([&d] { d.read_loop(); });
+  d.read_header();
+  d.io_thread = std::thread([&d] { d.io.run(); });
   flatbuffers::FlatBufferBuilder b(256);
   const auto caps = b.CreateVectorOfStrings({"maps", "jpeg"});
   const auto hello = wire::CreateHello(b, wire::kProtocolVersion, b.CreateString(client_name),
@@ -295,10 +406,16 @@ void Client::send_raw(std::span<const std::uint8_t> bytes) {
 
 void Client::close() {
   Impl& d = *impl_;
+  if (d.io_thread.joinable()) {
+    asio::post(d.io, [&d] {
+      boost::system::error_code ec;
+      d.socket().shutdown(tcp::socket::shutdown_both, ec);
+      d.socket().close(ec);
+    });
+    d.io_thread.join();  // the pending read and writes end with the socket
+  }
   boost::system::error_code ec;
-  d.socket.shutdown(tcp::socket::shutdown_both, ec);
-  d.socket.close(ec);
-  if (d.reader.joinable()) d.reader.join();
+  d.socket().close(ec);
   std::lock_guard lock(d.mutex);
   d.open = false;
   d.changed.notify_all();

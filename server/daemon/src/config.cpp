@@ -43,10 +43,11 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.map_size = value.get<int>();
       else if (key == "align_every")
         c.align_every = value.get<int>();
-      else if (key == "tls_cert" || key == "tls_key") {
-        if (!value.get<std::string>().empty())
-          throw InputError("TLS is not built into this arlightd yet; terminate TLS in front of it");
-      } else
+      else if (key == "tls_cert")
+        c.tls_cert = value.get<std::string>();
+      else if (key == "tls_key")
+        c.tls_key = value.get<std::string>();
+      else
         throw InputError("unknown key");
     } catch (const nlohmann::json::exception& e) {
       throw InputError(where + ": " + key + ": " + e.what());

@@ -10,64 +10,98 @@ namespace arlight::daemon {
 
 namespace asio = boost::asio;
 
-Connection::Connection(asio::ip::tcp::socket socket, const ConnectionEnv& env)
-    : socket_(std::move(socket)), strand_(asio::make_strand(socket_.get_executor())), env_(env) {
+Connection::Connection(ClientStream stream, const ConnectionEnv& env)
+    : stream_(std::move(stream)), strand_(asio::make_strand(socket().get_executor())), env_(env) {
   boost::system::error_code ec;
-  const auto ep = socket_.remote_endpoint(ec);
+  const auto ep = socket().remote_endpoint(ec);
   peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
-  socket_.set_option(asio::ip::tcp::no_delay(true), ec);
+  socket().set_option(asio::ip::tcp::no_delay(true), ec);
+}
+
+asio::ip::tcp::socket::lowest_layer_type& Connection::socket() {
+  return std::visit(
+      [](auto& s) -> asio::ip::tcp::socket::lowest_layer_type& { return s.lowest_layer(); },
+      stream_);
+}
+
+// Closes the TCP connection under the stream (a TLS peer sees the end of the stream without a
+// close_notify: nothing we send after an Error or a Bye needs the truncation protection).
+void Connection::shutdown() {
+  boost::system::error_code ec;
+  socket().shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+  socket().close(ec);
 }
 
 void Connection::start() {
-  asio::post(strand_, [self = shared_from_this()] { self->read_header(); });
+  asio::post(strand_, [self = shared_from_this()] {
+    auto* tls = std::get_if<TlsStream>(&self->stream_);
+    if (!tls) return self->read_header();
+    tls->async_handshake(
+        asio::ssl::stream_base::server,
+        asio::bind_executor(self->strand_, [self](boost::system::error_code ec) {
+          if (ec) {  // e.g. a plain-TCP client talking to a TLS port
+            if (self->env_.log)
+              self->env_.log(self->peer_ + ": TLS handshake failed: " + ec.message());
+            return self->shutdown();
+          }
+          self->read_header();
+        }));
+  });
 }
 
 void Connection::close() {
   asio::post(strand_, [self = shared_from_this()] {
-    boost::system::error_code ec;
-    self->socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
-    self->socket_.close(ec);
+    self->shutdown();
     if (self->session_) self->session_->detach();
   });
 }
 
 void Connection::read_header() {
   if (closing_) return;
-  asio::async_read(
-      socket_, asio::buffer(header_),
-      asio::bind_executor(
-          strand_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
-            if (ec) {  // the peer went away: the session stays for a resume
-              if (self->session_) self->session_->detach();
-              return;
-            }
-            std::string why;
-            const auto size =
-                wire::read_header(std::span<const std::uint8_t, wire::kHeaderBytes>(self->header_),
-                                  self->env_.limits.max_message_bytes, why);
-            if (!size)
-              return self->fail(why.starts_with("message of") ? wire::ErrorCode::TooLarge
-                                                              : wire::ErrorCode::BadMessage,
-                                why);
-            self->read_payload(*size);
-          }));
+  std::visit(
+      [&](auto& stream) {
+        asio::async_read(
+            stream, asio::buffer(header_),
+            asio::bind_executor(
+                strand_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+                  if (ec) {  // the peer went away: the session stays for a resume
+                    if (self->session_) self->session_->detach();
+                    return;
+                  }
+                  std::string why;
+                  const auto size = wire::read_header(
+                      std::span<const std::uint8_t, wire::kHeaderBytes>(self->header_),
+                      self->env_.limits.max_message_bytes, why);
+                  if (!size)
+                    return self->fail(why.starts_with("message of") ? wire::ErrorCode::TooLarge
+                                                                    : wire::ErrorCode::BadMessage,
+                                      why);
+                  self->read_payload(*size);
+                }));
+      },
+      stream_);
 }
 
 void Connection::read_payload(std::uint32_t size) {
   payload_.resize(size);  // bounded by the limit checked in the header
-  asio::async_read(socket_, asio::buffer(payload_),
-                   asio::bind_executor(strand_, [self = shared_from_this()](
-                                                    boost::system::error_code ec, std::size_t) {
-                     if (ec) {
-                       if (self->session_) self->session_->detach();
-                       return;
-                     }
-                     std::string why;
-                     const wire::Envelope* e = wire::verify_envelope(self->payload_, why);
-                     if (!e) return self->fail(wire::ErrorCode::BadMessage, why);
-                     self->handle(*e);
-                     self->read_header();
-                   }));
+  std::visit(
+      [&](auto& stream) {
+        asio::async_read(
+            stream, asio::buffer(payload_),
+            asio::bind_executor(
+                strand_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+                  if (ec) {
+                    if (self->session_) self->session_->detach();
+                    return;
+                  }
+                  std::string why;
+                  const wire::Envelope* e = wire::verify_envelope(self->payload_, why);
+                  if (!e) return self->fail(wire::ErrorCode::BadMessage, why);
+                  self->handle(*e);
+                  self->read_header();
+                }));
+      },
+      stream_);
 }
 
 void Connection::fail(wire::ErrorCode code, const std::string& message) {
@@ -80,7 +114,7 @@ void Connection::fail(wire::ErrorCode code, const std::string& message) {
 
 void Connection::send(std::vector<std::uint8_t> message) {
   asio::post(strand_, [self = shared_from_this(), m = std::move(message)]() mutable {
-    if (!self->socket_.is_open()) return;
+    if (!self->socket().is_open()) return;
     self->out_bytes_ += m.size();
     self->out_.push_back(std::move(m));
     if (self->out_bytes_ > self->env_.max_send_queue_bytes && !self->closing_) {
@@ -101,27 +135,28 @@ void Connection::send(std::vector<std::uint8_t> message) {
 void Connection::write_next() {
   if (out_.empty()) {
     writing_ = false;
-    if (closing_) {
-      boost::system::error_code ec;
-      socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
-      socket_.close(ec);
-    }
+    if (closing_) shutdown();
     return;
   }
   writing_ = true;
-  asio::async_write(socket_, asio::buffer(out_.front()),
-                    asio::bind_executor(strand_, [self = shared_from_this()](
-                                                     boost::system::error_code ec, std::size_t) {
-                      if (ec) {
-                        self->out_.clear();
-                        self->writing_ = false;
-                        if (self->session_) self->session_->detach();
-                        return;
-                      }
-                      self->out_bytes_ -= self->out_.front().size();
-                      self->out_.pop_front();
-                      self->write_next();
-                    }));
+  std::visit(
+      [&](auto& stream) {
+        asio::async_write(
+            stream, asio::buffer(out_.front()),
+            asio::bind_executor(
+                strand_, [self = shared_from_this()](boost::system::error_code ec, std::size_t) {
+                  if (ec) {
+                    self->out_.clear();
+                    self->writing_ = false;
+                    if (self->session_) self->session_->detach();
+                    return;
+                  }
+                  self->out_bytes_ -= self->out_.front().size();
+                  self->out_.pop_front();
+                  self->write_next();
+                }));
+      },
+      stream_);
 }
 
 void Connection::handle(const wire::Envelope& e) {

@@ -2,15 +2,18 @@
 // every payload through the verifier), runs the handshake, hands frames to its session and
 // writes what the session sends back. Reads and writes are serialised on the connection's
 // strand; a bad message gets an Error naming it and the connection closes, nothing else.
+// The stream is plain TCP or TLS (Asio SSL) over it; everything above the handshake is the same.
 #pragma once
 
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl/stream.hpp>
 #include <boost/asio/strand.hpp>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <memory>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "session.hpp"
@@ -30,9 +33,12 @@ struct ConnectionEnv {
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
 };
 
+using TlsStream = boost::asio::ssl::stream<boost::asio::ip::tcp::socket>;
+using ClientStream = std::variant<boost::asio::ip::tcp::socket, TlsStream>;
+
 class Connection : public std::enable_shared_from_this<Connection> {
  public:
-  Connection(boost::asio::ip::tcp::socket socket, const ConnectionEnv& env);
+  Connection(ClientStream stream, const ConnectionEnv& env);
   void start();
   void close();  // from any thread
 
@@ -45,8 +51,10 @@ class Connection : public std::enable_shared_from_this<Connection> {
   void fail(wire::ErrorCode code, const std::string& message);  // Error, then close
   void send(std::vector<std::uint8_t> message);                 // from any thread
   void write_next();
+  boost::asio::ip::tcp::socket::lowest_layer_type& socket();
+  void shutdown();
 
-  boost::asio::ip::tcp::socket socket_;
+  ClientStream stream_;
   boost::asio::strand<boost::asio::any_io_executor> strand_;
   ConnectionEnv env_;
   std::string peer_;

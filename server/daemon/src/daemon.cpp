@@ -6,6 +6,7 @@
 #include <atomic>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl/context.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/thread_pool.hpp>
 #include <condition_variable>
@@ -46,6 +47,27 @@ bool valid_session_id(const std::string& id) {
 
 unsigned hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
 
+// The server's TLS context: TLS 1.2 or newer, the certificate chain and key from PEM files.
+// A file that cannot be used is an InputError naming it and what OpenSSL said.
+std::unique_ptr<asio::ssl::context> make_tls_context(const DaemonConfig& c) {
+  if (c.tls_cert.empty() && c.tls_key.empty()) return nullptr;
+  if (c.tls_cert.empty() || c.tls_key.empty())
+    throw InputError("TLS needs both a certificate (--tls-cert) and its key (--tls-key)");
+  auto ctx = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_server);
+  ctx->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
+                   asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
+                   asio::ssl::context::no_tlsv1_1 | asio::ssl::context::single_dh_use);
+  boost::system::error_code ec;
+  ctx->use_certificate_chain_file(c.tls_cert.string(), ec);
+  if (ec) throw InputError(c.tls_cert.string() + ": not a usable PEM certificate: " + ec.message());
+  ctx->use_private_key_file(c.tls_key.string(), asio::ssl::context::pem, ec);
+  if (ec) throw InputError(c.tls_key.string() + ": not a usable PEM private key: " + ec.message());
+  if (SSL_CTX_check_private_key(ctx->native_handle()) != 1)
+    throw InputError(c.tls_key.string() + ": does not match the certificate " +
+                     c.tls_cert.string());
+  return ctx;
+}
+
 }  // namespace
 
 struct Daemon::Impl {
@@ -56,6 +78,7 @@ struct Daemon::Impl {
   asio::thread_pool workers;
   asio::thread_pool disk{1};  // checkpoints (fsync) stay off the frame workers
   tcp::acceptor acceptor{io};
+  std::unique_ptr<asio::ssl::context> tls;  // null: plain TCP
   admin::Registry metrics;
   SessionEnv session_env;
   ConnectionEnv connection_env;
@@ -85,6 +108,7 @@ struct Daemon::Impl {
       : config(std::move(c)),
         tokens(TokenStore::load(config.tokens_file)),
         workers(config.workers > 0 ? unsigned(config.workers) : hardware_threads()),
+        tls(make_tls_context(config)),
         sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
@@ -216,21 +240,24 @@ struct Daemon::Impl {
   }
 
   void accept() {
-    acceptor.async_accept(
-        asio::make_strand(io), [this](boost::system::error_code ec, tcp::socket socket) {
-          if (ec) {
-            if (acceptor.is_open()) accept();
-            return;
-          }
-          auto c = std::make_shared<Connection>(std::move(socket), connection_env);
-          {
-            std::lock_guard lock(connections_mutex);
-            std::erase_if(connections, [](const auto& w) { return w.expired(); });
-            connections.push_back(c);
-          }
-          c->start();
-          accept();
-        });
+    acceptor.async_accept(asio::make_strand(io), [this](boost::system::error_code ec,
+                                                        tcp::socket socket) {
+      if (ec) {
+        if (acceptor.is_open()) accept();
+        return;
+      }
+      auto c = tls ? std::make_shared<Connection>(
+                         ClientStream(std::in_place_type<TlsStream>, std::move(socket), *tls),
+                         connection_env)
+                   : std::make_shared<Connection>(ClientStream(std::move(socket)), connection_env);
+      {
+        std::lock_guard lock(connections_mutex);
+        std::erase_if(connections, [](const auto& w) { return w.expired(); });
+        connections.push_back(c);
+      }
+      c->start();
+      accept();
+    });
   }
 
   // Every second: checkpoint what changed (at the configured interval) and close sessions idle

@@ -36,8 +36,8 @@ int main(int argc, char** argv) {
                  "seconds before a disconnected session closes");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 3)");
-  app.add_option("--tls-cert", tls_cert, "TLS certificate (not built in yet)");
-  app.add_option("--tls-key", tls_key, "TLS key (not built in yet)");
+  app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");
+  app.add_option("--tls-key", tls_key, "TLS: private key (PEM) of that certificate");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -63,8 +63,8 @@ int main(int argc, char** argv) {
     }
     if (!data_dir.empty()) c.data_dir = data_dir;
     if (!tokens.empty()) c.tokens_file = tokens;
-    if (!tls_cert.empty() || !tls_key.empty())
-      throw InputError("TLS is not built into this arlightd yet; terminate TLS in front of it");
+    if (!tls_cert.empty()) c.tls_cert = tls_cert;
+    if (!tls_key.empty()) c.tls_key = tls_key;
     if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
 
     // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
@@ -75,8 +75,8 @@ int main(int argc, char** argv) {
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     daemon::Daemon d(c);
     d.start();
-    std::printf("arlightd: listening on %s:%u, admin on %u\n", c.listen_host.c_str(),
-                unsigned(d.port()), unsigned(d.admin_port()));
+    std::printf("arlightd: listening on %s:%u, admin on %u%s\n", c.listen_host.c_str(),
+                unsigned(d.port()), unsigned(d.admin_port()), c.tls_cert.empty() ? "" : ", TLS");
     std::fflush(stdout);
     std::thread signals([&] {
       int sig = 0;

@@ -1,6 +1,7 @@
 // The protocol client (protocol/PROTOCOL.md): connect to arlightd, handshake, send intrinsics
-// and frames, receive lighting updates and assemble map tiles into maps. Sends are made from
-// the caller's thread; a background thread reads, verifies and decodes what the server sends.
+// and frames, receive lighting updates and assemble map tiles into maps, over TCP or TLS.
+// Sends queue (bounded) from the caller's thread; one background thread does all the network
+// I/O: it writes the queue and reads, verifies and decodes what the server sends.
 #pragma once
 
 #include <chrono>
@@ -72,6 +73,13 @@ struct CalibrationResult {
   std::uint32_t frames = 0;
 };
 
+// TLS to an arlightd started with --tls-cert/--tls-key.
+struct TlsOptions {
+  bool enabled = false;
+  std::string ca_file;  // PEM file of trusted certificates; empty: the system's
+  bool verify = true;   // check the chain and that the certificate names the host
+};
+
 // One exposure of a calibration set.
 struct CalibrationFrame {
   capture::FrameInfo info;
@@ -85,7 +93,10 @@ class Client {
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
-  // Connects and handshakes; throws ClientError (e.g. code "Unauthorized").
+  // Before connect(): speak TLS. Throws ClientError "TLS" when the CA file cannot be used.
+  void use_tls(const TlsOptions& options);
+
+  // Connects and handshakes; throws ClientError (e.g. code "Unauthorized", "TLS").
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                   const std::string& token, const std::string& client_name = "arlight-client-net",
                   const std::string& resume_session = {},

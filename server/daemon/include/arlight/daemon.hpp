@@ -22,6 +22,9 @@ struct DaemonConfig {
   bool admin_enabled = true;
   std::filesystem::path data_dir = "arlight-data";
   std::filesystem::path tokens_file;  // required: "<device-id> <token>" lines
+  // TLS on the client port (both PEM files, or neither for plain TCP): the certificate chain
+  // and its private key. The admin port stays plain HTTP on loopback.
+  std::filesystem::path tls_cert, tls_key;
   int threads = 0;                    // network threads; 0: hardware concurrency
   int workers = 0;                    // frame-processing threads; 0: hardware concurrency
   int max_sessions = 32;              // live sessions at once
@@ -39,7 +42,8 @@ struct DaemonConfig {
 };
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers) over `config`. InputError
+// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers, tls_cert,
+// tls_key) over `config`. InputError
 // names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
