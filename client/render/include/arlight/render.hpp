@@ -1,0 +1,162 @@
+// arlight_render: the client's GLES 3 renderer (thesis ch. 5; tutorial §4.1).
+//
+//   GlContext ctx = GlContext::headless();
+//   Renderer r(1280, 720);                      // shaders from ARLIGHT_SHADER_DIR
+//   GpuMesh bunny(load_gltf("bunny.glb"));
+//   r.set_sh(live_sh);                           // until the map set arrives ...
+//   r.set_maps(shininess, maps);                 // ... then irradiance + reflection maps
+//   r.set_camera(intrinsics, camera_from_scene); // marker pose from tracking
+//   r.set_world_from_scene(world_from_scene);    // scene (marker) frame -> lighting frame
+//   r.begin_frame();
+//   r.draw(bunny, material, model);
+//   r.composite(frame_bgr, {ToneMode::CameraMatched, exposure, gain}, out_bgr);
+//
+// Frames and results are 8-bit BGR cv::Mats (OpenCV's order) of the renderer's size, row 0 at
+// the top. Every GL object lives in the context current when the Renderer was made.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/image.hpp"
+#include "arlight/projection.hpp"
+#include "arlight/render/gl_context.hpp"
+#include "arlight/render/material.hpp"
+#include "arlight/render/mesh.hpp"
+#include "arlight/render/shader.hpp"
+#include "arlight/response.hpp"
+#include "arlight/sh.hpp"
+
+namespace arlight::render {
+
+// A mesh in GPU buffers (VAO + vertex and index buffers); needs a current context.
+class GpuMesh {
+ public:
+  explicit GpuMesh(const Mesh& mesh);
+  GpuMesh(GpuMesh&&) noexcept;
+  GpuMesh& operator=(GpuMesh&&) noexcept;
+  GpuMesh(const GpuMesh&) = delete;
+  GpuMesh& operator=(const GpuMesh&) = delete;
+  ~GpuMesh();
+
+  bool has_uvs() const { return has_uvs_; }
+  bool has_tangents() const { return has_tangents_; }
+  std::size_t index_count() const { return index_count_; }
+  const Bounds& bounds() const { return bounds_; }
+  unsigned vao() const { return vao_; }
+
+ private:
+  void release();
+  unsigned vao_ = 0, vbo_ = 0, ibo_ = 0;
+  std::size_t index_count_ = 0;
+  bool has_uvs_ = false, has_tangents_ = false;
+  Bounds bounds_;
+};
+
+enum class ToneMode {
+  // Tutorial §4.1: the virtual radiance goes through the frame's exposure and the camera's
+  // response, code = response.encode(L * exposure * gain) per channel, like the real pixels.
+  CameraMatched,
+  // Thesis Alg. 5.5 (eq. 5.5/5.6), fixed: log-average luminance of the masked pixels only,
+  // colour scaled by L_d / L_w; the result is sRGB-encoded for display.
+  Reinhard,
+  // clamp(L * exposure * gain) written as is (no curve); for debugging.
+  Linear,
+};
+
+struct ToneMapping {
+  ToneMode mode = ToneMode::CameraMatched;
+  double exposure = 1.0;  // the frame's exposure time (s); radiance = linear / (exposure * gain)
+  double gain = 1.0;      // the frame's analogue/digital gain
+  float key = 0.18f;      // Reinhard's key value a
+  float white = 2.0f;     // Reinhard's L_white (scaled luminance that maps to white)
+};
+
+enum class LightingSource { None, Sh, Maps };
+enum class ReflectionLookup { Interpolate, Nearest };
+
+struct FrameTimings {
+  double render_ms = 0;    // begin_frame() to the end of the draws (glFinish)
+  double tonemap_ms = 0;   // upload of the camera frame, reduction, tone map and composite
+  double readback_ms = 0;  // glReadPixels and conversion to BGR
+  double total() const { return render_ms + tonemap_ms + readback_ms; }
+};
+
+struct HdrReadback {
+  Image radiance;                  // linear RGB as rendered (half float), row 0 at the top
+  std::vector<std::uint8_t> mask;  // 1 where a virtual object was drawn, else 0
+};
+
+// OpenGL projection of a pinhole camera given by OpenCV intrinsics (fx, fy, cx, cy; pixel
+// centres at integers) for a viewport of width x height whose row 0 is the image's top row
+// (the renderer's targets are stored top row first). Camera coordinates: x right, y up,
+// looking down -z. Distortion is not applied. Intrinsics of another size are scaled.
+glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int height,
+                                     float near_plane, float far_plane);
+
+class Renderer {
+ public:
+  // Needs a current ES 3 context with EXT_color_buffer_float (GlError otherwise).
+  Renderer(int width, int height, const std::filesystem::path& shader_dir = default_shader_dir());
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  int width() const;
+  int height() const;
+
+  // ---- lighting (world frame) ----
+  // Live SH from the daemon: diffuse = SH convolved with the clamped-cosine lobe (thesis eq.
+  // 2.33, s = 1), specular = SH convolved with the Phong lobe of a few shininess values, both
+  // evaluated into small lat-long maps on the CPU and shaded like the map set. Used until
+  // set_maps() is called (and again after clear_maps()). Unchanged coefficients cost nothing.
+  void set_sh(const ShCoeffs& sh);
+  // The map set: one map per shininess, all of one projection (sizes may differ). The smallest
+  // shininess (1) is the irradiance map; every map is a reflection-map candidate. Uploaded once
+  // as half-float textures. Throws std::invalid_argument on an empty or inconsistent set.
+  void set_maps(const std::vector<double>& shininess, const std::vector<EnvMap>& maps);
+  void clear_maps();
+  LightingSource lighting_source() const;
+  // Reflection map for a material's shininess: interpolated in log shininess between the two
+  // neighbouring maps (default) or the nearest one.
+  void set_reflection_lookup(ReflectionLookup lookup);
+
+  // ---- camera and frames ----
+  void set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
+                  float near_plane = 0.01f, float far_plane = 100.0f);
+  void set_world_from_scene(const glm::dquat& world_from_scene);
+  void set_world_from_scene(const glm::dmat3& world_from_scene);
+  // The camera response for CameraMatched tone mapping (default sRGB); uploaded once.
+  void set_response(const CameraResponse& response);
+
+  // Clears the HDR target (radiance 0, mask 0) and depth.
+  void begin_frame();
+  // Thesis Alg. 5.1-5.4: kd * Ld(n) (* light map) + ks * Ls(reflect(-v, n)), normal mapping
+  // with a TBN basis, depth tested, into the RGBA16F target (alpha = mask).
+  void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model);
+  // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
+  // renderer's size) in one pass; pixels outside the mask keep the frame exactly. `out` is
+  // (re)allocated only when its size or type differs.
+  void composite(const cv::Mat& frame_bgr, const ToneMapping& tone, cv::Mat& out_bgr);
+  // Shows the last composite in a window context's default framebuffer (then swap_buffers()).
+  void present();
+
+  const FrameTimings& timings() const;
+  // For tests and tools: the HDR target as rendered, and Reinhard's last log-average luminance.
+  HdrReadback read_hdr();
+  float last_log_average() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> p_;
+};
+
+}  // namespace arlight::render

@@ -1,0 +1,58 @@
+// Triangle meshes for the renderer: positions, normals, optional uvs and tangents, uint32
+// indices, bounds. Loaded from glTF 2.0 (.glb, .gltf; KHR_draco_mesh_compression decoded with
+// libdraco) or generated (a UV sphere).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+#include <vector>
+
+namespace arlight::render {
+
+struct Bounds {
+  glm::vec3 min{0.0f}, max{0.0f};
+  glm::vec3 centre() const { return 0.5f * (min + max); }
+  glm::vec3 size() const { return max - min; }
+};
+
+// uv (0,0) is the top-left of a texture image (as in glTF and image files). Tangents follow
+// glTF / MikkTSpace: xyz along increasing u, w = +-1 with bitangent = w * cross(normal, tangent)
+// pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
+struct Mesh {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;   // unit, one per position
+  std::vector<glm::vec2> uvs;       // empty or one per position
+  std::vector<glm::vec4> tangents;  // empty or one per position (computed when uvs exist)
+  std::vector<std::uint32_t> indices;  // triangles
+  Bounds bounds;
+
+  std::size_t vertex_count() const { return positions.size(); }
+  std::size_t triangle_count() const { return indices.size() / 3; }
+};
+
+// Recomputes bounds from the positions.
+void compute_bounds(Mesh& mesh);
+// Per-vertex tangents from the uvs: each triangle's dP/du and dP/dv are accumulated (weighted
+// by the triangle's uv-space area, MikkTSpace-style), orthogonalised against the normal
+// (Gram-Schmidt), with w the handedness. Needs uvs; a degenerate vertex gets any perpendicular.
+void compute_tangents(Mesh& mesh);
+// Area-weighted vertex normals from the triangles (for meshes that come without normals).
+void compute_normals(Mesh& mesh);
+
+// A UV sphere centred at the origin, poles on +-Y: `rings` bands from the north pole (v = 0) to
+// the south pole (v = 1), `segments` around. u = 0.25 faces +Z, u grows towards +X there, so the
+// tangent at the front (0, 0, r) is +X and the bitangent +Y. The seam at u = 0/1 faces -X.
+Mesh make_sphere(float radius, int rings, int segments);
+
+// Loads every triangle primitive of the default scene (or of all root nodes) of a glTF 2.0 file
+// into one mesh, with node transforms applied. Positions, normals (computed when absent),
+// TEXCOORD_0 (float) and indices (u8/u16/u32) are read; KHR_draco_mesh_compression primitives are
+// decoded with libdraco. Every problem (bad magic, chunk beyond the file, accessor out of range,
+// Draco decode failure, ...) throws arlight::InputError naming the file and what is wrong.
+Mesh load_gltf(const std::filesystem::path& path);
+
+}  // namespace arlight::render

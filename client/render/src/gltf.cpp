@@ -1,0 +1,435 @@
+// glTF 2.0 loading (.glb and .gltf), with KHR_draco_mesh_compression decoded by libdraco.
+// Every read is bounds-checked; problems throw InputError("'<file>': <what>").
+#include <draco/compression/decode.h>
+
+#include <cstring>
+#include <fstream>
+#include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+
+#include "arlight/error.hpp"
+#include "arlight/render/mesh.hpp"
+
+namespace arlight::render {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr std::uint32_t kGlbMagic = 0x46546C67;  // "glTF"
+constexpr std::uint32_t kChunkJson = 0x4E4F534A;
+constexpr std::uint32_t kChunkBin = 0x004E4942;
+
+std::vector<std::uint8_t> read_file(const std::filesystem::path& path, const std::string& where) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(where + "cannot open the file");
+  in.seekg(0, std::ios::end);
+  const auto size = std::streamoff(in.tellg());
+  if (size < 0) throw InputError(where + "cannot read the file");
+  in.seekg(0);
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(size));
+  if (size > 0 && !in.read(reinterpret_cast<char*>(data.data()), size))
+    throw InputError(where + "cannot read the file");
+  return data;
+}
+
+std::uint32_t u32(const std::uint8_t* p) {
+  std::uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;  // glTF is little-endian, like every platform we build for
+}
+
+std::vector<std::uint8_t> base64_decode(std::string_view s, const std::string& where) {
+  auto value = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+  };
+  std::vector<std::uint8_t> out;
+  unsigned acc = 0;
+  int bits = 0;
+  for (char c : s) {
+    if (c == '=') break;
+    const int v = value(c);
+    if (v < 0) throw InputError(where + "invalid base64 in a data: buffer URI");
+    acc = (acc << 6) | unsigned(v), bits += 6;
+    if (bits >= 8) bits -= 8, out.push_back(std::uint8_t((acc >> bits) & 0xFF));
+  }
+  return out;
+}
+
+class GltfReader {
+ public:
+  GltfReader(const std::filesystem::path& path) : path_(path), where_("'" + path.string() + "': ") {
+    file_ = read_file(path, where_);
+    if (file_.size() >= 4 && u32(file_.data()) == kGlbMagic)
+      parse_glb();
+    else if (path.extension() == ".glb")
+      throw InputError(where_ + "bad magic: not a binary glTF (.glb) file");
+    else
+      parse_json(std::string_view(reinterpret_cast<const char*>(file_.data()), file_.size()));
+  }
+
+  Mesh load() {
+    const json& nodes = get_array(doc_, "nodes");
+    std::vector<int> roots;
+    if (doc_.contains("scenes") && !doc_["scenes"].empty()) {
+      const std::size_t scene = doc_.value("scene", 0);
+      const json& scenes = get_array(doc_, "scenes");
+      if (scene >= scenes.size()) throw InputError(where_ + "scene index out of range");
+      for (const json& n : scenes[scene].value("nodes", json::array())) roots.push_back(n.get<int>());
+    } else {
+      std::vector<bool> child(nodes.size(), false);
+      for (const json& n : nodes)
+        for (const json& c : n.value("children", json::array()))
+          if (c.get<std::size_t>() < nodes.size()) child[c.get<std::size_t>()] = true;
+      for (std::size_t i = 0; i < nodes.size(); ++i)
+        if (!child[i]) roots.push_back(int(i));
+    }
+    for (int r : roots) visit(r, glm::dmat4(1.0), 0);
+    if (mesh_.positions.empty()) throw InputError(where_ + "no triangle meshes in the scene");
+    compute_bounds(mesh_);
+    if (has_uvs_) compute_tangents(mesh_);
+    return std::move(mesh_);
+  }
+
+ private:
+  void parse_glb() {
+    if (file_.size() < 12) throw InputError(where_ + "truncated GLB header");
+    const std::uint32_t version = u32(file_.data() + 4), length = u32(file_.data() + 8);
+    if (version != 2) throw InputError(where_ + "GLB version " + std::to_string(version) + ", need 2");
+    if (length > file_.size())
+      throw InputError(where_ + "GLB header says " + std::to_string(length) +
+                       " bytes but the file has " + std::to_string(file_.size()));
+    std::size_t pos = 12;
+    bool have_json = false;
+    while (pos + 8 <= length) {
+      const std::uint32_t chunk_len = u32(file_.data() + pos), type = u32(file_.data() + pos + 4);
+      if (std::uint64_t(pos) + 8 + chunk_len > length)
+        throw InputError(where_ + "chunk at byte " + std::to_string(pos) + " (length " +
+                         std::to_string(chunk_len) + ") extends beyond the file");
+      const std::uint8_t* data = file_.data() + pos + 8;
+      if (type == kChunkJson && !have_json) {
+        parse_json(std::string_view(reinterpret_cast<const char*>(data), chunk_len));
+        have_json = true;
+      } else if (type == kChunkBin && !have_bin_) {
+        bin_ = std::span<const std::uint8_t>(data, chunk_len);
+        have_bin_ = true;
+      }
+      pos += 8 + std::size_t(chunk_len);
+    }
+    if (!have_json) throw InputError(where_ + "GLB has no JSON chunk");
+  }
+
+  void parse_json(std::string_view text) {
+    try {
+      doc_ = json::parse(text);
+    } catch (const json::exception& e) {
+      throw InputError(where_ + "invalid glTF JSON: " + e.what());
+    }
+    if (!doc_.is_object()) throw InputError(where_ + "glTF JSON is not an object");
+    const json asset = doc_.value("asset", json::object());
+    if (!asset.is_object() || asset.value("version", std::string()).rfind("2.", 0) != 0)
+      throw InputError(where_ + "not glTF 2.0 (asset.version)");
+    for (const json& e : doc_.value("extensionsRequired", json::array()))
+      if (e != "KHR_draco_mesh_compression")
+        throw InputError(where_ + "unsupported required extension " + e.dump());
+  }
+
+  const json& get_array(const json& j, const char* key) const {
+    static const json empty = json::array();
+    if (!j.contains(key)) return empty;
+    if (!j[key].is_array()) throw InputError(where_ + "'" + key + "' is not an array");
+    return j[key];
+  }
+
+  const json& element(const char* kind, std::size_t index) const {
+    const json& a = get_array(doc_, kind);
+    if (index >= a.size())
+      throw InputError(where_ + std::string(kind) + " index " + std::to_string(index) +
+                       " out of range (" + std::to_string(a.size()) + ")");
+    return a[index];
+  }
+
+  std::span<const std::uint8_t> buffer(std::size_t index) {
+    if (buffers_.size() <= index) buffers_.resize(index + 1);
+    if (!buffers_[index].empty()) return buffers_[index];
+    const json& b = element("buffers", index);
+    const std::size_t byte_length = b.at("byteLength").get<std::size_t>();
+    std::span<const std::uint8_t> data;
+    if (!b.contains("uri")) {
+      if (!have_bin_) throw InputError(where_ + "buffer " + std::to_string(index) + " has no data");
+      data = bin_;
+    } else {
+      const std::string uri = b["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) {
+        const auto comma = uri.find(";base64,");
+        if (comma == std::string::npos) throw InputError(where_ + "data: URI is not base64");
+        buffers_[index] = base64_decode(std::string_view(uri).substr(comma + 8), where_);
+      } else {
+        buffers_[index] = read_file(path_.parent_path() / uri, "'" + (path_.parent_path() / uri).string() + "': ");
+      }
+      data = buffers_[index];
+    }
+    if (data.size() < byte_length)
+      throw InputError(where_ + "buffer " + std::to_string(index) + " has " +
+                       std::to_string(data.size()) + " bytes, byteLength says " +
+                       std::to_string(byte_length));
+    if (b.contains("uri")) return buffers_[index];
+    return data.first(byte_length);
+  }
+
+  struct View {
+    std::span<const std::uint8_t> bytes;
+    std::size_t stride = 0;
+  };
+
+  View buffer_view(std::size_t index) {
+    const json& v = element("bufferViews", index);
+    const std::size_t offset = v.value("byteOffset", std::size_t(0));
+    const std::size_t length = v.at("byteLength").get<std::size_t>();
+    const auto buf = buffer(v.at("buffer").get<std::size_t>());
+    if (offset > buf.size() || length > buf.size() - offset)
+      throw InputError(where_ + "bufferView " + std::to_string(index) + " (offset " +
+                       std::to_string(offset) + ", length " + std::to_string(length) +
+                       ") is beyond its buffer of " + std::to_string(buf.size()) + " bytes");
+    return {buf.subspan(offset, length), v.value("byteStride", std::size_t(0))};
+  }
+
+  // Reads an accessor as floats (normalized integers are converted), `comps` per element.
+  std::vector<float> read_accessor(std::size_t index, int comps, bool allow_ints = false) {
+    const json& a = element("accessors", index);
+    if (a.contains("sparse")) throw InputError(where_ + "sparse accessors are not supported");
+    const std::string type = a.at("type").get<std::string>();
+    const int type_comps = type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3
+                           : type == "VEC4" ? 4 : 0;
+    if (type_comps != comps)
+      throw InputError(where_ + "accessor " + std::to_string(index) + " has type " + type +
+                       ", expected " + std::to_string(comps) + " components");
+    const int ct = a.at("componentType").get<int>();
+    const std::size_t csize = ct == 5126 || ct == 5125 ? 4 : ct == 5123 || ct == 5122 ? 2
+                              : ct == 5121 || ct == 5120 ? 1 : 0;
+    if (csize == 0) throw InputError(where_ + "accessor " + std::to_string(index) + ": bad componentType");
+    const bool normalized = a.value("normalized", false);
+    if (ct != 5126 && !normalized && !allow_ints)
+      throw InputError(where_ + "accessor " + std::to_string(index) + " must be float");
+    const std::size_t count = a.at("count").get<std::size_t>();
+    std::vector<float> out(count * std::size_t(comps), 0.0f);
+    if (!a.contains("bufferView")) return out;  // all zeros, as the spec says
+    const View v = buffer_view(a["bufferView"].get<std::size_t>());
+    const std::size_t offset = a.value("byteOffset", std::size_t(0));
+    const std::size_t elem = csize * std::size_t(comps);
+    const std::size_t stride = v.stride ? v.stride : elem;
+    if (count > 0 && (offset > v.bytes.size() || (count - 1) * stride + elem > v.bytes.size() - offset))
+      throw InputError(where_ + "accessor " + std::to_string(index) + " (" + std::to_string(count) +
+                       " x " + type + ") out of range of its bufferView of " +
+                       std::to_string(v.bytes.size()) + " bytes");
+    for (std::size_t i = 0; i < count; ++i)
+      for (int c = 0; c < comps; ++c) {
+        const std::uint8_t* p = v.bytes.data() + offset + i * stride + std::size_t(c) * csize;
+        float x = 0;
+        switch (ct) {
+          case 5126: std::memcpy(&x, p, 4); break;
+          case 5125: { std::uint32_t u; std::memcpy(&u, p, 4); x = float(u); break; }
+          case 5123: { std::uint16_t u; std::memcpy(&u, p, 2); x = normalized ? u / 65535.0f : float(u); break; }
+          case 5122: { std::int16_t u; std::memcpy(&u, p, 2); x = normalized ? std::max(u / 32767.0f, -1.0f) : float(u); break; }
+          case 5121: x = normalized ? *p / 255.0f : float(*p); break;
+          default: x = normalized ? std::max(std::int8_t(*p) / 127.0f, -1.0f) : float(std::int8_t(*p)); break;
+        }
+        out[i * std::size_t(comps) + std::size_t(c)] = x;
+      }
+    return out;
+  }
+
+  std::vector<std::uint32_t> read_indices(std::size_t index) {
+    const json& a = element("accessors", index);
+    const int ct = a.at("componentType").get<int>();
+    if (ct != 5121 && ct != 5123 && ct != 5125)
+      throw InputError(where_ + "index accessor " + std::to_string(index) + " must be u8/u16/u32");
+    if (a.value("normalized", false)) throw InputError(where_ + "index accessor is normalized");
+    const std::vector<float> f = read_accessor(index, 1, true);
+    // u32 indices above 2^24 would lose precision through float: read them directly.
+    std::vector<std::uint32_t> out(f.size());
+    if (ct == 5125) {
+      const View v = buffer_view(a.at("bufferView").get<std::size_t>());
+      const std::size_t offset = a.value("byteOffset", std::size_t(0)), stride = v.stride ? v.stride : 4;
+      for (std::size_t i = 0; i < out.size(); ++i) std::memcpy(&out[i], v.bytes.data() + offset + i * stride, 4);
+    } else {
+      for (std::size_t i = 0; i < out.size(); ++i) out[i] = std::uint32_t(f[i]);
+    }
+    return out;
+  }
+
+  struct Primitive {
+    std::vector<glm::vec3> positions, normals;
+    std::vector<glm::vec2> uvs;
+    std::vector<std::uint32_t> indices;
+  };
+
+  Primitive decode_draco(const json& ext) {
+    const View v = buffer_view(ext.at("bufferView").get<std::size_t>());
+    draco::DecoderBuffer buf;
+    buf.Init(reinterpret_cast<const char*>(v.bytes.data()), v.bytes.size());
+    draco::Decoder decoder;
+    auto result = decoder.DecodeMeshFromBuffer(&buf);
+    if (!result.ok())
+      throw InputError(where_ + "Draco decode failure: " + result.status().error_msg_string());
+    std::unique_ptr<draco::Mesh> dm = std::move(result).value();
+    Primitive p;
+    const json attrs = ext.value("attributes", json::object());
+    auto read = [&](const char* name, int comps, auto& out) {
+      if (!attrs.contains(name)) return;
+      const draco::PointAttribute* att = dm->GetAttributeByUniqueId(attrs[name].get<std::uint32_t>());
+      if (!att) throw InputError(where_ + "Draco mesh has no attribute for " + name);
+      out.resize(dm->num_points());
+      for (draco::PointIndex i(0); i < dm->num_points(); ++i) {
+        float val[4] = {0, 0, 0, 0};
+        if (!att->ConvertValue<float>(att->mapped_index(i), std::int8_t(comps), val))
+          throw InputError(where_ + "Draco attribute " + name + " cannot be read as float");
+        std::memcpy(&out[i.value()], val, sizeof(float) * std::size_t(comps));
+      }
+    };
+    read("POSITION", 3, p.positions);
+    read("NORMAL", 3, p.normals);
+    read("TEXCOORD_0", 2, p.uvs);
+    p.indices.reserve(std::size_t(dm->num_faces()) * 3);
+    for (draco::FaceIndex f(0); f < dm->num_faces(); ++f)
+      for (int k = 0; k < 3; ++k) p.indices.push_back(dm->face(f)[k].value());
+    return p;
+  }
+
+  template <typename V>
+  std::vector<V> as_vec(const std::vector<float>& f) {
+    std::vector<V> out(f.size() / sizeof(V) * sizeof(float));
+    std::memcpy(out.data(), f.data(), out.size() * sizeof(V));
+    return out;
+  }
+
+  Primitive read_primitive(const json& prim) {
+    const json attrs = prim.value("attributes", json::object());
+    if (prim.contains("extensions") && prim["extensions"].contains("KHR_draco_mesh_compression"))
+      return decode_draco(prim["extensions"]["KHR_draco_mesh_compression"]);
+    Primitive p;
+    if (!attrs.contains("POSITION")) throw InputError(where_ + "primitive without POSITION");
+    p.positions = as_vec<glm::vec3>(read_accessor(attrs["POSITION"].get<std::size_t>(), 3));
+    if (attrs.contains("NORMAL"))
+      p.normals = as_vec<glm::vec3>(read_accessor(attrs["NORMAL"].get<std::size_t>(), 3));
+    if (attrs.contains("TEXCOORD_0"))
+      p.uvs = as_vec<glm::vec2>(read_accessor(attrs["TEXCOORD_0"].get<std::size_t>(), 2));
+    if (prim.contains("indices")) {
+      p.indices = read_indices(prim["indices"].get<std::size_t>());
+    } else {
+      p.indices.resize(p.positions.size() - p.positions.size() % 3);
+      for (std::size_t i = 0; i < p.indices.size(); ++i) p.indices[i] = std::uint32_t(i);
+    }
+    return p;
+  }
+
+  void add_mesh(std::size_t mesh_index, const glm::dmat4& world) {
+    const json& m = element("meshes", mesh_index);
+    const glm::mat4 M(world);
+    const glm::mat3 N = glm::inverseTranspose(glm::mat3(M));
+    const bool flip = glm::determinant(glm::mat3(M)) < 0.0f;
+    for (const json& prim : get_array(m, "primitives")) {
+      if (prim.value("mode", 4) != 4) continue;  // points and lines are not drawn
+      Primitive p = read_primitive(prim);
+      const std::size_t n = p.positions.size();
+      if (n == 0) throw InputError(where_ + "primitive without positions");
+      if ((!p.normals.empty() && p.normals.size() != n) || (!p.uvs.empty() && p.uvs.size() != n))
+        throw InputError(where_ + "primitive attributes have different counts");
+      if (p.indices.size() % 3 != 0) throw InputError(where_ + "index count is not a multiple of 3");
+      for (std::uint32_t i : p.indices)
+        if (i >= n)
+          throw InputError(where_ + "index " + std::to_string(i) + " out of range (" +
+                           std::to_string(n) + " vertices)");
+      // uvs for all or none: a primitive without uvs in a mixed file gets (0, 0).
+      if (!p.uvs.empty() && !has_uvs_ && !mesh_.positions.empty())
+        mesh_.uvs.assign(mesh_.positions.size(), glm::vec2(0.0f));
+      if (!p.uvs.empty()) has_uvs_ = true;
+      if (has_uvs_ && p.uvs.empty()) p.uvs.assign(n, glm::vec2(0.0f));
+      Mesh part;
+      part.positions = std::move(p.positions);
+      part.indices = std::move(p.indices);
+      if (p.normals.empty()) compute_normals(part); else part.normals = std::move(p.normals);
+      const auto base = std::uint32_t(mesh_.positions.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        mesh_.positions.push_back(glm::vec3(M * glm::vec4(part.positions[i], 1.0f)));
+        const glm::vec3 nn = N * part.normals[i];
+        const float l = glm::length(nn);
+        mesh_.normals.push_back(l > 0.0f ? nn / l : glm::vec3(0, 1, 0));
+      }
+      if (has_uvs_) mesh_.uvs.insert(mesh_.uvs.end(), p.uvs.begin(), p.uvs.end());
+      for (std::size_t i = 0; i < part.indices.size(); i += 3) {
+        mesh_.indices.push_back(base + part.indices[i]);
+        mesh_.indices.push_back(base + part.indices[i + (flip ? 2 : 1)]);
+        mesh_.indices.push_back(base + part.indices[i + (flip ? 1 : 2)]);
+      }
+    }
+  }
+
+  glm::dmat4 local_transform(const json& node) const {
+    if (node.contains("matrix")) {
+      const auto m = node["matrix"].get<std::vector<double>>();
+      if (m.size() != 16) throw InputError(where_ + "node matrix must have 16 numbers");
+      return glm::make_mat4(m.data());  // column-major, as glTF stores it
+    }
+    glm::dmat4 t(1.0);
+    if (node.contains("translation")) {
+      const auto v = node["translation"].get<std::vector<double>>();
+      if (v.size() != 3) throw InputError(where_ + "node translation must have 3 numbers");
+      t[3] = glm::dvec4(v[0], v[1], v[2], 1.0);
+    }
+    glm::dmat4 r(1.0);
+    if (node.contains("rotation")) {
+      const auto q = node["rotation"].get<std::vector<double>>();  // x, y, z, w
+      if (q.size() != 4) throw InputError(where_ + "node rotation must have 4 numbers");
+      r = glm::mat4_cast(glm::normalize(glm::dquat(q[3], q[0], q[1], q[2])));
+    }
+    glm::dmat4 s(1.0);
+    if (node.contains("scale")) {
+      const auto v = node["scale"].get<std::vector<double>>();
+      if (v.size() != 3) throw InputError(where_ + "node scale must have 3 numbers");
+      s[0][0] = v[0], s[1][1] = v[1], s[2][2] = v[2];
+    }
+    return t * r * s;
+  }
+
+  void visit(int index, const glm::dmat4& parent, int depth) {
+    if (depth > 64) throw InputError(where_ + "node hierarchy deeper than 64 (a cycle?)");
+    if (index < 0) throw InputError(where_ + "negative node index");
+    const json& node = element("nodes", std::size_t(index));
+    const glm::dmat4 world = parent * local_transform(node);
+    if (node.contains("mesh")) add_mesh(node["mesh"].get<std::size_t>(), world);
+    for (const json& c : node.value("children", json::array())) visit(c.get<int>(), world, depth + 1);
+  }
+
+  std::filesystem::path path_;
+  std::string where_;
+  std::vector<std::uint8_t> file_;
+  json doc_;
+  std::span<const std::uint8_t> bin_;
+  bool have_bin_ = false;
+  std::vector<std::vector<std::uint8_t>> buffers_;
+  Mesh mesh_;
+  bool has_uvs_ = false;
+};
+
+}  // namespace
+
+Mesh load_gltf(const std::filesystem::path& path) {
+  try {
+    return GltfReader(path).load();
+  } catch (const json::exception& e) {
+    // Wrong types or missing required keys in otherwise valid JSON.
+    throw InputError("'" + path.string() + "': malformed glTF: " + e.what());
+  }
+}
+
+}  // namespace arlight::render

@@ -1,0 +1,68 @@
+#include <cstring>
+
+#include "arlight/render.hpp"
+#include "gl.hpp"
+
+namespace arlight::render {
+
+// One buffer holding the attribute arrays one after the other (positions, normals, uvs,
+// tangents), locations 0-3 as in ibl.vert; absent uvs/tangents read constant defaults.
+GpuMesh::GpuMesh(const Mesh& mesh) {
+  const std::size_t n = mesh.positions.size();
+  if (n == 0 || mesh.normals.size() != n || mesh.indices.empty())
+    throw std::invalid_argument("GpuMesh: the mesh needs positions, one normal each, and indices");
+  has_uvs_ = mesh.uvs.size() == n;
+  has_tangents_ = has_uvs_ && mesh.tangents.size() == n;
+  bounds_ = mesh.bounds;
+  index_count_ = mesh.indices.size();
+  const std::size_t pos_bytes = n * sizeof(glm::vec3), uv_bytes = has_uvs_ ? n * sizeof(glm::vec2) : 0,
+                    tan_bytes = has_tangents_ ? n * sizeof(glm::vec4) : 0;
+  std::vector<std::uint8_t> data(2 * pos_bytes + uv_bytes + tan_bytes);
+  std::memcpy(data.data(), mesh.positions.data(), pos_bytes);
+  std::memcpy(data.data() + pos_bytes, mesh.normals.data(), pos_bytes);
+  if (uv_bytes) std::memcpy(data.data() + 2 * pos_bytes, mesh.uvs.data(), uv_bytes);
+  if (tan_bytes) std::memcpy(data.data() + 2 * pos_bytes + uv_bytes, mesh.tangents.data(), tan_bytes);
+
+  glGenVertexArrays(1, &vao_);
+  glGenBuffers(1, &vbo_);
+  glGenBuffers(1, &ibo_);
+  glBindVertexArray(vao_);
+  glBindBuffer(GL_ARRAY_BUFFER, vbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(data.size()), data.data(), GL_STATIC_DRAW);
+  auto attrib = [](GLuint loc, int comps, std::size_t offset) {
+    glEnableVertexAttribArray(loc);
+    glVertexAttribPointer(loc, comps, GL_FLOAT, GL_FALSE, 0, reinterpret_cast<const void*>(offset));
+  };
+  attrib(0, 3, 0);
+  attrib(1, 3, pos_bytes);
+  if (has_uvs_) attrib(2, 2, 2 * pos_bytes);
+  if (has_tangents_) attrib(3, 4, 2 * pos_bytes + uv_bytes);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo_);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(index_count_ * sizeof(std::uint32_t)),
+               mesh.indices.data(), GL_STATIC_DRAW);
+  glBindVertexArray(0);
+  gl::check("uploading a mesh");
+}
+
+GpuMesh::GpuMesh(GpuMesh&& o) noexcept { *this = std::move(o); }
+
+GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
+  if (this != &o) {
+    release();
+    vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
+    index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
+    bounds_ = o.bounds_;
+  }
+  return *this;
+}
+
+GpuMesh::~GpuMesh() { release(); }
+
+void GpuMesh::release() {
+  if (vao_) glDeleteVertexArrays(1, &vao_);
+  if (vbo_) glDeleteBuffers(1, &vbo_);
+  if (ibo_) glDeleteBuffers(1, &ibo_);
+  vao_ = vbo_ = ibo_ = 0;
+}
+
+}  // namespace arlight::render

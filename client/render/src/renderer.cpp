@@ -1,0 +1,505 @@
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "arlight/render.hpp"
+#include "gl.hpp"
+#include "textures.hpp"
+
+namespace arlight::render {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+constexpr int kReduceBlock = 8;                               // loglum_reduce.frag's BLOCK
+constexpr int kShMapSize = 32;                                // SH maps: 64 x 32 lat-long
+const std::vector<double> kShShininess = {1, 8, 32, 128};    // SH maps' lobes
+
+// Texture units.
+enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
+
+// A set of environment maps of one projection, sorted by shininess.
+struct EnvSet {
+  Projection projection = Projection::LatLong;
+  std::vector<double> shininess;
+  std::vector<gl::Texture> tex;
+  std::vector<glm::ivec2> size;
+  bool empty() const { return tex.empty(); }
+
+  // Uploads maps (sorted by shininess), re-using textures of the same count and sizes.
+  void upload(const std::vector<double>& s, const std::vector<EnvMap>& maps) {
+    std::vector<std::size_t> order(s.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](auto a, auto b) { return s[a] < s[b]; });
+    if (tex.size() != maps.size() || projection != maps[0].layout.projection()) {
+      tex.clear(), size.clear();
+      tex.resize(maps.size()), size.resize(maps.size(), glm::ivec2(0));
+    }
+    projection = maps[0].layout.projection();
+    shininess.clear();
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      shininess.push_back(s[order[k]]);
+      upload_env(maps[order[k]], tex[k], size[k].x, size[k].y);
+    }
+  }
+
+  // The two maps around shininess s and the weight of the second (log-shininess interpolation),
+  // or the nearest one (weight 0).
+  std::tuple<std::size_t, std::size_t, float> pick(double s, ReflectionLookup lookup) const {
+    const std::size_t n = shininess.size();
+    if (s <= shininess.front()) return {0, 0, 0.0f};
+    if (s >= shininess.back()) return {n - 1, n - 1, 0.0f};
+    std::size_t i = 0;
+    while (i + 1 < n && shininess[i + 1] <= s) ++i;
+    if (shininess[i] == s) return {i, i, 0.0f};
+    const double t = (std::log(s) - std::log(shininess[i])) /
+                     (std::log(shininess[i + 1]) - std::log(shininess[i]));
+    if (lookup == ReflectionLookup::Nearest) return t < 0.5 ? std::tuple{i, i, 0.0f} : std::tuple{i + 1, i + 1, 0.0f};
+    return {i, i + 1, float(t)};
+  }
+};
+
+struct IblUniforms {
+  GLint model, normal_matrix, view_proj, reflection_mix, camera_position, world_from_scene, kd, ks,
+      use_albedo, use_normal_map, normal_strength, use_light_map;
+};
+
+}  // namespace
+
+glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int height,
+                                     float n, float f) {
+  if (k.width <= 0 || k.height <= 0 || !(k.fx > 0) || !(k.fy > 0))
+    throw std::invalid_argument("projection_from_intrinsics: intrinsics need a size and fx, fy > 0");
+  if (!(n > 0) || !(f > n)) throw std::invalid_argument("projection_from_intrinsics: need 0 < near < far");
+  // Scale to the viewport; pixel edges (not centres) scale: (c + 0.5) * s - 0.5.
+  const double sx = double(width) / k.width, sy = double(height) / k.height;
+  const double fx = k.fx * sx, fy = k.fy * sy;
+  const double cx = (k.cx + 0.5) * sx - 0.5, cy = (k.cy + 0.5) * sy - 0.5;
+  // A camera point (x, y, z), z < 0, lands at OpenCV pixel u = fx x / -z + cx, v = -fy y / -z + cy;
+  // window coordinates are pixel + 0.5 and the target's row 0 is the image's top row, so
+  // ndc = 2 (pixel + 0.5) / size - 1 on both axes, times clip w = -z.
+  glm::mat4 p(0.0f);
+  p[0][0] = float(2.0 * fx / width);
+  p[2][0] = float(1.0 - 2.0 * (cx + 0.5) / width);
+  p[1][1] = float(-2.0 * fy / height);
+  p[2][1] = float(1.0 - 2.0 * (cy + 0.5) / height);
+  p[2][2] = -(f + n) / (f - n);
+  p[3][2] = -2.0f * f * n / (f - n);
+  p[2][3] = -1.0f;
+  return p;
+}
+
+struct Renderer::Impl {
+  int w, h;
+  std::filesystem::path shader_dir;
+  Program ibl[3];  // per ENV_PROJECTION
+  IblUniforms ibl_u[3];
+  Program reduce_first, reduce, composite;
+  GLuint empty_vao = 0;
+
+  gl::Framebuffer hdr_fbo, out_fbo;
+  gl::Texture hdr_tex, out_tex, frame_tex, response_lut, white_tex, flat_normal_tex;
+  gl::Renderbuffer depth;
+  struct Level {
+    gl::Framebuffer fbo;
+    gl::Texture tex;
+    int w, h;
+  };
+  std::vector<Level> levels;  // the log-luminance reduction chain, down to 1x1
+
+  EnvSet maps, sh_maps, black;
+  ShCoeffs last_sh;
+  ReflectionLookup lookup = ReflectionLookup::Interpolate;
+
+  glm::mat4 view_proj{1.0f};
+  glm::vec3 camera_position{0.0f};
+  glm::mat3 world_from_scene{1.0f};
+
+  struct CachedTexture {
+    std::weak_ptr<const TextureImage> owner;
+    gl::Texture tex;
+  };
+  std::unordered_map<const TextureImage*, CachedTexture> textures;
+
+  FrameTimings timings;
+  Clock::time_point frame_start = Clock::now();
+  std::vector<std::uint8_t> rgba;  // readback buffer
+  bool composited = false;
+
+  GLuint texture_for(const std::shared_ptr<const TextureImage>& img) {
+    auto it = textures.find(img.get());
+    if (it != textures.end() && !it->second.owner.expired() && it->second.owner.lock() == img)
+      return it->second.tex.id;
+    // Drop entries whose images are gone (their addresses may be reused).
+    std::erase_if(textures, [](const auto& kv) { return kv.second.owner.expired(); });
+    auto& e = textures[img.get()];
+    e.owner = img;
+    e.tex = upload_material_texture(*img);
+    return e.tex.id;
+  }
+
+  const EnvSet& lighting() const {
+    if (!maps.empty()) return maps;
+    if (!sh_maps.empty()) return sh_maps;
+    return black;
+  }
+};
+
+Renderer::Renderer(int width, int height, const std::filesystem::path& shader_dir)
+    : p_(std::make_unique<Impl>()) {
+  if (width < 1 || height < 1) throw std::invalid_argument("Renderer: size must be positive");
+  if (!glGetString(GL_VERSION)) throw GlError("Renderer: no current OpenGL ES context");
+  GLint major = 0;
+  glGetIntegerv(GL_MAJOR_VERSION, &major);
+  if (major < 3) throw GlError("Renderer: needs OpenGL ES 3, the context is " +
+                               std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))));
+  bool float_targets = false;
+  GLint n_ext = 0;
+  glGetIntegerv(GL_NUM_EXTENSIONS, &n_ext);
+  for (GLint i = 0; i < n_ext; ++i)
+    if (std::string_view(reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, GLuint(i)))) ==
+        "GL_EXT_color_buffer_float")
+      float_targets = true;
+  if (!float_targets)
+    throw GlError("Renderer: OpenGL ES extension GL_EXT_color_buffer_float is missing (needed for the "
+                  "RGBA16F HDR target)");
+  Impl& p = *p_;
+  p.w = width, p.h = height;
+  p.shader_dir = shader_dir;
+
+  for (int proj = 0; proj < 3; ++proj) {
+    p.ibl[proj] = Program(shader_dir, "ibl.vert", "ibl.frag", {{"ENV_PROJECTION", std::to_string(proj)}});
+    const Program& pr = p.ibl[proj];
+    p.ibl_u[proj] = {pr.uniform("u_model"), pr.uniform("u_normal_matrix"), pr.uniform("u_view_proj"),
+                     pr.uniform("u_reflection_mix"), pr.uniform("u_camera_position"),
+                     pr.uniform("u_world_from_scene"), pr.uniform("u_kd"), pr.uniform("u_ks"),
+                     pr.uniform("u_use_albedo"), pr.uniform("u_use_normal_map"),
+                     pr.uniform("u_normal_strength"), pr.uniform("u_use_light_map")};
+    glUseProgram(pr.id());
+    glUniform1i(pr.uniform("u_irradiance"), kIrr);
+    glUniform1i(pr.uniform("u_reflection0"), kRefl0);
+    glUniform1i(pr.uniform("u_reflection1"), kRefl1);
+    glUniform1i(pr.uniform("u_albedo"), kAlbedo);
+    glUniform1i(pr.uniform("u_normal_map"), kNormal);
+    glUniform1i(pr.uniform("u_light_map"), kLight);
+  }
+  const std::string block = std::to_string(kReduceBlock);
+  p.reduce_first = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag",
+                           {{"BLOCK", block}, {"FIRST_PASS", "1"}});
+  p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
+  p.composite = Program(shader_dir, "fullscreen.vert", "composite.frag");
+  glUseProgram(p.composite.id());
+  glUniform1i(p.composite.uniform("u_hdr"), 0);
+  glUniform1i(p.composite.uniform("u_frame"), 1);
+  glUniform1i(p.composite.uniform("u_response"), 2);
+  glUniform1i(p.composite.uniform("u_log_sum"), 3);
+  glGenVertexArrays(1, &p.empty_vao);
+
+  // HDR target: RGBA16F (alpha = mask) + depth.
+  auto make_target = [&](gl::Texture& tex, GLenum internal, GLenum format, GLenum type, int tw, int th) {
+    tex.create();
+    glBindTexture(GL_TEXTURE_2D, tex.id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GLint(internal), tw, th, 0, format, type, nullptr);
+    gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  };
+  make_target(p.hdr_tex, GL_RGBA16F, GL_RGBA, GL_HALF_FLOAT, width, height);
+  p.depth.create();
+  glBindRenderbuffer(GL_RENDERBUFFER, p.depth.id);
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
+  p.hdr_fbo.create();
+  glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.hdr_tex.id, 0);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, p.depth.id);
+  gl::check_framebuffer("HDR target (RGBA16F + depth)");
+
+  make_target(p.out_tex, GL_RGBA8, GL_RGBA, GL_UNSIGNED_BYTE, width, height);
+  p.out_fbo.create();
+  glBindFramebuffer(GL_FRAMEBUFFER, p.out_fbo.id);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.out_tex.id, 0);
+  gl::check_framebuffer("composite target (RGBA8)");
+
+  make_target(p.frame_tex, GL_RGB8, GL_RGB, GL_UNSIGNED_BYTE, width, height);
+
+  for (int lw = width, lh = height; lw > 1 || lh > 1;) {
+    lw = (lw + kReduceBlock - 1) / kReduceBlock, lh = (lh + kReduceBlock - 1) / kReduceBlock;
+    Impl::Level& l = p.levels.emplace_back();
+    l.w = lw, l.h = lh;
+    make_target(l.tex, GL_RG32F, GL_RG, GL_FLOAT, lw, lh);
+    l.fbo.create();
+    glBindFramebuffer(GL_FRAMEBUFFER, l.fbo.id);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, l.tex.id, 0);
+    gl::check_framebuffer("log-luminance reduction level (RG32F)");
+  }
+  if (p.levels.empty()) {  // a 1x1 renderer still needs the 1x1 sum
+    Impl::Level& l = p.levels.emplace_back();
+    l.w = l.h = 1;
+    make_target(l.tex, GL_RG32F, GL_RG, GL_FLOAT, 1, 1);
+    l.fbo.create();
+    glBindFramebuffer(GL_FRAMEBUFFER, l.fbo.id);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, l.tex.id, 0);
+    gl::check_framebuffer("log-luminance reduction level (RG32F)");
+  }
+
+  const std::uint8_t white[4] = {255, 255, 255, 255}, flat[4] = {128, 128, 255, 255};
+  for (auto [tex, px] : {std::pair{&p.white_tex, white}, std::pair{&p.flat_normal_tex, flat}}) {
+    tex->create();
+    glBindTexture(GL_TEXTURE_2D, tex->id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, px);
+    gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_REPEAT, GL_REPEAT);
+  }
+  EnvMap zero(EnvLayout::for_size(Projection::LatLong, 1));
+  p.black.upload({1.0}, {zero});
+  upload_response_lut(CameraResponse::srgb(), p.response_lut);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl::check("creating the renderer");
+}
+
+Renderer::~Renderer() {
+  if (p_ && p_->empty_vao) glDeleteVertexArrays(1, &p_->empty_vao);
+}
+
+int Renderer::width() const { return p_->w; }
+int Renderer::height() const { return p_->h; }
+
+void Renderer::set_sh(const ShCoeffs& sh) {
+  if (sh.order < 1 || sh.c.size() != std::size_t(sh_count(sh.order)))
+    throw std::invalid_argument("set_sh: coefficients do not match their order");
+  Impl& p = *p_;
+  if (sh.order == p.last_sh.order && sh.c == p.last_sh.c) return;
+  p.last_sh = sh;
+  const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, kShMapSize);
+  std::vector<EnvMap> maps;
+  for (double s : kShShininess) {
+    // Thesis eq. 2.33: band l times Lambda_l rho_l of the normalized Phong lobe (s = 1: the
+    // clamped cosine, i.e. irradiance / pi, the irradiance map's value).
+    Image img = sh_reconstruct(sh_convolve(sh, phong_zonal_all(sh.order, s)), layout);
+    for (float& v : img.storage()) v = std::max(v, 0.0f);  // truncation ringing
+    maps.emplace_back(layout, std::move(img));
+  }
+  p.sh_maps.upload(kShShininess, maps);
+}
+
+void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<EnvMap>& maps) {
+  if (maps.empty() || maps.size() != shininess.size())
+    throw std::invalid_argument("set_maps: need one map per shininess, at least one");
+  for (std::size_t i = 0; i < maps.size(); ++i) {
+    if (maps[i].layout.projection() != maps[0].layout.projection())
+      throw std::invalid_argument("set_maps: all maps must have one projection");
+    if (!(shininess[i] > 0.0)) throw std::invalid_argument("set_maps: shininess must be positive");
+  }
+  p_->maps.upload(shininess, maps);
+}
+
+void Renderer::clear_maps() { p_->maps = EnvSet(); }
+
+LightingSource Renderer::lighting_source() const {
+  if (!p_->maps.empty()) return LightingSource::Maps;
+  if (!p_->sh_maps.empty()) return LightingSource::Sh;
+  return LightingSource::None;
+}
+
+void Renderer::set_reflection_lookup(ReflectionLookup lookup) { p_->lookup = lookup; }
+
+void Renderer::set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
+                          float near_plane, float far_plane) {
+  const glm::mat4 proj = projection_from_intrinsics(k, p_->w, p_->h, near_plane, far_plane);
+  p_->view_proj = proj * glm::mat4(camera_from_scene);
+  p_->camera_position = glm::vec3(glm::inverse(camera_from_scene) * glm::dvec4(0, 0, 0, 1));
+}
+
+void Renderer::set_world_from_scene(const glm::dquat& q) {
+  p_->world_from_scene = glm::mat3(glm::mat3_cast(glm::normalize(q)));
+}
+
+void Renderer::set_world_from_scene(const glm::dmat3& r) { p_->world_from_scene = glm::mat3(r); }
+
+void Renderer::set_response(const CameraResponse& response) {
+  upload_response_lut(response, p_->response_lut);
+}
+
+void Renderer::begin_frame() {
+  Impl& p = *p_;
+  p.frame_start = Clock::now();
+  p.composited = false;
+  glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
+  glViewport(0, 0, p.w, p.h);
+  const float zero[4] = {0, 0, 0, 0};
+  glClearBufferfv(GL_COLOR, 0, zero);
+  glClearBufferfi(GL_DEPTH_STENCIL, 0, 1.0f, 0);
+}
+
+void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model) {
+  Impl& p = *p_;
+  const EnvSet& env = p.lighting();
+  const int proj = int(env.projection);  // AngleMap 0, LatLong 1, Cube 2 = ENV_PROJECTION
+  const IblUniforms& u = p.ibl_u[proj];
+  glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
+  glViewport(0, 0, p.w, p.h);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);  // the targets are stored top row first, which flips the winding
+  glUseProgram(p.ibl[proj].id());
+  glUniformMatrix4fv(u.model, 1, GL_FALSE, glm::value_ptr(model));
+  const glm::mat3 normal_matrix = glm::inverseTranspose(glm::mat3(model));
+  glUniformMatrix3fv(u.normal_matrix, 1, GL_FALSE, glm::value_ptr(normal_matrix));
+  glUniformMatrix4fv(u.view_proj, 1, GL_FALSE, glm::value_ptr(p.view_proj));
+  glUniform3fv(u.camera_position, 1, glm::value_ptr(p.camera_position));
+  glUniformMatrix3fv(u.world_from_scene, 1, GL_FALSE, glm::value_ptr(p.world_from_scene));
+  glUniform3fv(u.kd, 1, glm::value_ptr(m.kd));
+  glUniform3fv(u.ks, 1, glm::value_ptr(m.ks));
+
+  // Environment maps: irradiance = the smallest shininess; reflection = around m.shininess.
+  const GLenum target = env_target(env.projection);
+  const auto [a, b, t] = env.pick(m.shininess, p.lookup);
+  glUniform1f(u.reflection_mix, t);
+  for (auto [unit, index] : {std::pair{kIrr, std::size_t(0)}, std::pair{kRefl0, a}, std::pair{kRefl1, b}}) {
+    glActiveTexture(GL_TEXTURE0 + GLenum(unit));
+    glBindTexture(target, env.tex[index].id);
+  }
+  const bool use_normal = m.normal_map && mesh.has_tangents();
+  const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
+  glUniform1i(u.use_albedo, use_albedo);
+  glUniform1i(u.use_normal_map, use_normal);
+  glUniform1i(u.use_light_map, use_light);
+  glUniform1f(u.normal_strength, m.normal_strength);
+  glActiveTexture(GL_TEXTURE0 + kAlbedo);
+  glBindTexture(GL_TEXTURE_2D, use_albedo ? p.texture_for(m.albedo) : p.white_tex.id);
+  glActiveTexture(GL_TEXTURE0 + kNormal);
+  glBindTexture(GL_TEXTURE_2D, use_normal ? p.texture_for(m.normal_map) : p.flat_normal_tex.id);
+  glActiveTexture(GL_TEXTURE0 + kLight);
+  glBindTexture(GL_TEXTURE_2D, use_light ? p.texture_for(m.light_map) : p.white_tex.id);
+
+  glBindVertexArray(mesh.vao());
+  if (!mesh.has_uvs()) glVertexAttrib2f(2, 0.0f, 0.0f);
+  if (!mesh.has_tangents()) glVertexAttrib4f(3, 1.0f, 0.0f, 0.0f, 1.0f);
+  glDrawElements(GL_TRIANGLES, GLsizei(mesh.index_count()), GL_UNSIGNED_INT, nullptr);
+  glBindVertexArray(0);
+  gl::check("draw");
+}
+
+void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat& out) {
+  Impl& p = *p_;
+  if (frame.type() != CV_8UC3 || frame.cols != p.w || frame.rows != p.h)
+    throw std::invalid_argument("composite: the camera frame must be 8-bit BGR of " +
+                                std::to_string(p.w) + "x" + std::to_string(p.h));
+  if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
+    throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
+  glFinish();
+  p.timings.render_ms = ms_since(p.frame_start);
+  const auto t0 = Clock::now();
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+  glBindVertexArray(p.empty_vao);
+
+  // The camera frame, in place (its BGR bytes as an RGB texture; the shader swizzles).
+  glActiveTexture(GL_TEXTURE1);
+  glBindTexture(GL_TEXTURE_2D, p.frame_tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  const bool packed = frame.step[0] % 3 == 0;
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, packed ? GLint(frame.step[0] / 3) : 0);
+  const cv::Mat src = packed ? frame : frame.clone();
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, src.data);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+
+  if (tone.mode == ToneMode::Reinhard) {
+    // Log-average luminance of the masked pixels: block sums down to one texel.
+    GLuint input = p.hdr_tex.id;
+    int in_w = p.w, in_h = p.h;
+    for (std::size_t i = 0; i < p.levels.size(); ++i) {
+      const Program& prog = i == 0 ? p.reduce_first : p.reduce;
+      glUseProgram(prog.id());
+      glUniform1i(prog.uniform("u_input"), 0);
+      glUniform2i(prog.uniform("u_input_size"), in_w, in_h);
+      glActiveTexture(GL_TEXTURE0);
+      glBindTexture(GL_TEXTURE_2D, input);
+      glBindFramebuffer(GL_FRAMEBUFFER, p.levels[i].fbo.id);
+      glViewport(0, 0, p.levels[i].w, p.levels[i].h);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      input = p.levels[i].tex.id, in_w = p.levels[i].w, in_h = p.levels[i].h;
+    }
+  }
+
+  glUseProgram(p.composite.id());
+  glUniform1i(p.composite.uniform("u_mode"), tone.mode == ToneMode::CameraMatched ? 0
+                                             : tone.mode == ToneMode::Reinhard    ? 1
+                                                                                  : 2);
+  glUniform1f(p.composite.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
+  glUniform1f(p.composite.uniform("u_key"), tone.key);
+  glUniform1f(p.composite.uniform("u_white"), tone.white);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, p.hdr_tex.id);
+  glActiveTexture(GL_TEXTURE2);
+  glBindTexture(GL_TEXTURE_2D, p.response_lut.id);
+  glActiveTexture(GL_TEXTURE3);
+  glBindTexture(GL_TEXTURE_2D, p.levels.back().tex.id);
+  glBindFramebuffer(GL_FRAMEBUFFER, p.out_fbo.id);
+  glViewport(0, 0, p.w, p.h);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glBindVertexArray(0);
+  glFinish();
+  gl::check("tone mapping and compositing");
+  p.timings.tonemap_ms = ms_since(t0);
+
+  const auto t1 = Clock::now();
+  p.rgba.resize(std::size_t(p.w) * p.h * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
+  gl::check("reading the composited frame");
+  cv::cvtColor(cv::Mat(p.h, p.w, CV_8UC4, p.rgba.data()), out, cv::COLOR_RGBA2BGR);
+  p.timings.readback_ms = ms_since(t1);
+  p.composited = true;
+}
+
+void Renderer::present() {
+  Impl& p = *p_;
+  if (!p.composited) return;
+  // The target's row 0 is the image's top row; the window's row 0 is its bottom row.
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, p.out_fbo.id);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  glBlitFramebuffer(0, 0, p.w, p.h, 0, p.h, p.w, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl::check("present");
+}
+
+const FrameTimings& Renderer::timings() const { return p_->timings; }
+
+HdrReadback Renderer::read_hdr() {
+  Impl& p = *p_;
+  std::vector<float> px(std::size_t(p.w) * p.h * 4);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, p.hdr_fbo.id);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_FLOAT, px.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl::check("reading the HDR target");
+  HdrReadback r{Image(p.w, p.h), std::vector<std::uint8_t>(std::size_t(p.w) * p.h)};
+  for (std::size_t i = 0; i < r.mask.size(); ++i) {
+    r.radiance.storage()[3 * i + 0] = px[4 * i + 0];
+    r.radiance.storage()[3 * i + 1] = px[4 * i + 1];
+    r.radiance.storage()[3 * i + 2] = px[4 * i + 2];
+    r.mask[i] = px[4 * i + 3] > 0.5f ? 1 : 0;
+  }
+  return r;
+}
+
+float Renderer::last_log_average() const {
+  const Impl& p = *p_;
+  float sum[4] = {0, 0, 0, 0};
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, p.levels.back().fbo.id);
+  glReadPixels(0, 0, 1, 1, GL_RGBA, GL_FLOAT, sum);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return std::exp(sum[0] / std::max(sum[1], 1.0f));
+}
+
+}  // namespace arlight::render

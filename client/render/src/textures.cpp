@@ -1,0 +1,91 @@
+#include "textures.hpp"
+
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+namespace arlight::render {
+
+GLenum env_target(Projection p) {
+  return p == Projection::Cube ? GL_TEXTURE_CUBE_MAP : GL_TEXTURE_2D;
+}
+
+void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
+  const GLenum target = env_target(env.layout.projection());
+  const bool fresh = tex.id == 0 || width != env.layout.width() || height != env.layout.height();
+  if (fresh) {
+    tex = gl::Texture();
+    tex.create();
+  }
+  glBindTexture(target, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  const int w = env.layout.width(), h = env.layout.height();
+  if (target == GL_TEXTURE_CUBE_MAP) {
+    const int n = env.layout.face_size();
+    for (int f = 0; f < 6; ++f) {
+      const float* face = env.image.data() + std::size_t(f) * n * n * 3;
+      if (fresh)
+        glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, GL_RGB16F, n, n, 0, GL_RGB,
+                     GL_FLOAT, face);
+      else
+        glTexSubImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, 0, 0, n, n, GL_RGB,
+                        GL_FLOAT, face);
+    }
+    gl::set_sampling(target, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  } else {
+    if (fresh)
+      glTexImage2D(target, 0, GL_RGB16F, w, h, 0, GL_RGB, GL_FLOAT, env.image.data());
+    else
+      glTexSubImage2D(target, 0, 0, 0, w, h, GL_RGB, GL_FLOAT, env.image.data());
+    const bool latlong = env.layout.projection() == Projection::LatLong;
+    gl::set_sampling(target, GL_LINEAR, latlong ? GL_REPEAT : GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  }
+  glTexParameteri(target, GL_TEXTURE_MAX_LEVEL, 0);
+  width = w, height = h;
+  gl::check("uploading an environment map");
+}
+
+gl::Texture upload_material_texture(const TextureImage& image) {
+  const cv::Mat& src = image.pixels;
+  cv::Mat rgba;
+  const bool is_float = src.depth() == CV_32F;
+  switch (src.channels()) {
+    case 1: cv::cvtColor(src, rgba, cv::COLOR_GRAY2RGBA); break;
+    case 3: cv::cvtColor(src, rgba, cv::COLOR_BGR2RGBA); break;
+    default: cv::cvtColor(src, rgba, cv::COLOR_BGRA2RGBA); break;
+  }
+  gl::Texture tex;
+  tex.create();
+  glBindTexture(GL_TEXTURE_2D, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  if (is_float)
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, rgba.cols, rgba.rows, 0, GL_RGBA, GL_FLOAT,
+                 rgba.data);
+  else
+    glTexImage2D(GL_TEXTURE_2D, 0, image.srgb ? GL_SRGB8_ALPHA8 : GL_RGBA8, rgba.cols, rgba.rows,
+                 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+  glGenerateMipmap(GL_TEXTURE_2D);
+  gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_REPEAT, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  gl::check("uploading a material texture");
+  return tex;
+}
+
+void upload_response_lut(const CameraResponse& response, gl::Texture& tex) {
+  std::vector<float> lut(std::size_t(kResponseLutSize) * 4, 1.0f);
+  for (int i = 0; i < kResponseLutSize; ++i) {
+    const float t = float(i) / float(kResponseLutSize - 1);
+    for (int c = 0; c < 3; ++c) lut[std::size_t(i) * 4 + std::size_t(c)] = response.encode(t * t, c);
+  }
+  tex.create();
+  glBindTexture(GL_TEXTURE_2D, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kResponseLutSize, 1, 0, GL_RGBA, GL_FLOAT, lut.data());
+  gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  gl::check("uploading the camera response table");
+}
+
+}  // namespace arlight::render

@@ -1,0 +1,29 @@
+// Internal: uploads of environment maps, material textures and the camera-response table.
+#pragma once
+
+#include "arlight/projection.hpp"
+#include "arlight/render/material.hpp"
+#include "arlight/response.hpp"
+#include "gl.hpp"
+
+namespace arlight::render {
+
+// GL target of an environment map of this projection: TEXTURE_2D, or TEXTURE_CUBE_MAP for cube
+// maps (faces +X, -X, +Y, -Y, +Z, -Z from the stacked image, common/CONVENTIONS.md).
+GLenum env_target(Projection p);
+// Uploads (or re-uploads in place, when the size is unchanged) an environment map as RGB16F,
+// bilinear, no mipmaps (the maps are already filtered by their lobes). Lat-long wraps in u and
+// clamps in v; angle maps clamp; cube maps sample seamlessly across faces (ES 3 always does).
+void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height);
+
+// Uploads a material texture as RGBA8 / SRGB8_ALPHA8 (8-bit) or RGBA16F (float), with mipmaps,
+// trilinear, repeating.
+gl::Texture upload_material_texture(const TextureImage& image);
+
+// The camera response's encode function per channel, sampled at x = (i / (n-1))^2 for
+// i = 0..n-1 (dense near black, where sRGB is steep), into an n x 1 RGBA32F texture (nearest;
+// the shader interpolates linearly between entries). Code value in [0, 1] per channel.
+constexpr int kResponseLutSize = 1024;
+void upload_response_lut(const CameraResponse& response, gl::Texture& tex);
+
+}  // namespace arlight::render
