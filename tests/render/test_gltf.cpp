@@ -1,1 +1,157 @@
+// glTF 2.0 loading: the Draco-compressed sample models, a hand-made .gltf with an embedded
+// buffer and a node transform, and malformed files that must raise InputError naming the file.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <glm/geometric.hpp>
+
+#include "arlight/error.hpp"
+#include "arlight/render/mesh.hpp"
+
+namespace arlight::render {
+namespace {
+
+const std::filesystem::path kModels = std::filesystem::path(ARLIGHT_ASSETS_DIR) / "models";
+
+void expect_sane(const Mesh& m) {
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  EXPECT_GT(m.triangle_count(), 1000u);
+  for (std::uint32_t i : m.indices) ASSERT_LT(i, m.vertex_count());
+  for (const glm::vec3& n : m.normals) ASSERT_NEAR(glm::length(n), 1.0f, 1e-3f);
+  const glm::vec3 size = m.bounds.size();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_TRUE(std::isfinite(m.bounds.min[a]) && std::isfinite(m.bounds.max[a]));
+    EXPECT_GT(size[a], 0.0f);
+  }
+  // Bounds enclose every vertex and are tight.
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const glm::vec3& p : m.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  EXPECT_EQ(lo, m.bounds.min);
+  EXPECT_EQ(hi, m.bounds.max);
+}
+
+// assets/README.md's "16,944 / 44,526 vertices" are the index counts (triangle corners): libdraco
+// decodes 2,826 / 7,503 shared vertices, as the files' POSITION accessors say.
+TEST(Gltf, BunnyLoadsWithTheDocumentedCounts) {
+  const Mesh m = load_gltf(kModels / "bunny.glb");
+  EXPECT_EQ(m.indices.size(), 16944u);
+  EXPECT_EQ(m.vertex_count(), 2826u);
+  // The POSITION accessor's min / max, to Draco's quantisation step.
+  EXPECT_NEAR(m.bounds.min.x, -0.9137708f, 2e-4f);
+  EXPECT_NEAR(m.bounds.max.y, 0.9398829f, 2e-4f);
+  EXPECT_NEAR(m.bounds.min.z, -0.6963724f, 2e-4f);
+  EXPECT_TRUE(m.uvs.empty());
+  EXPECT_TRUE(m.tangents.empty());
+  expect_sane(m);
+  // A bunny is not a pancake: the longest side is at most a few times the shortest.
+  const glm::vec3 s = m.bounds.size();
+  EXPECT_LT(std::max({s.x, s.y, s.z}) / std::min({s.x, s.y, s.z}), 4.0f);
+}
+
+TEST(Gltf, SuzanneLoadsWithTheDocumentedCounts) {
+  const Mesh m = load_gltf(kModels / "suzi.glb");
+  EXPECT_EQ(m.indices.size(), 44526u);
+  EXPECT_EQ(m.vertex_count(), 7503u);
+  EXPECT_NEAR(m.bounds.max.x, 0.9297301f, 2e-4f);
+  EXPECT_NEAR(m.bounds.min.y, -0.6697948f, 2e-4f);
+  expect_sane(m);
+}
+
+std::filesystem::path temp_file(const std::string& name, const std::string& bytes) {
+  const auto p = std::filesystem::temp_directory_path() /
+                 ("arlight_gltf_" + std::to_string(::getpid()) + "_" + name);
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p;
+}
+
+std::string read_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void expect_input_error(const std::filesystem::path& p, const std::string& what) {
+  try {
+    load_gltf(p);
+    ADD_FAILURE() << "no error for " << p;
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(p.string()), std::string::npos) << m;
+    EXPECT_NE(m.find(what), std::string::npos) << m;
+  }
+  std::filesystem::remove(p);
+}
+
+TEST(Gltf, MalformedFilesRaiseInputErrorNamingTheFile) {
+  const std::string bunny = read_bytes(kModels / "bunny.glb");
+  ASSERT_GT(bunny.size(), 1000u);
+  expect_input_error(temp_file("garbage.glb", std::string(500, 'x')), "bad magic");
+  expect_input_error(temp_file("header.glb", bunny.substr(0, 8)), "truncated");
+  // Cut in half: the header's length (and the BIN chunk) reach beyond the file.
+  expect_input_error(temp_file("half.glb", bunny.substr(0, bunny.size() / 2)), "bytes but the file has");
+  std::string lying = bunny.substr(0, bunny.size() / 2);
+  const std::uint32_t len = std::uint32_t(lying.size());
+  std::memcpy(lying.data() + 8, &len, 4);  // a header that matches the cut file
+  expect_input_error(temp_file("chunk.glb", lying), "extends beyond the file");
+  // Corrupt the Draco stream's header in the BIN chunk (after the JSON chunk).
+  std::string corrupt = bunny;
+  std::uint32_t json_len;
+  std::memcpy(&json_len, corrupt.data() + 12, 4);
+  const std::size_t bin = 12 + 8 + json_len + 8;
+  for (std::size_t i = bin; i < bin + 64 && i < corrupt.size(); ++i) corrupt[i] = char(0xA5);
+  expect_input_error(temp_file("draco.glb", corrupt), "Draco");
+  expect_input_error(temp_file("missing.glb", ""), "bad magic");
+  EXPECT_THROW(load_gltf("/nonexistent/arlight.glb"), InputError);
+}
+
+// One triangle with uvs in an embedded base64 buffer, under a translated and scaled node.
+TEST(Gltf, EmbeddedBufferNodeTransformAndTangents) {
+  // positions (0,0,0) (1,0,0) (0,1,0); normals +Z; uvs (0,1) (1,1) (0,0); indices 0 1 2 (u16).
+  std::string bin;
+  auto put = [&](auto v) { bin.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) put(f);
+  for (int i = 0; i < 3; ++i) put(0.f), put(0.f), put(1.f);
+  for (float f : {0.f, 1.f, 1.f, 1.f, 0.f, 0.f}) put(f);
+  for (std::uint16_t i : {0, 1, 2}) put(i);
+  static const char* b64 = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string enc;
+  for (std::size_t i = 0; i < bin.size(); i += 3) {
+    const std::uint32_t v = (std::uint8_t(bin[i]) << 16) |
+                            (i + 1 < bin.size() ? std::uint8_t(bin[i + 1]) << 8 : 0) |
+                            (i + 2 < bin.size() ? std::uint8_t(bin[i + 2]) : 0);
+    enc += b64[(v >> 18) & 63], enc += b64[(v >> 12) & 63];
+    enc += i + 1 < bin.size() ? b64[(v >> 6) & 63] : '=';
+    enc += i + 2 < bin.size() ? b64[v & 63] : '=';
+  }
+  auto gltf = [&](int index_count) {
+    return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+      "nodes":[{"mesh":0,"translation":[1,2,3],"scale":[2,2,2]}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2},"indices":3}]}],
+      "buffers":[{"byteLength":)" + std::to_string(bin.size()) +
+           R"(,"uri":"data:application/octet-stream;base64,)" + enc + R"("}],
+      "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36},
+                     {"buffer":0,"byteOffset":72,"byteLength":24},{"buffer":0,"byteOffset":96,"byteLength":6}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},
+                   {"bufferView":1,"componentType":5126,"count":3,"type":"VEC3"},
+                   {"bufferView":2,"componentType":5126,"count":3,"type":"VEC2"},
+                   {"bufferView":3,"componentType":5123,"count":)" + std::to_string(index_count) + R"(,"type":"SCALAR"}]})";
+  };
+  const auto p = temp_file("tri.gltf", gltf(3));
+  const Mesh m = load_gltf(p);
+  std::filesystem::remove(p);
+  ASSERT_EQ(m.vertex_count(), 3u);
+  EXPECT_EQ(m.positions[1], glm::vec3(3, 2, 3));  // 2 * (1,0,0) + (1,2,3)
+  EXPECT_EQ(m.positions[2], glm::vec3(1, 4, 3));
+  EXPECT_EQ(m.bounds.min, glm::vec3(1, 2, 3));
+  ASSERT_EQ(m.tangents.size(), 3u);
+  // u grows along +x; v grows downwards (-y), so the bitangent (up the image) is +y: w = +1.
+  EXPECT_NEAR(glm::distance(glm::vec3(m.tangents[0]), glm::vec3(1, 0, 0)), 0.0f, 1e-6f);
+  EXPECT_EQ(m.tangents[0].w, 1.0f);
+  // An index accessor that claims more elements than its bufferView holds.
+  expect_input_error(temp_file("range.gltf", gltf(4)), "out of range");
+}
+
+}  // namespace
+}  // namespace arlight::render

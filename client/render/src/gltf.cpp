@@ -307,15 +307,29 @@ class GltfReader {
 
   template <typename V>
   std::vector<V> as_vec(const std::vector<float>& f) {
-    std::vector<V> out(f.size() / sizeof(V) * sizeof(float));
+    std::vector<V> out(f.size() * sizeof(float) / sizeof(V));
     std::memcpy(out.data(), f.data(), out.size() * sizeof(V));
     return out;
   }
 
   Primitive read_primitive(const json& prim) {
     const json attrs = prim.value("attributes", json::object());
-    if (prim.contains("extensions") && prim["extensions"].contains("KHR_draco_mesh_compression"))
-      return decode_draco(prim["extensions"]["KHR_draco_mesh_compression"]);
+    if (prim.contains("extensions") && prim["extensions"].contains("KHR_draco_mesh_compression")) {
+      Primitive p = decode_draco(prim["extensions"]["KHR_draco_mesh_compression"]);
+      // The glTF accessors describe the decoded data: their counts must agree.
+      auto count = [&](std::size_t accessor) {
+        return element("accessors", accessor).at("count").get<std::size_t>();
+      };
+      if (attrs.contains("POSITION") && count(attrs["POSITION"].get<std::size_t>()) != p.positions.size())
+        throw InputError(where_ + "Draco decoded " + std::to_string(p.positions.size()) +
+                         " vertices, the POSITION accessor says " +
+                         std::to_string(count(attrs["POSITION"].get<std::size_t>())));
+      if (prim.contains("indices") && count(prim["indices"].get<std::size_t>()) != p.indices.size())
+        throw InputError(where_ + "Draco decoded " + std::to_string(p.indices.size()) +
+                         " indices, the indices accessor says " +
+                         std::to_string(count(prim["indices"].get<std::size_t>())));
+      return p;
+    }
     Primitive p;
     if (!attrs.contains("POSITION")) throw InputError(where_ + "primitive without POSITION");
     p.positions = as_vec<glm::vec3>(read_accessor(attrs["POSITION"].get<std::size_t>(), 3));
