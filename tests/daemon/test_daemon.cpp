@@ -447,3 +447,32 @@ TEST(Arlightd, UnusableTlsFilesStopItNamingTheFile) {
       test::run_tool(ARLIGHTD_EXE, base + " --tls-cert " + (dir / "cert.pem").string());
   EXPECT_EQ(half.status, 2) << half.output;
 }
+
+TEST(Arlightd, AFloodOfFramesIsBoundedNewestFramesWinAndDropsAreCounted) {
+  const fs::path dir = test::fresh_temp_dir("daemon_flood");
+  DaemonProcess d(dir / "daemon", {"--workers", "1", "--queue-depth", "2"});
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  client::Client c;
+  c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  c.send_intrinsics(rec.camera);
+  // 120 frames as fast as the socket takes them: far faster than one worker processes them.
+  constexpr std::uint64_t kFrames = 120;
+  for (std::uint64_t seq = 1; seq <= kFrames; ++seq) {
+    const std::size_t i = std::size_t(seq) % rec.frames.size();
+    const auto& f = rec.frames[i];
+    c.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+                      rec.camera.height, recording::read_frame_bytes(rec, i));
+  }
+  // The last frame always survives (newest wins), and every frame is either processed or
+  // counted as dropped.
+  ASSERT_TRUE(c.wait_for(
+      [&] {
+        const auto u = c.last_update();
+        return u && u->frame_sequence == kFrames;
+      },
+      60s));
+  const auto u = *c.last_update();
+  EXPECT_GT(u.frames_dropped, 0u);
+  EXPECT_EQ(u.frames_processed + u.frames_dropped, kFrames);
+  EXPECT_EQ(c.updates_received(), u.frames_processed);
+}

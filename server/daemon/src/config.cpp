@@ -43,6 +43,8 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.map_size = value.get<int>();
       else if (key == "align_every")
         c.align_every = value.get<int>();
+      else if (key == "queue_depth")
+        c.queue_depth = value.get<int>();
       else if (key == "tls_cert")
         c.tls_cert = value.get<std::string>();
       else if (key == "tls_key")

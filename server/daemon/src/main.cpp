@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
                  "seconds before a disconnected session closes");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 3)");
+  app.add_option("--queue-depth", c.queue_depth,
+                 "frames of a session that may wait; a newer one drops the oldest (default 2)");
   app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");
   app.add_option("--tls-key", tls_key, "TLS: private key (PEM) of that certificate");
   try {
@@ -55,6 +57,7 @@ int main(int argc, char** argv) {
       if (app.count("--max-sessions")) c.max_sessions = flags.max_sessions;
       if (app.count("--idle-timeout")) c.idle_timeout_s = flags.idle_timeout_s;
       if (app.count("--align-every")) c.align_every = flags.align_every;
+      if (app.count("--queue-depth")) c.queue_depth = flags.queue_depth;
     }
     if (!listen.empty()) wire::parse_endpoint(listen, c.listen_host, c.listen_port);
     if (app.count("--admin")) {
@@ -66,6 +69,8 @@ int main(int argc, char** argv) {
     if (!tls_cert.empty()) c.tls_cert = tls_cert;
     if (!tls_key.empty()) c.tls_key = tls_key;
     if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
+    if (c.queue_depth < 1 || c.queue_depth > 64)
+      throw InputError("queue depth " + std::to_string(c.queue_depth) + " is not in [1, 64]");
 
     // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
     sigset_t set;

@@ -157,11 +157,15 @@ void Session::submit(FrameJob job) {
   std::lock_guard lock(mutex_);
   ++received_;
   last_activity_ = last_frame_ = Clock::now();
-  if (pending_) {  // the waiting frame is stale now: the newest wins
+  // A bounded queue where the newest frame wins: when it is full, the oldest waiting frame is
+  // stale and dropped (counted). Two frames absorb the jitter of a shared worker pool without
+  // letting a session fall more than a frame behind.
+  while (pending_.size() >= std::size_t(std::max(1, env_.queue_depth))) {
+    pending_.pop_front();
     ++dropped_;
     env_.frames_dropped->inc();
   }
-  pending_ = std::move(job);
+  pending_.push_back(std::move(job));
   if (!busy_) {
     busy_ = true;
     boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
@@ -174,12 +178,12 @@ void Session::process() {
     FrameJob job;
     {
       std::lock_guard lock(mutex_);
-      if (!pending_ || !capture_) {
+      if (pending_.empty() || !capture_) {
         busy_ = false;
         return;
       }
-      job = std::move(*pending_);
-      pending_.reset();
+      job = std::move(pending_.front());
+      pending_.pop_front();
     }
     const auto t0 = Clock::now();
     capture::FrameResult r;
@@ -280,7 +284,7 @@ void Session::maybe_start_maps() {
 
 void Session::on_idle(Clock::time_point now) {
   std::lock_guard lock(mutex_);
-  if (processed_ > maps_frames_ && !pending_ && !busy_ &&
+  if (processed_ > maps_frames_ && pending_.empty() && !busy_ &&
       now - last_frame_ > std::chrono::milliseconds(500)) {
     maps_coverage_ = -1.0;  // force: the map changed and nothing newer is coming right now
     maybe_start_maps();

@@ -8,6 +8,7 @@
 #include <boost/asio/thread_pool.hpp>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -32,6 +33,7 @@ struct SessionEnv {
   int map_size = 512;
   int align_every = 3;
   int align_max_width = 160;
+  int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   admin::Counter* frames_received = nullptr;
@@ -117,8 +119,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<CameraIntrinsics> camera_;
   std::string response_name_ = "srgb";
   Sink sink_;
-  std::optional<FrameJob> pending_;
-  bool busy_ = false;  // a process() is queued or running
+  std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
+  bool busy_ = false;             // a process() is queued or running
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
   bool dirty_ = false;
   int checkpoint_generation_ = 0;

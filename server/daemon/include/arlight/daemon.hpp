@@ -37,13 +37,16 @@ struct DaemonConfig {
   // more than ~12 ms, so the live path never stalls behind an alignment.
   int align_every = 3;
   int align_max_width = 160;
+  // Frames of one session that may wait for a worker; when full, a new frame drops the oldest
+  // waiting one (counted and reported). 1: only the newest frame ever waits.
+  int queue_depth = 2;
   wire::WireLimits limits;
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers, tls_cert,
-// tls_key) over `config`. InputError
+// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers, queue_depth,
+// tls_cert, tls_key) over `config`. InputError
 // names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 

@@ -1,0 +1,157 @@
+#include "lighting_link.hpp"
+
+#include <spdlog/spdlog.h>
+
+namespace arlight::client_app {
+
+using namespace std::chrono_literals;
+
+LightingLink::LightingLink(LinkOptions options) : options_(std::move(options)) {
+  thread_ = std::thread([this] { run(); });
+}
+
+LightingLink::~LightingLink() {
+  stop_ = true;
+  changed_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  std::shared_ptr<client::Client> c;
+  {
+    std::lock_guard lock(mutex_);
+    c = std::move(client_);
+  }
+  if (c && c->connected()) {
+    try {
+      c->bye();  // the daemon checkpoints the session
+      c->wait_for([&] { return !c->connected(); }, 2s);
+    } catch (const client::ClientError&) {
+    }
+  }
+  if (c) c->close();
+}
+
+void LightingLink::wait_connected(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  changed_.wait_for(lock, timeout, [&] { return stats_.connected || refused_; });
+  if (stats_.connected) return;
+  throw client::ClientError(refused_ ? "Unauthorized" : "Network",
+                            "no session with " + options_.host + ":" +
+                                std::to_string(options_.port) +
+                                (stats_.last_error.empty() ? "" : ": " + stats_.last_error));
+}
+
+bool LightingLink::connect_once() {
+  auto c = std::make_shared<client::Client>();
+  c->on_update = [this](const client::LightingUpdate& u) {
+    std::lock_guard lock(mutex_);
+    lighting_.sh = u.sh;
+    ++lighting_.sh_version;
+    lighting_.dominant_direction = u.dominant_direction;
+    lighting_.dominant_colour = u.dominant_colour;
+    lighting_.coverage = u.coverage;
+    ++stats_.updates;
+  };
+  c->on_map_set_complete = [this](const client::MapSet& m) {
+    std::lock_guard lock(mutex_);
+    lighting_.maps = std::make_shared<const client::MapSet>(m);
+    ++lighting_.maps_version;
+    ++stats_.map_sets;
+  };
+  std::string resume;
+  {
+    std::lock_guard lock(mutex_);
+    resume = stats_.session_id.empty() ? options_.resume_session : stats_.session_id;
+  }
+  try {
+    c->use_tls(options_.tls);
+    const client::Welcome w = c->connect(options_.host, options_.port, options_.device_id,
+                                         options_.token, "arlight-client", resume, 5s);
+    c->send_intrinsics(options_.camera);
+    if (!options_.shininess.empty())
+      c->request_maps(options_.shininess, options_.map_size, options_.projection);
+    std::lock_guard lock(mutex_);
+    if (!stats_.session_id.empty() && w.session_id != stats_.session_id)
+      spdlog::warn("arlightd started a new session {} (the old one is gone)", w.session_id);
+    client_ = std::move(c);
+    stats_.connected = true;
+    stats_.session_id = w.session_id;
+    ++stats_.connects;
+    spdlog::info("connected to arlightd: session {}{}", w.session_id,
+                 w.resumed ? " (resumed)" : "");
+    changed_.notify_all();
+    return true;
+  } catch (const client::ClientError& e) {
+    std::lock_guard lock(mutex_);
+    stats_.last_error = e.what();
+    if (e.code() == "Unauthorized") refused_ = true;
+    // A session the server no longer has: start a new one on the next attempt.
+    if (e.code() == "SessionNotFound") stats_.session_id.clear(), options_.resume_session.clear();
+    changed_.notify_all();
+    return false;
+  }
+}
+
+void LightingLink::run() {
+  bool warned = false;
+  while (!stop_) {
+    std::shared_ptr<client::Client> c;
+    {
+      std::lock_guard lock(mutex_);
+      c = client_;
+    }
+    if (c && c->connected()) {
+      std::unique_lock lock(mutex_);
+      changed_.wait_for(lock, 100ms, [&] { return stop_.load(); });
+      continue;
+    }
+    {
+      std::lock_guard lock(mutex_);
+      if (stats_.connected) {
+        stats_.connected = false;
+        const auto err = c ? c->server_error() : std::nullopt;
+        stats_.last_error = err ? err->first + ": " + err->second : "connection lost";
+        spdlog::warn("lost arlightd ({}); rendering with the last lighting, reconnecting",
+                     stats_.last_error);
+      }
+      client_.reset();
+      if (refused_) {
+        if (!warned) spdlog::error("arlightd refused this device: {}", stats_.last_error);
+        warned = true;
+      }
+    }
+    if (!refused_ && connect_once()) continue;
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, std::chrono::duration<double>(options_.reconnect_interval_s),
+                      [&] { return stop_.load(); });
+  }
+}
+
+void LightingLink::send_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width,
+                              int height, std::span<const std::uint8_t> jpeg) {
+  std::shared_ptr<client::Client> c;
+  {
+    std::lock_guard lock(mutex_);
+    c = client_;
+  }
+  bool sent = false;
+  if (c && c->connected()) {
+    try {
+      c->send_jpeg_frame(sequence, info, width, height, jpeg);
+      sent = true;
+    } catch (const client::ClientError&) {  // the link notices and reconnects
+    }
+  }
+  std::lock_guard lock(mutex_);
+  ++(sent ? stats_.frames_sent : stats_.frames_not_sent);
+}
+
+Lighting LightingLink::lighting() const {
+  std::lock_guard lock(mutex_);
+  return lighting_;
+}
+
+LinkStats LightingLink::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+}  // namespace arlight::client_app

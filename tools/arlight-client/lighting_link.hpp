@@ -1,0 +1,87 @@
+// The client's link to arlightd: keeps one session connected (reconnecting and resuming it
+// when the server goes away), forwards frames and keeps the newest lighting it received, so
+// the render loop never waits on the network: it shades with whatever lighting came last.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "arlight/client_net.hpp"
+
+namespace arlight::client_app {
+
+struct LinkOptions {
+  std::string host;
+  std::uint16_t port = 0;
+  std::string device_id, token, resume_session;
+  client::TlsOptions tls;
+  CameraIntrinsics camera;
+  std::vector<double> shininess;  // the map set to request
+  int map_size = 256;
+  Projection projection = Projection::AngleMap;
+  double reconnect_interval_s = 1.0;
+};
+
+// The newest lighting: live SH (from every LightingUpdate) and the newest complete map set.
+// Versions increase with every change so the renderer re-uploads only what changed.
+struct Lighting {
+  std::uint64_t sh_version = 0, maps_version = 0;
+  std::optional<ShCoeffs> sh;
+  std::shared_ptr<const client::MapSet> maps;
+  glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
+  glm::vec3 dominant_colour{0.0f};
+  double coverage = 0;
+};
+
+struct LinkStats {
+  bool connected = false;
+  std::string session_id;
+  std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
+  std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
+  std::string last_error;
+};
+
+class LightingLink {
+ public:
+  // Starts connecting in the background; the first attempt's failure is not fatal (the link
+  // retries), but connect_now() lets a caller insist on a first connection.
+  explicit LightingLink(LinkOptions options);
+  ~LightingLink();  // says Bye when connected
+  LightingLink(const LightingLink&) = delete;
+  LightingLink& operator=(const LightingLink&) = delete;
+
+  // Waits up to `timeout` for the first handshake; throws client::ClientError with the
+  // server's reason (e.g. Unauthorized) when it was refused, or when nothing answered.
+  void wait_connected(std::chrono::milliseconds timeout);
+
+  // Forwards a frame when connected; counted as not sent otherwise (the renderer goes on).
+  void send_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width, int height,
+                  std::span<const std::uint8_t> jpeg);
+
+  Lighting lighting() const;
+  LinkStats stats() const;
+
+ private:
+  void run();
+  bool connect_once();
+
+  LinkOptions options_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::shared_ptr<client::Client> client_;
+  Lighting lighting_;
+  LinkStats stats_;
+  bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace arlight::client_app
