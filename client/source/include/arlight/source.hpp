@@ -1,0 +1,116 @@
+// Where the thin client's frames come from: a V4L2 webcam (libv4l2) or the replay of a
+// recording (protocol/RECORDING.md). Every source hands out decoded BGR images with the
+// metadata the lighting daemon needs (exposure, gain, timestamp and, where the device has an
+// IMU, its orientation), and keeps the encoded JPEG when it had one so the client can forward
+// it without re-encoding. client/source/README.md shows how to use it.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <glm/gtc/quaternion.hpp>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/recording.hpp"
+
+namespace arlight::source {
+
+struct SourceFrame {
+  cv::Mat bgr;  // 8-bit BGR, the source's size
+  // The encoded frame when the source had one (a replay, an MJPEG webcam), so the client can
+  // forward it without re-encoding; empty otherwise (YUYV webcams).
+  std::vector<std::uint8_t> jpeg;
+  double timestamp = 0;  // seconds since the source's first frame
+  double exposure = 0;   // exposure time in seconds; 0 when the source cannot tell
+  double gain = 1;       // analogue gain (ISO / 100); 1 when the source cannot tell
+  // Camera -> world rotation from the device's IMU (common/CONVENTIONS.md: camera x right,
+  // y up, looking down -z; world +Y up). Webcams have none.
+  std::optional<glm::dquat> orientation;
+  // The frame's number in its source: the recording's frame index for a replay (so that
+  // truth/ lines up, skipped frames leave gaps), a running count for a webcam.
+  std::size_t index = 0;
+};
+
+struct SourceOptions {
+  // Replay: deliver frames at the pace of their timestamps (steady clock) instead of as fast
+  // as they can be decoded.
+  bool realtime = false;
+  // V4L2: the requested size and rate (the device may pick the nearest it supports; the
+  // source reports what it got), an optional calibration file (OpenCV FileStorage YAML/JSON
+  // with camera_matrix and distortion_coefficients, as cv::calibrateCamera tools write), a
+  // manual exposure time in seconds (nullopt: leave the device's auto exposure), and how long
+  // next() waits for a frame before giving up.
+  int width = 640, height = 480;
+  double fps = 30;
+  std::filesystem::path intrinsics_file;
+  std::optional<double> exposure;
+  double timeout_s = 2.0;
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  // The next frame, or std::nullopt at the end (a replay's last frame). Device failures raise
+  // InputError naming the device.
+  virtual std::optional<SourceFrame> next() = 0;
+  virtual CameraIntrinsics intrinsics() const = 0;
+  // Keys the per-device camera response curve on the server ("" when unknown).
+  virtual std::string device_id() const = 0;
+  // One line for logs: what this source is and what it negotiated.
+  virtual std::string describe() const = 0;
+};
+
+// Replays a recording folder: frames with a `problem`, or whose JPEG does not decode to the
+// recording's size, are skipped with a logged reason.
+class ReplaySource : public FrameSource {
+ public:
+  // Reads the manifest (InputError naming the file and field when the recording is unusable).
+  ReplaySource(const std::filesystem::path& folder, const SourceOptions& options = {});
+  ~ReplaySource() override;
+  std::optional<SourceFrame> next() override;
+  CameraIntrinsics intrinsics() const override;
+  std::string device_id() const override;
+  std::string describe() const override;
+  const recording::Recording& recording() const;
+  std::size_t skipped() const;  // frames skipped so far
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// A webcam through libv4l2: MJPEG, else YUYV (else libv4l2's BGR24 conversion) at the
+// requested size, memory-mapped streaming. Construction raises InputError naming the device
+// and what was tried: no such device, busy, not a V4L2 capture device, no supported format
+// (listing what the device offered).
+class V4l2Source : public FrameSource {
+ public:
+  V4l2Source(const std::string& device, const SourceOptions& options = {});
+  ~V4l2Source() override;
+  std::optional<SourceFrame> next() override;
+  CameraIntrinsics intrinsics() const override;
+  std::string device_id() const override;
+  std::string describe() const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Opens `v4l2:/dev/videoN` or `replay:REC_FOLDER`; anything else is an InputError that says
+// which forms are accepted.
+std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options);
+
+// Reads a calibration (OpenCV FileStorage YAML/XML/JSON: camera_matrix 3x3, optional
+// distortion_coefficients with 4, 5 or more entries of which the first five are used, optional
+// image_width/image_height) for frames of width x height. A calibration taken at another size
+// with the same aspect ratio is scaled; another aspect ratio is an InputError, as is a missing
+// or malformed file.
+CameraIntrinsics load_intrinsics(const std::filesystem::path& file, int width, int height);
+
+}  // namespace arlight::source

@@ -1,0 +1,38 @@
+// Rigid poses and rotations for tracking: composition, inversion, angles, and the change
+// between OpenCV's camera (x right, y down, z forward) and the project's (x right, y up,
+// looking down -z; common/CONVENTIONS.md).
+#pragma once
+
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/vec3.hpp>
+
+#include "arlight/truth.hpp"
+
+namespace arlight::track {
+
+using recording::Pose;
+
+// a * b: b's frame -> a's frame -> a's parent (b expressed in a, then a in its parent).
+Pose compose(const Pose& a, const Pose& b);
+Pose inverse(const Pose& p);
+
+// The angle of the rotation between two orientations, degrees (0..180; q and -q are equal).
+double angle_deg(const glm::dquat& a, const glm::dquat& b);
+
+// Rotation vector (axis * angle, radians) of a unit quaternion, the shorter way round, and back.
+glm::dvec3 log_map(const glm::dquat& q);
+glm::dquat exp_map(const glm::dvec3& v);
+
+// The nearest rotation to a 3x3 matrix (SVD, det +1), as a unit quaternion.
+glm::dquat nearest_rotation(const glm::dmat3& m);
+
+// OpenCV solvePnP's marker -> OpenCV-camera transform (rvec, tvec: x_cv = R x_marker + t) as
+// the project's camera -> marker pose (orientation R^T F, position -R^T t, F = diag(1,-1,-1)).
+Pose pose_from_opencv(const glm::dvec3& rvec, const glm::dvec3& tvec);
+
+// A rotation in OpenCV camera coordinates (F R F, F = diag(1,-1,-1)) in the project's camera
+// coordinates; the map is its own inverse.
+glm::dmat3 flip_camera_axes(const glm::dmat3& r);
+
+}  // namespace arlight::track
