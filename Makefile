@@ -34,7 +34,10 @@ demo: deps
 	  --out $(DEMO_OUT)/capture/env.exr --json $(DEMO_OUT)/capture/capture.json
 	$(BUILD)/bin/arlight-maps diff --reference $(DEMO_OUT)/capture/recording/truth/env.exr \
 	  --test $(DEMO_OUT)/capture/env.exr --method auto --size 128 --json $(DEMO_OUT)/capture/diff.json
-	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon
+	$(BUILD)/bin/arlight-sim --env $(DEMO_PROBE) --out $(DEMO_OUT)/ar/recording --frames 90 \
+	  --trajectory orbit --marker 7,0.2 --gyro-drift 0.5 --seed 2
+	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon \
+	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
 	@echo "  auto_s<S>.exr / .png      irradiance (s = 1) and reflection maps (s = 10 ... 1280) of"
@@ -52,6 +55,10 @@ demo: deps
 	@echo "                            replay.json (live SH, coverage, counts), maps/s<S>.exr"
 	@echo "  daemon/envmap.png         the daemon's live environment map (admin HTTP), metrics.txt,"
 	@echo "                            sessions.json, arlightd.log; daemon/data/ its checkpoint"
+	@echo "  ar/recording/              a simulated phone orbiting an ArUco marker in the same room"
+	@echo "  ar/client/contact_sheet.png  the bunny on the marker, lit by the captured room"
+	@echo "  ar/client/frames/          every composited frame (arlight-client, camera-matched"
+	@echo "                            tone mapping); client.json: timings and pose error vs truth"
 
 bench: deps
 	@$(MAKE) --no-print-directory build

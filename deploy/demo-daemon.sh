@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # The daemon part of `make demo`: starts arlightd on a free loopback port with a fresh token,
 # replays a recording into it as a phone would (arlight-replay), saves what came back and the
-# admin endpoints' answers, and stops the daemon (SIGTERM: it checkpoints its sessions).
-# Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR
+# admin endpoints' answers; then, given an AR recording (a phone looking at a marker in the same
+# room), runs arlight-client on it in the same session, so the virtual object is lit by the
+# room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
+# Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR [AR_RECORDING MODEL CLIENT_OUT]
 set -euo pipefail
-build=$1 rec=$2 out=$3
+build=$1 rec=$2 out=$3 ar_rec=${4:-} model=${5:-} client_out=${6:-}
 rm -rf "$out"
 mkdir -p "$out"
 token=$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')
@@ -35,3 +37,11 @@ http_get /metrics > "$out/metrics.txt"
 http_get /sessions > "$out/sessions.json"
 session=$(sed -n 's/.*"session_id": *"\([^"]*\)".*/\1/p' "$out/replay/replay.json")
 http_get "/sessions/$session/envmap.png" > "$out/envmap.png"
+
+if [ -n "$ar_rec" ]; then
+  rm -rf "$client_out"
+  "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
+    --source "replay:$ar_rec" --model "$model" --marker 7,0.2 --material 0.7,0.3,80 \
+    --resume "$session" --wait-maps 60 --out "$client_out" > "$client_out.log"
+  tail -1 "$client_out.log"
+fi

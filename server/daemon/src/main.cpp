@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("--idle-timeout", c.idle_timeout_s,
                  "seconds before a disconnected session closes");
   app.add_option("--align-every", c.align_every,
-                 "feature alignment on every n-th frame of a session (default 3)");
+                 "feature alignment on every n-th frame of a session (default 4)");
   app.add_option("--queue-depth", c.queue_depth,
                  "frames of a session that may wait; a newer one drops the oldest (default 2)");
   app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");

@@ -32,10 +32,11 @@ struct DaemonConfig {
   double checkpoint_interval_s = 2;
   int map_size = 512;  // capture map: angle map N x N
   // Feature alignment on every n-th frame of a session, on the frame reduced to at most
-  // align_max_width (the drift model extrapolates in between): at 30 fps, every 3rd frame at
-  // 160 pixels keeps a 0.5 deg/s drift to ~0.3 deg RMS (bench/RESULTS.md) while no frame costs
-  // more than ~12 ms, so the live path never stalls behind an alignment.
-  int align_every = 3;
+  // align_max_width (the drift model extrapolates in between): at 30 fps, every 4th frame at
+  // 160 pixels keeps a 0.5 deg/s drift to ~0.34 deg RMS (0.32 every 3rd, 0.48 every 6th; a
+  // 640x480 city sweep, bench/RESULTS.md), measured on another thread so the live path never
+  // stalls behind an alignment.
+  int align_every = 4;
   int align_max_width = 160;
   // Frames of one session that may wait for a worker; when full, a new frame drops the oldest
   // waiting one (counted and reported). 1: only the newest frame ever waits.
