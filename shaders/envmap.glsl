@@ -5,11 +5,17 @@
 
 const float ENV_PI = 3.14159265358979;
 
+// env_coord(d) computes the texture coordinate of a direction once; env_fetch samples a map
+// there; env_sample(map, d) does both.
+
 #if ENV_PROJECTION == 2
 #define ENV_SAMPLER samplerCube
-vec3 env_sample(samplerCube s, vec3 d) { return textureLod(s, d, 0.0).rgb; }
+#define ENV_COORD vec3
+vec3 env_coord(vec3 d) { return d; }
+vec3 env_fetch(samplerCube s, vec3 c) { return textureLod(s, c, 0.0).rgb; }
 #else
 #define ENV_SAMPLER sampler2D
+#define ENV_COORD vec2
 
 #if ENV_PROJECTION == 0
 // Angle map (thesis eq. 2.12 / Alg. 2.2, with its centre bug fixed): centre -Z, r = angle / pi.
@@ -30,5 +36,8 @@ vec2 env_uv(vec3 d) {
 }
 #endif
 
-vec3 env_sample(sampler2D s, vec3 d) { return textureLod(s, env_uv(d), 0.0).rgb; }
+vec2 env_coord(vec3 d) { return env_uv(d); }
+vec3 env_fetch(sampler2D s, vec2 c) { return textureLod(s, c, 0.0).rgb; }
 #endif
+
+vec3 env_sample(ENV_SAMPLER s, vec3 d) { return env_fetch(s, env_coord(d)); }

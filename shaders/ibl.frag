@@ -1,7 +1,9 @@
 #version 300 es
 // Image-based lighting with the Phong BRDF (thesis Alg. 5.1), light mapping (Alg. 5.2) and
 // tangent-space normal mapping (Alg. 5.4). Map texels are lobe-weighted average radiance
-// (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls.
+// (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls. The renderer compiles one variant per
+// projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
+// USE_SPECULAR, MIX_REFLECTIONS), so no fragment pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
 precision highp samplerCube;
@@ -23,19 +25,18 @@ uniform mat3 u_world_from_scene; // the lighting is in the world frame
 
 uniform vec3 u_kd;
 uniform vec3 u_ks;
-uniform bool u_use_albedo;
 uniform sampler2D u_albedo;
-uniform bool u_use_normal_map;
 uniform sampler2D u_normal_map;
 uniform float u_normal_strength;
-uniform bool u_use_light_map;
 uniform sampler2D u_light_map;
 
-layout(location = 0) out vec4 o_color;  // rgb: radiance, a: mask (1 = virtual pixel)
+layout(location = 0) out vec4 o_color;  // rgb: radiance
+layout(location = 1) out float o_mask;  // 1 = virtual pixel (the HDR target's R8 attachment)
 
 void main() {
   vec3 n = normalize(v_normal);  // Alg. 5.4 line 4
-  if (u_use_normal_map) {
+#ifdef USE_NORMAL_MAP
+  {
     // Alg. 5.4: t_w made orthogonal to n_w (line 5), b_w = n_w x t_w (line 6, times glTF's
     // handedness), M_TW = mat3(t, b, n) (line 7), n = M_TW n_T (line 8) with eq. 5.2 decoding.
     vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
@@ -44,17 +45,30 @@ void main() {
     nt.xy *= u_normal_strength;
     n = normalize(mat3(t, b, n) * nt);
   }
-  vec3 v = normalize(u_camera_position - v_position);  // towards the eye
-  vec3 r = reflect(-v, n);                              // Alg. 5.1 line 3
-  // Environment lookups in the world frame (lines 2-6).
+#endif
+  vec3 lo = vec3(0.0);
+#ifdef USE_DIFFUSE
+  // Environment lookups in the world frame (Alg. 5.1 lines 2-6).
   vec3 ld = env_sample(u_irradiance, u_world_from_scene * n);
-  if (u_use_light_map) ld *= texture(u_light_map, v_uv).rgb;  // Alg. 5.2 lines 7-8
-  vec3 ls = vec3(0.0);
-  if (u_ks != vec3(0.0)) {
-    vec3 rw = u_world_from_scene * r;
-    ls = mix(env_sample(u_reflection0, rw), env_sample(u_reflection1, rw), u_reflection_mix);
-  }
+#ifdef USE_LIGHT_MAP
+  ld *= texture(u_light_map, v_uv).rgb;  // Alg. 5.2 lines 7-8
+#endif
   vec3 kd = u_kd;
-  if (u_use_albedo) kd *= texture(u_albedo, v_uv).rgb;
-  o_color = vec4(kd * ld + u_ks * ls, 1.0);  // Alg. 5.1 line 7
+#ifdef USE_ALBEDO
+  kd *= texture(u_albedo, v_uv).rgb;
+#endif
+  lo += kd * ld;
+#endif
+#ifdef USE_SPECULAR
+  vec3 v = normalize(u_camera_position - v_position);  // towards the eye
+  vec3 r = u_world_from_scene * reflect(-v, n);         // Alg. 5.1 line 3
+  ENV_COORD cr = env_coord(r);                          // line 4, once for both maps
+  vec3 ls = env_fetch(u_reflection0, cr);
+#ifdef MIX_REFLECTIONS
+  ls = mix(ls, env_fetch(u_reflection1, cr), u_reflection_mix);
+#endif
+  lo += u_ks * ls;
+#endif
+  o_color = vec4(lo, 1.0);  // Alg. 5.1 line 7
+  o_mask = 1.0;
 }

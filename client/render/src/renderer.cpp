@@ -68,9 +68,15 @@ struct EnvSet {
   }
 };
 
-struct IblUniforms {
+// Features of an ibl.frag variant (bits of its cache key, above the projection's 2 bits).
+enum Feature : unsigned {
+  kDiffuse = 1, kAlbedoMap = 2, kNormalMap = 4, kLightMap = 8, kSpecular = 16, kMix = 32
+};
+
+struct IblProgram {
+  Program program;
   GLint model, normal_matrix, view_proj, reflection_mix, camera_position, world_from_scene, kd, ks,
-      use_albedo, use_normal_map, normal_strength, use_light_map;
+      normal_strength;
 };
 
 }  // namespace
@@ -101,13 +107,12 @@ glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int h
 struct Renderer::Impl {
   int w, h;
   std::filesystem::path shader_dir;
-  Program ibl[3];  // per ENV_PROJECTION
-  IblUniforms ibl_u[3];
-  Program reduce_first, reduce, composite;
+  std::unordered_map<unsigned, IblProgram> ibl;  // by projection | features << 2, made lazily
+  Program reduce_first, reduce, composite[3], present;  // composite per ToneMode
   GLuint empty_vao = 0;
 
   gl::Framebuffer hdr_fbo, out_fbo;
-  gl::Texture hdr_tex, out_tex, frame_tex, response_lut, white_tex, flat_normal_tex;
+  gl::Texture hdr_tex, mask_tex, out_tex, response_lut, white_tex, flat_normal_tex;
   gl::Renderbuffer depth;
   struct Level {
     gl::Framebuffer fbo;
@@ -147,6 +152,35 @@ struct Renderer::Impl {
     return e.tex.id;
   }
 
+  const IblProgram& ibl_program(Projection projection, unsigned features) {
+    const unsigned key = unsigned(projection) | features << 2;
+    auto it = ibl.find(key);
+    if (it != ibl.end()) return it->second;
+    std::vector<std::pair<std::string, std::string>> defines = {
+        {"ENV_PROJECTION", std::to_string(int(projection))}};
+    const std::pair<Feature, const char*> names[] = {
+        {kDiffuse, "USE_DIFFUSE"}, {kAlbedoMap, "USE_ALBEDO"}, {kNormalMap, "USE_NORMAL_MAP"},
+        {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"}};
+    for (auto [bit, name] : names)
+      if (features & bit) defines.emplace_back(name, "1");
+    IblProgram ip{Program(shader_dir, "ibl.vert", "ibl.frag", defines)};
+    const Program& pr = ip.program;
+    ip.model = pr.uniform("u_model"), ip.normal_matrix = pr.uniform("u_normal_matrix");
+    ip.view_proj = pr.uniform("u_view_proj"), ip.reflection_mix = pr.uniform("u_reflection_mix");
+    ip.camera_position = pr.uniform("u_camera_position");
+    ip.world_from_scene = pr.uniform("u_world_from_scene");
+    ip.kd = pr.uniform("u_kd"), ip.ks = pr.uniform("u_ks");
+    ip.normal_strength = pr.uniform("u_normal_strength");
+    glUseProgram(pr.id());
+    glUniform1i(pr.uniform("u_irradiance"), kIrr);
+    glUniform1i(pr.uniform("u_reflection0"), kRefl0);
+    glUniform1i(pr.uniform("u_reflection1"), kRefl1);
+    glUniform1i(pr.uniform("u_albedo"), kAlbedo);
+    glUniform1i(pr.uniform("u_normal_map"), kNormal);
+    glUniform1i(pr.uniform("u_light_map"), kLight);
+    return ibl.emplace(key, std::move(ip)).first->second;
+  }
+
   const EnvSet& lighting() const {
     if (!maps.empty()) return maps;
     if (!sh_maps.empty()) return sh_maps;
@@ -176,35 +210,26 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   p.w = width, p.h = height;
   p.shader_dir = shader_dir;
 
-  for (int proj = 0; proj < 3; ++proj) {
-    p.ibl[proj] = Program(shader_dir, "ibl.vert", "ibl.frag", {{"ENV_PROJECTION", std::to_string(proj)}});
-    const Program& pr = p.ibl[proj];
-    p.ibl_u[proj] = {pr.uniform("u_model"), pr.uniform("u_normal_matrix"), pr.uniform("u_view_proj"),
-                     pr.uniform("u_reflection_mix"), pr.uniform("u_camera_position"),
-                     pr.uniform("u_world_from_scene"), pr.uniform("u_kd"), pr.uniform("u_ks"),
-                     pr.uniform("u_use_albedo"), pr.uniform("u_use_normal_map"),
-                     pr.uniform("u_normal_strength"), pr.uniform("u_use_light_map")};
-    glUseProgram(pr.id());
-    glUniform1i(pr.uniform("u_irradiance"), kIrr);
-    glUniform1i(pr.uniform("u_reflection0"), kRefl0);
-    glUniform1i(pr.uniform("u_reflection1"), kRefl1);
-    glUniform1i(pr.uniform("u_albedo"), kAlbedo);
-    glUniform1i(pr.uniform("u_normal_map"), kNormal);
-    glUniform1i(pr.uniform("u_light_map"), kLight);
-  }
+  // The common variant (diffuse + mixed specular, lat-long) compiled now: shader errors show
+  // up at construction.
+  p.ibl_program(Projection::LatLong, kDiffuse | kSpecular | kMix);
   const std::string block = std::to_string(kReduceBlock);
   p.reduce_first = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag",
                            {{"BLOCK", block}, {"FIRST_PASS", "1"}});
   p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
-  p.composite = Program(shader_dir, "fullscreen.vert", "composite.frag");
-  glUseProgram(p.composite.id());
-  glUniform1i(p.composite.uniform("u_hdr"), 0);
-  glUniform1i(p.composite.uniform("u_frame"), 1);
-  glUniform1i(p.composite.uniform("u_response"), 2);
-  glUniform1i(p.composite.uniform("u_log_sum"), 3);
+  for (int mode = 0; mode < 3; ++mode) {
+    Program& c = p.composite[mode];
+    c = Program(shader_dir, "fullscreen.vert", "composite.frag", {{"TONE_MODE", std::to_string(mode)}});
+    glUseProgram(c.id());
+    glUniform1i(c.uniform("u_hdr"), 0);
+    glUniform1i(c.uniform("u_response"), 2);
+    glUniform1i(c.uniform("u_log_sum"), 3);
+  }
+  p.present = Program(shader_dir, "fullscreen.vert", "present.frag");
   glGenVertexArrays(1, &p.empty_vao);
 
-  // HDR target: RGBA16F (alpha = mask) + depth.
+  // HDR target: RGBA16F radiance + R8 mask + depth. Only the mask and depth are cleared each
+  // frame (llvmpipe clears float targets slowly); radiance is read only where the mask is set.
   auto make_target = [&](gl::Texture& tex, GLenum internal, GLenum format, GLenum type, int tw, int th) {
     tex.create();
     glBindTexture(GL_TEXTURE_2D, tex.id);
@@ -213,22 +238,28 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
   };
   make_target(p.hdr_tex, GL_RGBA16F, GL_RGBA, GL_HALF_FLOAT, width, height);
+  make_target(p.mask_tex, GL_R8, GL_RED, GL_UNSIGNED_BYTE, width, height);
   p.depth.create();
   glBindRenderbuffer(GL_RENDERBUFFER, p.depth.id);
   glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
   p.hdr_fbo.create();
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.hdr_tex.id, 0);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, p.mask_tex.id, 0);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, p.depth.id);
-  gl::check_framebuffer("HDR target (RGBA16F + depth)");
+  const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glDrawBuffers(2, both);
+  gl::check_framebuffer("HDR target (RGBA16F + R8 mask + depth)");
 
-  make_target(p.out_tex, GL_RGBA8, GL_RGBA, GL_UNSIGNED_BYTE, width, height);
+  // The output: the camera frame's BGR bytes are uploaded straight into it (RGB8 holding B, G,
+  // R), and the composite pass overwrites only the virtual pixels: it shares the HDR depth
+  // buffer and draws at the far plane with GL_GREATER, so only pixels with geometry pass.
+  make_target(p.out_tex, GL_RGB8, GL_RGB, GL_UNSIGNED_BYTE, width, height);
   p.out_fbo.create();
   glBindFramebuffer(GL_FRAMEBUFFER, p.out_fbo.id);
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.out_tex.id, 0);
-  gl::check_framebuffer("composite target (RGBA8)");
-
-  make_target(p.frame_tex, GL_RGB8, GL_RGB, GL_UNSIGNED_BYTE, width, height);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, p.depth.id);
+  gl::check_framebuffer("composite target (RGB8 + the HDR depth)");
 
   for (int lw = width, lh = height; lw > 1 || lh > 1;) {
     lw = (lw + kReduceBlock - 1) / kReduceBlock, lh = (lh + kReduceBlock - 1) / kReduceBlock;
@@ -334,22 +365,36 @@ void Renderer::begin_frame() {
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   const float zero[4] = {0, 0, 0, 0};
-  glClearBufferfv(GL_COLOR, 0, zero);
+  glClearBufferfv(GL_COLOR, 1, zero);  // the mask; radiance stays (read only where masked)
   glClearBufferfi(GL_DEPTH_STENCIL, 0, 1.0f, 0);
 }
 
 void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model) {
   Impl& p = *p_;
   const EnvSet& env = p.lighting();
-  const int proj = int(env.projection);  // AngleMap 0, LatLong 1, Cube 2 = ENV_PROJECTION
-  const IblUniforms& u = p.ibl_u[proj];
+  const auto [a, b, t] = env.pick(m.shininess, p.lookup);
+  const bool use_normal = m.normal_map && mesh.has_tangents();
+  const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
+  const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f);
+  const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
+                            (use_normal ? kNormalMap : 0u) | (diffuse && use_light ? kLightMap : 0u) |
+                            (specular ? kSpecular : 0u) | (specular && a != b ? kMix : 0u);
+  const IblProgram& u = p.ibl_program(env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDisable(GL_BLEND);
-  glDisable(GL_CULL_FACE);  // the targets are stored top row first, which flips the winding
-  glUseProgram(p.ibl[proj].id());
+  if (m.double_sided) {
+    glDisable(GL_CULL_FACE);
+  } else {
+    // Counter-clockwise front faces (glTF) appear clockwise on the targets, which are stored
+    // top row first (the projection flips y).
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glFrontFace(GL_CW);
+  }
+  glUseProgram(u.program.id());
   glUniformMatrix4fv(u.model, 1, GL_FALSE, glm::value_ptr(model));
   const glm::mat3 normal_matrix = glm::inverseTranspose(glm::mat3(model));
   glUniformMatrix3fv(u.normal_matrix, 1, GL_FALSE, glm::value_ptr(normal_matrix));
@@ -361,17 +406,11 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
 
   // Environment maps: irradiance = the smallest shininess; reflection = around m.shininess.
   const GLenum target = env_target(env.projection);
-  const auto [a, b, t] = env.pick(m.shininess, p.lookup);
   glUniform1f(u.reflection_mix, t);
   for (auto [unit, index] : {std::pair{kIrr, std::size_t(0)}, std::pair{kRefl0, a}, std::pair{kRefl1, b}}) {
     glActiveTexture(GL_TEXTURE0 + GLenum(unit));
     glBindTexture(target, env.tex[index].id);
   }
-  const bool use_normal = m.normal_map && mesh.has_tangents();
-  const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
-  glUniform1i(u.use_albedo, use_albedo);
-  glUniform1i(u.use_normal_map, use_normal);
-  glUniform1i(u.use_light_map, use_light);
   glUniform1f(u.normal_strength, m.normal_strength);
   glActiveTexture(GL_TEXTURE0 + kAlbedo);
   glBindTexture(GL_TEXTURE_2D, use_albedo ? p.texture_for(m.albedo) : p.white_tex.id);
@@ -400,11 +439,12 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   const auto t0 = Clock::now();
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
   glBindVertexArray(p.empty_vao);
 
-  // The camera frame, in place (its BGR bytes as an RGB texture; the shader swizzles).
+  // The camera frame, in place, straight into the output (BGR bytes in an RGB8 texture).
   glActiveTexture(GL_TEXTURE1);
-  glBindTexture(GL_TEXTURE_2D, p.frame_tex.id);
+  glBindTexture(GL_TEXTURE_2D, p.out_tex.id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   const bool packed = frame.step[0] % 3 == 0;
   glPixelStorei(GL_UNPACK_ROW_LENGTH, packed ? GLint(frame.step[0] / 3) : 0);
@@ -412,6 +452,7 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, src.data);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glBindTexture(GL_TEXTURE_2D, 0);
 
   if (tone.mode == ToneMode::Reinhard) {
     // Log-average luminance of the masked pixels: block sums down to one texel.
@@ -421,9 +462,12 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
       const Program& prog = i == 0 ? p.reduce_first : p.reduce;
       glUseProgram(prog.id());
       glUniform1i(prog.uniform("u_input"), 0);
+      glUniform1i(prog.uniform("u_mask"), 1);
       glUniform2i(prog.uniform("u_input_size"), in_w, in_h);
       glActiveTexture(GL_TEXTURE0);
       glBindTexture(GL_TEXTURE_2D, input);
+      glActiveTexture(GL_TEXTURE1);
+      glBindTexture(GL_TEXTURE_2D, p.mask_tex.id);
       glBindFramebuffer(GL_FRAMEBUFFER, p.levels[i].fbo.id);
       glViewport(0, 0, p.levels[i].w, p.levels[i].h);
       glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -431,13 +475,13 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
     }
   }
 
-  glUseProgram(p.composite.id());
-  glUniform1i(p.composite.uniform("u_mode"), tone.mode == ToneMode::CameraMatched ? 0
-                                             : tone.mode == ToneMode::Reinhard    ? 1
-                                                                                  : 2);
-  glUniform1f(p.composite.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
-  glUniform1f(p.composite.uniform("u_key"), tone.key);
-  glUniform1f(p.composite.uniform("u_white"), tone.white);
+  const Program& comp = p.composite[tone.mode == ToneMode::CameraMatched ? 0
+                                    : tone.mode == ToneMode::Reinhard    ? 1
+                                                                         : 2];
+  glUseProgram(comp.id());
+  glUniform1f(comp.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
+  glUniform1f(comp.uniform("u_key"), tone.key);
+  glUniform1f(comp.uniform("u_white"), tone.white);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, p.hdr_tex.id);
   glActiveTexture(GL_TEXTURE2);
@@ -446,7 +490,13 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glBindTexture(GL_TEXTURE_2D, p.levels.back().tex.id);
   glBindFramebuffer(GL_FRAMEBUFFER, p.out_fbo.id);
   glViewport(0, 0, p.w, p.h);
+  glEnable(GL_DEPTH_TEST);  // fullscreen.vert draws at the far plane: passes where depth < 1
+  glDepthFunc(GL_GREATER);
+  glDepthMask(GL_FALSE);
   glDrawArrays(GL_TRIANGLES, 0, 3);
+  glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_DEPTH_TEST);
   glBindVertexArray(0);
   glFinish();
   gl::check("tone mapping and compositing");
@@ -457,7 +507,8 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
   gl::check("reading the composited frame");
-  cv::cvtColor(cv::Mat(p.h, p.w, CV_8UC4, p.rgba.data()), out, cv::COLOR_RGBA2BGR);
+  // The texture holds B, G, R: dropping alpha gives OpenCV's BGR.
+  cv::cvtColor(cv::Mat(p.h, p.w, CV_8UC4, p.rgba.data()), out, cv::COLOR_RGBA2RGB);
   p.timings.readback_ms = ms_since(t1);
   p.composited = true;
 }
@@ -465,11 +516,19 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
 void Renderer::present() {
   Impl& p = *p_;
   if (!p.composited) return;
-  // The target's row 0 is the image's top row; the window's row 0 is its bottom row.
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, p.out_fbo.id);
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
-  glBlitFramebuffer(0, 0, p.w, p.h, 0, p.h, p.w, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  // present.frag flips the rows (the window's row 0 is its bottom) and swaps B and R.
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  GLint vp[4];
+  glGetIntegerv(GL_VIEWPORT, vp);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glUseProgram(p.present.id());
+  glUniform1i(p.present.uniform("u_image"), 0);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, p.out_tex.id);
+  glBindVertexArray(p.empty_vao);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glBindVertexArray(0);
   gl::check("present");
 }
 
@@ -478,17 +537,21 @@ const FrameTimings& Renderer::timings() const { return p_->timings; }
 HdrReadback Renderer::read_hdr() {
   Impl& p = *p_;
   std::vector<float> px(std::size_t(p.w) * p.h * 4);
+  std::vector<std::uint8_t> mask(std::size_t(p.w) * p.h * 4);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, p.hdr_fbo.id);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
   glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_FLOAT, px.data());
+  glReadBuffer(GL_COLOR_ATTACHMENT1);
+  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, mask.data());
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   gl::check("reading the HDR target");
   HdrReadback r{Image(p.w, p.h), std::vector<std::uint8_t>(std::size_t(p.w) * p.h)};
   for (std::size_t i = 0; i < r.mask.size(); ++i) {
-    r.radiance.storage()[3 * i + 0] = px[4 * i + 0];
-    r.radiance.storage()[3 * i + 1] = px[4 * i + 1];
-    r.radiance.storage()[3 * i + 2] = px[4 * i + 2];
-    r.mask[i] = px[4 * i + 3] > 0.5f ? 1 : 0;
+    r.mask[i] = mask[4 * i] > 127 ? 1 : 0;
+    if (!r.mask[i]) continue;  // stale radiance from earlier frames: report 0
+    for (std::size_t c = 0; c < 3; ++c) r.radiance.storage()[3 * i + c] = px[4 * i + c];
   }
   return r;
 }

@@ -20,23 +20,27 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   const int w = env.layout.width(), h = env.layout.height();
+  // RGBA: llvmpipe fetches 3-channel formats through a slow generic path.
+  std::vector<float> rgba(env.image.texel_count() * 4, 1.0f);
+  for (std::size_t i = 0; i < env.image.texel_count(); ++i)
+    for (int c = 0; c < 3; ++c) rgba[4 * i + std::size_t(c)] = env.image.data()[3 * i + std::size_t(c)];
   if (target == GL_TEXTURE_CUBE_MAP) {
     const int n = env.layout.face_size();
     for (int f = 0; f < 6; ++f) {
-      const float* face = env.image.data() + std::size_t(f) * n * n * 3;
+      const float* face = rgba.data() + std::size_t(f) * n * n * 4;
       if (fresh)
-        glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, GL_RGB16F, n, n, 0, GL_RGB,
+        glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, GL_RGBA16F, n, n, 0, GL_RGBA,
                      GL_FLOAT, face);
       else
-        glTexSubImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, 0, 0, n, n, GL_RGB,
+        glTexSubImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), 0, 0, 0, n, n, GL_RGBA,
                         GL_FLOAT, face);
     }
     gl::set_sampling(target, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
   } else {
     if (fresh)
-      glTexImage2D(target, 0, GL_RGB16F, w, h, 0, GL_RGB, GL_FLOAT, env.image.data());
+      glTexImage2D(target, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_FLOAT, rgba.data());
     else
-      glTexSubImage2D(target, 0, 0, 0, w, h, GL_RGB, GL_FLOAT, env.image.data());
+      glTexSubImage2D(target, 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
     const bool latlong = env.layout.projection() == Projection::LatLong;
     gl::set_sampling(target, GL_LINEAR, latlong ? GL_REPEAT : GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
   }

@@ -28,6 +28,7 @@ struct Material {
   glm::vec3 kd{0.8f};      // diffuse reflectance (multiplied by the albedo map, if any)
   glm::vec3 ks{0.0f};      // specular reflectance
   float shininess = 32.0f;  // Phong exponent: picks (interpolates) the reflection map
+  bool double_sided = false;  // false: back faces are culled (closed meshes, glTF's default)
   // Diffuse colour texture (usually srgb = true), multiplies kd.
   std::shared_ptr<const TextureImage> albedo;
   // Tangent-space normal map, OpenGL convention (+Y up the image), eq. 5.1 encoding
