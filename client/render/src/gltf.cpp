@@ -37,6 +37,14 @@ std::vector<std::uint8_t> read_file(const std::filesystem::path& path, const std
   return data;
 }
 
+// "'<path>': ", the prefix of every message (built by appending: GCC 12 warns falsely about
+// "'" + std::string).
+std::string where_prefix(const std::filesystem::path& path) {
+  std::string s = "'";
+  s.append(path.string()).append("': ");
+  return s;
+}
+
 std::uint32_t u32(const std::uint8_t* p) {
   std::uint32_t v;
   std::memcpy(&v, p, 4);
@@ -67,7 +75,7 @@ std::vector<std::uint8_t> base64_decode(std::string_view s, const std::string& w
 
 class GltfReader {
  public:
-  GltfReader(const std::filesystem::path& path) : path_(path), where_("'" + path.string() + "': ") {
+  explicit GltfReader(const std::filesystem::path& path) : path_(path), where_(where_prefix(path)) {
     file_ = read_file(path, where_);
     if (file_.size() >= 4 && u32(file_.data()) == kGlbMagic)
       parse_glb();
@@ -174,7 +182,7 @@ class GltfReader {
         if (comma == std::string::npos) throw InputError(where_ + "data: URI is not base64");
         buffers_[index] = base64_decode(std::string_view(uri).substr(comma + 8), where_);
       } else {
-        buffers_[index] = read_file(path_.parent_path() / uri, "'" + (path_.parent_path() / uri).string() + "': ");
+        buffers_[index] = read_file(path_.parent_path() / uri, where_prefix(path_.parent_path() / uri));
       }
       data = buffers_[index];
     }
@@ -442,7 +450,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
     return GltfReader(path).load();
   } catch (const json::exception& e) {
     // Wrong types or missing required keys in otherwise valid JSON.
-    throw InputError("'" + path.string() + "': malformed glTF: " + e.what());
+    throw InputError(where_prefix(path) + "malformed glTF: " + e.what());
   }
 }
 

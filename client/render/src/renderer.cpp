@@ -75,8 +75,8 @@ enum Feature : unsigned {
 
 struct IblProgram {
   Program program;
-  GLint model, normal_matrix, view_proj, reflection_mix, camera_position, world_from_scene, kd, ks,
-      normal_strength;
+  GLint model = -1, normal_matrix = -1, view_proj = -1, reflection_mix = -1, camera_position = -1,
+        world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1;
 };
 
 }  // namespace
@@ -163,7 +163,8 @@ struct Renderer::Impl {
         {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"}};
     for (auto [bit, name] : names)
       if (features & bit) defines.emplace_back(name, "1");
-    IblProgram ip{Program(shader_dir, "ibl.vert", "ibl.frag", defines)};
+    IblProgram ip;
+    ip.program = Program(shader_dir, "ibl.vert", "ibl.frag", defines);
     const Program& pr = ip.program;
     ip.model = pr.uniform("u_model"), ip.normal_matrix = pr.uniform("u_normal_matrix");
     ip.view_proj = pr.uniform("u_view_proj"), ip.reflection_mix = pr.uniform("u_reflection_mix");
