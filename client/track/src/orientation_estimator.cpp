@@ -33,7 +33,9 @@ OrientationEstimate OrientationEstimator::update(const cv::Mat& image, double ti
     // The tracker's camera -> marker orientation (raw: the filter here is the gyro blend).
     const glm::dquat measured =
         glm::normalize(webcam_world_from_marker() * marker->raw.orientation);
-    if (!predicted || angle_deg(*predicted, measured) > o_.snap_deg) {
+    // No prediction, a gyro that lost the image (the prediction is the last frame's) or a
+    // large disagreement: the marker alone.
+    if (!predicted || !e.gyro.ok || angle_deg(*predicted, measured) > o_.snap_deg) {
       q_ = measured;
     } else {
       // Complementary filter: gyro for the fast part, marker for the absolute orientation.

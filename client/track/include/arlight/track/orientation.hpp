@@ -66,11 +66,11 @@ class WorldFromMarker {
 // ---- VisualGyro (webcams) ----
 
 struct VisualGyroOptions {
-  int max_features = 400;
+  int max_features = 200;
   double feature_quality = 0.005;  // goodFeaturesToTrack's qualityLevel
   double min_distance_px = 10;
-  int lk_window = 21;
-  int lk_levels = 4;
+  int lk_window = 15;
+  int lk_levels = 3;
   double max_fb_error_px = 0.5;  // forward-backward optical flow consistency
   double ransac_px = 1.0;        // homography RANSAC threshold
   int min_inliers = 25;
