@@ -12,6 +12,6 @@ target_include_directories(render_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/rend
 target_link_libraries(render_tests PRIVATE arlight_render arlight_common arlight_warnings
   GTest::gtest_main opencv_core opencv_imgproc)
 target_compile_definitions(render_tests PRIVATE
-  ARLIGHT_ASSETS_DIR="${CMAKE_SOURCE_DIR}/../shared/assets")
+  ARLIGHT_ASSETS_DIR="${CMAKE_SOURCE_DIR}/data")
 set_target_properties(render_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
 gtest_discover_tests(render_tests DISCOVERY_TIMEOUT 60 TEST_PREFIX "render." PROPERTIES LABELS render)

@@ -109,8 +109,12 @@ void LightingLink::run() {
         stats_.connected = false;
         const auto err = c ? c->server_error() : std::nullopt;
         stats_.last_error = err ? err->first + ": " + err->second : "connection lost";
-        spdlog::warn("lost arlightd ({}); rendering with the last lighting, reconnecting",
-                     stats_.last_error);
+        // The server refused something this client sends (its camera, a message): sending it
+        // again cannot help. Network trouble or a busy server is worth retrying.
+        if (err && err->first != "Network" && err->first != "Busy" && err->first != "Internal")
+          refused_ = true;
+        spdlog::warn("lost arlightd ({}); rendering with the last lighting{}", stats_.last_error,
+                     refused_ ? "" : ", reconnecting");
       }
       client_.reset();
       if (refused_) {
@@ -118,7 +122,7 @@ void LightingLink::run() {
         warned = true;
       }
     }
-    if (!refused_ && connect_once()) continue;
+    if (!refused_ && !c && connect_once()) continue;  // after a loss, wait first
     std::unique_lock lock(mutex_);
     changed_.wait_for(lock, std::chrono::duration<double>(options_.reconnect_interval_s),
                       [&] { return stop_.load(); });
@@ -151,7 +155,9 @@ Lighting LightingLink::lighting() const {
 
 LinkStats LightingLink::stats() const {
   std::lock_guard lock(mutex_);
-  return stats_;
+  LinkStats s = stats_;
+  s.refused = refused_;
+  return s;
 }
 
 }  // namespace arlight::client_app

@@ -47,6 +47,7 @@ struct LinkStats {
   std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
   std::string last_error;
+  bool refused = false;  // the server refused this client: no more attempts
 };
 
 class LightingLink {

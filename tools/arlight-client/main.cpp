@@ -383,7 +383,8 @@ int main(int argc, char** argv) {
     j["lit_by_sh"] = lit_by_sh;
     j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                     {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
-                    {"updates", ls.updates},         {"map_sets", ls.map_sets}};
+                    {"updates", ls.updates},         {"map_sets", ls.map_sets},
+                    {"refused", ls.refused},         {"last_error", ls.last_error}};
     j["renderer"] = gl.renderer();
     j["size"] = {camera.width, camera.height};
     const std::string text = j.dump(2) + "\n";

@@ -1,0 +1,125 @@
+// arlight-client end to end: the real arlightd on loopback, a simulated capture of a room
+// replayed into it, then arlight-client on a simulated phone orbiting a marker in that room,
+// in the same session: frames tracked and rendered with the room's maps; and a daemon killed
+// and restarted under a running client, which keeps rendering and resumes its session.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <thread>
+
+#include "support/daemon_process.hpp"
+#include "support/run_tool.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kProbe = std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr";
+const std::string kBunny = std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb";
+
+// A recording made by arlight-sim into dir/name (once per test process).
+fs::path simulate(const fs::path& dir, const std::string& name, const std::string& args) {
+  const fs::path rec = dir / name;
+  const auto r = test::run_tool(
+      ARLIGHT_SIM_EXE, "--env " + kProbe + " --out " + rec.string() + " --threads 1 " + args);
+  if (r.status != 0) throw std::runtime_error(r.output);
+  return rec;
+}
+
+// Replays a sweep of the room into the daemon and returns the session id.
+std::string capture_room(const test::DaemonProcess& d, const fs::path& dir) {
+  const fs::path sweep = simulate(dir, "sweep", "--frames 120 --size 320x240 --seed 11");
+  const auto r = test::run_tool(
+      ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + test::kToken + " --recording " +
+                              sweep.string() + " --maps '' --out " + (dir / "replay").string());
+  if (r.status != 0) throw std::runtime_error(r.output);
+  return json::parse(std::ifstream(dir / "replay" / "replay.json")).at("session_id");
+}
+
+json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
+
+}  // namespace
+
+TEST(ArlightClient, RendersTheBunnyOnTheMarkerLitByTheCapturedRoom) {
+  const fs::path dir = test::fresh_temp_dir("client_render");
+  test::DaemonProcess d(dir / "daemon");
+  const std::string session = capture_room(d, dir);
+  const fs::path orbit = simulate(
+      dir, "orbit", "--frames 30 --size 320x240 --trajectory orbit --marker 7,0.2 --seed 12");
+  const auto r = test::run_tool(
+      ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
+                              " --source replay:" + orbit.string() + " --model " + kBunny +
+                              " --marker 7,0.2 --resume " + session +
+                              " --maps 1,20,80 --map-size 64 --wait-maps 60 --out " +
+                              (dir / "client").string() + " --json " + (dir / "c.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json j = read_json(dir / "c.json");
+  EXPECT_EQ(j.at("frames").get<int>(), 30) << j.dump();
+  EXPECT_GE(j.at("tracked").get<int>(), 27) << j.dump();
+  // Drawn from the third tracked frame on (world_from_marker needs three), always with maps.
+  EXPECT_GE(j.at("lit_by_maps").get<int>(), j.at("tracked").get<int>() - 3) << j.dump();
+  EXPECT_EQ(j.at("lit_by_sh").get<int>(), 0) << j.dump();
+  EXPECT_EQ(j.at("session").at("id"), session);
+  EXPECT_EQ(j.at("session").at("frames_sent").get<int>(), 30);
+  EXPECT_LT(j.at("pose_error").at("median_cm").get<double>(), 1.0) << j.dump();
+  EXPECT_LT(j.at("pose_error").at("median_deg").get<double>(), 1.0) << j.dump();
+  // The composite is the camera frame except where the bunny stands: over the marker, in the
+  // middle of the image, and a small part of it.
+  const cv::Mat in = cv::imread((orbit / "frames" / "000010.jpg").string());
+  const cv::Mat out = cv::imread((dir / "client" / "frames" / "000010.png").string());
+  ASSERT_FALSE(in.empty());
+  ASSERT_EQ(out.size(), in.size());
+  cv::Mat diff;
+  cv::absdiff(in, out, diff);
+  cv::Mat changed;
+  cv::inRange(diff, cv::Scalar(0, 0, 0), cv::Scalar(12, 12, 12), changed);
+  changed = 255 - changed;
+  const double share = cv::countNonZero(changed) / double(changed.total());
+  EXPECT_GT(share, 0.005);
+  EXPECT_LT(share, 0.25);
+  const cv::Moments m = cv::moments(changed, true);
+  EXPECT_NEAR(m.m10 / m.m00, in.cols / 2.0, in.cols / 4.0);
+  EXPECT_TRUE(fs::exists(dir / "client" / "contact_sheet.png"));
+}
+
+TEST(ArlightClient, KeepsRenderingWhenTheServerDiesAndResumesTheSession) {
+  const fs::path dir = test::fresh_temp_dir("client_reconnect");
+  std::optional<test::DaemonProcess> d(std::in_place, dir / "daemon");
+  const std::uint16_t port = d->port();
+  const std::string session = capture_room(*d, dir);
+  const fs::path orbit = simulate(dir, "orbit",
+                                  "--frames 150 --size 320x240 --trajectory orbit --marker 7,0.2 "
+                                  "--seed 13");
+  // 5 s of frames at their own pace; the daemon is killed after ~1 s and back ~0.5 s later
+  // (the client retries every second).
+  auto client = std::async(std::launch::async, [&] {
+    return test::run_tool(ARLIGHT_CLIENT_EXE,
+                          "--server 127.0.0.1:" + std::to_string(port) + " --token " +
+                              test::kToken + " --source replay:" + orbit.string() +
+                              " --model sphere --marker 7,0.2 --realtime --maps '' --resume " +
+                              session + " --json " + (dir / "c.json").string());
+  });
+  std::this_thread::sleep_for(1200ms);
+  d->kill9();
+  d.reset();
+  std::this_thread::sleep_for(500ms);
+  d.emplace(dir / "daemon", std::vector<std::string>{}, port);
+  const auto r = client.get();
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json j = read_json(dir / "c.json");
+  EXPECT_EQ(j.at("frames").get<int>(), 150) << j.dump();  // no frame was lost to the outage
+  EXPECT_EQ(j.at("session").at("connects").get<int>(), 2) << j.dump() << r.output;
+  EXPECT_EQ(j.at("session").at("id"), session) << j.dump();  // resumed, not a new session
+  EXPECT_GT(j.at("session").at("frames_not_sent").get<int>(), 0) << j.dump();
+  EXPECT_GT(j.at("lit_by_sh").get<int>(), 140) << j.dump();  // lit all along
+}

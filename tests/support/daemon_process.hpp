@@ -1,0 +1,120 @@
+// arlightd as a child process on loopback for integration tests, and a minimal HTTP GET for
+// its admin port. Needs ARLIGHTD_EXE defined to the daemon binary.
+#pragma once
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace arlight::test {
+
+namespace fs = std::filesystem;
+
+inline const std::string kToken = "test-token-0123456789";
+
+// arlightd as a child process on ephemeral ports; killed (SIGKILL) when destroyed.
+class DaemonProcess {
+ public:
+  // `listen_port` 0: an ephemeral port (a restart can pass the previous one).
+  explicit DaemonProcess(const fs::path& dir, const std::vector<std::string>& extra_args = {},
+                         std::uint16_t listen_port = 0) {
+    fs::create_directories(dir);
+    std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
+    int out[2];
+    if (pipe(out) != 0) throw std::runtime_error("pipe");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(out[1], 1);
+      close(out[0]);
+      std::vector<std::string> args = {ARLIGHTD_EXE,
+                                       "--listen",
+                                       "127.0.0.1:" + std::to_string(listen_port),
+                                       "--admin",
+                                       "127.0.0.1:0",
+                                       "--data-dir",
+                                       (dir / "data").string(),
+                                       "--tokens",
+                                       (dir / "tokens").string(),
+                                       "--idle-timeout",
+                                       "600"};
+      args.insert(args.end(), extra_args.begin(), extra_args.end());
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(ARLIGHTD_EXE, argv.data());
+      _exit(127);
+    }
+    close(out[1]);
+    // A line on stdout names the ports ("arlightd: listening on 127.0.0.1:P, admin on A").
+    const std::regex ports(R"(listening on 127\.0\.0\.1:(\d+), admin on (\d+))");
+    std::string line, seen;
+    std::smatch m;
+    char c;
+    while (read(out[0], &c, 1) == 1) {
+      if (c != '\n') {
+        line += c;
+        continue;
+      }
+      if (std::regex_search(line, m, ports)) break;
+      seen += line + "\n";
+      line.clear();
+    }
+    close(out[0]);
+    if (m.empty()) {
+      kill9();
+      throw std::runtime_error("arlightd did not start: '" + seen + line + "'");
+    }
+    port_ = std::uint16_t(std::stoi(m[1])), admin_ = std::uint16_t(std::stoi(m[2]));
+  }
+  ~DaemonProcess() { kill9(); }
+  void kill9() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+    }
+  }
+  std::uint16_t port() const { return port_; }
+  std::uint16_t admin() const { return admin_; }
+  std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
+
+ private:
+  pid_t pid_ = -1;
+  std::uint16_t port_ = 0, admin_ = 0;
+};
+
+// A minimal HTTP/1.0 GET: status code and body.
+inline std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path) {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::socket s(io);
+  s.connect({boost::asio::ip::make_address("127.0.0.1"), port});
+  const std::string req = "GET " + path + " HTTP/1.0\r\nHost: localhost\r\n\r\n";
+  boost::asio::write(s, boost::asio::buffer(req));
+  std::string all;
+  boost::system::error_code ec;
+  char buf[4096];
+  for (;;) {
+    const std::size_t n = s.read_some(boost::asio::buffer(buf), ec);
+    all.append(buf, n);
+    if (ec) break;
+  }
+  const int status = all.size() > 12 ? std::stoi(all.substr(9, 3)) : -1;
+  const auto body = all.find("\r\n\r\n");
+  return {status, body == std::string::npos ? "" : all.substr(body + 4)};
+}
+
+}  // namespace arlight::test
