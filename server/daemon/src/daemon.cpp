@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <map>
 #include <mutex>
+#include <opencv2/core/utility.hpp>
 #include <thread>
 
 #include "arlight/admin_http.hpp"
@@ -309,6 +310,9 @@ Daemon::~Daemon() { stop(); }
 
 void Daemon::start() {
   Impl& d = *impl_;
+  // Sessions are the unit of parallelism (one frame per worker): OpenCV's own thread pool
+  // inside each small decode/resize/feature call would only oversubscribe the cores.
+  cv::setNumThreads(1);
   d.work.emplace(d.io.get_executor());
   d.accept();
   if (d.admin_server) d.admin_server->start();
