@@ -42,7 +42,7 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
                  const std::string& token, const recording::Recording& rec,
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
                  const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
-                 const client::TlsOptions& tls, SessionReport& report) {
+                 double phase, const client::TlsOptions& tls, SessionReport& report) {
   try {
     client::Client c;
     c.use_tls(tls);
@@ -68,8 +68,9 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
     c.connect(host, port, device, token, "arlight-load");
     c.send_intrinsics(rec.camera);
     if (maps) c.request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
-    first = Clock::now();
     const auto period = std::chrono::duration<double>(1.0 / rate);
+    // This session's frames start `phase` of a frame period late (see --phases).
+    first = Clock::now() + std::chrono::duration_cast<Clock::duration>(period * phase);
     for (std::uint64_t k = 0;; ++k) {
       const auto due = first + std::chrono::duration_cast<Clock::duration>(period * double(k));
       if (due - first > std::chrono::duration<double>(duration)) break;
@@ -118,6 +119,12 @@ int main(int argc, char** argv) {
   app.add_option("--rate", rate, "frames per second per session")->capture_default_str();
   app.add_option("--device", device, "device id (default: the recording's)");
   app.add_flag("--maps", maps, "also request the 8 thesis maps at 128 in every session");
+  std::string phases = "spread";
+  app.add_option("--phases", phases,
+                 "spread: session s sends at s/N of the frame period, as independent phones "
+                 "would; sync: all sessions at once (the worst case)")
+      ->check(CLI::IsMember({"spread", "sync"}))
+      ->capture_default_str();
   app.add_option("--json", json_path, "write the report here");
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
@@ -135,6 +142,7 @@ int main(int argc, char** argv) {
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
     tls.enabled = tls.enabled || !tls.ca_file.empty();
+    const bool spread = phases == "spread";
     const recording::Recording rec = recording::read_recording(recording_dir);
     std::vector<std::vector<std::uint8_t>> jpegs(rec.frames.size());
     std::vector<std::size_t> usable;
@@ -150,7 +158,8 @@ int main(int argc, char** argv) {
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
         run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
-                    rate, duration, maps, tls, reports[std::size_t(s)]);
+                    rate, duration, maps, spread ? double(s) / sessions : 0.0, tls,
+                    reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
 
@@ -178,6 +187,7 @@ int main(int argc, char** argv) {
                                   {"failed", r.failed}});
     }
     j["sessions"] = sessions;
+    j["phases"] = phases;
     j["failed"] = failed;
     j["frames_sent"] = sent;
     j["frames_processed"] = processed;
