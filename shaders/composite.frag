@@ -21,18 +21,8 @@ float srgb_encode(float x) {
   return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
 }
 
-// Tutorial §4.1: the camera's response per channel, linearly interpolated in its finely
-// sampled table (entry i holds the codes of x = (i / (n-1))^2).
-vec3 encode(vec3 x) {
-  float n1 = float(textureSize(u_response, 0).x - 1);
-  vec3 t = sqrt(clamp(x, 0.0, 1.0)) * n1;
-  ivec3 i = min(ivec3(t), ivec3(int(n1) - 1));
-  vec3 f = t - vec3(i);
-  float r = mix(texelFetch(u_response, ivec2(i.r, 0), 0).r, texelFetch(u_response, ivec2(i.r + 1, 0), 0).r, f.r);
-  float g = mix(texelFetch(u_response, ivec2(i.g, 0), 0).g, texelFetch(u_response, ivec2(i.g + 1, 0), 0).g, f.g);
-  float b = mix(texelFetch(u_response, ivec2(i.b, 0), 0).b, texelFetch(u_response, ivec2(i.b + 1, 0), 0).b, f.b);
-  return vec3(r, g, b);
-}
+// Tutorial §4.1: the camera's response per channel (encode()).
+#include "response.glsl"
 
 void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);

@@ -134,7 +134,8 @@ int main(int argc, char** argv) {
   std::string server, token, source_spec,
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone_name = "camera", response_name = "srgb",
-      maps_text = "1,10,20,40,80,160,320,1280", intrinsics_file, normal_map, light_map;
+      maps_text = "1,10,20,40,80,160,320,1280", intrinsics_file, normal_map, light_map,
+      shadow_mode = "on";
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
   double object_height = 0, wait_maps_s = 0;
@@ -151,6 +152,11 @@ int main(int argc, char** argv) {
                  "height of the virtual object in metres (default 1.5 x the marker)");
   app.add_option("--normal-map", normal_map, "tangent-space normal map image (needs uvs)");
   app.add_option("--light-map", light_map, "light map image (multiplies diffuse irradiance)");
+  app.add_option("--shadow", shadow_mode,
+                 "on: the object casts shadows on the real floor (the marker's plane): the "
+                 "dominant light's shadow map plus a contact shadow, darkening the frame there")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
   app.add_option("--out", out, "folder for composited frames (PNG), contact sheet, MP4");
   app.add_flag("--window", window, "show the frames in a window (needs $DISPLAY)");
   app.add_option("--json", json_path, "write the summary (frames, timings, pose error) here");
@@ -310,6 +316,11 @@ int main(int argc, char** argv) {
       if (draw) {
         renderer.set_camera(camera, camera_from_scene(*last_pose));
         renderer.set_world_from_scene(*world_from_scene);
+        render::ShadowSettings shadow;  // the dominant light is in the world frame
+        shadow.enabled = shadow_mode == "on";
+        shadow.light_direction = lighting.dominant_direction;
+        shadow.light_colour = lighting.dominant_colour;
+        renderer.set_shadow(shadow);
         renderer.draw(gpu_mesh, material, object.model);
         ++(renderer.lighting_source() == render::LightingSource::Maps ? lit_by_maps : lit_by_sh);
       }

@@ -2,8 +2,11 @@
 #include <chrono>
 #include <cmath>
 #include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -26,6 +29,18 @@ const std::vector<double> kShShininess = {1, 8, 32, 128};    // SH maps' lobes
 
 // Texture units.
 enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
+
+constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
+
+float luminance(glm::vec3 c) { return glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f)); }
+
+// A mesh drawn this frame, for the shadow pass (its scene-frame bounds and what draws it).
+struct Caster {
+  GLuint vao;
+  GLsizei count;
+  glm::mat4 model;
+  glm::vec3 lo, hi;  // scene-frame AABB
+};
 
 // A set of environment maps of one projection, sorted by shininess.
 struct EnvSet {
@@ -134,6 +149,72 @@ struct Renderer::Impl {
     gl::Texture tex;
   };
   std::unordered_map<const TextureImage*, CachedTexture> textures;
+
+  // Shadows (ShadowSettings): settings, this frame's casters, the shadow map, the programs and
+  // the irradiance for f (the irradiance SH of the live SH; a copy of the irradiance map).
+  ShadowSettings shadow;
+  std::vector<Caster> casters;
+  gl::Texture shadow_tex;
+  gl::Framebuffer shadow_fbo;
+  int shadow_size = 0;
+  Program shadow_depth, shadow_catcher;
+  ShCoeffs irradiance_sh;
+  std::optional<EnvMap> irradiance_map;
+
+  // Lbar(n) = irradiance / pi at world direction n from the current lighting (0 without).
+  glm::vec3 irradiance_over_pi(glm::vec3 n) const {
+    if (irradiance_map) {
+      const glm::ivec2 t = irradiance_map->layout.dir_to_texel(glm::dvec3(n));
+      return irradiance_map->image.at(t.x, t.y);
+    }
+    if (!sh_maps.empty() && irradiance_sh.order > 0)
+      return glm::vec3(sh_evaluate(irradiance_sh, glm::dvec3(n)));
+    return glm::vec3(0.0f);
+  }
+
+  float shadow_fraction() const {
+    if (!shadow.enabled) return 0.0f;
+    const glm::vec3 up = world_from_scene * glm::vec3(0, 0, 1);
+    const float len = glm::length(shadow.light_direction);
+    if (!(len > 0)) return 0.0f;
+    const float cos_l = std::max(0.0f, glm::dot(shadow.light_direction / len, up));
+    const float e_dom = luminance(shadow.light_colour) * cos_l;
+    if (!(e_dom > 0)) return 0.0f;
+    const float e_tot = std::numbers::pi_v<float> * luminance(irradiance_over_pi(up));
+    const float f = e_tot > 0 ? e_dom / e_tot : 1.0f;
+    return std::clamp(f, 0.0f, std::clamp(shadow.max_fraction, 0.0f, 1.0f));
+  }
+
+  void ensure_shadow_resources() {
+    if (!shadow_depth.id()) {
+      shadow_depth = Program(shader_dir, "shadow_depth.vert", "shadow_depth.frag");
+      shadow_catcher = Program(shader_dir, "shadow_catcher.vert", "shadow_catcher.frag");
+      glUseProgram(shadow_catcher.id());
+      glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
+      glUniform1i(shadow_catcher.uniform("u_response"), 2);
+    }
+    const int n = std::max(16, shadow.map_size);
+    if (shadow_size == n) return;
+    shadow_size = n;
+    shadow_tex = gl::Texture();
+    shadow_tex.create();
+    glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, n, n, 0, GL_DEPTH_COMPONENT,
+                 GL_UNSIGNED_INT, nullptr);
+    gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    shadow_fbo.create();
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_tex.id, 0);
+    const GLenum none = GL_NONE;
+    glDrawBuffers(1, &none);
+    gl::check_framebuffer("shadow map (DEPTH_COMPONENT24)");
+  }
+
+  // The shadow map and the shadow catcher, into the output (which holds the camera frame).
+  void draw_shadows();
 
   FrameTimings timings;
   Clock::time_point frame_start = Clock::now();
@@ -309,6 +390,7 @@ void Renderer::set_sh(const ShCoeffs& sh) {
   Impl& p = *p_;
   if (sh.order == p.last_sh.order && sh.c == p.last_sh.c) return;
   p.last_sh = sh;
+  p.irradiance_sh = sh_convolve(sh, phong_zonal_all(sh.order, 1.0));
   const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, kShMapSize);
   std::vector<EnvMap> maps;
   for (double s : kShShininess) {
@@ -330,9 +412,25 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
     if (!(shininess[i] > 0.0)) throw std::invalid_argument("set_maps: shininess must be positive");
   }
   p_->maps.upload(shininess, maps);
+  const std::size_t smallest = std::size_t(
+      std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
+  p_->irradiance_map = maps[smallest];  // for the shadow's f (ShadowSettings)
 }
 
-void Renderer::clear_maps() { p_->maps = EnvSet(); }
+void Renderer::clear_maps() {
+  p_->maps = EnvSet();
+  p_->irradiance_map.reset();
+}
+
+void Renderer::set_shadow(const ShadowSettings& settings) {
+  if (settings.map_size < 16 || settings.map_size > 4096)
+    throw std::invalid_argument("set_shadow: map_size must be in [16, 4096]");
+  p_->shadow = settings;
+}
+
+const ShadowSettings& Renderer::shadow() const { return p_->shadow; }
+
+float Renderer::shadow_fraction() const { return p_->shadow_fraction(); }
 
 LightingSource Renderer::lighting_source() const {
   if (!p_->maps.empty()) return LightingSource::Maps;
@@ -363,6 +461,7 @@ void Renderer::begin_frame() {
   Impl& p = *p_;
   p.frame_start = Clock::now();
   p.composited = false;
+  p.casters.clear();
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   const float zero[4] = {0, 0, 0, 0};
@@ -426,6 +525,17 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   glDrawElements(GL_TRIANGLES, GLsizei(mesh.index_count()), GL_UNSIGNED_INT, nullptr);
   glBindVertexArray(0);
   gl::check("draw");
+  if (p.shadow.enabled) {
+    Caster c{mesh.vao(), GLsizei(mesh.index_count()), model, glm::vec3(1e30f), glm::vec3(-1e30f)};
+    const Bounds& b = mesh.bounds();
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 corner(i & 1 ? b.max.x : b.min.x, i & 2 ? b.max.y : b.min.y,
+                             i & 4 ? b.max.z : b.min.z);
+      const glm::vec3 q = glm::vec3(model * glm::vec4(corner, 1.0f));
+      c.lo = glm::min(c.lo, q), c.hi = glm::max(c.hi, q);
+    }
+    p.casters.push_back(c);
+  }
 }
 
 void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat& out) {
@@ -454,6 +564,16 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glBindTexture(GL_TEXTURE_2D, 0);
+
+  p.timings.shadow_ms = 0;
+  if (p.shadow.enabled && !p.casters.empty()) {
+    glFinish();
+    const auto ts = Clock::now();
+    p.draw_shadows();
+    glFinish();
+    p.timings.shadow_ms = ms_since(ts);
+    glBindVertexArray(p.empty_vao);
+  }
 
   if (tone.mode == ToneMode::Reinhard) {
     // Log-average luminance of the masked pixels: block sums down to one texel.
@@ -512,6 +632,129 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   cv::cvtColor(cv::Mat(p.h, p.w, CV_8UC4, p.rgba.data()), out, cv::COLOR_RGBA2RGB);
   p.timings.readback_ms = ms_since(t1);
   p.composited = true;
+}
+
+void Renderer::Impl::draw_shadows() {
+  // The casters' union bounds (scene frame).
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const Caster& c : casters) lo = glm::min(lo, c.lo), hi = glm::max(hi, c.hi);
+  if (hi.z <= 0.0f) return;  // everything under the floor
+  const glm::vec3 cam = camera_position;
+  if (cam.z <= 0.0f) return;  // seen from under the floor
+  const float size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-6f});
+
+  // Light direction in the scene frame; f.
+  const float f = shadow_fraction();
+  glm::vec3 l(0, 0, 1);
+  if (glm::length(shadow.light_direction) > 0)
+    l = glm::normalize(glm::transpose(world_from_scene) * glm::normalize(shadow.light_direction));
+  const bool directional = f > 0.0f && l.z > 0.02f;
+
+  // The receiver rectangle: the objects' footprints widened to where AO fades out, and the
+  // shadows' reach along -l (at most max_shadow_length object sizes).
+  glm::vec2 r0(1e30f), r1(-1e30f);
+  for (const Caster& c : casters) {
+    const glm::vec2 half = 0.5f * glm::vec2(c.hi - c.lo), mid = 0.5f * glm::vec2(c.hi + c.lo);
+    const glm::vec2 reach = std::max(shadow.ao_reach, 0.0f) * glm::max(half, glm::vec2(1e-4f));
+    r0 = glm::min(r0, mid - reach), r1 = glm::max(r1, mid + reach);
+    if (!directional) continue;
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 q(i & 1 ? c.hi.x : c.lo.x, i & 2 ? c.hi.y : c.lo.y, i & 4 ? c.hi.z : c.lo.z);
+      glm::vec2 d = -glm::vec2(l) * (std::max(q.z, 0.0f) / l.z);
+      const float len = glm::length(d), cap = shadow.max_shadow_length * size;
+      if (len > cap) d *= cap / len;
+      const glm::vec2 hit = glm::vec2(q) + d;
+      r0 = glm::min(r0, hit), r1 = glm::max(r1, hit);
+    }
+  }
+
+  ensure_shadow_resources();
+  glm::mat4 shadow_from_scene(1.0f);
+  if (directional) {
+    // Orthographic light view fitted to the casters' bounds, a few texels of margin.
+    const glm::vec3 centre = 0.5f * (lo + hi);
+    const glm::vec3 up_hint = std::abs(l.z) < 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
+    const glm::mat4 view = glm::lookAt(centre + l * (2.0f * size), centre, up_hint);
+    glm::vec3 a(1e30f), b(-1e30f);
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 q(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+      const glm::vec3 v = glm::vec3(view * glm::vec4(q, 1.0f));
+      a = glm::min(a, v), b = glm::max(b, v);
+    }
+    const float margin = (b.x - a.x + b.y - a.y) * (shadow.pcf_step + 2.0f) / float(shadow_size);
+    const glm::mat4 proj = glm::ortho(a.x - margin, b.x + margin, a.y - margin, b.y + margin,
+                                      -b.z - margin, -a.z + margin);
+    const glm::mat4 light_view_proj = proj * view;
+    glm::mat4 to_tex = glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) *
+                       glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
+    shadow_from_scene = to_tex * light_view_proj;
+
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
+    glViewport(0, 0, shadow_size, shadow_size);
+    glDisable(GL_BLEND);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glClear(GL_DEPTH_BUFFER_BIT);
+    glUseProgram(shadow_depth.id());
+    glUniformMatrix4fv(shadow_depth.uniform("u_light_view_proj"), 1, GL_FALSE,
+                       glm::value_ptr(light_view_proj));
+    const GLint u_model = shadow_depth.uniform("u_model");
+    for (const Caster& c : casters) {
+      glUniformMatrix4fv(u_model, 1, GL_FALSE, glm::value_ptr(c.model));
+      glBindVertexArray(c.vao);
+      glDrawElements(GL_TRIANGLES, c.count, GL_UNSIGNED_INT, nullptr);
+    }
+    glBindVertexArray(0);
+  }
+
+  // The catcher: the rectangle of z = 0, depth tested against the objects (no depth writes),
+  // multiplied into the output.
+  const Program& pr = shadow_catcher;
+  glUseProgram(pr.id());
+  glUniform4f(pr.uniform("u_rect"), r0.x, r0.y, r1.x, r1.y);
+  glUniformMatrix4fv(pr.uniform("u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
+  glUniformMatrix4fv(pr.uniform("u_shadow_from_scene"), 1, GL_FALSE,
+                     glm::value_ptr(shadow_from_scene));
+  glUniform1f(pr.uniform("u_pcf_step"), shadow.pcf_step / float(shadow_size));
+  glUniform1f(pr.uniform("u_depth_bias"), 2.0f / float(shadow_size));
+  glUniform1f(pr.uniform("u_fraction"), directional ? f : 0.0f);
+  glUniform1f(pr.uniform("u_ao_strength"), std::max(shadow.ao_strength, 0.0f));
+  glUniform1f(pr.uniform("u_ao_reach"), std::max(shadow.ao_reach, 1e-3f));
+  glUniform1f(pr.uniform("u_min_ratio"), std::clamp(shadow.min_ratio, 0.0f, 1.0f));
+  const int count = std::min<int>(kMaxEllipsoids, int(casters.size()));
+  std::vector<glm::vec3> centres, inv_axes;
+  for (int k = 0; k < count; ++k) {
+    centres.push_back(0.5f * (casters[k].lo + casters[k].hi));
+    inv_axes.push_back(1.0f / glm::max(0.5f * (casters[k].hi - casters[k].lo), glm::vec3(1e-5f)));
+  }
+  glUniform1i(pr.uniform("u_count"), count);
+  if (count > 0) {
+    glUniform3fv(pr.uniform("u_centre"), count, glm::value_ptr(centres[0]));
+    glUniform3fv(pr.uniform("u_inv_axes"), count, glm::value_ptr(inv_axes[0]));
+  }
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
+  glActiveTexture(GL_TEXTURE2);
+  glBindTexture(GL_TEXTURE_2D, response_lut.id);
+  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
+  glViewport(0, 0, w, h);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_FALSE);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ZERO, GL_SRC_COLOR);  // dst * factor
+  glBindVertexArray(empty_vao);
+  glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+  glBindVertexArray(0);
+  glDisable(GL_BLEND);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_DEPTH_TEST);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  gl::check("shadow catcher");
 }
 
 void Renderer::present() {

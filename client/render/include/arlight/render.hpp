@@ -9,6 +9,7 @@
 //   r.set_world_from_scene(world_from_scene);    // scene (marker) frame -> lighting frame
 //   r.begin_frame();
 //   r.draw(bunny, material, model);
+//   r.set_shadow({.enabled = true, .light_direction = d, .light_colour = c});  // optional
 //   r.composite(frame_bgr, {ToneMode::CameraMatched, exposure, gain}, out_bgr);
 //
 // Frames and results are 8-bit BGR cv::Mats (OpenCV's order) of the renderer's size, row 0 at
@@ -85,9 +86,38 @@ enum class ReflectionLookup { Interpolate, Nearest };
 
 struct FrameTimings {
   double render_ms = 0;    // begin_frame() to the end of the draws (glFinish)
-  double tonemap_ms = 0;   // upload of the camera frame, reduction, tone map and composite
+  double tonemap_ms = 0;   // upload of the camera frame, shadow, reduction, tone map, composite
+  double shadow_ms = 0;    // the shadow map and the shadow catcher (part of tonemap_ms)
   double readback_ms = 0;  // glReadPixels and conversion to BGR
   double total() const { return render_ms + tonemap_ms + readback_ms; }
+};
+
+// The shadow catcher (tutorial §6.3, differential rendering): the plane z = 0 of the scene
+// (marker) frame receives the shadows of the objects drawn this frame, and the camera frame's
+// pixels there are scaled by the ratio of the plane's irradiance with the objects to without:
+//   ratio = max(min_ratio, 1 - f (1 - V) - (1 - f) AO)
+// with f the dominant light's share of the plane's irradiance,
+//   f = clamp(lum(light_colour) max(0, l.n) / (pi lum(Lbar(n))), 0, max_fraction),
+// n the plane's normal and l the light direction (world frame), Lbar(n) the irradiance map's
+// value there (irradiance / pi, from the maps or the SH); V the light's visibility from an
+// orthographic shadow map fitted to the objects' bounds (PCF); AO the cosine-weighted share of
+// the remaining (sky) irradiance hidden by the objects, each taken as the ellipsoid inscribed in
+// its bounds. Only the composited output changes: the mask, the HDR target and Reinhard's
+// log-average are the objects' alone, and pixels whose ratio rounds to 1 keep the frame exactly.
+struct ShadowSettings {
+  bool enabled = false;
+  // The dominant light as arlightd sends it (LightingUpdate): unit direction towards the light
+  // in the world frame, and its colour: irradiance at normal incidence (the SH bands 0-1
+  // estimate). A black colour leaves only the contact (AO) shadow.
+  glm::vec3 light_direction{0.0f, 1.0f, 0.0f};
+  glm::vec3 light_colour{0.0f};
+  int map_size = 256;            // shadow map texels per side
+  float pcf_step = 1.5f;         // texels between the 3x3 PCF taps (each a 2x2 bilinear compare)
+  float max_fraction = 0.85f;    // f's upper clamp (some light always reaches a real floor)
+  float ao_strength = 1.0f;      // scales AO (0: no contact shadow)
+  float ao_reach = 3.0f;         // AO fades to 0 at this many half-extents from an object
+  float max_shadow_length = 4.0f;  // the plane reaches at most this many object sizes
+  float min_ratio = 0.15f;       // the darkest the floor gets
 };
 
 struct HdrReadback {
@@ -137,13 +167,21 @@ class Renderer {
   // The camera response for CameraMatched tone mapping (default sRGB); uploaded once.
   void set_response(const CameraResponse& response);
 
-  // Clears the HDR target (radiance 0, mask 0) and depth.
+  // ---- shadows on the real floor (see ShadowSettings); off by default ----
+  void set_shadow(const ShadowSettings& settings);
+  const ShadowSettings& shadow() const;
+  // f of ShadowSettings for the current lighting, world_from_scene and light (0 when off).
+  float shadow_fraction() const;
+
+  // Clears the HDR target (radiance 0, mask 0) and depth, and the frame's shadow casters.
   void begin_frame();
   // Thesis Alg. 5.1-5.4: kd * Ld(n) (* light map) + ks * Ls(reflect(-v, n)), normal mapping
-  // with a TBN basis, depth tested, into the RGBA16F target (alpha = mask).
+  // with a TBN basis, depth tested, into the RGBA16F target (alpha = mask). With shadows on,
+  // the mesh also casts a shadow in composite(): it must live until then.
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model);
   // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
-  // renderer's size) in one pass; pixels outside the mask keep the frame exactly. `out` is
+  // renderer's size) in one pass; pixels outside the mask keep the frame exactly (except the
+  // shadow catcher's darkening, when shadows are on). `out` is
   // (re)allocated only when its size or type differs.
   void composite(const cv::Mat& frame_bgr, const ToneMapping& tone, cv::Mat& out_bgr);
   // Shows the last composite in a window context's default framebuffer (then swap_buffers()).

@@ -1,0 +1,72 @@
+#version 300 es
+// Shadow catcher (tutorial §6.3, differential rendering): the real floor's radiance is scaled
+// by the ratio of the plane's irradiance with the virtual objects to without them,
+//   ratio = 1 - f (1 - V_dir) - (1 - f) AO,
+// f = the dominant light's share of the plane's irradiance (computed by the renderer),
+// V_dir = its visibility from the shadow map (3x3 PCF taps, each a 2x2 bilinear comparison),
+// AO = the cosine-weighted share of the rest (the sky, taken as uniform) hidden by the objects,
+// each approximated by the ellipsoid inscribed in its bounds. Blended multiplicatively
+// (dst * src) into the output, which holds the camera frame's codes: the radiance ratio becomes
+// a code ratio through the camera response around 18 % grey (exact for a power-law response).
+// Fragments whose ratio would not change a byte are discarded, so the frame stays exact there.
+precision highp float;
+precision highp sampler2D;
+precision highp sampler2DShadow;
+
+in vec3 v_position;
+
+uniform sampler2DShadow u_shadow_map;
+uniform sampler2D u_response;
+uniform mat4 u_shadow_from_scene;  // scene -> shadow-map texture coordinates and depth [0, 1]
+uniform float u_pcf_step;          // PCF tap spacing in texture coordinates
+uniform float u_depth_bias;
+uniform float u_fraction;          // f, 0 when there is no directional shadow
+uniform float u_ao_strength;
+uniform float u_ao_reach;          // AO fades to 0 at this many half-extents, horizontally
+uniform float u_min_ratio;
+uniform int u_count;               // ellipsoids
+uniform vec3 u_centre[4];
+uniform vec3 u_inv_axes[4];        // 1 / semi-axes
+
+out vec4 o_factor;
+
+#include "response.glsl"
+
+float directional_visibility(vec3 p) {
+  vec3 s = (u_shadow_from_scene * vec4(p, 1.0)).xyz;
+  if (s.x < 0.0 || s.y < 0.0 || s.x > 1.0 || s.y > 1.0) return 1.0;
+  float ref = min(s.z, 1.0) - u_depth_bias;
+  float v = 0.0;
+  for (int j = -1; j <= 1; ++j)
+    for (int i = -1; i <= 1; ++i)
+      v += texture(u_shadow_map, vec3(s.xy + vec2(float(i), float(j)) * u_pcf_step, ref));
+  return v / 9.0;
+}
+
+// Cosine-weighted occlusion of the upper hemisphere at p (normal +z) by the ellipsoids. For a
+// sphere of radius r at distance d whose direction makes angle theta with the normal, the
+// projected solid angle over pi is exactly cos(theta) r^2 / d^2 (while the sphere is above the
+// horizon); the ellipsoid uses its normalized distance |q| = |(c - p) / axes| for d / r.
+float ambient_occlusion(vec3 p) {
+  float ao = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    if (k >= u_count) break;
+    vec3 d = u_centre[k] - p;
+    vec3 q = d * u_inv_axes[k];
+    float cos_t = max(d.z, 0.0) / max(length(d), 1e-6);
+    float fade = 1.0 - smoothstep(0.5 * u_ao_reach, u_ao_reach, length(q.xy));
+    ao += cos_t / max(dot(q, q), 1.0) * fade;
+  }
+  return min(ao, 1.0);
+}
+
+void main() {
+  float v = u_fraction > 0.0 ? directional_visibility(v_position) : 1.0;
+  float ao = ambient_occlusion(v_position) * u_ao_strength;
+  float ratio = 1.0 - u_fraction * (1.0 - v) - (1.0 - u_fraction) * ao;
+  ratio = max(ratio, u_min_ratio);
+  if (ratio > 0.998) discard;
+  vec3 grey = encode(vec3(0.18));
+  vec3 factor = clamp(encode(vec3(0.18 * ratio)) / max(grey, vec3(1e-6)), 0.0, 1.0);
+  o_factor = vec4(factor.bgr, 1.0);  // the output holds B, G, R
+}

@@ -1,0 +1,307 @@
+// The shadow catcher (ShadowSettings): shadows of virtual objects on the real floor, the plane
+// z = 0 of the scene (marker) frame, by differential rendering (tutorial §6.3).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <glm/gtc/matrix_transform.hpp>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arlight/sh.hpp"
+#include "render_fixtures.hpp"
+
+namespace arlight::render {
+namespace {
+
+using namespace testing;
+
+constexpr int W = 320, H = 240;
+
+// Scene z up -> world y up (the lighting frame): a rotation of -90 degrees about x.
+glm::dmat3 world_from_scene() {
+  return glm::dmat3(glm::rotate(glm::dmat4(1.0), -std::numbers::pi / 2, glm::dvec3(1, 0, 0)));
+}
+
+// A camera at `eye` (scene frame) looking at `target`, scene z up.
+glm::dmat4 look(glm::dvec3 eye, glm::dvec3 target) {
+  return glm::lookAt(eye, target, glm::dvec3(0, 0, 1));
+}
+
+struct View {
+  CameraIntrinsics k = CameraIntrinsics::from_fov(W, H, 60.0);
+  glm::dmat4 camera_from_scene;
+  glm::dmat4 view_proj() const {
+    return glm::dmat4(projection_from_intrinsics(k, W, H, 0.01f, 100.0f)) * camera_from_scene;
+  }
+  // OpenCV pixel (row 0 at the top) of a scene point.
+  glm::dvec2 project(glm::dvec3 p) const {
+    const glm::dvec4 c = view_proj() * glm::dvec4(p, 1.0);
+    const glm::dvec2 ndc = glm::dvec2(c) / c.w;
+    return {(ndc.x + 1) * 0.5 * W - 0.5, (ndc.y + 1) * 0.5 * H - 0.5};
+  }
+  // The floor point (z = 0) seen through pixel (x, y), if the ray goes down.
+  std::optional<glm::dvec3> floor_point(int x, int y) const {
+    const glm::dmat4 inv = glm::inverse(view_proj());
+    const glm::dvec2 ndc((x + 0.5) / W * 2 - 1, (y + 0.5) / H * 2 - 1);
+    glm::dvec4 a = inv * glm::dvec4(ndc, -1, 1), b = inv * glm::dvec4(ndc, 1, 1);
+    const glm::dvec3 p0 = glm::dvec3(a) / a.w, p1 = glm::dvec3(b) / b.w;
+    if (!(p1.z < p0.z) || p0.z <= 0) return std::nullopt;
+    return p0 + (p1 - p0) * (p0.z / (p0.z - p1.z));
+  }
+};
+
+// Live SH (order 3) of a dim uniform sky plus a delta light of irradiance `e` (at normal
+// incidence) from world direction `l`: coefficients a 4 pi Y_00 + e Y_lm(l).
+ShCoeffs sky_and_sun(double sky, glm::dvec3 l, double e) {
+  ShCoeffs sh(3);
+  std::vector<double> y(std::size_t(sh_count(3)));
+  sh_basis_all(3, l, y);
+  for (std::size_t i = 0; i < y.size(); ++i) sh.c[i] = glm::dvec3(e * y[i]);
+  sh.c[0] += glm::dvec3(sky * 4 * std::numbers::pi * 0.5 / std::sqrt(std::numbers::pi));
+  return sh;
+}
+
+// The dominant light as arlightd computes it (server/daemon/src/session.cpp: bands 0-1).
+void dominant_light(const ShCoeffs& sh, glm::vec3& direction, glm::vec3& colour) {
+  const auto band1 = [&](int c) { return glm::dvec3(sh.at(1, 1)[c], sh.at(1, -1)[c], sh.at(1, 0)[c]); };
+  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
+  const double n = glm::length(lum);
+  const glm::dvec3 d = n > 1e-12 ? lum / n : glm::dvec3(0, 1, 0);
+  direction = glm::vec3(d);
+  const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));
+  for (int c = 0; c < 3; ++c) colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
+}
+
+double srgb_decode(double v) {
+  v /= 255.0;
+  return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+
+// Linear darkening 1 - L_out / L_frame of a pixel (sRGB codes, green channel).
+double darkening(const cv::Mat& out, const cv::Mat& frame, int x, int y) {
+  return 1.0 - srgb_decode(out.at<cv::Vec3b>(y, x)[1]) / srgb_decode(frame.at<cv::Vec3b>(y, x)[1]);
+}
+
+void maybe_write(const char* name, const cv::Mat& img) {
+  if (const char* dir = std::getenv("ARLIGHT_SHADOW_PNG")) cv::imwrite(std::string(dir) + "/" + name, img);
+}
+
+// (a) A sphere above the floor, one strong light: the darkest floor pixels are around where
+// the ray from the sphere's centre along -l meets z = 0; far pixels keep the frame's bytes; the
+// darkening is about f (the light's share) and never much more.
+TEST(Shadow, DirectionalShadowFallsAlongTheLight) {
+  context();
+  Renderer r(W, H);
+  const glm::dvec3 l_scene = glm::normalize(glm::dvec3(0.5, 0.3, 1.0));
+  const glm::dvec3 l_world = world_from_scene() * l_scene;
+  r.set_sh(sky_and_sun(0.05, l_world, 3.0));
+  View v;
+  v.camera_from_scene = look({0.0, -4.0, 3.0}, {0, 0, 0.3});
+  r.set_camera(v.k, v.camera_from_scene);
+  r.set_world_from_scene(world_from_scene());
+  ShadowSettings s;
+  s.enabled = true;
+  s.light_direction = glm::vec3(l_world);
+  s.light_colour = glm::vec3(3.0f);
+  r.set_shadow(s);
+  const float f = r.shadow_fraction();
+  EXPECT_NEAR(f, 0.85f, 1e-4f);  // 3 cos vs pi 0.05 of sky: clamped
+
+  const GpuMesh sphere(make_sphere(0.5f, 32, 64));
+  const glm::dvec3 centre(0, 0, 1.2);
+  Material m;
+  r.begin_frame();
+  r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(centre)));
+  const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(150, 160, 170));
+  cv::Mat out;
+  r.composite(frame, {}, out);
+  maybe_write("shadow_directional.png", out);
+  const HdrReadback hdr = r.read_hdr();
+
+  const glm::dvec3 hit = centre - l_scene * (centre.z / l_scene.z);
+  const glm::dvec2 expected = v.project(hit);
+  double max_d = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (!hdr.mask[std::size_t(y) * W + x]) max_d = std::max(max_d, darkening(out, frame, x, y));
+  glm::dvec2 sum(0);
+  double n = 0, far_checked = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (hdr.mask[std::size_t(y) * W + x]) continue;
+      const double d = darkening(out, frame, x, y);
+      if (d >= 0.97 * max_d) sum += glm::dvec2(x, y), n += 1;
+      EXPECT_LE(d, f + 0.03) << "at " << x << "," << y;
+      const auto p = v.floor_point(x, y);
+      if (!p || (glm::length(glm::dvec2(*p)) > 2.0 && glm::length(glm::dvec2(*p - hit)) > 2.0)) {
+        ASSERT_EQ(out.at<cv::Vec3b>(y, x), frame.at<cv::Vec3b>(y, x)) << "far pixel " << x << "," << y;
+        far_checked += 1;
+      }
+    }
+  ASSERT_GT(n, 0);
+  const glm::dvec2 darkest = sum / n;
+  std::printf("[shadow] f = %.3f, max darkening %.3f over %.0f px, centroid (%.1f, %.1f), "
+              "expected (%.1f, %.1f); %.0f far pixels unchanged\n",
+              f, max_d, n, darkest.x, darkest.y, expected.x, expected.y, far_checked);
+  EXPECT_LT(glm::length(darkest - expected), 3.0);
+  EXPECT_GT(max_d, f - 0.1);  // the umbra takes the light's share away
+  EXPECT_GT(far_checked, W * H / 3);
+  // Directly under the sphere, off the shadow, the floor is much lighter than in the umbra.
+  const glm::dvec2 under = v.project({0, 0, 0});
+  EXPECT_LT(darkening(out, frame, int(std::lround(under.x)), int(std::lround(under.y))), 0.5 * max_d);
+}
+
+// (b) A constant environment: no dominant light (its bands 0-1 vanish), no directional shadow,
+// but a contact shadow that is darkest right under the object and fades with distance.
+TEST(Shadow, ContactShadowUnderConstantLight) {
+  context();
+  Renderer r(W, H);
+  set_constant_maps(r, Projection::LatLong, glm::vec3(0.5f));
+  ShadowSettings s;
+  s.enabled = true;
+  const ShCoeffs sh = sh_project(constant_env(Projection::LatLong, 32, glm::vec3(0.5f)), 3);
+  dominant_light(sh, s.light_direction, s.light_colour);
+  r.set_shadow(s);
+  View v;
+  v.camera_from_scene = look({0.0, -4.0, 3.0}, {0, 0, 0.3});
+  r.set_camera(v.k, v.camera_from_scene);
+  r.set_world_from_scene(world_from_scene());
+  EXPECT_LT(r.shadow_fraction(), 0.01f);
+
+  const GpuMesh sphere(make_sphere(0.5f, 32, 64));
+  Material m;
+  r.begin_frame();
+  r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 1.0f)));
+  const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(150, 160, 170));
+  cv::Mat out;
+  r.composite(frame, {}, out);
+  maybe_write("shadow_contact.png", out);
+  const HdrReadback hdr = r.read_hdr();
+
+  for (glm::dvec2 dir : {glm::dvec2(1, 0), glm::dvec2(-1, 0), glm::dvec2(0, -1)}) {
+    double prev = 1.0;
+    std::vector<double> ds;
+    for (double rho = 0.0; rho <= 1.8; rho += 0.1) {
+      const glm::dvec2 px = v.project(glm::dvec3(dir * rho, 0.0));
+      const int x = int(std::lround(px.x)), y = int(std::lround(px.y));
+      ASSERT_FALSE(hdr.mask[std::size_t(y) * W + x]) << "the sphere hides the floor at rho " << rho;
+      const double d = darkening(out, frame, x, y);
+      EXPECT_LE(d, prev + 0.01) << "not monotonic at rho " << rho;
+      prev = d;
+      ds.push_back(d);
+    }
+    std::printf("[shadow] contact darkening along (%.0f, %.0f): %.3f at 0, %.3f at 0.5, %.3f at 1, %.3f at 1.8\n",
+                dir.x, dir.y, ds[0], ds[5], ds[10], ds.back());
+    // Cosine-weighted occlusion right under a sphere of radius 0.5 at height 1: (r/h)^2 = 0.25.
+    EXPECT_NEAR(ds[0], 0.25, 0.04);
+    EXPECT_GT(ds[0], ds[10] + 0.1);
+    EXPECT_LT(ds.back(), 0.01);
+  }
+}
+
+// (c) Shadows off: the output is byte-identical to a renderer that never had them; on, they
+// change neither the object's pixels nor Reinhard's log-average (the mask is the object's).
+TEST(Shadow, DisabledIsByteIdenticalAndMaskUnchanged) {
+  context();
+  const glm::dvec3 l_world = world_from_scene() * glm::normalize(glm::dvec3(-0.4, 0.2, 1.0));
+  const GpuMesh sphere(make_sphere(0.5f, 32, 64));
+  const cv::Mat frame = noise_frame(W, H);
+  View v;
+  v.camera_from_scene = look({1.0, -3.5, 2.5}, {0, 0, 0.4});
+  auto render = [&](int shadow_mode, ToneMode mode, cv::Mat& out, float& log_avg, HdrReadback& hdr) {
+    Renderer r(W, H);
+    r.set_sh(sky_and_sun(0.1, l_world, 2.0));
+    r.set_camera(v.k, v.camera_from_scene);
+    r.set_world_from_scene(world_from_scene());
+    ShadowSettings s;
+    s.enabled = true;
+    s.light_direction = glm::vec3(l_world);
+    s.light_colour = glm::vec3(2.0f);
+    if (shadow_mode >= 1) r.set_shadow(s);
+    if (shadow_mode == 1) r.set_shadow(ShadowSettings{});  // on, then off again
+    Material m;
+    m.ks = glm::vec3(0.2f);
+    r.begin_frame();
+    r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 0.5f)));
+    ToneMapping tone;
+    tone.mode = mode;
+    r.composite(frame, tone, out);
+    log_avg = r.last_log_average();
+    hdr = r.read_hdr();
+  };
+  for (ToneMode mode : {ToneMode::CameraMatched, ToneMode::Reinhard}) {
+    cv::Mat never, off, on;
+    float la_never = 0, la_off = 0, la_on = 0;
+    HdrReadback h_never, h_off, h_on;
+    render(0, mode, never, la_never, h_never);
+    render(1, mode, off, la_off, h_off);
+    render(2, mode, on, la_on, h_on);
+    EXPECT_EQ(cv::norm(never, off, cv::NORM_INF), 0.0);
+    EXPECT_EQ(h_on.mask, h_never.mask);
+    if (mode == ToneMode::Reinhard) {
+      EXPECT_EQ(la_on, la_never);
+    }
+    std::size_t darker = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const bool masked = h_never.mask[std::size_t(y) * W + x];
+        const cv::Vec3b a = never.at<cv::Vec3b>(y, x), b = on.at<cv::Vec3b>(y, x);
+        if (masked) {
+          ASSERT_EQ(a, b) << "object pixel " << x << "," << y;
+        } else {
+          for (int c = 0; c < 3; ++c) ASSERT_LE(b[c], a[c]) << "brighter at " << x << "," << y;
+          darker += a != b;
+        }
+      }
+    EXPECT_GT(darker, std::size_t(500));
+  }
+}
+
+// The shadow's cost at 1280x720 with the bunny on the marker (printed; no timed assertion).
+TEST(Shadow, CostAt1280x720) {
+  GlContext& ctx = context();
+  constexpr int BW = 1280, BH = 720;
+  Renderer r(BW, BH);
+  const Mesh mesh = load_gltf(std::filesystem::path(ARLIGHT_ASSETS_DIR) / "models/bunny.glb");
+  const GpuMesh bunny(mesh);
+  const glm::dvec3 l_world = world_from_scene() * glm::normalize(glm::dvec3(0.5, 0.3, 1.0));
+  r.set_sh(sky_and_sun(0.1, l_world, 2.0));
+  const CameraIntrinsics k = CameraIntrinsics::from_fov(BW, BH, 60.0);
+  r.set_camera(k, look({0.0, -0.35, 0.25}, {0, 0, 0.05}));
+  r.set_world_from_scene(world_from_scene());
+  // The bunny 0.15 m tall standing on the marker (glTF +Y up -> scene +Z up).
+  const float s = 0.15f / std::max(mesh.bounds.size().y, 1e-6f);
+  glm::mat4 model = glm::rotate(glm::mat4(1.0f), glm::radians(90.0f), glm::vec3(1, 0, 0));
+  model = glm::scale(model, glm::vec3(s));
+  model = glm::translate(model, -glm::vec3(mesh.bounds.centre().x, mesh.bounds.min.y, mesh.bounds.centre().z));
+  Material m;
+  m.kd = glm::vec3(0.6f, 0.5f, 0.4f);
+  const cv::Mat frame = noise_frame(BW, BH);
+  cv::Mat out;
+  double with = 0, without = 0, shadow = 0;
+  const int frames = 10;
+  for (int on = 0; on < 2; ++on) {
+    ShadowSettings st;
+    st.enabled = on == 1;
+    st.light_direction = glm::vec3(l_world);
+    st.light_colour = glm::vec3(2.0f);
+    r.set_shadow(st);
+    for (int f = -2; f < frames; ++f) {
+      r.begin_frame();
+      r.draw(bunny, m, model);
+      r.composite(frame, {}, out);
+      if (f < 0) continue;
+      (on ? with : without) += r.timings().total() / frames;
+      if (on) shadow += r.timings().shadow_ms / frames;
+    }
+  }
+  maybe_write("shadow_bunny.png", out);
+  std::printf("[timing] %s, bunny, %dx%d: frame %.2f ms without shadow, %.2f ms with; shadow pass "
+              "%.2f ms\n", ctx.renderer().c_str(), BW, BH, without, with, shadow);
+  RecordProperty("shadow_ms", std::to_string(shadow));
+  EXPECT_GT(shadow, 0.0);
+}
+
+}  // namespace
+}  // namespace arlight::render
