@@ -5,10 +5,10 @@
 // f = the dominant light's share of the plane's irradiance (computed by the renderer),
 // V_dir = its visibility from the shadow map (3x3 PCF taps, each a 2x2 bilinear comparison),
 // AO = the cosine-weighted share of the rest (the sky, taken as uniform) hidden by the objects,
-// each approximated by the ellipsoid inscribed in its bounds. Blended multiplicatively
-// (dst * src) into the output, which holds the camera frame's codes: the radiance ratio becomes
-// a code ratio through the camera response around 18 % grey (exact for a power-law response).
-// Fragments whose ratio would not change a byte are discarded, so the frame stays exact there.
+// each approximated by the ellipsoid inscribed in its bounds. The output holds the camera
+// frame's codes, so the radiance ratio becomes a code ratio through the camera response around
+// 18 % grey (exact for a power-law response). This pass writes those code factors at low
+// resolution (B, G, R); shadow_apply.frag multiplies them into the output at full resolution.
 precision highp float;
 precision highp sampler2D;
 precision highp sampler2DShadow;
@@ -65,7 +65,7 @@ void main() {
   float ao = ambient_occlusion(v_position) * u_ao_strength;
   float ratio = 1.0 - u_fraction * (1.0 - v) - (1.0 - u_fraction) * ao;
   ratio = max(ratio, u_min_ratio);
-  if (ratio > 0.998) discard;
+  if (ratio > 0.998) discard;  // the pass's target was cleared to 1
   vec3 grey = encode(vec3(0.18));
   vec3 factor = clamp(encode(vec3(0.18 * ratio)) / max(grey, vec3(1e-6)), 0.0, 1.0);
   o_factor = vec4(factor.bgr, 1.0);  // the output holds B, G, R

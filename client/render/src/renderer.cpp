@@ -31,6 +31,7 @@ const std::vector<double> kShShininess = {1, 8, 32, 128};    // SH maps' lobes
 enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
 
 constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
+constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
 
 float luminance(glm::vec3 c) { return glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f)); }
 
@@ -154,10 +155,14 @@ struct Renderer::Impl {
   // the irradiance for f (the irradiance SH of the live SH; a copy of the irradiance map).
   ShadowSettings shadow;
   std::vector<Caster> casters;
-  gl::Texture shadow_tex;
-  gl::Framebuffer shadow_fbo;
-  int shadow_size = 0;
-  Program shadow_depth, shadow_catcher;
+  gl::Texture shadow_tex, factor_tex;
+  gl::Framebuffer shadow_fbo, factor_fbo;
+  int shadow_size = 0, factor_w = 0, factor_h = 0;
+  std::vector<float> shadow_key;
+  GLuint tile_vao = 0, tile_vbo = 0;        // the apply pass's screen tiles
+  std::vector<std::uint8_t> factors;        // the low-resolution factors, read back
+  std::vector<glm::vec2> tiles;  // what the shadow map holds (light, casters); empty: nothing
+  Program shadow_depth, shadow_catcher, shadow_apply;
   ShCoeffs irradiance_sh;
   std::optional<EnvMap> irradiance_map;
 
@@ -192,10 +197,33 @@ struct Renderer::Impl {
       glUseProgram(shadow_catcher.id());
       glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
+      shadow_apply = Program(shader_dir, "shadow_apply.vert", "shadow_apply.frag");
+      glGenVertexArrays(1, &tile_vao);
+      glGenBuffers(1, &tile_vbo);
+      glBindVertexArray(tile_vao);
+      glBindBuffer(GL_ARRAY_BUFFER, tile_vbo);
+      glEnableVertexAttribArray(0);
+      glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
+      glBindVertexArray(0);
+      glBindBuffer(GL_ARRAY_BUFFER, 0);
+      glUseProgram(shadow_apply.id());
+      glUniform1i(shadow_apply.uniform("u_factor"), 0);
+      // The factors at 1/kFactorScale of the output's resolution (shadows are smooth).
+      factor_w = (w + kFactorScale - 1) / kFactorScale, factor_h = (h + kFactorScale - 1) / kFactorScale;
+      factor_tex.create();
+      glBindTexture(GL_TEXTURE_2D, factor_tex.id);
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, factor_w, factor_h, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+      gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+      factor_fbo.create();
+      glBindFramebuffer(GL_FRAMEBUFFER, factor_fbo.id);
+      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, factor_tex.id, 0);
+      gl::check_framebuffer("shadow factors (RGBA8)");
     }
     const int n = std::max(16, shadow.map_size);
     if (shadow_size == n) return;
     shadow_size = n;
+    shadow_key.clear();
     shadow_tex = gl::Texture();
     shadow_tex.create();
     glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
@@ -379,6 +407,8 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
 
 Renderer::~Renderer() {
   if (p_ && p_->empty_vao) glDeleteVertexArrays(1, &p_->empty_vao);
+  if (p_ && p_->tile_vao) glDeleteVertexArrays(1, &p_->tile_vao);
+  if (p_ && p_->tile_vbo) glDeleteBuffers(1, &p_->tile_vbo);
 }
 
 int Renderer::width() const { return p_->w; }
@@ -689,6 +719,14 @@ void Renderer::Impl::draw_shadows() {
                        glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
     shadow_from_scene = to_tex * light_view_proj;
 
+    // The map is re-rendered only when the light or a caster moved (in the scene frame).
+    std::vector<float> key(glm::value_ptr(light_view_proj), glm::value_ptr(light_view_proj) + 16);
+    for (const Caster& c : casters) {
+      key.push_back(float(c.vao)), key.push_back(float(c.count));
+      key.insert(key.end(), glm::value_ptr(c.model), glm::value_ptr(c.model) + 16);
+    }
+    if (key != shadow_key) {
+    shadow_key = std::move(key);
     glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
     glViewport(0, 0, shadow_size, shadow_size);
     glDisable(GL_BLEND);
@@ -707,10 +745,12 @@ void Renderer::Impl::draw_shadows() {
       glDrawElements(GL_TRIANGLES, c.count, GL_UNSIGNED_INT, nullptr);
     }
     glBindVertexArray(0);
+    }
   }
 
-  // The catcher: the rectangle of z = 0, depth tested against the objects (no depth writes),
-  // multiplied into the output.
+  // The catcher, in two passes over the rectangle of z = 0: the code factors at low
+  // resolution (1 where there is no shadow), then upsampled bilinearly, depth tested against
+  // the objects (no depth writes) and multiplied into the output where they are below 1.
   const Program& pr = shadow_catcher;
   glUseProgram(pr.id());
   glUniform4f(pr.uniform("u_rect"), r0.x, r0.y, r1.x, r1.y);
@@ -738,20 +778,68 @@ void Renderer::Impl::draw_shadows() {
   glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
   glActiveTexture(GL_TEXTURE2);
   glBindTexture(GL_TEXTURE_2D, response_lut.id);
-  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
-  glViewport(0, 0, w, h);
+  glBindFramebuffer(GL_FRAMEBUFFER, factor_fbo.id);
+  glViewport(0, 0, factor_w, factor_h);
   glDisable(GL_CULL_FACE);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDepthMask(GL_FALSE);
-  glEnable(GL_BLEND);
-  glBlendFunc(GL_ZERO, GL_SRC_COLOR);  // dst * factor
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+  const float one[4] = {1, 1, 1, 1};
+  glClearBufferfv(GL_COLOR, 0, one);
   glBindVertexArray(empty_vao);
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+
+  // Only screen tiles that hold a factor below 1 (or next to one: bilinear) are drawn at full
+  // resolution: the factors are read back (small) and scanned in kTile x kTile blocks.
+  factors.resize(std::size_t(factor_w) * factor_h * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, factor_w, factor_h, GL_RGBA, GL_UNSIGNED_BYTE, factors.data());
+  constexpr int kTile = 8;
+  const int tw = (factor_w + kTile - 1) / kTile, th = (factor_h + kTile - 1) / kTile;
+  std::vector<std::uint8_t> row_shadow(std::size_t(tw) * th, 0);
+  for (int y = 0; y < factor_h; ++y)
+    for (int x = 0; x < factor_w; ++x) {
+      const std::uint8_t* f = &factors[(std::size_t(y) * factor_w + x) * 4];
+      if ((f[0] & f[1] & f[2]) == 255) continue;
+      // This texel reaches full-res pixels up to one texel around it.
+      for (int ty = std::max(0, (y - 1) / kTile); ty <= std::min(th - 1, (y + 1) / kTile); ++ty)
+        for (int tx = std::max(0, (x - 1) / kTile); tx <= std::min(tw - 1, (x + 1) / kTile); ++tx)
+          row_shadow[std::size_t(ty) * tw + tx] = 1;
+    }
+  tiles.clear();
+  const float px = float(kTile * kFactorScale);
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx) {
+      if (!row_shadow[std::size_t(ty) * tw + tx]) continue;
+      const float x0 = tx * px / float(w) * 2 - 1, x1 = std::min(1.0f, (tx + 1) * px / float(w) * 2 - 1);
+      const float y0 = ty * px / float(h) * 2 - 1, y1 = std::min(1.0f, (ty + 1) * px / float(h) * 2 - 1);
+      for (glm::vec2 v : {glm::vec2(x0, y0), glm::vec2(x1, y0), glm::vec2(x1, y1),
+                          glm::vec2(x0, y0), glm::vec2(x1, y1), glm::vec2(x0, y1)})
+        tiles.push_back(v);
+    }
+  if (tiles.empty()) {
+    glBindVertexArray(0);
+    gl::check("shadow catcher");
+    return;
+  }
+  glUseProgram(shadow_apply.id());
+  glUniform2f(shadow_apply.uniform("u_scale"), 1.0f / float(kFactorScale * factor_w),
+              1.0f / float(kFactorScale * factor_h));
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, factor_tex.id);
+  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
+  glViewport(0, 0, w, h);
+  // No depth test: the objects' pixels are darkened too, but the composite pass that follows
+  // overwrites every one of them.
+  glDisable(GL_DEPTH_TEST);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ZERO, GL_SRC_COLOR);  // dst * factor
+  glBindVertexArray(tile_vao);
+  glBindBuffer(GL_ARRAY_BUFFER, tile_vbo);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(tiles.size() * sizeof(glm::vec2)), tiles.data(), GL_STREAM_DRAW);
+  glBindBuffer(GL_ARRAY_BUFFER, 0);
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(tiles.size()));
   glBindVertexArray(0);
   glDisable(GL_BLEND);
-  glDepthMask(GL_TRUE);
-  glDisable(GL_DEPTH_TEST);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, 0);
   gl::check("shadow catcher");
