@@ -159,10 +159,8 @@ struct Renderer::Impl {
   gl::Framebuffer shadow_fbo, factor_fbo;
   int shadow_size = 0, factor_w = 0, factor_h = 0;
   std::vector<float> shadow_key;
-  GLuint tile_vao = 0, tile_vbo = 0;        // the apply pass's screen tiles
-  std::vector<std::uint8_t> factors;        // the low-resolution factors, read back
-  std::vector<glm::vec2> tiles;  // what the shadow map holds (light, casters); empty: nothing
-  Program shadow_depth, shadow_catcher, shadow_apply;
+  std::vector<std::uint8_t> factors;  // the low-resolution factors, read back  // what the shadow map holds (light, casters); empty: nothing
+  Program shadow_depth, shadow_catcher;
   ShCoeffs irradiance_sh;
   std::optional<EnvMap> irradiance_map;
 
@@ -197,17 +195,6 @@ struct Renderer::Impl {
       glUseProgram(shadow_catcher.id());
       glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
-      shadow_apply = Program(shader_dir, "shadow_apply.vert", "shadow_apply.frag");
-      glGenVertexArrays(1, &tile_vao);
-      glGenBuffers(1, &tile_vbo);
-      glBindVertexArray(tile_vao);
-      glBindBuffer(GL_ARRAY_BUFFER, tile_vbo);
-      glEnableVertexAttribArray(0);
-      glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
-      glBindVertexArray(0);
-      glBindBuffer(GL_ARRAY_BUFFER, 0);
-      glUseProgram(shadow_apply.id());
-      glUniform1i(shadow_apply.uniform("u_factor"), 0);
       // The factors at 1/kFactorScale of the output's resolution (shadows are smooth).
       factor_w = (w + kFactorScale - 1) / kFactorScale, factor_h = (h + kFactorScale - 1) / kFactorScale;
       factor_tex.create();
@@ -241,8 +228,10 @@ struct Renderer::Impl {
     gl::check_framebuffer("shadow map (DEPTH_COMPONENT24)");
   }
 
-  // The shadow map and the shadow catcher, into the output (which holds the camera frame).
-  void draw_shadows();
+  // The shadow map and the shadow catcher's factors; when some are below 1, `shadowed` is the
+  // frame with them applied and the result is true.
+  bool draw_shadows(const cv::Mat& frame);
+  cv::Mat shadowed, factor_full;
 
   FrameTimings timings;
   Clock::time_point frame_start = Clock::now();
@@ -407,8 +396,6 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
 
 Renderer::~Renderer() {
   if (p_ && p_->empty_vao) glDeleteVertexArrays(1, &p_->empty_vao);
-  if (p_ && p_->tile_vao) glDeleteVertexArrays(1, &p_->tile_vao);
-  if (p_ && p_->tile_vbo) glDeleteBuffers(1, &p_->tile_vbo);
 }
 
 int Renderer::width() const { return p_->w; }
@@ -583,27 +570,30 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glDisable(GL_CULL_FACE);
   glBindVertexArray(p.empty_vao);
 
+  // Shadows on the floor: the factors at low resolution on the GPU, multiplied into a copy of
+  // the frame where they are below 1 (before the upload; the objects' pixels get darkened too,
+  // but the composite pass overwrites every one of them).
+  p.timings.shadow_ms = 0;
+  const cv::Mat* camera = &frame;
+  if (p.shadow.enabled && !p.casters.empty()) {
+    const auto ts = Clock::now();
+    if (p.draw_shadows(frame)) camera = &p.shadowed;
+    p.timings.shadow_ms = ms_since(ts);
+    glBindVertexArray(p.empty_vao);
+  }
+
   // The camera frame, in place, straight into the output (BGR bytes in an RGB8 texture).
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, p.out_tex.id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  const bool packed = frame.step[0] % 3 == 0;
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, packed ? GLint(frame.step[0] / 3) : 0);
-  const cv::Mat src = packed ? frame : frame.clone();
+  const bool packed = camera->step[0] % 3 == 0;
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, packed ? GLint(camera->step[0] / 3) : 0);
+  const cv::Mat src = packed ? *camera : camera->clone();
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, src.data);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glBindTexture(GL_TEXTURE_2D, 0);
 
-  p.timings.shadow_ms = 0;
-  if (p.shadow.enabled && !p.casters.empty()) {
-    glFinish();
-    const auto ts = Clock::now();
-    p.draw_shadows();
-    glFinish();
-    p.timings.shadow_ms = ms_since(ts);
-    glBindVertexArray(p.empty_vao);
-  }
 
   if (tone.mode == ToneMode::Reinhard) {
     // Log-average luminance of the masked pixels: block sums down to one texel.
@@ -664,13 +654,13 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   p.composited = true;
 }
 
-void Renderer::Impl::draw_shadows() {
+bool Renderer::Impl::draw_shadows(const cv::Mat& frame) {
   // The casters' union bounds (scene frame).
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const Caster& c : casters) lo = glm::min(lo, c.lo), hi = glm::max(hi, c.hi);
-  if (hi.z <= 0.0f) return;  // everything under the floor
+  if (hi.z <= 0.0f) return false;  // everything under the floor
   const glm::vec3 cam = camera_position;
-  if (cam.z <= 0.0f) return;  // seen from under the floor
+  if (cam.z <= 0.0f) return false;  // seen from under the floor
   const float size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-6f});
 
   // Light direction in the scene frame; f.
@@ -788,61 +778,36 @@ void Renderer::Impl::draw_shadows() {
   glBindVertexArray(empty_vao);
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
 
-  // Only screen tiles that hold a factor below 1 (or next to one: bilinear) are drawn at full
-  // resolution: the factors are read back (small) and scanned in kTile x kTile blocks.
+  // The factors are read back (small) and applied on the CPU over their bounding box:
+  // bilinear upsampling (texel centres as GL samples them) and code * factor / 255, exact
+  // where the factor is 255.
   factors.resize(std::size_t(factor_w) * factor_h * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, factor_w, factor_h, GL_RGBA, GL_UNSIGNED_BYTE, factors.data());
-  constexpr int kTile = 8;
-  const int tw = (factor_w + kTile - 1) / kTile, th = (factor_h + kTile - 1) / kTile;
-  std::vector<std::uint8_t> row_shadow(std::size_t(tw) * th, 0);
+  glBindVertexArray(0);
+  gl::check("shadow catcher");
+  int x0 = factor_w, y0 = factor_h, x1 = -1, y1 = -1;
   for (int y = 0; y < factor_h; ++y)
     for (int x = 0; x < factor_w; ++x) {
       const std::uint8_t* f = &factors[(std::size_t(y) * factor_w + x) * 4];
       if ((f[0] & f[1] & f[2]) == 255) continue;
-      // This texel reaches full-res pixels up to one texel around it.
-      for (int ty = std::max(0, (y - 1) / kTile); ty <= std::min(th - 1, (y + 1) / kTile); ++ty)
-        for (int tx = std::max(0, (x - 1) / kTile); tx <= std::min(tw - 1, (x + 1) / kTile); ++tx)
-          row_shadow[std::size_t(ty) * tw + tx] = 1;
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
     }
-  tiles.clear();
-  const float px = float(kTile * kFactorScale);
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx) {
-      if (!row_shadow[std::size_t(ty) * tw + tx]) continue;
-      const float x0 = tx * px / float(w) * 2 - 1, x1 = std::min(1.0f, (tx + 1) * px / float(w) * 2 - 1);
-      const float y0 = ty * px / float(h) * 2 - 1, y1 = std::min(1.0f, (ty + 1) * px / float(h) * 2 - 1);
-      for (glm::vec2 v : {glm::vec2(x0, y0), glm::vec2(x1, y0), glm::vec2(x1, y1),
-                          glm::vec2(x0, y0), glm::vec2(x1, y1), glm::vec2(x0, y1)})
-        tiles.push_back(v);
-    }
-  if (tiles.empty()) {
-    glBindVertexArray(0);
-    gl::check("shadow catcher");
-    return;
-  }
-  glUseProgram(shadow_apply.id());
-  glUniform2f(shadow_apply.uniform("u_scale"), 1.0f / float(kFactorScale * factor_w),
-              1.0f / float(kFactorScale * factor_h));
-  glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, factor_tex.id);
-  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
-  glViewport(0, 0, w, h);
-  // No depth test: the objects' pixels are darkened too, but the composite pass that follows
-  // overwrites every one of them.
-  glDisable(GL_DEPTH_TEST);
-  glEnable(GL_BLEND);
-  glBlendFunc(GL_ZERO, GL_SRC_COLOR);  // dst * factor
-  glBindVertexArray(tile_vao);
-  glBindBuffer(GL_ARRAY_BUFFER, tile_vbo);
-  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(tiles.size() * sizeof(glm::vec2)), tiles.data(), GL_STREAM_DRAW);
-  glBindBuffer(GL_ARRAY_BUFFER, 0);
-  glDrawArrays(GL_TRIANGLES, 0, GLsizei(tiles.size()));
-  glBindVertexArray(0);
-  glDisable(GL_BLEND);
-  glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, 0);
-  gl::check("shadow catcher");
+  if (x1 < 0) return false;
+  // One texel of ones around the box (bilinear reach), then the box in full-resolution pixels.
+  x0 = std::max(0, x0 - 1), y0 = std::max(0, y0 - 1);
+  x1 = std::min(factor_w - 1, x1 + 1), y1 = std::min(factor_h - 1, y1 + 1);
+  const cv::Mat f4(factor_h, factor_w, CV_8UC4, factors.data());
+  cv::Mat f3;
+  cv::cvtColor(f4(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1)), f3, cv::COLOR_BGRA2BGR);
+  const cv::Rect full(x0 * kFactorScale, y0 * kFactorScale, (x1 - x0 + 1) * kFactorScale,
+                      (y1 - y0 + 1) * kFactorScale);
+  cv::resize(f3, factor_full, full.size(), 0, 0, cv::INTER_LINEAR);
+  const cv::Rect clipped = full & cv::Rect(0, 0, w, h);
+  frame.copyTo(shadowed);
+  cv::Mat dst = shadowed(clipped);
+  cv::multiply(dst, factor_full(cv::Rect(0, 0, clipped.width, clipped.height)), dst, 1.0 / 255.0);
+  return true;
 }
 
 void Renderer::present() {
