@@ -8,7 +8,8 @@
 // each approximated by the ellipsoid inscribed in its bounds. The output holds the camera
 // frame's codes, so the radiance ratio becomes a code ratio through the camera response around
 // 18 % grey (exact for a power-law response). This pass writes those code factors at low
-// resolution (B, G, R); shadow_apply.frag multiplies them into the output at full resolution.
+// resolution (B, G, R, cleared to 1); the renderer reads them back and multiplies them into
+// the camera frame (bilinear upsampling) before uploading it.
 precision highp float;
 precision highp sampler2D;
 precision highp sampler2DShadow;
