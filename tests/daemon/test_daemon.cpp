@@ -389,3 +389,42 @@ TEST(Arlightd, AFloodOfFramesIsBoundedNewestFramesWinAndDropsAreCounted) {
   EXPECT_EQ(u.frames_processed + u.frames_dropped, kFrames);
   EXPECT_EQ(c.updates_received(), u.frames_processed);
 }
+
+TEST(Arlightd, AFullDaemonClosesItsIdlestDisconnectedSessionToMakeRoom) {
+  const fs::path dir = test::fresh_temp_dir("daemon_full");
+  DaemonProcess d(dir / "daemon", {"--max-sessions", "2"});
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  const auto one_frame = [&](client::Client& c) {
+    c.send_intrinsics(rec.camera);
+    const auto& f = rec.frames[0];
+    c.send_jpeg_frame(1, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+                      rec.camera.height, recording::read_frame_bytes(rec, 0));
+    ASSERT_TRUE(c.wait_for([&] { return c.last_update().has_value(); }, 20s));
+  };
+  // A: one frame, then goodbye (disconnected, kept in memory until the idle timeout).
+  std::string a_id;
+  {
+    client::Client a;
+    a_id = a.connect("127.0.0.1", d.port(), "arlight-sim", kToken).session_id;
+    one_frame(a);
+    a.bye();
+    a.wait_for([&] { return !a.connected(); }, 5s);
+  }
+  client::Client b, c, e;
+  b.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  // Full (A idle, B connected): C gets A's place, A goes to disk.
+  EXPECT_NO_THROW(c.connect("127.0.0.1", d.port(), "arlight-sim", kToken));
+  // Full with two connected sessions: refused.
+  try {
+    e.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    FAIL() << "a third session while two are connected";
+  } catch (const client::ClientError& err) {
+    EXPECT_EQ(err.code(), "Busy") << err.what();
+  }
+  // A was kept: once there is room again, it resumes with its frame.
+  c.close();
+  client::Client a2;
+  const client::Welcome w = a2.connect("127.0.0.1", d.port(), "arlight-sim", kToken, "t", a_id);
+  EXPECT_TRUE(w.resumed);
+  EXPECT_EQ(w.frames_processed, 1u);
+}

@@ -191,6 +191,27 @@ struct Daemon::Impl {
     return j.dump();
   }
 
+  // With `lock` (on sessions_mutex) held and the server full: makes room by closing the session
+  // that has waited longest without a connection (checkpointed first, so it stays on disk and
+  // can be resumed), as the idle timeout would have. When every session is connected, nothing.
+  void make_room(std::unique_lock<std::mutex>& lock) {
+    if (int(sessions.size()) < config.max_sessions) return;
+    std::shared_ptr<Session> idlest;
+    for (const auto& [id, s] : sessions)
+      if (!s->attached() && (!idlest || s->last_activity() < idlest->last_activity())) idlest = s;
+    if (!idlest) return;
+    sessions.erase(idlest->id());
+    lock.unlock();
+    try {
+      idlest->checkpoint();
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint of session {} failed: {}", idlest->id(), e.what());
+    }
+    idlest->shutdown();
+    spdlog::info("session {} closed to make room (kept on disk)", idlest->id());
+    lock.lock();
+  }
+
   std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
                                         std::string& why) {
     const std::string device = h.device_id() ? h.device_id()->str() : "";
@@ -201,7 +222,7 @@ struct Daemon::Impl {
       return nullptr;
     }
     const std::string resume = h.resume_session() ? h.resume_session()->str() : "";
-    std::lock_guard lock(sessions_mutex);
+    std::unique_lock lock(sessions_mutex);
     if (!resume.empty()) {
       if (!valid_session_id(resume)) {
         code = wire::ErrorCode::BadMessage;
@@ -212,6 +233,13 @@ struct Daemon::Impl {
       if (const auto it = sessions.find(resume); it != sessions.end()) {
         s = it->second;
       } else {
+        make_room(lock);
+        if (int(sessions.size()) >= config.max_sessions) {
+          code = wire::ErrorCode::Busy;
+          why = "the server carries its maximum of " + std::to_string(config.max_sessions) +
+                " sessions";
+          return nullptr;
+        }
         try {
           s = Session::load(resume, session_env);
         } catch (const InputError& e) {
@@ -229,6 +257,7 @@ struct Daemon::Impl {
       sessions_gauge.set(double(sessions.size()));
       return s;
     }
+    make_room(lock);
     if (int(sessions.size()) >= config.max_sessions) {
       code = wire::ErrorCode::Busy;
       why =
