@@ -376,6 +376,22 @@ void sh_accumulate(ShCoeffs& coeffs, std::span<const glm::dvec3> dirs,
     for (int c = 0; c < 3; ++c) coeffs.c[k][c] += acc[3 * k + c];
 }
 
+DominantLight sh_dominant_light(const ShCoeffs& coeffs) {
+  DominantLight light;
+  if (coeffs.order < 2) return light;
+  const auto band1 = [&](int c) {  // (x, y, z) components: Y_1^1 ~ x, Y_1^-1 ~ y, Y_1^0 ~ z
+    return glm::dvec3(coeffs.at(1, 1)[c], coeffs.at(1, -1)[c], coeffs.at(1, 0)[c]);
+  };
+  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
+  const double n = glm::length(lum);
+  if (!(n > 1e-12)) return light;
+  const glm::dvec3 d = lum / n;
+  light.direction = glm::vec3(d);
+  const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));  // |Y_1m| for a unit direction
+  for (int c = 0; c < 3; ++c) light.colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
+  return light;
+}
+
 glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir) {
   std::vector<double> y(std::size_t(sh_count(coeffs.order)));
   sh_basis_all(coeffs.order, dir, y);

@@ -237,6 +237,31 @@ TEST(ShProject, ClampedCosineMatchesFunkHecke) {
   EXPECT_NEAR(c.at(0, 0).x, std::sqrt(kPi) / 2, 1e-4);
 }
 
+TEST(ShDominantLight, FindsASmallBrightSourceOverASkyAndItsIrradiance) {
+  // A uniform sky of 0.2 plus a disc of radiance (50, 40, 30) and 5 degrees radius at d: the
+  // dominant light points at d and its colour is the disc's irradiance at normal incidence,
+  // L * 2 pi (1 - cos 5 deg) (the sky has no linear band).
+  const glm::dvec3 d = glm::normalize(glm::dvec3(0.4, 0.7, -0.3));
+  const double cos_r = std::cos(5.0 * kPi / 180);
+  const glm::vec3 radiance(50, 40, 30);
+  const EnvMap env =
+      test::env_from_function(EnvLayout::for_size(Projection::LatLong, 1024), [&](glm::dvec3 w) {
+        return glm::vec3(0.2f) + (glm::dot(w, d) > cos_r ? radiance : glm::vec3(0.0f));
+      });
+  const DominantLight light = sh_dominant_light(sh_project(env, 3));
+  EXPECT_LT(std::acos(std::min(1.0, glm::dot(glm::dvec3(light.direction), d))) * 180 / kPi, 0.5);
+  // The disc's cosine-weighted solid angle is within 0.2 % of its solid angle at 5 degrees.
+  const double omega = 2 * kPi * (1 - cos_r);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(light.colour[c], radiance[c] * omega, 0.01 * radiance[c] * omega) << c;
+  // A constant environment has no dominant light.
+  const DominantLight none = sh_dominant_light(
+      sh_project(test::env_from_function(EnvLayout::for_size(Projection::LatLong, 128),
+                                         [](glm::dvec3) { return glm::vec3(1.0f); }),
+                 3));
+  EXPECT_LT(glm::length(none.colour), 1e-3f);
+}
+
 TEST(ShProject, IndependentOfTheThreadCount) {
   const EnvMap env =
       test::env_from_function(EnvLayout::for_size(Projection::AngleMap, 96), [](glm::dvec3 d) {

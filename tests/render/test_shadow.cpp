@@ -62,17 +62,6 @@ ShCoeffs sky_and_sun(double sky, glm::dvec3 l, double e) {
   return sh;
 }
 
-// The dominant light as arlightd computes it (server/daemon/src/session.cpp: bands 0-1).
-void dominant_light(const ShCoeffs& sh, glm::vec3& direction, glm::vec3& colour) {
-  const auto band1 = [&](int c) { return glm::dvec3(sh.at(1, 1)[c], sh.at(1, -1)[c], sh.at(1, 0)[c]); };
-  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
-  const double n = glm::length(lum);
-  const glm::dvec3 d = n > 1e-12 ? lum / n : glm::dvec3(0, 1, 0);
-  direction = glm::vec3(d);
-  const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));
-  for (int c = 0; c < 3; ++c) colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
-}
-
 double srgb_decode(double v) {
   v /= 255.0;
   return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
@@ -84,7 +73,8 @@ double darkening(const cv::Mat& out, const cv::Mat& frame, int x, int y) {
 }
 
 void maybe_write(const char* name, const cv::Mat& img) {
-  if (const char* dir = std::getenv("ARLIGHT_SHADOW_PNG")) cv::imwrite(std::string(dir) + "/" + name, img);
+  if (const char* dir = std::getenv("ARLIGHT_SHADOW_PNG"))
+    cv::imwrite(std::string(dir) + "/" + name, img);
 }
 
 // (a) A sphere above the floor, one strong light: the darkest floor pixels are around where
@@ -135,21 +125,24 @@ TEST(Shadow, DirectionalShadowFallsAlongTheLight) {
       EXPECT_LE(d, f + 0.03) << "at " << x << "," << y;
       const auto p = v.floor_point(x, y);
       if (!p || (glm::length(glm::dvec2(*p)) > 2.0 && glm::length(glm::dvec2(*p - hit)) > 2.0)) {
-        ASSERT_EQ(out.at<cv::Vec3b>(y, x), frame.at<cv::Vec3b>(y, x)) << "far pixel " << x << "," << y;
+        ASSERT_EQ(out.at<cv::Vec3b>(y, x), frame.at<cv::Vec3b>(y, x))
+            << "far pixel " << x << "," << y;
         far_checked += 1;
       }
     }
   ASSERT_GT(n, 0);
   const glm::dvec2 darkest = sum / n;
-  std::printf("[shadow] f = %.3f, max darkening %.3f over %.0f px, centroid (%.1f, %.1f), "
-              "expected (%.1f, %.1f); %.0f far pixels unchanged\n",
-              f, max_d, n, darkest.x, darkest.y, expected.x, expected.y, far_checked);
+  std::printf(
+      "[shadow] f = %.3f, max darkening %.3f over %.0f px, centroid (%.1f, %.1f), "
+      "expected (%.1f, %.1f); %.0f far pixels unchanged\n",
+      f, max_d, n, darkest.x, darkest.y, expected.x, expected.y, far_checked);
   EXPECT_LT(glm::length(darkest - expected), 3.0);
   EXPECT_GT(max_d, f - 0.1);  // the umbra takes the light's share away
   EXPECT_GT(far_checked, W * H / 3);
   // Directly under the sphere, off the shadow, the floor is much lighter than in the umbra.
   const glm::dvec2 under = v.project({0, 0, 0});
-  EXPECT_LT(darkening(out, frame, int(std::lround(under.x)), int(std::lround(under.y))), 0.5 * max_d);
+  EXPECT_LT(darkening(out, frame, int(std::lround(under.x)), int(std::lround(under.y))),
+            0.5 * max_d);
 }
 
 // (b) A constant environment: no dominant light (its bands 0-1 vanish), no directional shadow,
@@ -161,7 +154,9 @@ TEST(Shadow, ContactShadowUnderConstantLight) {
   ShadowSettings s;
   s.enabled = true;
   const ShCoeffs sh = sh_project(constant_env(Projection::LatLong, 32, glm::vec3(0.5f)), 3);
-  dominant_light(sh, s.light_direction, s.light_colour);
+  const DominantLight light = sh_dominant_light(sh);  // as arlightd sends it
+  s.light_direction = light.direction;
+  s.light_colour = light.colour;
   r.set_shadow(s);
   View v;
   v.camera_from_scene = look({0.0, -4.0, 3.0}, {0, 0, 0.3});
@@ -191,8 +186,10 @@ TEST(Shadow, ContactShadowUnderConstantLight) {
       prev = d;
       ds.push_back(d);
     }
-    std::printf("[shadow] contact darkening along (%.0f, %.0f): %.3f at 0, %.3f at 0.5, %.3f at 1, %.3f at 1.8\n",
-                dir.x, dir.y, ds[0], ds[5], ds[10], ds.back());
+    std::printf(
+        "[shadow] contact darkening along (%.0f, %.0f): %.3f at 0, %.3f at 0.5, %.3f at 1, %.3f at "
+        "1.8\n",
+        dir.x, dir.y, ds[0], ds[5], ds[10], ds.back());
     // Cosine-weighted occlusion right under a sphere of radius 0.5 at height 1: (r/h)^2 = 0.25.
     EXPECT_NEAR(ds[0], 0.25, 0.04);
     EXPECT_GT(ds[0], ds[10] + 0.1);
@@ -209,7 +206,8 @@ TEST(Shadow, DisabledIsByteIdenticalAndMaskUnchanged) {
   const cv::Mat frame = noise_frame(W, H);
   View v;
   v.camera_from_scene = look({1.0, -3.5, 2.5}, {0, 0, 0.4});
-  auto render = [&](int shadow_mode, ToneMode mode, cv::Mat& out, float& log_avg, HdrReadback& hdr) {
+  auto render = [&](int shadow_mode, ToneMode mode, cv::Mat& out, float& log_avg,
+                    HdrReadback& hdr) {
     Renderer r(W, H);
     r.set_sh(sky_and_sun(0.1, l_world, 2.0));
     r.set_camera(v.k, v.camera_from_scene);
@@ -274,7 +272,8 @@ TEST(Shadow, CostAt1280x720) {
   const float s = 0.15f / std::max(mesh.bounds.size().y, 1e-6f);
   glm::mat4 model = glm::rotate(glm::mat4(1.0f), glm::radians(90.0f), glm::vec3(1, 0, 0));
   model = glm::scale(model, glm::vec3(s));
-  model = glm::translate(model, -glm::vec3(mesh.bounds.centre().x, mesh.bounds.min.y, mesh.bounds.centre().z));
+  model = glm::translate(
+      model, -glm::vec3(mesh.bounds.centre().x, mesh.bounds.min.y, mesh.bounds.centre().z));
   Material m;
   m.kd = glm::vec3(0.6f, 0.5f, 0.4f);
   const cv::Mat frame = noise_frame(BW, BH);
@@ -297,8 +296,10 @@ TEST(Shadow, CostAt1280x720) {
     }
   }
   maybe_write("shadow_bunny.png", out);
-  std::printf("[timing] %s, bunny, %dx%d: frame %.2f ms without shadow, %.2f ms with; shadow pass "
-              "%.2f ms\n", ctx.renderer().c_str(), BW, BH, without, with, shadow);
+  std::printf(
+      "[timing] %s, bunny, %dx%d: frame %.2f ms without shadow, %.2f ms with; shadow pass "
+      "%.2f ms\n",
+      ctx.renderer().c_str(), BW, BH, without, with, shadow);
   RecordProperty("shadow_ms", std::to_string(shadow));
   EXPECT_GT(shadow, 0.0);
 }

@@ -50,6 +50,16 @@ void sh_accumulate(ShCoeffs& coeffs, std::span<const glm::dvec3> dirs,
 // sum_lm c_lm Y_lm(dir)
 glm::dvec3 sh_evaluate(const ShCoeffs& coeffs, glm::dvec3 dir);
 
+// The single distant light that best explains bands 0-1 of `coeffs` (radiance SH): `direction`
+// (unit, towards the light) is that of the luminance-weighted linear band, `colour` its
+// intensity per channel by least squares (irradiance at normal incidence). An environment
+// without a linear band (e.g. constant) gives colour 0 and direction +Y.
+struct DominantLight {
+  glm::vec3 direction{0.0f, 1.0f, 0.0f};
+  glm::vec3 colour{0.0f};
+};
+DominantLight sh_dominant_light(const ShCoeffs& coeffs);
+
 // Evaluates the expansion at every valid texel of `layout` (others stay 0). All cores.
 Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout);
 

@@ -65,20 +65,6 @@ CameraResponse device_response(const SessionEnv& env, const std::string& device)
   return CameraResponse::srgb();
 }
 
-// The direction and radiance of a single light that best explains bands 0-1 of the SH: the
-// direction of the luminance-weighted linear band, its intensity per channel by least squares.
-void dominant_light(const ShCoeffs& sh, glm::vec3& direction, glm::vec3& colour) {
-  const auto band1 = [&](int c) {  // (x, y, z) components: Y_1^1 ~ x, Y_1^-1 ~ y, Y_1^0 ~ z
-    return glm::dvec3(sh.at(1, 1)[c], sh.at(1, -1)[c], sh.at(1, 0)[c]);
-  };
-  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
-  const double n = glm::length(lum);
-  const glm::dvec3 d = n > 0 ? lum / n : glm::dvec3(0, 1, 0);
-  direction = glm::vec3(d);
-  const double y1 = std::sqrt(3.0 / (4.0 * std::numbers::pi));  // |Y_1m| for a unit direction
-  for (int c = 0; c < 3; ++c) colour[c] = float(std::max(0.0, glm::dot(band1(c), d) / y1));
-}
-
 }  // namespace
 
 Session::Session(std::string id, std::string device_id, const SessionEnv& env)
@@ -222,8 +208,8 @@ std::vector<std::uint8_t> Session::lighting_update(const capture::FrameResult& r
   std::vector<float> flat;
   flat.reserve(sh.c.size() * 3);
   for (const glm::dvec3& c : sh.c) flat.insert(flat.end(), {float(c.x), float(c.y), float(c.z)});
-  glm::vec3 dir, colour;
-  dominant_light(sh, dir, colour);
+  const DominantLight light = sh_dominant_light(sh);
+  const glm::vec3 dir = light.direction, colour = light.colour;
   flatbuffers::FlatBufferBuilder b(1024 + flat.size() * 4);
   const wire::Vec3 d(dir.x, dir.y, dir.z), c(colour.x, colour.y, colour.z);
   const auto m = wire::CreateLightingUpdate(b, seq, r.used, b.CreateString(r.skipped_reason),
