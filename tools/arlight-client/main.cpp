@@ -76,36 +76,6 @@ render::ToneMode parse_tone(const std::string& name) {
   throw InputError("--tone: '" + name + "' is not camera, reinhard or linear");
 }
 
-// The virtual object and where it stands: on the marker, its base on the marker plane (the
-// marker's z is up), `height` metres tall. glTF models are +Y up; the marker frame is +Z up.
-struct SceneObject {
-  render::Mesh mesh;
-  glm::mat4 model{1.0f};
-};
-
-SceneObject make_object(const std::string& model, double height) {
-  SceneObject o;
-  o.mesh = model == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(model);
-  if (o.mesh.positions.empty()) throw InputError(model + ": no triangles");
-  const render::Bounds b = o.mesh.bounds;
-  const float extent = std::max(b.size().y, 1e-6f);
-  const float s = float(height) / extent;
-  glm::mat4 m(1.0f);
-  m = glm::rotate(m, glm::radians(90.0f), glm::vec3(1, 0, 0));  // model +Y -> marker +Z
-  m = glm::scale(m, glm::vec3(s));
-  m = glm::translate(m, glm::vec3(-b.centre().x, -b.min.y, -b.centre().z));
-  o.model = m;
-  return o;
-}
-
-// The camera -> scene (marker) pose as the renderer's camera_from_scene matrix.
-glm::dmat4 camera_from_scene(const track::Pose& marker_from_camera) {
-  const track::Pose inv = track::inverse(marker_from_camera);
-  glm::dmat4 m = glm::mat4_cast(inv.orientation);
-  m[3] = glm::dvec4(inv.position, 1.0);
-  return m;
-}
-
 // A few frames side by side: what the demo shows at a glance.
 void write_contact_sheet(const std::vector<cv::Mat>& frames, const fs::path& path) {
   if (frames.empty()) return;
@@ -217,14 +187,18 @@ int main(int argc, char** argv) {
     spdlog::info("GL: {} ({})", gl.renderer(), gl.version());
     render::Renderer renderer(camera.width, camera.height);
     renderer.set_response(load_response(response_name));
-    SceneObject object = make_object(model, object_height);
+    // The virtual object, standing on the marker.
+    const render::Mesh mesh =
+        model == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(model);
+    if (mesh.positions.empty()) throw InputError(model + ": no triangles");
+    const glm::mat4 model_matrix = render::standing_on_marker(mesh.bounds, float(object_height));
     render::Material material;
     material.kd = glm::vec3(float(mat[0]));
     material.ks = glm::vec3(float(mat[1]));
     material.shininess = float(mat[2]);
     if (!normal_map.empty()) material.normal_map = render::load_texture(normal_map, false);
     if (!light_map.empty()) material.light_map = render::load_texture(light_map, false);
-    const render::GpuMesh gpu_mesh(object.mesh);
+    const render::GpuMesh gpu_mesh(mesh);
 
     // ---- tracking and orientation ----
     track::MarkerTracker tracker(camera, marker);
@@ -314,14 +288,14 @@ int main(int argc, char** argv) {
       const bool draw = pose_fresh && world_from_scene &&
                         renderer.lighting_source() != render::LightingSource::None;
       if (draw) {
-        renderer.set_camera(camera, camera_from_scene(*last_pose));
+        renderer.set_camera(camera, track::view_matrix(*last_pose));
         renderer.set_world_from_scene(*world_from_scene);
         render::ShadowSettings shadow;  // the dominant light is in the world frame
         shadow.enabled = shadow_mode == "on";
         shadow.light_direction = lighting.dominant_direction;
         shadow.light_colour = lighting.dominant_colour;
         renderer.set_shadow(shadow);
-        renderer.draw(gpu_mesh, material, object.model);
+        renderer.draw(gpu_mesh, material, model_matrix);
         ++(renderer.lighting_source() == render::LightingSource::Maps ? lit_by_maps : lit_by_sh);
       }
       tone.exposure = f->exposure > 0 ? f->exposure : 1.0 / 30;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 #include <numbers>
 #include <stdexcept>
 
@@ -73,6 +74,13 @@ void compute_tangents(Mesh& mesh) {
     const float w = glm::dot(glm::cross(n, t), -dv[k]) < 0.0f ? -1.0f : 1.0f;
     mesh.tangents[k] = glm::vec4(t, w);
   }
+}
+
+glm::mat4 standing_on_marker(const Bounds& b, float height) {
+  const float s = height / std::max(b.size().y, 1e-6f);
+  glm::mat4 m = glm::rotate(glm::mat4(1.0f), glm::radians(90.0f), glm::vec3(1, 0, 0));
+  m = glm::scale(m, glm::vec3(s));
+  return glm::translate(m, glm::vec3(-b.centre().x, -b.min.y, -b.centre().z));
 }
 
 Mesh make_sphere(float radius, int rings, int segments) {

@@ -54,6 +54,13 @@ glm::dquat nearest_rotation(const glm::dmat3& m) {
   return glm::normalize(glm::quat_cast(g));
 }
 
+glm::dmat4 view_matrix(const Pose& camera_in_scene) {
+  const Pose inv = inverse(camera_in_scene);
+  glm::dmat4 m = glm::mat4_cast(inv.orientation);
+  m[3] = glm::dvec4(inv.position, 1.0);
+  return m;
+}
+
 glm::dmat3 flip_camera_axes(const glm::dmat3& r) {
   // F R F with F = diag(1, -1, -1): negate the entries where exactly one of row and column is
   // y or z.

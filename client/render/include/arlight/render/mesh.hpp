@@ -55,4 +55,9 @@ Mesh make_sphere(float radius, int rings, int segments);
 // Draco decode failure, ...) throws arlight::InputError naming the file and what is wrong.
 Mesh load_gltf(const std::filesystem::path& path);
 
+// The model matrix that stands a +Y-up model (glTF's convention) on a tracked marker, whose
+// frame has +Z out of the floor (OpenCV aruco): rotated +Y -> +Z, scaled to `height` metres,
+// the bottom of its bounds on the marker plane, centred on the marker.
+glm::mat4 standing_on_marker(const Bounds& bounds, float height);
+
 }  // namespace arlight::render

@@ -35,4 +35,8 @@ Pose pose_from_opencv(const glm::dvec3& rvec, const glm::dvec3& tvec);
 // coordinates; the map is its own inverse.
 glm::dmat3 flip_camera_axes(const glm::dmat3& r);
 
+// The renderer's view matrix (scene -> camera coordinates) of a camera whose pose in the scene
+// (marker) frame is `camera_in_scene`: the inverse pose as a 4x4 matrix.
+glm::dmat4 view_matrix(const Pose& camera_in_scene);
+
 }  // namespace arlight::track
