@@ -81,7 +81,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow) {
     const auto t0 = std::chrono::steady_clock::now();
     const track::TrackResult tr = tracker.track(f.bgr, f.timestamp);
     if (tr.tracked && f.orientation)
-      world_from_marker.add(f.timestamp, *f.orientation, tr.smoothed.orientation);
+      world_from_marker.add(f.timestamp, *f.orientation, tr.raw.orientation);
     const double t_track =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     renderer.begin_frame();

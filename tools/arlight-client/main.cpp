@@ -249,7 +249,7 @@ int main(int argc, char** argv) {
       std::optional<glm::dquat> world_from_scene;
       if (world_from_camera) {  // a phone: IMU orientation; the marker's rotation estimated
         if (tr.tracked)
-          world_from_marker.add(f->timestamp, *world_from_camera, tr.smoothed.orientation);
+          world_from_marker.add(f->timestamp, *world_from_camera, tr.raw.orientation);
         world_from_scene = world_from_marker.world_from_marker();
       } else {  // a webcam: the world is defined by the marker, the visual gyro in between
         const track::OrientationEstimate est = webcam_orientation.update(f->bgr, f->timestamp, &tr);
