@@ -49,6 +49,41 @@ inline RayHit ray_sphere(const PinholeCamera& cam, int x, int y, glm::dvec3 cent
   return {dist, (along - std::sqrt(r * r - dist * dist)) * d};
 }
 
+// A unit sphere 4 m in front of a 160x120 camera with a 40-degree field, lit by whatever the
+// test sets on `r`; the scene frame is the camera's rotated frame (camera_on_z).
+struct SphereScene {
+  static constexpr int W = 160, H = 120;
+  static constexpr double kDist = 4.0, kRadius = 1.0;
+
+  explicit SphereScene(int rings = 48, int segments = 96)
+      : sphere(make_sphere(float(kRadius), rings, segments)) {
+    r.set_camera(k, camera_on_z(kDist));
+  }
+  GlContext& ctx = context();  // first: everything below needs it current
+  Renderer r{W, H};
+  CameraIntrinsics k = CameraIntrinsics::from_fov(W, H, 40.0);
+  PinholeCamera cam{k};
+  GpuMesh sphere;
+  const glm::dvec3 centre{0, 0, -kDist};
+
+  HdrReadback render(const Material& m) {
+    r.begin_frame();
+    r.draw(sphere, m, glm::mat4(1.0f));
+    return r.read_hdr();
+  }
+  // Pixels well inside (1) / outside (0) the analytic silhouette; -1 near the edge.
+  int inside(int x, int y) const {
+    const double d = ray_sphere(cam, x, y, centre, kRadius).distance_to_centre;
+    return d < kRadius - 0.02 ? 1 : d > kRadius + 0.02 ? 0 : -1;
+  }
+  // Analytic hit point on the sphere in scene coordinates (camera = scene rotation here).
+  std::optional<glm::dvec3> hit(int x, int y) const {
+    const RayHit h = ray_sphere(cam, x, y, centre, kRadius);
+    if (!h.point) return std::nullopt;
+    return *h.point - centre;
+  }
+};
+
 inline glm::vec3 bgr_at(const cv::Mat& m, int x, int y) {
   const auto& p = m.at<cv::Vec3b>(y, x);
   return {float(p[2]), float(p[1]), float(p[0])};  // as RGB

@@ -9,31 +9,8 @@ namespace {
 
 using namespace testing;
 
-constexpr int W = 160, H = 120;
-constexpr double kDist = 4.0, kRadius = 1.0;
-
-struct SphereScene {
-  SphereScene() : r(W, H), k(CameraIntrinsics::from_fov(W, H, 40.0)), cam(k) {
-    r.set_camera(k, camera_on_z(kDist));
-  }
-  GlContext& ctx = context();  // first: everything below needs it current
-  Renderer r;
-  CameraIntrinsics k;
-  PinholeCamera cam;
-  GpuMesh sphere{make_sphere(float(kRadius), 48, 96)};
-  const glm::dvec3 centre{0, 0, -kDist};
-
-  HdrReadback render(const Material& m) {
-    r.begin_frame();
-    r.draw(sphere, m, glm::mat4(1.0f));
-    return r.read_hdr();
-  }
-  // Pixels well inside (1) / outside (0) the analytic silhouette; -1 near the edge.
-  int inside(int x, int y) const {
-    const double d = ray_sphere(cam, x, y, centre, kRadius).distance_to_centre;
-    return d < kRadius - 0.02 ? 1 : d > kRadius + 0.02 ? 0 : -1;
-  }
-};
+constexpr int W = SphereScene::W, H = SphereScene::H;
+constexpr double kDist = SphereScene::kDist, kRadius = SphereScene::kRadius;
 
 // Tolerance of a half-float value.
 double half_tol(double v) { return std::abs(v) * 1e-3 + 1e-6; }
@@ -122,7 +99,8 @@ TEST(ShLighting, LinearEnvironmentGivesTheCosineConvolution) {
     for (int x = 0; x < layout.width(); ++x)
       env.image.set(x, y, glm::vec3(a + b * glm::dot(g, layout.texel_dir(x, y))));
   s.r.set_sh(sh_project(env, 4));
-  const glm::dquat world_from_scene = glm::angleAxis(0.7, glm::normalize(glm::dvec3(0.2, 1.0, 0.3)));
+  const glm::dquat world_from_scene =
+      glm::angleAxis(0.7, glm::normalize(glm::dvec3(0.2, 1.0, 0.3)));
   s.r.set_world_from_scene(world_from_scene);
   Material m;
   m.kd = glm::vec3(1.0f);
@@ -135,7 +113,8 @@ TEST(ShLighting, LinearEnvironmentGivesTheCosineConvolution) {
       const glm::dvec3 n_scene = glm::normalize(p - s.centre);  // camera = scene rotation here
       const glm::dvec3 n_world = world_from_scene * n_scene;
       const glm::dvec3 want = a + (2.0 / 3.0) * b * glm::dot(g, n_world);
-      for (int ch = 0; ch < 3; ++ch) ASSERT_NEAR(hdr.radiance.at(x, y)[ch], want[ch], 0.01) << x << "," << y;
+      for (int ch = 0; ch < 3; ++ch)
+        ASSERT_NEAR(hdr.radiance.at(x, y)[ch], want[ch], 0.01) << x << "," << y;
       ++checked;
     }
   EXPECT_GT(checked, 500);

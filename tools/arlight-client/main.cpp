@@ -13,10 +13,10 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
+#include "arlight/number_list.hpp"
 #include "arlight/render.hpp"
 #include "arlight/source.hpp"
 #include "arlight/track.hpp"
@@ -33,21 +33,6 @@ namespace {
 
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-std::vector<double> parse_numbers(const std::string& text, const std::string& flag) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    try {
-      std::size_t used = 0;
-      out.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw InputError(flag + ": '" + item + "' is not a number");
-    }
-  }
-  return out;
 }
 
 double median(std::vector<double> v) {
@@ -158,17 +143,16 @@ int main(int argc, char** argv) {
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
     tls.enabled = tls.enabled || !tls.ca_file.empty();
-    const std::vector<double> mat = parse_numbers(material_text, "--material");
+    const std::vector<double> mat = parse_number_list(material_text, "--material");
     if (mat.size() != 3 || mat[0] < 0 || mat[1] < 0 || !(mat[2] >= 1))
       throw InputError("--material: kd,ks,s with kd, ks >= 0 and s >= 1");
-    const std::vector<double> mk = parse_numbers(marker_text, "--marker");
+    const std::vector<double> mk = parse_number_list(marker_text, "--marker");
     if (mk.size() != 2 || !(mk[1] > 0) || mk[0] < 0 || mk[0] != std::floor(mk[0]))
       throw InputError("--marker: ID,SIZE_M with an integer ID and a size > 0");
     const track::MarkerSpec marker{"DICT_4X4_50", int(mk[0]), mk[1]};
     if (object_height <= 0) object_height = 1.5 * marker.size_m;
     const render::ToneMode tone_mode = parse_tone(tone_name);
-    const std::vector<double> shininess =
-        maps_text.empty() ? std::vector<double>{} : parse_numbers(maps_text, "--maps");
+    const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
 
     source::SourceOptions so;
     so.realtime = realtime;
@@ -248,8 +232,7 @@ int main(int argc, char** argv) {
       std::optional<glm::dquat> world_from_camera = f->orientation;
       std::optional<glm::dquat> world_from_scene;
       if (world_from_camera) {  // a phone: IMU orientation; the marker's rotation estimated
-        if (tr.tracked)
-          world_from_marker.add(f->timestamp, *world_from_camera, tr.raw.orientation);
+        if (tr.tracked) world_from_marker.add(f->timestamp, *world_from_camera, tr.raw.orientation);
         world_from_scene = world_from_marker.world_from_marker();
       } else {  // a webcam: the world is defined by the marker, the visual gyro in between
         const track::OrientationEstimate est = webcam_orientation.update(f->bgr, f->timestamp, &tr);

@@ -3,7 +3,6 @@
 #include <openssl/evp.h>
 #include <unistd.h>
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +13,7 @@
 #include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
+#include "arlight/number_list.hpp"
 #include "arlight/resample.hpp"
 
 namespace arlight::maps {
@@ -21,19 +21,14 @@ namespace arlight::maps {
 namespace fs = std::filesystem;
 
 std::vector<double> parse_shininess(const std::string& list) {
-  std::vector<double> out;
-  std::stringstream in(list);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    double s = 0.0;
-    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), s);
-    if (item.empty() || ec != std::errc() || end != item.data() + item.size())
-      throw InputError("--shininess '" + list + "': '" + item + "' is not a number");
-    if (!(s >= 1.0) || !std::isfinite(s))
-      throw InputError("--shininess '" + list + "': " + item +
+  const std::vector<double> out = parse_number_list(list, "--shininess '" + list + "'");
+  for (double s : out)
+    if (!(s >= 1.0)) {
+      std::ostringstream text;
+      text << s;
+      throw InputError("--shininess '" + list + "': " + text.str() +
                        " is below 1 (1 is the irradiance map, > 1 a Phong lobe cos^s)");
-    out.push_back(s);
-  }
+    }
   if (out.empty()) throw InputError("--shininess: empty list");
   return out;
 }

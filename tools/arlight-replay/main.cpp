@@ -11,6 +11,7 @@
 #include "arlight/client_net.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
+#include "arlight/number_list.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/wire.hpp"
 
@@ -18,22 +19,7 @@ namespace fs = std::filesystem;
 using namespace arlight;
 using Clock = std::chrono::steady_clock;
 
-namespace {
-
-std::vector<double> parse_list(const std::string& text) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    try {
-      out.push_back(std::stod(item));
-    } catch (const std::exception&) {
-      throw InputError("--maps: '" + item + "' is not a number");
-    }
-  }
-  return out;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"arlight-replay: stream a recording to arlightd and save what it sends back"};
@@ -70,7 +56,7 @@ int main(int argc, char** argv) {
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
     const recording::Recording rec = recording::read_recording(recording_dir);
-    const std::vector<double> shininess = maps.empty() ? std::vector<double>{} : parse_list(maps);
+    const std::vector<double> shininess = parse_number_list(maps, "--maps");
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
 
     client::Client c;
