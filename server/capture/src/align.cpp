@@ -5,7 +5,7 @@
 #include <glm/geometric.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/hal.hpp>
-#include <opencv2/features2d.hpp>
+#include <opencv2/video/tracking.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
@@ -53,13 +53,23 @@ RotationFit robust_rotation(std::span<const glm::dvec3> a, std::span<const glm::
   std::uniform_int_distribution<std::size_t> pick(0, a.size() - 1);
   glm::dmat3 best(1.0);
   int best_count = -1;
-  for (int iter = 0; iter < 200; ++iter) {
+  // Stops once a two-pair sample free of outliers has been drawn with 99.9 % probability at
+  // the best inlier ratio so far (at least 20 samples, at most 200).
+  int needed = 200;
+  for (int iter = 0; iter < needed; ++iter) {
     const std::size_t i = pick(rng), j = pick(rng);
     if (i == j || std::abs(glm::dot(a[i], a[j])) > 0.99999) continue;
     const glm::dvec3 sa[2] = {a[i], a[j]}, sb[2] = {b[i], b[j]};
     const glm::dmat3 c = fit_rotation(sa, sb);
     const int count = inliers_of(c, nullptr);
-    if (count > best_count) best_count = count, best = c;
+    if (count > best_count) {
+      best_count = count, best = c;
+      const double clean = std::pow(double(count) / double(a.size()), 2.0);
+      if (clean >= 1.0)
+        needed = 20;
+      else if (clean > 0.0)
+        needed = std::clamp(int(std::ceil(std::log(1e-3) / std::log(1.0 - clean))), 20, 200);
+    }
   }
   std::vector<std::size_t> idx;
   inliers_of(best, &idx);
@@ -83,55 +93,49 @@ RotationFit robust_rotation(std::span<const glm::dvec3> a, std::span<const glm::
 RotationFit align_to_rendered(const cv::Mat& frame, const cv::Mat& rendered,
                               const cv::Mat& rendered_mask, const PinholeCamera& camera,
                               int min_inliers, double search_radius_px) {
-  // ORB with a patch that suits ~320x240 views; features are only taken from the part of the
-  // rendering that has data, eroded so the edge of the captured region (a strong artificial
-  // edge) yields no features.
-  static thread_local cv::Ptr<cv::ORB> orb =
-      cv::ORB::create(500, 1.2f, 4, 19, 0, 2, cv::ORB::HARRIS_SCORE, 19, 5);
   // Local contrast equalisation (CLAHE) on both images, the same way, so that faint texture
-  // (clouds, walls) gives corners too.
+  // (clouds, walls) gives corners too and the two look alike to the flow.
   static thread_local cv::Ptr<cv::CLAHE> clahe = cv::createCLAHE(4.0, cv::Size(4, 4));
   cv::Mat frame_eq, rendered_eq;
   clahe->apply(frame, frame_eq);
   clahe->apply(rendered, rendered_eq);
+  // Corners only where the rendering has data, away from the edge of the captured region (a
+  // strong artificial edge).
   cv::Mat mask;
   cv::erode(rendered_mask, mask, cv::getStructuringElement(cv::MORPH_RECT, {15, 15}));
-  std::vector<cv::KeyPoint> kf, kr;
-  cv::Mat df, dr;
-  orb->detectAndCompute(rendered_eq, mask, kr, dr);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(rendered_eq, corners, 200, 0.005, 5.0, mask, 3);
   RotationFit none;
-  if (kr.size() < std::size_t(min_inliers)) {
-    none.why = std::to_string(kr.size()) + " features in the captured part of the view";
+  if (corners.size() < std::size_t(min_inliers)) {
+    none.why = std::to_string(corners.size()) + " corners in the captured part of the view";
     return none;
   }
-  orb->detectAndCompute(frame_eq, cv::noArray(), kf, df);
-  if (kf.size() < std::size_t(min_inliers)) {
-    none.why = std::to_string(kf.size()) + " features in the frame";
-    return none;
-  }
-  // The rendering is at the predicted orientation, so a feature's match lies within the
-  // largest correction we accept of where it is in the frame: matching only there (best
-  // Hamming distance, Lowe's ratio test against the runner-up) keeps weak texture usable.
+  // The rendering is at the predicted orientation, so each corner lies within the largest
+  // correction we accept of where it is in the frame: pyramidal Lucas-Kanade finds it there
+  // to a fraction of a pixel (sharper than ORB's keypoints, and a tenth of the cost). Wrong
+  // tracks are left to the robust fit; tracking back as well cost twice and gained nothing.
+  const cv::Size window(13, 13);
+  const int levels = std::max(1, int(std::ceil(std::log2(std::max(1.0, search_radius_px / 4.0)))));
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 10, 0.03);
+  std::vector<cv::Point2f> found;
+  std::vector<std::uint8_t> tracked;
+  std::vector<float> err;
+  cv::calcOpticalFlowPyrLK(rendered_eq, frame_eq, corners, found, tracked, err, window, levels,
+                           stop);
   std::vector<glm::dvec3> a, b;
   const float r2 = float(search_radius_px * search_radius_px);
-  for (std::size_t i = 0; i < kf.size(); ++i) {
-    int best = -1, best_d = 1 << 30, second_d = 1 << 30;
-    for (std::size_t j = 0; j < kr.size(); ++j) {
-      const cv::Point2f d = kf[i].pt - kr[j].pt;
-      if (d.x * d.x + d.y * d.y > r2) continue;
-      const int dist = cv::hal::normHamming(df.ptr<uchar>(int(i)), dr.ptr<uchar>(int(j)), df.cols);
-      if (dist < best_d)
-        second_d = best_d, best_d = dist, best = int(j);
-      else if (dist < second_d)
-        second_d = dist;
-    }
-    if (best < 0 || best_d > 64 || float(best_d) > 0.8f * float(second_d)) continue;
-    const cv::Point2f pf = kf[i].pt, pr = kr[std::size_t(best)].pt;
-    a.push_back(camera.unproject({pf.x, pf.y}));
-    b.push_back(camera.unproject({pr.x, pr.y}));
+  for (std::size_t i = 0; i < corners.size(); ++i) {
+    if (!tracked[i]) continue;
+    const cv::Point2f d = found[i] - corners[i];
+    if (d.x * d.x + d.y * d.y > r2) continue;
+    if (found[i].x < 0 || found[i].y < 0 || found[i].x > frame.cols - 1 ||
+        found[i].y > frame.rows - 1)
+      continue;
+    a.push_back(camera.unproject({found[i].x, found[i].y}));
+    b.push_back(camera.unproject({corners[i].x, corners[i].y}));
   }
-  // Two pixels of the alignment image: matches are localised to about a pixel.
-  return robust_rotation(a, b, 2.0 / camera.intrinsics().fx, min_inliers);
+  // One pixel of the alignment image: the flow localises to a fraction of one.
+  return robust_rotation(a, b, 1.0 / camera.intrinsics().fx, min_inliers);
 }
 
 }  // namespace arlight::capture

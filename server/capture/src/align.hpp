@@ -1,7 +1,7 @@
 // Drift correction by feature alignment (thesis ch. 3, after Kán [Kán15]): the environment map
-// captured so far is rendered into the camera at the predicted orientation, ORB features of the
-// frame are matched against it, and the rotation that carries the frame's rays onto the
-// rendered ones is fitted robustly.
+// captured so far is rendered into the camera at the predicted orientation, its corners are
+// followed into the frame by optical flow, and the rotation that carries the frame's rays onto
+// the rendered ones is fitted robustly.
 #pragma once
 
 #include <glm/mat3x3.hpp>
@@ -33,10 +33,10 @@ struct RotationFit {
 RotationFit robust_rotation(std::span<const glm::dvec3> a, std::span<const glm::dvec3> b,
                             double threshold_rad, int min_inliers);
 
-// Matches ORB features of `frame` (8-bit gray) against `rendered` (8-bit gray of the map seen
-// through the same camera; `rendered_mask` non-zero where the map has data) and fits the
-// rotation that carries frame rays onto rendered rays, both in camera coordinates of `camera`.
-// Only features within `search_radius_px` of each other are matched.
+// Follows corners of `rendered` (8-bit gray of the map seen through the same camera as `frame`;
+// `rendered_mask` non-zero where the map has data) into `frame` (8-bit gray) by pyramidal
+// Lucas-Kanade flow, and fits the rotation that carries frame rays onto rendered rays, both in
+// camera coordinates of `camera`. Only displacements up to `search_radius_px` count.
 RotationFit align_to_rendered(const cv::Mat& frame, const cv::Mat& rendered,
                               const cv::Mat& rendered_mask, const PinholeCamera& camera,
                               int min_inliers, double search_radius_px);

@@ -234,7 +234,11 @@ void Connection::handle(const wire::Envelope& e) {
     case M::Ping:
       return send(wire::make_pong(e.message_as_Ping()->nonce()));
     case M::Bye:
-      session_->checkpoint();
+      try {
+        session_->checkpoint();
+      } catch (const std::exception& ex) {  // still in memory; the next checkpoint retries
+        if (env_.log) env_.log(peer_ + ": checkpoint at Bye failed: " + ex.what());
+      }
       closing_ = true;
       session_->detach();
       if (!writing_) write_next();

@@ -191,6 +191,17 @@ struct Daemon::Impl {
     return j.dump();
   }
 
+  // Checkpoints a session; a failure (disk full, permissions) is logged, rate-limited.
+  bool save(Session& s) {
+    try {
+      s.checkpoint();
+      return true;
+    } catch (const std::exception& e) {
+      log("checkpoint of session " + s.id() + " failed: " + e.what());
+      return false;
+    }
+  }
+
   // With `lock` (on sessions_mutex) held and the server full: makes room by closing the session
   // that has waited longest without a connection (checkpointed first, so it stays on disk and
   // can be resumed), as the idle timeout would have. When every session is connected, nothing.
@@ -202,10 +213,10 @@ struct Daemon::Impl {
     if (!idlest) return;
     sessions.erase(idlest->id());
     lock.unlock();
-    try {
-      idlest->checkpoint();
-    } catch (const std::exception& e) {
-      spdlog::error("checkpoint of session {} failed: {}", idlest->id(), e.what());
+    if (!save(*idlest)) {  // not on disk: it stays open, and the new session is refused
+      lock.lock();
+      sessions.emplace(idlest->id(), idlest);
+      return;
     }
     idlest->shutdown();
     spdlog::info("session {} closed to make room (kept on disk)", idlest->id());
@@ -306,14 +317,8 @@ struct Daemon::Impl {
       }
       if (now - last_checkpoint >= std::chrono::duration<double>(config.checkpoint_interval_s)) {
         last_checkpoint = now;
-        asio::post(disk, [all] {
-          for (const auto& s : all) {
-            try {
-              s->checkpoint();
-            } catch (const std::exception& e) {
-              spdlog::error("checkpoint of session {} failed: {}", s->id(), e.what());
-            }
-          }
+        asio::post(disk, [this, all] {
+          for (const auto& s : all) save(*s);
         });
       }
       for (const auto& s : all) s->on_idle(now);
@@ -321,7 +326,7 @@ struct Daemon::Impl {
         if (!s->attached() &&
             now - s->last_activity() > std::chrono::duration<double>(config.idle_timeout_s)) {
           asio::post(disk, [this, s] {
-            s->checkpoint();
+            if (!save(*s)) return;  // kept open (and retried) rather than lost
             s->shutdown();
             std::lock_guard lock(sessions_mutex);
             sessions.erase(s->id());
@@ -378,11 +383,7 @@ void Daemon::stop() {
   }
   for (const auto& s : all) {
     s->shutdown();
-    try {
-      s->checkpoint();
-    } catch (const std::exception& e) {
-      spdlog::error("checkpoint of session {} failed: {}", s->id(), e.what());
-    }
+    d.save(*s);
   }
   d.work.reset();
   d.io.stop();

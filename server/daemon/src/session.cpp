@@ -406,6 +406,9 @@ void Session::shutdown() {
 }
 
 void Session::checkpoint() {
+  // Two at once would race: one's clean-up deletes the other's files, and manifests could
+  // name an older generation after a newer one.
+  std::lock_guard serial(checkpoint_mutex_);
   capture::Accumulators acc;
   json meta;
   int generation;

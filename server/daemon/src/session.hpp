@@ -133,6 +133,7 @@ class Session : public std::enable_shared_from_this<Session> {
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
   std::mutex process_mutex_;  // held while a frame is processed
+  std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, make_room)
 };
 
 }  // namespace arlight::daemon

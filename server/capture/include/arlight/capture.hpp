@@ -29,7 +29,7 @@ struct CaptureOptions {
   EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 512);
   int sh_order = 8;   // live SH: bands 0..sh_order-1 (>= 3)
   bool align = true;  // feature-based drift correction (Kán's alignment)
-  // Alignment: ORB features matched between the frame and the map rendered into the camera.
+  // Alignment: corners of the map rendered into the camera, followed into the frame by LK flow.
   int align_min_inliers = 12;       // fewer -> keep the sensor orientation (with the last offset)
   double align_max_step_deg = 3.0;  // a correction larger than this is treated as a mismatch
   // The correction follows the alignments with a constant drift rate (a gyro bias) fitted to
