@@ -27,6 +27,9 @@ struct SessionReport {
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
   std::vector<double> latency_ms;
   std::vector<double> map_set_ms;  // from the first frame to each completed map set
+  // Per frame (index = sequence - 1): when it was sent (ms since the run started) and its
+  // latency (NaN: no update reflects it, i.e. it was dropped or never answered).
+  std::vector<double> sent_ms, frame_latency_ms;
 };
 
 double percentile(std::vector<double> v, double p) {
@@ -42,7 +45,9 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
                  const std::string& token, const recording::Recording& rec,
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
                  const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
-                 double phase, const client::TlsOptions& tls, SessionReport& report) {
+                 double phase, std::size_t first_frame, const client::TlsOptions& tls,
+                 Clock::time_point start,
+                 SessionReport& report) {
   try {
     client::Client c;
     c.use_tls(tls);
@@ -53,8 +58,10 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
       std::lock_guard lock(m);
       const auto it = sent_at.find(u.frame_sequence);
       if (it != sent_at.end()) {
-        report.latency_ms.push_back(
-            std::chrono::duration<double, std::milli>(u.received - it->second).count());
+        const double ms = std::chrono::duration<double, std::milli>(u.received - it->second).count();
+        report.latency_ms.push_back(ms);
+        if (u.frame_sequence <= report.frame_latency_ms.size())
+          report.frame_latency_ms[u.frame_sequence - 1] = ms;
         sent_at.erase(sent_at.begin(), std::next(it));
       }
       report.processed = u.frames_processed;
@@ -76,11 +83,14 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
       if (due - first > std::chrono::duration<double>(duration)) break;
       std::this_thread::sleep_until(due);
       if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
-      const std::size_t i = usable[k % usable.size()];
+      const std::size_t i = usable[(k + first_frame) % usable.size()];
       const auto& f = rec.frames[i];
       {
         std::lock_guard lock(m);
-        sent_at[k + 1] = Clock::now();
+        const auto now = Clock::now();
+        sent_at[k + 1] = now;
+        report.sent_ms.push_back(std::chrono::duration<double, std::milli>(now - start).count());
+        report.frame_latency_ms.push_back(std::nan(""));
       }
       c.send_jpeg_frame(k + 1, {double(k) / rate, f.exposure, f.gain, f.orientation},
                         rec.camera.width, rec.camera.height, jpegs[i]);
@@ -126,6 +136,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"spread", "sync"}))
       ->capture_default_str();
   app.add_option("--json", json_path, "write the report here");
+  std::string trace_path;
+  app.add_option("--trace", trace_path,
+                 "write every frame as CSV: session,sequence,sent_ms,latency_ms (empty when no "
+                 "update reflects it)");
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
@@ -155,10 +169,12 @@ int main(int argc, char** argv) {
 
     std::vector<SessionReport> reports(static_cast<std::size_t>(sessions));
     std::vector<std::thread> threads;
+    const auto start = Clock::now();
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
         run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
-                    rate, duration, maps, spread ? double(s) / sessions : 0.0, tls,
+                    rate, duration, maps, spread ? double(s) / sessions : 0.0,
+                    spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0, tls, start,
                     reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
@@ -198,6 +214,18 @@ int main(int argc, char** argv) {
     j["rate"] = rate;
     j["duration_s"] = duration;
     if (!json_path.empty()) write_file_atomically(json_path, j.dump(2) + "\n");
+    if (!trace_path.empty()) {
+      std::string csv = "session,sequence,sent_ms,latency_ms\n";
+      char line[96];
+      for (std::size_t s = 0; s < reports.size(); ++s)
+        for (std::size_t k = 0; k < reports[s].sent_ms.size(); ++k) {
+          const double ms = reports[s].frame_latency_ms[k];
+          std::snprintf(line, sizeof line, std::isnan(ms) ? "%zu,%zu,%.3f,\n" : "%zu,%zu,%.3f,%.3f\n",
+                        s, k + 1, reports[s].sent_ms[k], ms);
+          csv += line;
+        }
+      write_file_atomically(trace_path, csv);
+    }
     std::printf(
         "%d sessions (%d failed): %llu frames sent, %llu processed, %llu dropped; "
         "latency p50 %.1f ms, p95 %.1f ms, p99 %.1f ms; %llu map sets\n",

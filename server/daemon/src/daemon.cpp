@@ -19,6 +19,7 @@
 #include "arlight/error.hpp"
 #include "arlight/metrics.hpp"
 #include "connection.hpp"
+#include "priority.hpp"
 #include "tokens.hpp"
 
 namespace arlight::daemon {
@@ -111,6 +112,7 @@ struct Daemon::Impl {
         workers(config.workers > 0 ? unsigned(config.workers) : hardware_threads()),
         tls(make_tls_context(config)),
         sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
+    asio::post(disk, [] { lower_thread_priority(kCheckpointNice); });
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
     session_env.align_every = config.align_every;

@@ -1,6 +1,7 @@
 #include "session.hpp"
 
 #include <tbb/task_arena.h>
+#include <tbb/task_scheduler_observer.h>
 
 #include <algorithm>
 #include <boost/asio/post.hpp>
@@ -18,6 +19,7 @@
 #include "arlight/hdr_io.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/resample.hpp"
+#include "priority.hpp"
 
 namespace arlight::daemon {
 
@@ -64,6 +66,17 @@ CameraResponse device_response(const SessionEnv& env, const std::string& device)
   }
   return CameraResponse::srgb();
 }
+
+// TBB workers drop to the map computation's priority when they join its arena (in arlightd
+// TBB only ever runs background work: map sets, and the SH of a resumed session).
+class BackgroundPriority : public tbb::task_scheduler_observer {
+ public:
+  explicit BackgroundPriority(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) {
+    observe(true);
+  }
+  ~BackgroundPriority() override { observe(false); }
+  void on_scheduler_entry(bool) override { lower_thread_priority(kMapNice); }
+};
 
 }  // namespace
 
@@ -280,6 +293,7 @@ void Session::on_idle(Clock::time_point now) {
 void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
                                   std::uint32_t set, double coverage, std::uint64_t frames) {
   const auto t0 = Clock::now();
+  lower_thread_priority(kMapNice);
   const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
   const wire::Projection wire_projection = wire::Projection(int(request.projection));
   lighting::Hooks hooks;
@@ -298,6 +312,8 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
     lighting::MapSet maps;
     // Below the live path: the frames of every session come first.
     tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
+    arena.initialize();
+    const BackgroundPriority background(arena);
     arena.execute([&] {
       maps = lighting::compute_maps(input, request.shininess, layout,
                                     lighting::parse_method(request.method), hooks);
