@@ -162,9 +162,16 @@ TEST(CaptureSession, BadFramesAreSkippedWithAReasonAndChangeNothing) {
   const std::vector<std::uint8_t> garbage = {0xFF, 0xD8, 0xFF, 0x00, 0x12, 0xFF, 0xD9};
   skipped(s.add_encoded(garbage, info(0.01, 1, yaw_pitch(90, 0))), "decode");
   skipped(s.add_encoded({}, info(0.01, 1, yaw_pitch(90, 0))), "decode");
+  // A valid JPEG cut short would decode with its missing rows grey: refused instead.
+  std::vector<std::uint8_t> jpeg;
+  cv::Mat noise(120, 160, CV_8UC3);
+  cv::randu(noise, cv::Scalar(0, 0, 0), cv::Scalar(255, 255, 255));
+  ASSERT_TRUE(cv::imencode(".jpg", noise, jpeg));
+  jpeg.resize(jpeg.size() / 2);
+  skipped(s.add_encoded(jpeg, info(0.01, 1, yaw_pitch(90, 0))), "truncated");
 
   EXPECT_EQ(s.frames_used(), 1u);
-  EXPECT_EQ(s.frames_added(), 8u);
+  EXPECT_EQ(s.frames_added(), 9u);
   const Accumulators after = s.accumulators();
   EXPECT_EQ(after.weight, before.weight);
   EXPECT_EQ(after.weighted_radiance, before.weighted_radiance);

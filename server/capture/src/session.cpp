@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "align.hpp"
+#include "jpeg_decode.hpp"
 #include "arlight/capture.hpp"
 #include "linearize.hpp"
 
@@ -546,23 +547,18 @@ FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
   ++impl_->added;
   FrameResult result;
   const auto t0 = Clock::now();
-  cv::Mat image;
-  // When frames are reduced anyway, let the JPEG decoder do the first 2x in the DCT domain
-  // (about 2.5x faster to decode); the alignment works at that resolution.
+  // When frames are reduced anyway, let the JPEG decoder do the first 2x in the DCT domain;
+  // the alignment works at that resolution.
   const int scale = impl_->options.fast_decode && impl_->factor % 2 == 0 && impl_->factor >= 4 &&
                             impl_->camera.width % 2 == 0 && impl_->camera.height % 2 == 0
                         ? 2
                         : 1;
-  try {
-    const cv::Mat buffer(1, int(bytes.size()), CV_8U, const_cast<std::uint8_t*>(bytes.data()));
-    if (!bytes.empty())
-      image = cv::imdecode(buffer, scale == 2 ? cv::IMREAD_REDUCED_COLOR_2 : cv::IMREAD_COLOR);
-  } catch (const cv::Exception&) {
-    image.release();
-  }
+  std::string why;
+  const cv::Mat image = decode_jpeg_bgr(bytes, scale, why);
   result.decode_ms = ms_since(t0);
   if (image.empty()) {
-    result.skipped_reason = "cannot decode the image (" + std::to_string(bytes.size()) + " bytes)";
+    result.skipped_reason =
+        "cannot decode the image (" + std::to_string(bytes.size()) + " bytes): " + why;
     return result;
   }
   return impl_->add(image, info, result, scale);
