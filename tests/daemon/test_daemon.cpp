@@ -428,3 +428,58 @@ TEST(Arlightd, AFullDaemonClosesItsIdlestDisconnectedSessionToMakeRoom) {
   EXPECT_TRUE(w.resumed);
   EXPECT_EQ(w.frames_processed, 1u);
 }
+
+// Byes arrive while frames are still being merged and the periodic checkpoint (every
+// housekeeping tick here) is writing: two checkpoints of one session at once used to delete
+// each other's files and abort the daemon. Every session must end up whole on disk and
+// resumable after a kill -9.
+TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
+  const fs::path dir = test::fresh_temp_dir("daemon_bye_race");
+  std::ofstream(dir / "arlightd.json") << R"({"checkpoint_interval_s": 0.25})";
+  const std::vector<std::string> args = {"--config", (dir / "arlightd.json").string()};
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  std::vector<std::vector<std::uint8_t>> jpegs;
+  for (std::size_t i = 0; i < rec.frames.size(); ++i)
+    jpegs.push_back(recording::read_frame_bytes(rec, i));
+  constexpr int kSessions = 6;
+  std::vector<std::string> ids;
+  std::uint16_t port = 0;
+  {
+    DaemonProcess d(dir / "daemon", args);
+    port = d.port();
+    for (int round = 0; round < 4; ++round) {
+      std::vector<std::unique_ptr<client::Client>> clients;
+      for (int s = 0; s < kSessions; ++s) {
+        clients.push_back(std::make_unique<client::Client>());
+        ids.push_back(
+            clients.back()->connect("127.0.0.1", d.port(), "arlight-sim", kToken).session_id);
+        clients.back()->send_intrinsics(rec.camera);
+      }
+      // 30 fps each; session s says Bye right after its frame 12 + 4 s, frames still in flight.
+      for (int k = 1; k <= 12 + 4 * (kSessions - 1); ++k) {
+        for (int s = 0; s < kSessions; ++s) {
+          if (k > 12 + 4 * s) continue;
+          const std::size_t i = std::size_t(k + 7 * s) % rec.frames.size();
+          const auto& f = rec.frames[i];
+          clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k),
+                                                   {f.timestamp, f.exposure, f.gain, f.orientation},
+                                                   rec.camera.width, rec.camera.height, jpegs[i]);
+          if (k == 12 + 4 * s) clients[std::size_t(s)]->bye();
+        }
+        std::this_thread::sleep_for(33ms);
+      }
+      std::this_thread::sleep_for(300ms);
+      ASSERT_EQ(http_get(d.admin(), "/healthz").first, 200) << "round " << round;
+    }
+    std::this_thread::sleep_for(1s);  // the last tick's checkpoints finish
+    d.kill9();
+  }
+  DaemonProcess again(dir / "daemon", args, port);
+  for (const std::string& id : ids) {
+    client::Client c;
+    const client::Welcome w = c.connect("127.0.0.1", again.port(), "arlight-sim", kToken, "t", id);
+    EXPECT_TRUE(w.resumed) << id;
+    EXPECT_GT(w.frames_processed, 0u) << id;
+    c.bye();
+  }
+}

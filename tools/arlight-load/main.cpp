@@ -46,8 +46,7 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
                  const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
                  double phase, std::size_t first_frame, const client::TlsOptions& tls,
-                 Clock::time_point start,
-                 SessionReport& report) {
+                 Clock::time_point start, SessionReport& report) {
   try {
     client::Client c;
     c.use_tls(tls);
@@ -58,7 +57,8 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
       std::lock_guard lock(m);
       const auto it = sent_at.find(u.frame_sequence);
       if (it != sent_at.end()) {
-        const double ms = std::chrono::duration<double, std::milli>(u.received - it->second).count();
+        const double ms =
+            std::chrono::duration<double, std::milli>(u.received - it->second).count();
         report.latency_ms.push_back(ms);
         if (u.frame_sequence <= report.frame_latency_ms.size())
           report.frame_latency_ms[u.frame_sequence - 1] = ms;
@@ -220,8 +220,9 @@ int main(int argc, char** argv) {
       for (std::size_t s = 0; s < reports.size(); ++s)
         for (std::size_t k = 0; k < reports[s].sent_ms.size(); ++k) {
           const double ms = reports[s].frame_latency_ms[k];
-          std::snprintf(line, sizeof line, std::isnan(ms) ? "%zu,%zu,%.3f,\n" : "%zu,%zu,%.3f,%.3f\n",
-                        s, k + 1, reports[s].sent_ms[k], ms);
+          std::snprintf(line, sizeof line,
+                        std::isnan(ms) ? "%zu,%zu,%.3f,\n" : "%zu,%zu,%.3f,%.3f\n", s, k + 1,
+                        reports[s].sent_ms[k], ms);
           csv += line;
         }
       write_file_atomically(trace_path, csv);

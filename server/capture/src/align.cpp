@@ -5,8 +5,8 @@
 #include <glm/geometric.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/hal.hpp>
-#include <opencv2/video/tracking.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 #include <random>
 #include <vector>
 

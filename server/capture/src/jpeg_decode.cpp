@@ -1,11 +1,12 @@
 #include "jpeg_decode.hpp"
 
 // jpeglib.h needs size_t and FILE declared first.
+#include <jerror.h>
+#include <jpeglib.h>
+
 #include <csetjmp>
 #include <cstddef>
 #include <cstdio>
-#include <jerror.h>
-#include <jpeglib.h>
 
 namespace arlight::capture {
 

@@ -15,8 +15,8 @@
 #include <tuple>
 
 #include "align.hpp"
-#include "jpeg_decode.hpp"
 #include "arlight/capture.hpp"
+#include "jpeg_decode.hpp"
 #include "linearize.hpp"
 
 namespace arlight::capture {

@@ -132,7 +132,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t maps_frames_ = 0;
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
-  std::mutex process_mutex_;  // held while a frame is processed
+  std::mutex process_mutex_;     // held while a frame is processed
   std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, make_room)
 };
 
