@@ -131,8 +131,9 @@ int main(int argc, char** argv) {
   app.add_flag("--maps", maps, "also request the 8 thesis maps at 128 in every session");
   std::string phases = "spread";
   app.add_option("--phases", phases,
-                 "spread: session s sends at s/N of the frame period, as independent phones "
-                 "would; sync: all sessions at once (the worst case)")
+                 "spread: session s sends at s/N of the frame period and starts at s/N of the "
+                 "recording, as independent phones would; sync: the same frame from every "
+                 "session at once (the worst case)")
       ->check(CLI::IsMember({"spread", "sync"}))
       ->capture_default_str();
   app.add_option("--json", json_path, "write the report here");

@@ -98,6 +98,10 @@ struct TileIndex {
   std::vector<Tile> tiles;
   std::vector<std::uint32_t> order;        // texel-table index of each entry, tile by tile
   std::vector<float> dir_x, dir_y, dir_z;  // their unit directions (float), same order
+  // Same order: the layout texel (index into the map) and solid angle of each entry, so a
+  // frame reads everything it needs in sequence instead of gathering from the texel table.
+  std::vector<std::uint32_t> texel;
+  std::vector<double> solid_angle;
 };
 
 std::shared_ptr<const TileIndex> build_tile_index(const TexelTable& table) {
@@ -128,6 +132,8 @@ std::shared_ptr<const TileIndex> build_tile_index(const TexelTable& table) {
       index->dir_x.push_back(float(table.x[i]));
       index->dir_y.push_back(float(table.y[i]));
       index->dir_z.push_back(float(table.z[i]));
+      index->texel.push_back(table.index[i]);
+      index->solid_angle.push_back(table.solid_angle[i]);
     }
   }
   return index;
@@ -153,8 +159,9 @@ struct CaptureSession::Impl {
   std::shared_ptr<const TileIndex> tile_index;  // shared by every session of this layout
   double field_radius = 0.0;                    // half field of view plus a margin
 
-  std::vector<float> weighted_radiance;  // sum(w * L) per layout texel, RGB
-  std::vector<float> weight;             // sum(w) per layout texel
+  std::vector<float> weighted_radiance;        // sum(w * L) per layout texel, RGB
+  std::vector<float> weight;                   // sum(w) per layout texel
+  std::vector<glm::dvec3> sh_dirs, sh_values;  // a frame's changed texels (kept: no reallocation)
   ShCoeffs sh;
   double covered_solid_angle = 0.0;
   std::size_t added = 0, used = 0;
@@ -440,7 +447,8 @@ struct CaptureSession::Impl {
     const CameraIntrinsics& rk = reduced_camera;
     const float fx = float(rk.fx), fy = float(rk.fy), cx = float(rk.cx), cy = float(rk.cy);
     const float max_x = float(frame.width - 1), max_y = float(frame.height - 1);
-    std::vector<glm::dvec3> changed_dirs, changed_values;
+    std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
+    changed_dirs.clear(), changed_values.clear();
     const TileIndex& ti = *tile_index;
     const std::vector<float>&dir_x = ti.dir_x, &dir_y = ti.dir_y, &dir_z = ti.dir_z;
     for (const TileIndex::Tile& tile : ti.tiles) {
@@ -449,7 +457,6 @@ struct CaptureSession::Impl {
       for (std::size_t k = tile.begin; k < tile.end; ++k) {
         if (dir_x[k] * forward.x + dir_y[k] * forward.y + dir_z[k] * forward.z < cos_limit)
           continue;
-        const std::size_t i = ti.order[k];
         const glm::vec3 c = to_camera * glm::vec3(dir_x[k], dir_y[k], dir_z[k]);
         if (!(c.z < 0.0f)) continue;
         float px, py;
@@ -478,17 +485,17 @@ struct CaptureSession::Impl {
           r += f[k] * q[0], g += f[k] * q[1], b += f[k] * q[2];
         }
         if (!(sw > 1e-6f)) continue;
-        const std::size_t texel = table->index[i];
+        const std::size_t texel = ti.texel[k];
         const glm::vec3 before = texel_radiance(texel);
         const bool was_covered = weight[texel] > 0.0f;
         float* acc = &weighted_radiance[3 * texel];
         acc[0] += r, acc[1] += g, acc[2] += b;
         weight[texel] += sw;
         const glm::vec3 change = texel_radiance(texel) - before;
-        if (!was_covered) covered_solid_angle += table->solid_angle[i];
+        if (!was_covered) covered_solid_angle += ti.solid_angle[k];
         if (change != glm::vec3(0.0f)) {
-          changed_dirs.emplace_back(table->x[i], table->y[i], table->z[i]);
-          changed_values.push_back(glm::dvec3(change) * table->solid_angle[i]);
+          changed_dirs.emplace_back(dir_x[k], dir_y[k], dir_z[k]);
+          changed_values.push_back(glm::dvec3(change) * ti.solid_angle[k]);
         }
       }
     }
