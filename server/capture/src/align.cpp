@@ -4,7 +4,6 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <random>
@@ -112,7 +111,7 @@ RotationFit align_to_rendered(const cv::Mat& frame, const cv::Mat& rendered,
   }
   // The rendering is at the predicted orientation, so each corner lies within the largest
   // correction we accept of where it is in the frame: pyramidal Lucas-Kanade finds it there
-  // to a fraction of a pixel (sharper than ORB's keypoints, and a tenth of the cost). Wrong
+  // to a fraction of a pixel (sharper than ORB keypoints, at a fraction of the cost). Wrong
   // tracks are left to the robust fit; tracking back as well cost twice and gained nothing.
   const cv::Size window(13, 13);
   const int levels = std::max(1, int(std::ceil(std::log2(std::max(1.0, search_radius_px / 4.0)))));

@@ -9,7 +9,6 @@
 #include <mutex>
 #include <numbers>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <tuple>
@@ -88,18 +87,18 @@ namespace {
 
 // The valid texels of a layout grouped in 16 x 16 tiles, each tile with a bounding cone, so a
 // frame only visits the tiles its field of view can reach. It depends on the layout alone, so
-// sessions share one (built once, ~50 ms and 3 MB for a 512^2 angle map).
+// sessions share one (built once, ~50 ms and 5 MB for a 512^2 angle map).
 struct TileIndex {
   struct Tile {
-    std::size_t begin, end;  // range in `order`
+    std::size_t begin, end;  // range of entries in the arrays below
     glm::vec3 centre;        // unit
     float radius;            // radians: every texel direction of the tile is within it
   };
   std::vector<Tile> tiles;
-  std::vector<std::uint32_t> order;        // texel-table index of each entry, tile by tile
-  std::vector<float> dir_x, dir_y, dir_z;  // their unit directions (float), same order
-  // Same order: the layout texel (index into the map) and solid angle of each entry, so a
-  // frame reads everything it needs in sequence instead of gathering from the texel table.
+  // One entry per valid texel, tile by tile: its unit direction (float), its index in the map
+  // and its solid angle, so a frame reads all it needs in sequence instead of gathering from
+  // the texel table.
+  std::vector<float> dir_x, dir_y, dir_z;
   std::vector<std::uint32_t> texel;
   std::vector<double> solid_angle;
 };
@@ -126,9 +125,8 @@ std::shared_ptr<const TileIndex> build_tile_index(const TexelTable& table) {
           radius, std::acos(std::clamp(glm::dot(c, glm::dvec3(table.x[i], table.y[i], table.z[i])),
                                        -1.0, 1.0)));
     index->tiles.push_back(
-        {index->order.size(), index->order.size() + m.size(), glm::vec3(c), float(radius + 1e-3)});
+        {index->texel.size(), index->texel.size() + m.size(), glm::vec3(c), float(radius + 1e-3)});
     for (std::uint32_t i : m) {
-      index->order.push_back(i);
       index->dir_x.push_back(float(table.x[i]));
       index->dir_y.push_back(float(table.y[i]));
       index->dir_z.push_back(float(table.z[i]));
