@@ -2,6 +2,7 @@
 // live SH, bad frames, rotation fitting, response calibration, per-device curves.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <glm/gtc/quaternion.hpp>
@@ -167,11 +168,19 @@ TEST(CaptureSession, BadFramesAreSkippedWithAReasonAndChangeNothing) {
   cv::Mat noise(120, 160, CV_8UC3);
   cv::randu(noise, cv::Scalar(0, 0, 0), cv::Scalar(255, 255, 255));
   ASSERT_TRUE(cv::imencode(".jpg", noise, jpeg));
+  std::vector<std::uint8_t> huge = jpeg;           // its header claims 60000 x 60000 pixels
+  const std::uint8_t sof_marker[] = {0xFF, 0xC0};  // baseline start of frame
+  const auto sof =
+      std::search(huge.begin(), huge.end(), std::begin(sof_marker), std::end(sof_marker));
+  ASSERT_NE(sof, huge.end());
+  const std::size_t at = std::size_t(sof - huge.begin()) + 5;  // marker, length, precision
+  huge[at] = huge[at + 2] = 0xEA, huge[at + 1] = huge[at + 3] = 0x60;
+  skipped(s.add_encoded(huge, info(0.01, 1, yaw_pitch(90, 0))), "60000x60000");
   jpeg.resize(jpeg.size() / 2);
   skipped(s.add_encoded(jpeg, info(0.01, 1, yaw_pitch(90, 0))), "truncated");
 
   EXPECT_EQ(s.frames_used(), 1u);
-  EXPECT_EQ(s.frames_added(), 9u);
+  EXPECT_EQ(s.frames_added(), 10u);
   const Accumulators after = s.accumulators();
   EXPECT_EQ(after.weight, before.weight);
   EXPECT_EQ(after.weighted_radiance, before.weighted_radiance);

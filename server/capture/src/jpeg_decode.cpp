@@ -34,12 +34,19 @@ void on_message(j_common_ptr info, int level) {
 
 // The part that may jump back: `image` belongs to the caller, so no object of this frame is
 // changed between setjmp and a longjmp.
-bool decode_into(std::span<const std::uint8_t> bytes, int scale, ErrorManager& err,
-                 jpeg_decompress_struct& info, cv::Mat& image) {
+bool decode_into(std::span<const std::uint8_t> bytes, int scale, int width, int height,
+                 ErrorManager& err, jpeg_decompress_struct& info, cv::Mat& image) {
   if (setjmp(err.jump)) return false;
   jpeg_create_decompress(&info);
   jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
   jpeg_read_header(&info, TRUE);
+  // Checked before anything is allocated: the header alone could ask for gigabytes.
+  if (int(info.image_width) != width || int(info.image_height) != height) {
+    std::snprintf(err.message, sizeof err.message,
+                  "image is %ux%u, the camera's intrinsics say %dx%d", info.image_width,
+                  info.image_height, width, height);
+    return false;
+  }
   info.out_color_space = JCS_EXT_BGR;
   info.scale_num = 1;
   info.scale_denom = static_cast<unsigned>(scale);
@@ -59,7 +66,8 @@ bool decode_into(std::span<const std::uint8_t> bytes, int scale, ErrorManager& e
 
 }  // namespace
 
-cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, int scale, std::string& error) {
+cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, int scale, int width, int height,
+                        std::string& error) {
   if (bytes.empty()) {
     error = "no data";
     return {};
@@ -70,7 +78,7 @@ cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, int scale, std::str
   err.base.error_exit = on_error;
   err.base.emit_message = on_message;
   cv::Mat image;
-  const bool ok = decode_into(bytes, scale, err, info, image);
+  const bool ok = decode_into(bytes, scale, width, height, err, info, image);
   jpeg_destroy_decompress(&info);
   if (!ok) {
     error = err.message;

@@ -559,7 +559,8 @@ FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
                         ? 2
                         : 1;
   std::string why;
-  const cv::Mat image = decode_jpeg_bgr(bytes, scale, why);
+  const cv::Mat image =
+      decode_jpeg_bgr(bytes, scale, impl_->camera.width, impl_->camera.height, why);
   result.decode_ms = ms_since(t0);
   if (image.empty()) {
     result.skipped_reason =
