@@ -142,7 +142,6 @@ int main(int argc, char** argv) {
     std::string host;
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
-    tls.enabled = tls.enabled || !tls.ca_file.empty();
     const std::vector<double> mat = parse_number_list(material_text, "--material");
     if (mat.size() != 3 || mat[0] < 0 || mat[1] < 0 || !(mat[2] >= 1))
       throw InputError("--material: kd,ks,s with kd, ks >= 0 and s >= 1");

@@ -5,7 +5,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -51,18 +50,17 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
     client::Client c;
     c.use_tls(tls);
     std::mutex m;
-    std::map<std::uint64_t, Clock::time_point> sent_at;
+    std::uint64_t answered = 0;  // the newest sequence an update has reflected
     Clock::time_point first;
     c.on_update = [&](const client::LightingUpdate& u) {
       std::lock_guard lock(m);
-      const auto it = sent_at.find(u.frame_sequence);
-      if (it != sent_at.end()) {
-        const double ms =
-            std::chrono::duration<double, std::milli>(u.received - it->second).count();
+      // Updates come in sequence order; the frames skipped over were dropped.
+      if (u.frame_sequence > answered && u.frame_sequence <= report.sent_ms.size()) {
+        answered = u.frame_sequence;
+        const double ms = std::chrono::duration<double, std::milli>(u.received - start).count() -
+                          report.sent_ms[u.frame_sequence - 1];
         report.latency_ms.push_back(ms);
-        if (u.frame_sequence <= report.frame_latency_ms.size())
-          report.frame_latency_ms[u.frame_sequence - 1] = ms;
-        sent_at.erase(sent_at.begin(), std::next(it));
+        report.frame_latency_ms[u.frame_sequence - 1] = ms;
       }
       report.processed = u.frames_processed;
       report.dropped = u.frames_dropped;
@@ -87,9 +85,8 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
       const auto& f = rec.frames[i];
       {
         std::lock_guard lock(m);
-        const auto now = Clock::now();
-        sent_at[k + 1] = now;
-        report.sent_ms.push_back(std::chrono::duration<double, std::milli>(now - start).count());
+        report.sent_ms.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
       }
       c.send_jpeg_frame(k + 1, {double(k) / rate, f.exposure, f.gain, f.orientation},
@@ -156,7 +153,6 @@ int main(int argc, char** argv) {
     std::string host;
     std::uint16_t port = 0;
     wire::parse_endpoint(server, host, port);
-    tls.enabled = tls.enabled || !tls.ca_file.empty();
     const bool spread = phases == "spread";
     const recording::Recording rec = recording::read_recording(recording_dir);
     std::vector<std::vector<std::uint8_t>> jpegs(rec.frames.size());

@@ -60,7 +60,6 @@ int main(int argc, char** argv) {
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
 
     client::Client c;
-    tls.enabled = tls.enabled || !tls.ca_file.empty();
     c.use_tls(tls);
     const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device, token,
                                         "arlight-replay", resume);

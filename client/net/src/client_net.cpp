@@ -277,7 +277,7 @@ Client::~Client() { close(); }
 void Client::use_tls(const TlsOptions& options) {
   Impl& d = *impl_;
   d.tls_options = options;
-  if (!options.enabled) {
+  if (!options.enabled && options.ca_file.empty()) {
     d.tls_context.reset();
     return;
   }

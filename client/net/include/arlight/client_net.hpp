@@ -75,9 +75,9 @@ struct CalibrationResult {
 
 // TLS to an arlightd started with --tls-cert/--tls-key.
 struct TlsOptions {
-  bool enabled = false;
-  std::string ca_file;  // PEM file of trusted certificates; empty: the system's
-  bool verify = true;   // check the chain and that the certificate names the host
+  bool enabled = false;  // a ca_file turns TLS on as well
+  std::string ca_file;   // PEM file of trusted certificates; empty: the system's
+  bool verify = true;    // check the chain and that the certificate names the host
 };
 
 // One exposure of a calibration set.
