@@ -8,81 +8,77 @@
 #include <cmath>
 #include <cstring>
 
-#include "arlight/error.hpp"
-
 namespace arlight::wire {
 
-std::optional<std::uint32_t> read_header(std::span<const std::uint8_t, kHeaderBytes> header,
-                                         std::uint32_t max_message_bytes, std::string& why) {
-  const std::uint32_t n = std::uint32_t(header[0]) | std::uint32_t(header[1]) << 8 |
-                          std::uint32_t(header[2]) << 16 | std::uint32_t(header[3]) << 24;
-  if (n == 0) {
-    why = "empty message (length 0)";
-    return std::nullopt;
-  }
-  if (n > max_message_bytes) {
-    why = "message of " + std::to_string(n) + " bytes is over the limit of " +
-          std::to_string(max_message_bytes);
-    return std::nullopt;
-  }
-  return n;
+const char* error_code_name(ErrorCode code) {
+  static constexpr const char* kNames[] = {"Unknown",    "Unauthorized", "BadMessage",
+                                           "TooLarge",   "OutOfOrder",   "Unsupported",
+                                           "Busy",       "SessionNotFound", "Internal"};
+  const auto i = std::size_t(code);
+  return i < std::size(kNames) ? kNames[i] : "Unknown";
 }
 
-std::vector<std::uint8_t> frame_message(const flatbuffers::FlatBufferBuilder& builder) {
-  const std::uint32_t n = builder.GetSize();
-  std::vector<std::uint8_t> out(kHeaderBytes + n);
-  for (int i = 0; i < 4; ++i) out[std::size_t(i)] = std::uint8_t(n >> (8 * i));
-  std::memcpy(out.data() + kHeaderBytes, builder.GetBufferPointer(), n);
-  return out;
-}
-
-const Envelope* verify_envelope(std::span<const std::uint8_t> payload, std::string& why) {
-  if (payload.size() < 8 || !EnvelopeBufferHasIdentifier(payload.data())) {
-    why = "not an arlight message (no ARL1 identifier)";
-    return nullptr;
+const char* fault_name(Fault f) {
+  switch (f) {
+    case Fault::NotArlight: return "NotArlight";
+    case Fault::Malformed: return "Malformed";
+    case Fault::UnknownMessage: return "UnknownMessage";
+    case Fault::OutOfRange: return "OutOfRange";
+    case Fault::WrongSize: return "WrongSize";
+    case Fault::OverLimit: return "OverLimit";
+    case Fault::Missing: return "Missing";
   }
-  flatbuffers::Verifier verifier(payload.data(), payload.size(), /*max_depth=*/16,
-                                 /*max_tables=*/100000);
-  if (!VerifyEnvelopeBuffer(verifier)) {
-    why = "message failed the FlatBuffers verifier (truncated or malformed)";
-    return nullptr;
-  }
-  const Envelope* e = GetEnvelope(payload.data());
-  if (e->message_type() == Message::NONE || e->message() == nullptr) {
-    why = "envelope carries no message";
-    return nullptr;
-  }
-  return e;
+  return "?";
 }
 
 namespace {
-
-template <class T>
-std::vector<std::uint8_t> finish(flatbuffers::FlatBufferBuilder& b, flatbuffers::Offset<T> m) {
-  b.Finish(CreateEnvelope(b, MessageTraits<T>::enum_value, m.Union()), EnvelopeIdentifier());
-  return frame_message(b);
+std::string describe(const std::string& message, const std::string& field,
+                     const std::string& detail) {
+  if (message.empty() && field.empty()) return detail;
+  if (field.empty()) return message + ": " + detail;
+  return (message.empty() ? field : message + "." + field) + ": " + detail;
 }
-
 }  // namespace
 
-std::vector<std::uint8_t> make_error(ErrorCode code, const std::string& message) {
-  flatbuffers::FlatBufferBuilder b(256);
-  return finish(b, CreateError(b, code, b.CreateString(message)));
+DecodeError::DecodeError(Fault fault, std::string message, std::string field,
+                         const std::string& detail)
+    : InputError(describe(message, field, detail)),
+      fault_(fault),
+      message_(std::move(message)),
+      field_(std::move(field)) {}
+
+ErrorCode DecodeError::code() const {
+  switch (fault_) {
+    case Fault::OverLimit: return ErrorCode::TooLarge;
+    // An enum value this version does not know: a newer peer, or a feature not offered.
+    case Fault::OutOfRange:
+      return field_ == "format" || field_ == "projection" ? ErrorCode::Unsupported
+                                                         : ErrorCode::BadMessage;
+    default: return ErrorCode::BadMessage;
+  }
 }
 
-std::vector<std::uint8_t> make_pong(std::uint64_t nonce) {
-  flatbuffers::FlatBufferBuilder b(64);
-  return finish(b, CreatePong(b, nonce));
+std::array<std::uint8_t, kHeaderBytes> frame_header(std::size_t n) {
+  return {std::uint8_t(n), std::uint8_t(n >> 8), std::uint8_t(n >> 16), std::uint8_t(n >> 24)};
 }
 
-std::vector<std::uint8_t> make_ping(std::uint64_t nonce) {
-  flatbuffers::FlatBufferBuilder b(64);
-  return finish(b, CreatePing(b, nonce));
+std::vector<std::uint8_t> frame(std::span<const std::uint8_t> envelope) {
+  const auto header = frame_header(envelope.size());
+  std::vector<std::uint8_t> out(header.begin(), header.end());
+  out.insert(out.end(), envelope.begin(), envelope.end());
+  return out;
 }
 
-std::vector<std::uint8_t> make_bye() {
-  flatbuffers::FlatBufferBuilder b(64);
-  return finish(b, CreateBye(b));
+std::uint32_t read_header(std::span<const std::uint8_t, kHeaderBytes> header,
+                          std::uint32_t max_message_bytes) {
+  const std::uint32_t n = std::uint32_t(header[0]) | std::uint32_t(header[1]) << 8 |
+                          std::uint32_t(header[2]) << 16 | std::uint32_t(header[3]) << 24;
+  if (n == 0) throw DecodeError(Fault::Malformed, "", "", "empty message (length 0)");
+  if (n > max_message_bytes)
+    throw DecodeError(Fault::OverLimit, "", "",
+                      "message of " + std::to_string(n) + " bytes is over the limit of " +
+                          std::to_string(max_message_bytes));
+  return n;
 }
 
 std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels) {
@@ -137,7 +133,5 @@ void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& p
   host = text.substr(0, colon);
   port = std::uint16_t(std::stoi(p));
 }
-
-const char* message_name(Message type) { return EnumNameMessage(type); }
 
 }  // namespace arlight::wire

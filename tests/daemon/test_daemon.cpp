@@ -181,7 +181,7 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
   // A length over the limit: refused before anything is allocated.
   expect_error({0, 0, 0, 0x40}, "TooLarge");
   // A real message cut short but framed with the shorter length: fails the verifier.
-  std::vector<std::uint8_t> ping = wire::make_ping(7);
+  std::vector<std::uint8_t> ping = wire::frame(wire::encode(wire::Ping{7}));
   std::vector<std::uint8_t> cut(ping.begin(), ping.begin() + 4 + 12);
   cut[0] = 12, cut[1] = cut[2] = cut[3] = 0;
   expect_error(cut, "BadMessage");

@@ -129,7 +129,7 @@ void LightingLink::run() {
   }
 }
 
-void LightingLink::send_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width,
+void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width,
                               int height, std::span<const std::uint8_t> jpeg) {
   std::shared_ptr<client::Client> c;
   {

@@ -64,7 +64,7 @@ class LightingLink {
   void wait_connected(std::chrono::milliseconds timeout);
 
   // Forwards a frame when connected; counted as not sent otherwise (the renderer goes on).
-  void send_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width, int height,
+  void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg);
 
   Lighting lighting() const;

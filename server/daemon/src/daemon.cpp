@@ -8,6 +8,7 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl/context.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
 #include <boost/asio/thread_pool.hpp>
 #include <condition_variable>
 #include <map>
@@ -227,14 +228,14 @@ struct Daemon::Impl {
 
   std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
                                         std::string& why) {
-    const std::string device = h.device_id() ? h.device_id()->str() : "";
-    const std::string token = h.auth_token() ? h.auth_token()->str() : "";
+    const std::string& device = h.device_id;
+    const std::string& token = h.auth_token;
     if (!tokens.check(device, token)) {
       code = wire::ErrorCode::Unauthorized;
       why = "unauthorized: unknown device or wrong token";
       return nullptr;
     }
-    const std::string resume = h.resume_session() ? h.resume_session()->str() : "";
+    const std::string& resume = h.resume_session;
     std::unique_lock lock(sessions_mutex);
     if (!resume.empty()) {
       if (!valid_session_id(resume)) {
@@ -290,10 +291,11 @@ struct Daemon::Impl {
         if (acceptor.is_open()) accept();
         return;
       }
-      auto c = tls ? std::make_shared<Connection>(
-                         ClientStream(std::in_place_type<TlsStream>, std::move(socket), *tls),
-                         connection_env)
-                   : std::make_shared<Connection>(ClientStream(std::move(socket)), connection_env);
+      auto c = std::make_shared<Connection>(
+          tls ? wire::make_tls_transport(wire::TlsSocket(std::move(socket), *tls),
+                                         wire::TlsRole::AcceptAsServer)
+              : wire::make_tcp_transport(std::move(socket)),
+          connection_env);
       {
         std::lock_guard lock(connections_mutex);
         std::erase_if(connections, [](const auto& w) { return w.expired(); });

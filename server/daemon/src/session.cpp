@@ -142,13 +142,13 @@ std::uint64_t Session::frames_processed() const {
   return processed_;
 }
 
-void Session::send(std::vector<std::uint8_t> message) {
+void Session::send(const wire::Message& message) {
   Sink sink;
   {
     std::lock_guard lock(mutex_);
     sink = sink_;
   }
-  if (sink) sink(std::move(message));
+  if (sink) sink(wire::encode(message));  // encoded here, on the worker, not on the network
 }
 
 void Session::submit(FrameJob job) {
@@ -186,15 +186,16 @@ void Session::process() {
     }
     const auto t0 = Clock::now();
     capture::FrameResult r;
-    if (job.format == wire::PixelFormat::Jpeg) {
-      r = capture_->add_encoded(job.data, job.info);
+    wire::CameraFrame& frame = job.frame;
+    if (frame.format == wire::PixelFormat::Jpeg) {
+      r = capture_->add_encoded(frame.data, frame.info);
     } else {
-      cv::Mat rgb(job.height, job.width, CV_8UC3, job.data.data()), bgr;
+      cv::Mat rgb(int(frame.height), int(frame.width), CV_8UC3, frame.data.data()), bgr;
       cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-      r = capture_->add_image(bgr, job.info);
+      r = capture_->add_image(bgr, frame.info);
     }
     env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
-    std::vector<std::uint8_t> update;
+    wire::LightingUpdate update;
     {
       std::lock_guard lock(mutex_);
       if (r.used) {
@@ -205,32 +206,28 @@ void Session::process() {
         ++skipped_;
         env_.frames_skipped->inc();
       }
-      last_sequence_ = std::max(last_sequence_, job.sequence);
-      update = lighting_update(r, job.sequence);
+      last_sequence_ = std::max(last_sequence_, frame.sequence);
+      update = lighting_update(r, frame.sequence);
       maybe_start_maps();
     }
-    send(std::move(update));
+    send(update);
     env_.update_latency_seconds->observe(
         std::chrono::duration<double>(Clock::now() - job.received).count());
   }
 }
 
-std::vector<std::uint8_t> Session::lighting_update(const capture::FrameResult& r,
-                                                   std::uint64_t seq) {
+wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq) {
   const ShCoeffs& sh = capture_->sh();
-  std::vector<float> flat;
-  flat.reserve(sh.c.size() * 3);
-  for (const glm::dvec3& c : sh.c) flat.insert(flat.end(), {float(c.x), float(c.y), float(c.z)});
   const DominantLight light = sh_dominant_light(sh);
-  const glm::vec3 dir = light.direction, colour = light.colour;
-  flatbuffers::FlatBufferBuilder b(1024 + flat.size() * 4);
-  const wire::Vec3 d(dir.x, dir.y, dir.z), c(colour.x, colour.y, colour.z);
-  const auto m = wire::CreateLightingUpdate(b, seq, r.used, b.CreateString(r.skipped_reason),
-                                            std::uint8_t(sh.order), b.CreateVector(flat), &d, &c,
-                                            float(capture_->coverage()), processed_, dropped_);
-  b.Finish(wire::CreateEnvelope(b, wire::Message::LightingUpdate, m.Union()),
-           wire::EnvelopeIdentifier());
-  return wire::frame_message(b);
+  return {.frame_sequence = seq,
+          .frame_used = r.used,
+          .reason = r.skipped_reason,
+          .sh = sh,
+          .dominant_direction = light.direction,
+          .dominant_colour = light.colour,
+          .coverage = float(capture_->coverage()),
+          .frames_processed = processed_,
+          .frames_dropped = dropped_};
 }
 
 std::string Session::request_maps(MapRequest r) {
@@ -295,18 +292,13 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
   const auto t0 = Clock::now();
   lower_thread_priority(kMapNice);
   const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
-  const wire::Projection wire_projection = wire::Projection(int(request.projection));
   lighting::Hooks hooks;
   hooks.stop = stop;
   std::size_t last_reported = 0;
   hooks.on_tile = [&](const lighting::TileDone& t) {
     if (t.done * 10 / t.total == last_reported) return;  // every tenth
     last_reported = t.done * 10 / t.total;
-    flatbuffers::FlatBufferBuilder b(128);
-    const auto m = wire::CreateProgress(b, set, std::uint32_t(t.done), std::uint32_t(t.total));
-    b.Finish(wire::CreateEnvelope(b, wire::Message::Progress, m.Union()),
-             wire::EnvelopeIdentifier());
-    send(wire::frame_message(b));
+    send(wire::Progress{set, std::uint32_t(t.done), std::uint32_t(t.total)});
   };
   try {
     lighting::MapSet maps;
@@ -324,15 +316,18 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
       for (int r = 0; r < h; ++r)
         std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
                     sizeof(float) * 3 * std::size_t(w));
-      flatbuffers::FlatBufferBuilder b(1024 + px.size() * 2);
-      const auto data = b.CreateVector(wire::encode_half_rgb(px.data(), px.size() / 3));
-      const auto m = wire::CreateMapTile(
-          b, set, std::uint16_t(map), float(request.shininess[std::size_t(map)]), wire_projection,
-          std::uint32_t(layout.width()), std::uint32_t(layout.height()), std::uint8_t(level),
-          std::uint32_t(x), std::uint32_t(y), std::uint32_t(w), std::uint32_t(h), data);
-      b.Finish(wire::CreateEnvelope(b, wire::Message::MapTile, m.Union()),
-               wire::EnvelopeIdentifier());
-      return wire::frame_message(b);
+      return wire::MapTile{.map_set = set,
+                           .map_index = std::uint16_t(map),
+                           .shininess = float(request.shininess[std::size_t(map)]),
+                           .projection = request.projection,
+                           .map_width = std::uint32_t(layout.width()),
+                           .map_height = std::uint32_t(layout.height()),
+                           .level = std::uint8_t(level),
+                           .x = std::uint32_t(x),
+                           .y = std::uint32_t(y),
+                           .width = std::uint32_t(w),
+                           .height = std::uint32_t(h),
+                           .data = wire::encode_half_rgb(px.data(), px.size() / 3)};
     };
     // Coarse first: each map 4x smaller in one tile (a preview the client can use at once),
     // then the full-resolution tiles.
@@ -348,18 +343,14 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
                             std::min(kTile, layout.height() - y)));
     if (!stop.stop_requested()) {
       const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-      flatbuffers::FlatBufferBuilder b(128);
-      const auto m = wire::CreateMapSetComplete(b, set, std::uint16_t(maps.maps.size()),
-                                                float(seconds), float(coverage), frames);
-      b.Finish(wire::CreateEnvelope(b, wire::Message::MapSetComplete, m.Union()),
-               wire::EnvelopeIdentifier());
-      send(wire::frame_message(b));
+      send(wire::MapSetComplete{set, std::uint16_t(maps.maps.size()), float(seconds),
+                                float(coverage), frames});
       env_.map_sets->inc();
       env_.map_set_seconds->observe(seconds);
     }
   } catch (const lighting::Cancelled&) {
   } catch (const std::exception& e) {
-    send(wire::make_error(wire::ErrorCode::Internal, std::string("map computation: ") + e.what()));
+    send(wire::Error{wire::ErrorCode::Internal, std::string("map computation: ") + e.what()});
   }
   std::lock_guard lock(mutex_);
   maps_running_ = false;
@@ -404,12 +395,7 @@ void Session::calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vecto
     } catch (const std::exception& e) {
       message = e.what();
     }
-    flatbuffers::FlatBufferBuilder b(256);
-    const auto res = wire::CreateCalibrationResult(
-        b, stored, b.CreateString(method), std::uint32_t(jpegs.size()), b.CreateString(message));
-    b.Finish(wire::CreateEnvelope(b, wire::Message::CalibrationResult, res.Union()),
-             wire::EnvelopeIdentifier());
-    self->send(wire::frame_message(b));
+    self->send(wire::CalibrationResult{stored, method, std::uint32_t(jpegs.size()), message});
   });
 }
 

@@ -46,12 +46,9 @@ struct SessionEnv {
   admin::Histogram* map_set_seconds = nullptr;
 };
 
+// A frame as it waits for a worker: the message as it arrived, and when.
 struct FrameJob {
-  std::uint64_t sequence = 0;
-  capture::FrameInfo info;
-  wire::PixelFormat format = wire::PixelFormat::Jpeg;
-  int width = 0, height = 0;
-  std::vector<std::uint8_t> data;
+  wire::CameraFrame frame;
   Clock::time_point received;
 };
 
@@ -62,7 +59,8 @@ struct MapRequest {
   std::string method = "auto";
 };
 
-// Sends one framed message to the session's client; thread-safe; a no-op when detached.
+// Sends one encoded message (wire::encode) to the session's client; thread-safe; a no-op when
+// detached.
 using Sink = std::function<void(std::vector<std::uint8_t>)>;
 
 class Session : public std::enable_shared_from_this<Session> {
@@ -106,11 +104,11 @@ class Session : public std::enable_shared_from_this<Session> {
 
  private:
   void process();  // on the worker pool
-  std::vector<std::uint8_t> lighting_update(const capture::FrameResult& r, std::uint64_t seq);
+  wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   void maybe_start_maps();  // with mutex_ held
   void compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
                            std::uint32_t map_set, double coverage, std::uint64_t frames);
-  void send(std::vector<std::uint8_t> message);
+  void send(const wire::Message& message);
 
   std::string id_, device_id_;
   SessionEnv env_;

@@ -18,9 +18,10 @@
 #include <vector>
 
 #include "arlight/camera.hpp"
-#include "arlight/capture.hpp"
+#include "arlight/frame.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/sh.hpp"
+#include "arlight/wire.hpp"
 
 namespace arlight::client {
 
@@ -36,21 +37,10 @@ class ClientError : public std::runtime_error {
   std::string code_;
 };
 
-struct Welcome {
-  std::string session_id;
-  std::string server_version;
-  bool resumed = false;
-  std::uint64_t frames_processed = 0;
-};
+using Welcome = wire::Welcome;
 
-struct LightingUpdate {
-  std::uint64_t frame_sequence = 0;
-  bool frame_used = false;
-  std::string reason;
-  ShCoeffs sh;
-  glm::vec3 dominant_direction{0.0f}, dominant_colour{0.0f};
-  double coverage = 0;
-  std::uint64_t frames_processed = 0, frames_dropped = 0;
+// A LightingUpdate as the client keeps it: the message and when it arrived.
+struct LightingUpdate : wire::LightingUpdate {
   std::chrono::steady_clock::time_point received;
 };
 
@@ -67,11 +57,7 @@ struct MapSet {
   std::uint64_t frames = 0;  // frames merged into that map
 };
 
-struct CalibrationResult {
-  bool stored = false;
-  std::string method, message;
-  std::uint32_t frames = 0;
-};
+using CalibrationResult = wire::CalibrationResult;
 
 // TLS to an arlightd started with --tls-cert/--tls-key.
 struct TlsOptions {
@@ -82,7 +68,7 @@ struct TlsOptions {
 
 // One exposure of a calibration set.
 struct CalibrationFrame {
-  capture::FrameInfo info;
+  FrameInfo info;
   std::vector<std::uint8_t> jpeg;
 };
 
@@ -103,7 +89,7 @@ class Client {
                   std::chrono::milliseconds timeout = std::chrono::seconds(10));
 
   void send_intrinsics(const CameraIntrinsics& camera);
-  void send_jpeg_frame(std::uint64_t sequence, const capture::FrameInfo& info, int width,
+  void send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width,
                        int height, std::span<const std::uint8_t> jpeg);
   void request_maps(const std::vector<double>& shininess, int size,
                     Projection projection = Projection::AngleMap,

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "arlight/camera.hpp"
+#include "arlight/frame.hpp"
 #include "arlight/image.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/response.hpp"
@@ -49,13 +50,8 @@ struct CaptureOptions {
   bool fast_decode = true;
 };
 
-// What one frame carries besides its pixels.
-struct FrameInfo {
-  double timestamp = 0;
-  double exposure = 0;                 // seconds, > 0
-  double gain = 1;                     // > 0; radiance = linear / (exposure * gain)
-  glm::dquat orientation{1, 0, 0, 0};  // camera -> world, from the device's sensors
-};
+// What one frame carries besides its pixels (common/, shared with the client and the wire).
+using FrameInfo = arlight::FrameInfo;
 
 struct FrameResult {
   bool used = false;

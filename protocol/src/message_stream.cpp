@@ -1,0 +1,217 @@
+#include "arlight/message_stream.hpp"
+
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/ssl.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/write.hpp>
+#include <variant>
+
+namespace arlight::wire {
+
+namespace asio = boost::asio;
+using asio::ip::tcp;
+
+namespace {
+
+// TCP and TLS: each Envelope behind a 4-byte little-endian length (wire::frame_header).
+template <class Stream>
+class FramedTransport final : public Transport {
+ public:
+  FramedTransport(Stream stream, bool server_handshake)
+      : stream_(std::move(stream)),
+        strand_(asio::make_strand(stream_.lowest_layer().get_executor())),
+        server_handshake_(server_handshake) {
+    boost::system::error_code ec;
+    const auto ep = stream_.lowest_layer().remote_endpoint(ec);
+    peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
+    stream_.lowest_layer().set_option(tcp::no_delay(true), ec);
+  }
+
+  asio::any_io_executor executor() override { return strand_; }
+  std::string peer() const override { return peer_; }
+
+  void async_start(Done done) override {
+    if constexpr (std::is_same_v<Stream, TlsSocket>) {
+      if (server_handshake_)
+        return stream_.async_handshake(asio::ssl::stream_base::server,
+                                       asio::bind_executor(strand_, std::move(done)));
+    }
+    asio::post(strand_, [done = std::move(done)] { done({}); });
+  }
+
+  void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
+                  ReadDone done) override {
+    asio::async_read(
+        stream_, asio::buffer(header_),
+        asio::bind_executor(strand_, [this, &envelope, max_bytes, done = std::move(done)](
+                                         boost::system::error_code ec, std::size_t) mutable {
+          if (ec) return done(ec, nullptr);
+          std::uint32_t size = 0;
+          try {
+            size = read_header(header_, max_bytes);
+          } catch (const DecodeError& e) {
+            return done({}, &e);
+          }
+          envelope.resize(size);  // bounded by the limit checked in the header
+          asio::async_read(stream_, asio::buffer(envelope),
+                           asio::bind_executor(strand_, [done = std::move(done)](
+                                                            boost::system::error_code ec,
+                                                            std::size_t) { done(ec, nullptr); }));
+        }));
+  }
+
+  void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) override {
+    out_header_ = frame_header(bytes.size());
+    const std::array<asio::const_buffer, 2> buffers{
+        asio::buffer(out_header_, framed ? kHeaderBytes : 0), asio::buffer(bytes.data(), bytes.size())};
+    asio::async_write(stream_, buffers,
+                      asio::bind_executor(strand_, [done = std::move(done)](
+                                                       boost::system::error_code ec,
+                                                       std::size_t) { done(ec); }));
+  }
+
+  void close() override {
+    boost::system::error_code ec;
+    stream_.lowest_layer().shutdown(tcp::socket::shutdown_both, ec);
+    stream_.lowest_layer().close(ec);
+  }
+
+ private:
+  Stream stream_;
+  asio::strand<asio::any_io_executor> strand_;
+  bool server_handshake_;
+  std::string peer_;
+  std::array<std::uint8_t, kHeaderBytes> header_{}, out_header_{};
+};
+
+}  // namespace
+
+std::unique_ptr<Transport> make_tcp_transport(tcp::socket socket) {
+  return std::make_unique<FramedTransport<tcp::socket>>(std::move(socket), false);
+}
+
+std::unique_ptr<Transport> make_tls_transport(TlsSocket stream, TlsRole role) {
+  return std::make_unique<FramedTransport<TlsSocket>>(std::move(stream),
+                                                      role == TlsRole::AcceptAsServer);
+}
+
+MessageStream::MessageStream(std::unique_ptr<Transport> transport, Options options)
+    : transport_(std::move(transport)),
+      options_(options),
+      executor_(transport_->executor()),
+      peer_(transport_->peer()) {}
+
+MessageStream::~MessageStream() = default;
+
+void MessageStream::start(Handlers handlers) {
+  asio::post(executor_, [self = shared_from_this(), h = std::move(handlers)]() mutable {
+    self->handlers_ = std::move(h);
+    self->transport_->async_start([self](const boost::system::error_code& ec) {
+      if (ec) {
+        if (self->handlers_.on_start_failed) self->handlers_.on_start_failed(ec.message());
+        return self->end("handshake failed: " + ec.message());
+      }
+      self->read_next();
+    });
+  });
+}
+
+void MessageStream::read_next() {
+  if (closing_ || ended_) return;
+  transport_->async_read(
+      in_, options_.limits.max_message_bytes,
+      [self = shared_from_this()](const boost::system::error_code& ec, const DecodeError* refused) {
+        if (self->ended_) return;
+        if (ec) return self->end("connection closed: " + ec.message());
+        if (refused) {
+          if (self->handlers_.on_bad_message) self->handlers_.on_bad_message(*refused);
+          return;
+        }
+        std::optional<Message> message;
+        try {
+          message = decode(self->in_, self->options_.limits);
+        } catch (const DecodeError& e) {
+          if (self->handlers_.on_bad_message) self->handlers_.on_bad_message(e);
+          return;
+        }
+        if (self->handlers_.on_message) self->handlers_.on_message(std::move(*message));
+        self->read_next();
+      });
+}
+
+void MessageStream::send(std::vector<std::uint8_t> envelope) { enqueue({std::move(envelope), true}); }
+
+void MessageStream::send_unframed(std::vector<std::uint8_t> bytes) {
+  enqueue({std::move(bytes), false});
+}
+
+void MessageStream::enqueue(Outgoing message) {
+  queued_bytes_ += message.bytes.size();
+  asio::post(executor_, [self = shared_from_this(), m = std::move(message)]() mutable {
+    if (self->ended_) {
+      self->queued_bytes_ -= m.bytes.size();
+      return;
+    }
+    self->out_.push_back(std::move(m));
+    if (self->options_.max_queued_bytes && self->queued_bytes_ > self->options_.max_queued_bytes &&
+        !self->closing_) {
+      // A peer that does not read would make us hold everything we send it. The message being
+      // written (the front, while writing_) must stay alive until its write ends.
+      const std::size_t keep = self->writing_ ? 1 : 0;
+      while (self->out_.size() > keep) {
+        self->queued_bytes_ -= self->out_.back().bytes.size();
+        self->out_.pop_back();
+      }
+      if (self->handlers_.on_overflow) self->handlers_.on_overflow();
+    }
+    if (!self->writing_) self->write_next();
+  });
+}
+
+void MessageStream::write_next() {
+  if (out_.empty()) {
+    writing_ = false;
+    if (closing_) end("closed after sending");
+    return;
+  }
+  writing_ = true;
+  transport_->async_write(out_.front().bytes, out_.front().framed, [self = shared_from_this()](
+                                            const boost::system::error_code& ec) {
+    const std::size_t n = self->out_.front().bytes.size();
+    self->queued_bytes_ -= n;
+    self->out_.pop_front();
+    if (ec) {
+      for (const auto& m : self->out_) self->queued_bytes_ -= m.bytes.size();
+      self->out_.clear();
+      self->writing_ = false;
+      return self->end("send failed: " + ec.message());
+    }
+    if (self->handlers_.on_sent) self->handlers_.on_sent(n);
+    self->write_next();
+  });
+}
+
+void MessageStream::close_after_sending() {
+  asio::post(executor_, [self = shared_from_this()] {
+    self->closing_ = true;
+    if (!self->writing_) self->write_next();
+  });
+}
+
+void MessageStream::close() {
+  asio::post(executor_, [self = shared_from_this()] { self->end("closed"); });
+}
+
+void MessageStream::end(const std::string& why) {
+  if (ended_) return;
+  ended_ = true;
+  transport_->close();  // pending reads and writes complete with an error
+  // The handlers usually hold their owner, which holds this stream: let go of them here.
+  Handlers h = std::move(handlers_);
+  handlers_ = {};
+  if (h.on_closed) h.on_closed(why);
+}
+
+}  // namespace arlight::wire

@@ -1,0 +1,164 @@
+// MessageStream over a real loopback TCP connection: messages in order both ways, framing
+// refused before allocation, orderly close after an Error, and the send queue's bound.
+#include <gtest/gtest.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/write.hpp>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "arlight/message_stream.hpp"
+
+namespace arlight {
+namespace {
+
+namespace asio = boost::asio;
+using asio::ip::tcp;
+using namespace std::chrono_literals;
+
+// What one end saw, under a lock.
+struct Seen {
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::vector<wire::Message> messages;
+  std::optional<wire::DecodeError> bad;
+  std::optional<std::string> closed;
+  int overflows = 0;
+
+  wire::MessageStream::Handlers handlers() {
+    wire::MessageStream::Handlers h;
+    h.on_message = [this](wire::Message&& m) { note([&] { messages.push_back(std::move(m)); }); };
+    h.on_bad_message = [this](const wire::DecodeError& e) { note([&] { bad = e; }); };
+    h.on_closed = [this](const std::string& why) { note([&] { closed = why; }); };
+    h.on_overflow = [this] { note([&] { ++overflows; }); };
+    return h;
+  }
+  template <class F>
+  void note(F f) {
+    std::lock_guard lock(mutex);
+    f();
+    cv.notify_all();
+  }
+  template <class P>
+  bool wait(P pred) {
+    std::unique_lock lock(mutex);
+    return cv.wait_for(lock, 10s, pred);
+  }
+};
+
+// A connected pair of sockets on loopback, with an io thread.
+struct Loopback {
+  asio::io_context io;
+  asio::executor_work_guard<asio::io_context::executor_type> work = asio::make_work_guard(io);
+  tcp::socket server{io}, client{io};
+  std::thread thread;
+
+  Loopback() {
+    tcp::acceptor acceptor(io, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0));
+    client.connect(acceptor.local_endpoint());
+    server = acceptor.accept();
+    thread = std::thread([this] { io.run(); });
+  }
+  ~Loopback() {
+    work.reset();
+    io.stop();
+    thread.join();
+  }
+};
+
+// For state no handler reports (the queue drains on the io thread).
+template <class P>
+bool eventually(P pred) {
+  for (auto end = std::chrono::steady_clock::now() + 10s; std::chrono::steady_clock::now() < end;
+       std::this_thread::sleep_for(5ms))
+    if (pred()) return true;
+  return pred();
+}
+
+std::shared_ptr<wire::MessageStream> stream(tcp::socket& s, wire::WireLimits limits = {},
+                                            std::size_t max_queued = 0) {
+  return std::make_shared<wire::MessageStream>(wire::make_tcp_transport(std::move(s)),
+                                               wire::MessageStream::Options{limits, max_queued});
+}
+
+TEST(MessageStream, CarriesMessagesInOrderBothWays) {
+  Loopback net;
+  Seen at_server, at_client;
+  auto server = stream(net.server), client = stream(net.client);
+  server->start(at_server.handlers());
+  client->start(at_client.handlers());
+  wire::CameraFrame frame;
+  frame.sequence = 5, frame.width = 2000, frame.height = 1000;
+  frame.data.assign(3u << 20, 0x5a);  // a large JPEG-sized payload, many TCP segments
+  for (std::uint64_t i = 0; i < 100; ++i) client->send(wire::Ping{i});
+  client->send(frame);
+  server->send(wire::Pong{1});
+  ASSERT_TRUE(at_server.wait([&] { return at_server.messages.size() == 101; }));
+  ASSERT_TRUE(at_client.wait([&] { return at_client.messages.size() == 1; }));
+  for (std::uint64_t i = 0; i < 100; ++i)
+    EXPECT_EQ(std::get<wire::Ping>(at_server.messages[i]).nonce, i);
+  EXPECT_TRUE(at_server.messages[100] == wire::Message(frame));
+  EXPECT_EQ(std::get<wire::Pong>(at_client.messages[0]).nonce, 1u);
+  EXPECT_EQ(client->queued_bytes(), 0u);
+  client->close();
+  ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
+  EXPECT_FALSE(at_server.bad);
+}
+
+TEST(MessageStream, RefusesAnOversizeHeaderAndGarbage) {
+  for (const auto& [bytes, fault] :
+       std::vector<std::pair<std::vector<std::uint8_t>, wire::Fault>>{
+           {{0, 0, 0, 0x40}, wire::Fault::OverLimit},  // 1 GiB announced: nothing allocated
+           {{8, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8}, wire::Fault::NotArlight},
+           {{0, 0, 0, 0}, wire::Fault::Malformed}}) {
+    Loopback net;
+    Seen at_server, at_client;
+    auto server = stream(net.server, {.max_message_bytes = 1u << 20});
+    auto client = stream(net.client);
+    server->start(at_server.handlers());
+    client->start(at_client.handlers());
+    client->send_unframed(bytes);
+    ASSERT_TRUE(at_server.wait([&] { return at_server.bad.has_value(); }));
+    EXPECT_EQ(at_server.bad->fault(), fault) << at_server.bad->what();
+    // The handler decides what follows: here an Error and an orderly close.
+    server->send(wire::Error{at_server.bad->code(), at_server.bad->what()});
+    server->close_after_sending();
+    ASSERT_TRUE(at_client.wait([&] { return at_client.closed.has_value(); }));
+    ASSERT_EQ(at_client.messages.size(), 1u);
+    EXPECT_EQ(std::get<wire::Error>(at_client.messages[0]).code, at_server.bad->code());
+  }
+}
+
+TEST(MessageStream, APeerThatDoesNotReadOverflowsTheBoundedQueue) {
+  Loopback net;
+  Seen at_server;
+  auto server = stream(net.server, {}, 4u << 20);
+  server->start(at_server.handlers());
+  // net.client is a bare socket that never reads.
+  wire::MapTile tile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 0, 0, 64, 64, {}};
+  tile.data.assign(1u << 20, 1);
+  for (int i = 0; i < 64; ++i) server->send(tile);
+  ASSERT_TRUE(at_server.wait([&] { return at_server.overflows > 0; }));
+  server->close();
+  ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
+  EXPECT_TRUE(eventually([&] { return server->queued_bytes() == 0; }));
+}
+
+TEST(MessageStream, SendsAfterTheEndAreDropped) {
+  Loopback net;
+  Seen at_server;
+  auto server = stream(net.server);
+  server->start(at_server.handlers());
+  net.client.close();
+  ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
+  server->send(wire::Ping{1});
+  EXPECT_TRUE(eventually([&] { return server->queued_bytes() == 0; }));
+}
+
+}  // namespace
+}  // namespace arlight

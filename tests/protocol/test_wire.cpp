@@ -1,0 +1,260 @@
+// The typed codec (protocol/include/arlight/wire.hpp) on its own: every message survives a round
+// trip with its optional fields set and unset, and every class of corruption is refused with
+// the fault, message and field it concerns.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "arlight/wire.hpp"
+#include "wire_samples.hpp"
+
+namespace arlight {
+namespace {
+
+namespace fs = std::filesystem;
+using wire::DecodeError;
+using wire::Fault;
+
+// Runs decode and returns the error it throws (fails the test if it does not throw).
+DecodeError refusal(std::span<const std::uint8_t> bytes, const wire::WireLimits& limits = {}) {
+  try {
+    const wire::Message m = wire::decode(bytes, limits);
+    ADD_FAILURE() << "accepted as " << wire::message_name(m);
+  } catch (const DecodeError& e) {
+    return e;
+  }
+  return DecodeError(Fault::Missing, "", "", "no error");
+}
+
+TEST(WireCodec, EveryMessageRoundTripsWithEveryOptionalFieldSet) {
+  const auto messages = test::messages_with_every_field();
+  ASSERT_EQ(messages.size(), std::variant_size_v<wire::Message>);
+  for (std::size_t i = 0; i < messages.size(); ++i) {
+    ASSERT_EQ(messages[i].index(), i) << "samples must follow the union order";
+    const auto bytes = wire::encode(messages[i]);
+    const wire::Message back = wire::decode(bytes);
+    EXPECT_TRUE(back == messages[i]) << wire::message_name(messages[i]);
+  }
+}
+
+TEST(WireCodec, EveryMessageRoundTripsWithNoOptionalField) {
+  for (const wire::Message& m : test::messages_with_no_optional_field()) {
+    const wire::Message back = wire::decode(wire::encode(m));
+    EXPECT_TRUE(back == m) << wire::message_name(m);
+  }
+  // Absent really means absent: the frame without orientation says so, Welcome has no limits.
+  const auto frame = std::get<wire::CameraFrame>(wire::decode(wire::encode(test::sample_frame(0, false))));
+  EXPECT_FALSE(frame.has_orientation);
+  EXPECT_EQ(frame.info.orientation, glm::dquat(0, 0, 0, 0));
+  EXPECT_FALSE(std::get<wire::Welcome>(wire::decode(wire::encode(wire::Welcome{}))).limits);
+}
+
+TEST(WireCodec, MessageNamesFollowTheSchema) {
+  EXPECT_STREQ(wire::message_name(wire::CameraIntrinsicsMessage{}), "CameraIntrinsics");
+  EXPECT_STREQ(wire::message_name(wire::CalibrationResult{}), "CalibrationResult");
+  EXPECT_STREQ(wire::error_code_name(wire::ErrorCode::SessionNotFound), "SessionNotFound");
+}
+
+TEST(WireCodec, TruncatedMessagesAreRefusedAtEveryLength) {
+  const auto bytes = wire::encode(test::sample_frame(3, true));
+  for (std::size_t n = 0; n < bytes.size(); ++n) {
+    const DecodeError e = refusal(std::span(bytes).first(n));
+    EXPECT_TRUE(e.fault() == Fault::NotArlight || e.fault() == Fault::Malformed)
+        << n << " bytes: " << e.what();
+    EXPECT_EQ(e.code(), wire::ErrorCode::BadMessage);
+  }
+}
+
+TEST(WireCodec, WrongIdentifierIsNotAnArlightMessage) {
+  auto bytes = wire::encode(wire::Ping{1});
+  bytes[4] = 'X';  // the identifier "ARL1" sits after the root offset
+  const DecodeError e = refusal(bytes);
+  EXPECT_EQ(e.fault(), Fault::NotArlight) << e.what();
+  EXPECT_NE(std::string(e.what()).find("ARL1"), std::string::npos);
+}
+
+TEST(WireCodec, UnknownUnionTagIsRefused) {
+  // Ping and Pong are the same table under another tag: the one byte in which their encodings
+  // differ is the union tag.
+  const auto ping = wire::encode(wire::Ping{77});
+  const auto pong = wire::encode(wire::Pong{77});
+  ASSERT_EQ(ping.size(), pong.size());
+  std::vector<std::size_t> differ;
+  for (std::size_t i = 0; i < ping.size(); ++i)
+    if (ping[i] != pong[i]) differ.push_back(i);
+  ASSERT_EQ(differ.size(), 1u);
+  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(16), std::uint8_t(200)}) {
+    auto bytes = ping;
+    bytes[differ[0]] = tag;
+    const DecodeError e = refusal(bytes);
+    // Tag 0 (NONE) with a table, or a tag past the schema's last member.
+    EXPECT_TRUE(e.fault() == Fault::UnknownMessage || e.fault() == Fault::Malformed)
+        << int(tag) << ": " << e.what();
+    if (tag != 0) EXPECT_EQ(e.fault(), Fault::UnknownMessage) << e.what();
+  }
+}
+
+TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
+  auto frame = test::sample_frame(1, false);
+  frame.format = wire::PixelFormat(7);
+  DecodeError e = refusal(wire::encode(frame));
+  EXPECT_EQ(e.fault(), Fault::OutOfRange);
+  EXPECT_EQ(e.message(), "CameraFrame");
+  EXPECT_EQ(e.field(), "format");
+  EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
+
+  e = refusal(wire::encode(wire::RequestMaps{{1.0f}, 64, Projection(9), "auto"}));
+  EXPECT_EQ(e.message(), "RequestMaps");
+  EXPECT_EQ(e.field(), "projection");
+  EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
+
+  e = refusal(wire::encode(wire::Error{wire::ErrorCode(99), "?"}));
+  EXPECT_EQ(e.fault(), Fault::OutOfRange);
+  EXPECT_EQ(e.field(), "code");
+
+  e = refusal(wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 32, 0, 64,
+                                         8, {1}}));
+  EXPECT_EQ(e.message(), "MapTile");
+  EXPECT_EQ(e.field(), "x") << e.what();  // a tile reaching past the map's edge
+  e = refusal(wire::encode(
+      wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 13, 0, 0, 1, 1, {1}}));
+  EXPECT_EQ(e.field(), "level");
+}
+
+TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {
+  const wire::WireLimits limits{.max_message_bytes = 1u << 20, .max_frame_pixels = 100 * 100,
+                                .max_map_size = 512, .max_maps = 4};
+  auto frame = test::sample_frame(1, false);
+  frame.width = 101, frame.height = 100;
+  DecodeError e = refusal(wire::encode(frame), limits);
+  EXPECT_EQ(e.fault(), Fault::OverLimit);
+  EXPECT_EQ(e.code(), wire::ErrorCode::TooLarge);
+  EXPECT_EQ(e.message(), "CameraFrame");
+
+  e = refusal(wire::encode(wire::RequestMaps{{1, 2, 3, 4, 5}, 64, Projection::AngleMap, ""}),
+              limits);
+  EXPECT_EQ(e.field(), "shininess");
+  EXPECT_EQ(e.code(), wire::ErrorCode::TooLarge);
+
+  wire::CalibrationSet set;
+  set.frames.assign(wire::kMaxCalibrationFrames + 1, test::sample_frame(1, false));
+  e = refusal(wire::encode(set));
+  EXPECT_EQ(e.field(), "frames");
+  EXPECT_EQ(e.fault(), Fault::OverLimit);
+
+  e = refusal(wire::encode(wire::Hello{1, "", std::string(5000, 'd'), "", {}, ""}));
+  EXPECT_EQ(e.message(), "Hello");
+  EXPECT_EQ(e.field(), "device_id");
+  EXPECT_EQ(e.fault(), Fault::OverLimit);
+
+  // The whole message against max_message_bytes, and a header announcing too much.
+  auto big = test::sample_frame(1, false);
+  big.data.assign(2u << 20, 0);
+  e = refusal(wire::encode(big), limits);
+  EXPECT_EQ(e.fault(), Fault::OverLimit);
+  const auto header = wire::frame_header(std::size_t(limits.max_message_bytes) + 1);
+  EXPECT_THROW(wire::read_header(header, limits.max_message_bytes), DecodeError);
+  EXPECT_EQ(wire::read_header(wire::frame_header(1000), limits.max_message_bytes), 1000u);
+  try {
+    wire::read_header(wire::frame_header(0), limits.max_message_bytes);
+    ADD_FAILURE() << "length 0 accepted";
+  } catch (const DecodeError& z) {
+    EXPECT_EQ(z.code(), wire::ErrorCode::BadMessage);
+  }
+}
+
+TEST(WireCodec, VectorsOfTheWrongSizeAreRefused) {
+  wire::LightingUpdate u;
+  u.sh = ShCoeffs(3);
+  u.sh.c.resize(4);  // order 3 needs 9 coefficients
+  DecodeError e = refusal(wire::encode(u));
+  EXPECT_EQ(e.fault(), Fault::WrongSize);
+  EXPECT_EQ(e.message(), "LightingUpdate");
+  EXPECT_EQ(e.field(), "sh");
+
+  auto frame = test::sample_frame(1, true);
+  frame.data.pop_back();  // RGB8 needs width * height * 3 bytes
+  e = refusal(wire::encode(frame));
+  EXPECT_EQ(e.fault(), Fault::WrongSize);
+  EXPECT_EQ(e.field(), "data");
+
+  frame.data.clear();
+  e = refusal(wire::encode(frame));
+  EXPECT_EQ(e.fault(), Fault::Missing);
+}
+
+TEST(WireCodec, FramingAddsTheLittleEndianLength) {
+  const auto envelope = wire::encode(wire::Ping{5});
+  const auto framed = wire::frame(envelope);
+  ASSERT_EQ(framed.size(), envelope.size() + 4);
+  EXPECT_EQ(framed[0], std::uint8_t(envelope.size()));
+  EXPECT_EQ(framed[1], 0);
+  EXPECT_TRUE(std::equal(envelope.begin(), envelope.end(), framed.begin() + 4));
+}
+
+TEST(WireCodec, HalfFloatTilesRoundTripAndRefuseDamage) {
+  std::vector<float> rgb = {0.0f, 0.5f, 1.0f, 2.0f, 65000.0f, 1e-3f};
+  const auto data = wire::encode_half_rgb(rgb.data(), 2);
+  std::string why;
+  const auto back = wire::decode_half_rgb(data, 2, why);
+  ASSERT_TRUE(back) << why;
+  for (std::size_t i = 0; i < rgb.size(); ++i) EXPECT_NEAR((*back)[i], rgb[i], rgb[i] * 1e-3);
+  EXPECT_FALSE(wire::decode_half_rgb(data, 3, why));
+  EXPECT_NE(why.find("expected 18"), std::string::npos) << why;
+  EXPECT_FALSE(wire::decode_half_rgb(std::span(data).first(3), 2, why));
+}
+
+// The seed corpus for the fuzzers: valid/ decodes, broken/ is refused. ARLIGHT_WRITE_CORPUS=1
+// rewrites it from the samples above (then commit the files).
+TEST(WireCodec, SeedCorpusDecodesAsItsFolderSays) {
+  const fs::path corpus = fs::path(ARLIGHT_SOURCE_DIR) / "tests/protocol/corpus";
+  if (std::getenv("ARLIGHT_WRITE_CORPUS")) {
+    const auto write = [&](const std::string& name, const std::vector<std::uint8_t>& bytes) {
+      fs::create_directories((corpus / name).parent_path());
+      std::ofstream(corpus / name, std::ios::binary)
+          .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    };
+    int n = 0;
+    for (const auto& set : {test::messages_with_every_field(), test::messages_with_no_optional_field()})
+      for (const wire::Message& m : set)
+        write("valid/" + std::to_string(n++) + "-" + wire::message_name(m), wire::encode(m));
+    const auto frame = wire::encode(test::sample_frame(3, true));
+    write("broken/truncated-CameraFrame", {frame.begin(), frame.begin() + long(frame.size() / 2)});
+    auto id = wire::encode(wire::Ping{1});
+    id[4] = 'X';
+    write("broken/wrong-identifier", id);
+    auto rgb = test::sample_frame(1, true);
+    rgb.data.pop_back();
+    write("broken/rgb8-wrong-size", wire::encode(rgb));
+    auto fmt = test::sample_frame(1, false);
+    fmt.format = wire::PixelFormat(7);
+    write("broken/unknown-pixel-format", wire::encode(fmt));
+    wire::LightingUpdate u;
+    u.sh = ShCoeffs(3);
+    u.sh.c.resize(4);
+    write("broken/sh-wrong-size", wire::encode(u));
+    write("broken/garbage", {64, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12});
+  }
+  int valid = 0, broken = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(corpus)) {
+    if (!entry.is_regular_file()) continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                          std::istreambuf_iterator<char>());
+    if (entry.path().parent_path().filename() == "valid") {
+      EXPECT_NO_THROW(wire::decode(bytes)) << entry.path();
+      ++valid;
+    } else {
+      EXPECT_THROW(wire::decode(bytes), DecodeError) << entry.path();
+      ++broken;
+    }
+  }
+  EXPECT_EQ(valid, 2 * int(std::variant_size_v<wire::Message>));
+  EXPECT_GE(broken, 6);
+}
+
+}  // namespace
+}  // namespace arlight
