@@ -241,7 +241,7 @@ double auto_exposure_stops(ConstImageView img) {
   for (int y = 0; y < img.height; ++y)
     for (int x = 0; x < img.width; ++x) {
       const glm::vec3 v = img.at(x, y);
-      const double lum = 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z;
+      const double lum = luminance(glm::dvec3(v));
       if (lum > 0.0 && std::isfinite(lum)) log_sum += std::log(lum + 1e-6), ++n;
     }
   return n ? std::log2(0.18) - log_sum / double(n) / std::log(2.0) : 0.0;

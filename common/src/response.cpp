@@ -99,6 +99,12 @@ void CameraResponse::save(const std::filesystem::path& path) const {
   write_file_atomically(path, j.dump() + "\n");
 }
 
+CameraResponse CameraResponse::named(const std::string& name_or_file) {
+  if (name_or_file == "srgb") return srgb();
+  if (name_or_file == "filmic") return filmic();
+  return load(name_or_file);  // InputError naming the file
+}
+
 CameraResponse CameraResponse::load(const std::filesystem::path& path) {
   const std::string where = "'" + path.string() + "': ";
   std::ifstream in(path);

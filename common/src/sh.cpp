@@ -382,7 +382,7 @@ DominantLight sh_dominant_light(const ShCoeffs& coeffs) {
   const auto band1 = [&](int c) {  // (x, y, z) components: Y_1^1 ~ x, Y_1^-1 ~ y, Y_1^0 ~ z
     return glm::dvec3(coeffs.at(1, 1)[c], coeffs.at(1, -1)[c], coeffs.at(1, 0)[c]);
   };
-  const glm::dvec3 lum = 0.2126 * band1(0) + 0.7152 * band1(1) + 0.0722 * band1(2);
+  const glm::dvec3 lum = luminance(band1(0), band1(1), band1(2));  // per component
   const double n = glm::length(lum);
   if (!(n > 1e-12)) return light;
   const glm::dvec3 d = lum / n;

@@ -20,6 +20,7 @@
 #include "arlight/camera.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
+#include "arlight/pose.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/response.hpp"
@@ -68,11 +69,6 @@ double srgb_to_linear(double c) {
   return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
 }
 
-double luminance(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
-
-double angle_deg(const glm::dquat& a, const glm::dquat& b) {
-  return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(a, b)))) / kDeg;
-}
 
 // Fraction of the sphere's solid angle that some pixel of some view lands in, on a 64x32
 // lat-long grid.
@@ -214,10 +210,10 @@ TEST(ArlightSim, PixelsAreTheProbeSeenThroughTheTruthPose) {
             0.25 * glm::dvec3(probe.sample(
                        truth->poses[i].orientation * cam.unproject({double(x), double(y)}), 0.0));
     const glm::dvec3 forward(probe.sample(truth->poses[i].orientation * glm::dvec3(0, 0, -1), 0.0));
-    EXPECT_NEAR(luminance(want.x, want.y, want.z) / luminance(forward.x, forward.y, forward.z), 1.0,
+    EXPECT_NEAR(luminance(glm::dvec3(want)) / luminance(glm::dvec3(forward)), 1.0,
                 0.05);
     const double e = rec.frames[i].exposure * rec.frames[i].gain;
-    const double ratio = measured / e / luminance(want.x, want.y, want.z);
+    const double ratio = measured / e / luminance(glm::dvec3(want));
     EXPECT_NEAR(ratio, 1.0, 0.03) << "frame " << i;
     worst = std::max(worst, std::abs(ratio - 1.0));
     ++checked;

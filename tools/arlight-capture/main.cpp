@@ -17,6 +17,7 @@
 #include "arlight/capture.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
+#include "arlight/pose.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/truth.hpp"
 
@@ -47,9 +48,7 @@ double median(std::vector<double> v) {
 
 // The response the frames are linearised with, and where it came from.
 CameraResponse choose_response(const Options& o, const recording::Recording& rec) {
-  if (o.response == "srgb") return CameraResponse::srgb();
-  if (o.response == "filmic") return CameraResponse::filmic();
-  if (!o.response.empty()) return CameraResponse::load(o.response);
+  if (!o.response.empty()) return CameraResponse::named(o.response);
   if (!o.response_dir.empty() && !rec.device_id.empty())
     if (auto r = capture::ResponseStore(o.response_dir).find(rec.device_id)) {
       std::printf("using %s's camera response from %s\n", rec.device_id.c_str(),
@@ -86,10 +85,10 @@ int run_calibration(const Options& o, const recording::Recording& rec) {
       continue;
     }
     // A bracket is one view: frames that look elsewhere would calibrate garbage.
-    if (!images.empty() && capture::angle_between_deg(f.orientation, first_view) > 2.0)
+    if (!images.empty() && angle_deg(f.orientation, first_view) > 2.0)
       throw InputError("'" + rec.folder.string() + "' is not a bracket: frame " +
                        std::to_string(i) + " looks " +
-                       std::to_string(capture::angle_between_deg(f.orientation, first_view)) +
+                       std::to_string(angle_deg(f.orientation, first_view)) +
                        " degrees away from the first (record one view at several exposures, "
                        "e.g. arlight-sim --bracket 7)");
     if (images.empty()) first_view = f.orientation;
@@ -180,7 +179,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
                           {"align_note", r.align_note},
                           {"texels_changed", r.texels_changed}};
     if (truth && i < truth->poses.size()) {
-      const double e = capture::angle_between_deg(r.orientation, truth->poses[i].orientation);
+      const double e = angle_deg(r.orientation, truth->poses[i].orientation);
       squared_error += e * e;
       ++compared;
       row["error_deg"] = e;

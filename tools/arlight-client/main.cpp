@@ -48,12 +48,6 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, std::size_t(p * double(v.size() - 1) + 0.5))];
 }
 
-CameraResponse load_response(const std::string& name) {
-  if (name == "srgb") return CameraResponse::srgb();
-  if (name == "filmic") return CameraResponse::filmic();
-  return CameraResponse::load(name);
-}
-
 render::ToneMode parse_tone(const std::string& name) {
   if (name == "camera") return render::ToneMode::CameraMatched;
   if (name == "reinhard") return render::ToneMode::Reinhard;
@@ -169,7 +163,7 @@ int main(int argc, char** argv) {
                : render::GlContext::headless();
     spdlog::info("GL: {} ({})", gl.renderer(), gl.version());
     render::Renderer renderer(camera.width, camera.height);
-    renderer.set_response(load_response(response_name));
+    renderer.set_response(CameraResponse::named(response_name));
     // The virtual object, standing on the marker.
     const render::Mesh mesh =
         model == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(model);

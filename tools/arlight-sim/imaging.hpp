@@ -40,8 +40,6 @@ std::vector<ExposureSetting> auto_exposure(const std::vector<double>& metered_me
 // n settings one stop apart centred on the metered exposure, gain 1 (for response calibration).
 std::vector<ExposureSetting> bracket_exposures(double metered_mean, int n);
 
-// Rec. 709 luminance of linear RGB.
-inline double luminance(const glm::vec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
 // round(255 · response.encode(x, c)) without evaluating the curve per pixel: the 255 code
 // thresholds of each channel are found once by bisection over the floats; a lookup starts at

@@ -32,12 +32,6 @@ constexpr double kGravity = 9.81;
 constexpr int kMeterCols = 16, kMeterRows = 12;  // the auto-exposure's metering grid
 constexpr int kSuper = 4;                        // supersampling where the marker is
 
-CameraResponse load_response(const std::string& name) {
-  if (name == "srgb") return CameraResponse::srgb();
-  if (name == "filmic") return CameraResponse::filmic();
-  return CameraResponse::load(name);  // InputError naming the file
-}
-
 // An --out folder is either absent, empty, or an earlier recording (which is replaced).
 void prepare_output(const fs::path& out) {
   std::error_code ec;
@@ -81,7 +75,7 @@ struct Scene {
 }  // namespace
 
 int simulate(const SimOptions& o) {
-  const CameraResponse response = load_response(o.response);
+  const CameraResponse response = CameraResponse::named(o.response);
   LoadedEnvMap probe = load_envmap(o.env);
   if (!probe.info.sanitized.clean())
     std::fprintf(stderr, "arlight-sim: %s: %s\n", o.env.string().c_str(),
@@ -137,7 +131,7 @@ int simulate(const SimOptions& o) {
         const glm::dvec2 px((gx + 0.5) * o.width / kMeterCols - 0.5,
                             (gy + 0.5) * o.height / kMeterRows - 0.5);
         const Pose& p = poses[std::size_t(i)];
-        sum += luminance(scene.radiance(p.position, p.orientation * camera.unproject(px)));
+        sum += luminance(glm::dvec3(scene.radiance(p.position, p.orientation * camera.unproject(px))));
       }
     metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
   });

@@ -33,7 +33,6 @@ enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
 constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
 constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
 
-float luminance(glm::vec3 c) { return glm::dot(c, glm::vec3(0.2126f, 0.7152f, 0.0722f)); }
 
 // A mesh drawn this frame, for the shadow pass (its scene-frame bounds and what draws it).
 struct Caster {

@@ -7,6 +7,18 @@
 
 namespace arlight {
 
+// Relative luminance of linear Rec. 709 / sRGB primaries (ITU-R BT.709), of a colour (glm::vec3
+// or dvec3, in its own precision) or of three channels of anything that scales by a double.
+template <class Vec3>
+constexpr auto luminance(const Vec3& rgb) {
+  using T = decltype(rgb.x);
+  return T(0.2126) * rgb.x + T(0.7152) * rgb.y + T(0.0722) * rgb.z;
+}
+template <class T>
+constexpr T luminance(const T& r, const T& g, const T& b) {
+  return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
 // How a sampler treats coordinates outside the image along one axis.
 enum class Edge { Clamp, Wrap };
 

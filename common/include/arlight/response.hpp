@@ -35,6 +35,8 @@ class CameraResponse {
   // [256]]}, written atomically. load() throws InputError naming the file and what is wrong.
   void save(const std::filesystem::path& path) const;
   static CameraResponse load(const std::filesystem::path& path);
+  // "srgb", "filmic", or else a file for load(): what every --response flag takes.
+  static CameraResponse named(const std::string& name_or_file);
 
  private:
   CameraResponse() = default;

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "arlight/pose.hpp"
+
 namespace arlight::recording {
 
 inline constexpr const char* kTruthFormatName = "arlight-truth";
@@ -18,12 +20,7 @@ inline constexpr int kTruthFormatVersion = 1;
 inline constexpr const char* kTruthFolder = "truth";
 inline constexpr const char* kTruthManifestName = "truth.json";  // inside REC/truth/
 
-// A rigid pose: `orientation` rotates the frame's coordinates into the world (+Y up, -Z
-// forward), `position` is the frame's origin in world coordinates (metres).
-struct Pose {
-  glm::dquat orientation{1, 0, 0, 0};
-  glm::dvec3 position{0.0};
-};
+using Pose = arlight::Pose;  // common/: one type for the concept
 
 // An ArUco marker. Its frame is OpenCV aruco's: origin at the marker's centre, x right and y up
 // in the marker image, z out of the marker; `size_m` is the side of the black square.

@@ -15,6 +15,7 @@
 
 #include "align.hpp"
 #include "arlight/capture.hpp"
+#include "arlight/pose.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
 
@@ -76,11 +77,6 @@ std::string check_frame_info(const FrameInfo& info) {
   if (std::abs(norm - 1.0) > 1e-3)
     return "orientation is not a unit quaternion (norm " + std::to_string(norm) + ")";
   return {};
-}
-
-double angle_between_deg(const glm::dquat& a, const glm::dquat& b) {
-  const double d = std::abs(glm::dot(glm::normalize(a), glm::normalize(b)));
-  return 2.0 * std::acos(std::min(1.0, d)) * 180.0 / std::numbers::pi;
 }
 
 namespace {
@@ -314,8 +310,7 @@ struct CaptureSession::Impl {
               g[x] = 0, m[x] = 0;
               continue;
             }
-            const float lum =
-                (0.2126f * l.x + 0.7152f * l.y + 0.0722f * l.z) * float(exposure_gain);
+            const float lum = luminance(l) * float(exposure_gain);
             g[x] = gray_code[std::size_t(std::sqrt(std::clamp(lum, 0.0f, 1.0f)) * top + 0.5f)];
             m[x] = 255;
           }
@@ -344,20 +339,13 @@ struct CaptureSession::Impl {
     return offset;
   }
 
-  static glm::dvec3 rotation_vector(glm::dquat q) {
-    if (q.w < 0) q = -q;
-    const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-    if (s < 1e-15) return glm::dvec3(0.0);
-    return (2.0 * std::atan2(s, q.w) / s) * glm::dvec3(q.x, q.y, q.z);
-  }
-
   void update_offset(const glm::dquat& measured_offset, double timestamp) {
-    const glm::dvec3 r = rotation_vector(measured_offset * glm::conjugate(offset));
+    const glm::dvec3 r = log_map(measured_offset * glm::conjugate(offset));
     if (glm::length(r) > 0.0)
       offset = glm::normalize(
           glm::angleAxis(options.align_smoothing * glm::length(r), glm::normalize(r)) * offset);
     if (!std::isfinite(timestamp)) return;
-    history.push_back({timestamp, rotation_vector(measured_offset)});
+    history.push_back({timestamp, log_map(measured_offset)});
     while (!history.empty() && history.front().first < timestamp - kRateWindow) history.pop_front();
     if (history.size() < 8 || timestamp - history.front().first < 0.5 * kRateWindow) return;
     double st = 0, stt = 0;
@@ -424,7 +412,7 @@ struct CaptureSession::Impl {
       return;
     }
     const glm::dquat correction = glm::quat_cast(m.fit.rotation);  // camera frame
-    const double step = angle_between_deg(correction, glm::dquat(1, 0, 0, 0));
+    const double step = angle_deg(correction, glm::dquat(1, 0, 0, 0));
     if (step > options.align_max_step_deg) {  // a jump this large is a mismatch, not drift
       result.align_note = "rejected a " + std::to_string(step) + " degree correction";
       return;
@@ -532,7 +520,7 @@ struct CaptureSession::Impl {
     t0 = Clock::now();
     result.orientation = options.align ? align(bgr8, info, sensor, result) : sensor;
     result.align_ms = ms_since(t0);
-    result.correction_deg = angle_between_deg(result.orientation, sensor);
+    result.correction_deg = angle_deg(result.orientation, sensor);
     project(frame, result.orientation, result);
     result.used = true;
     ++used;

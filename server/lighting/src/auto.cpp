@@ -269,10 +269,12 @@ struct BrightSplit {
 BrightSplit split_bright(const EnvMap& input) {
   const auto table = texel_table(input.layout);
   const float* px = input.image.data();
-  auto luminance = [](const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; };
+  const auto luminance_at = [](const float* p) {
+    return luminance(glm::dvec3(p[0], p[1], p[2]));
+  };
   double mean_y = 0.0, total_w = 0.0;
   for (std::size_t i = 0; i < table->size(); ++i) {
-    mean_y += table->solid_angle[i] * luminance(px + 3 * std::size_t(table->index[i]));
+    mean_y += table->solid_angle[i] * luminance_at(px + 3 * std::size_t(table->index[i]));
     total_w += table->solid_angle[i];
   }
   const double cap = kBrightCap * mean_y / total_w;
@@ -280,7 +282,7 @@ BrightSplit split_bright(const EnvMap& input) {
   EnvMap excess(input.layout);
   for (std::size_t i = 0; i < table->size(); ++i) {
     const std::size_t at = 3 * std::size_t(table->index[i]);
-    const double y = luminance(px + at);
+    const double y = luminance_at(px + at);
     if (y <= cap) continue;
     for (int c = 0; c < 3; ++c) {
       split.rest.image.data()[at + c] = float(px[at + c] * cap / y);

@@ -117,7 +117,4 @@ class CaptureSession {
 // finite, orientation a finite unit quaternion within 1e-3).
 std::string check_frame_info(const FrameInfo& info);
 
-// Angle in degrees of the rotation between two orientations.
-double angle_between_deg(const glm::dquat& a, const glm::dquat& b);
-
 }  // namespace arlight::capture

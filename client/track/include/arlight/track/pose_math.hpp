@@ -1,28 +1,22 @@
-// Rigid poses and rotations for tracking: composition, inversion, angles, and the change
-// between OpenCV's camera (x right, y down, z forward) and the project's (x right, y up,
-// looking down -z; common/CONVENTIONS.md).
+// Rotations for tracking: the nearest rotation to a matrix, and the change between OpenCV's
+// camera (x right, y down, z forward) and the project's (x right, y up, looking down -z;
+// common/CONVENTIONS.md). Poses themselves and their algebra are common/ (arlight/pose.hpp).
 #pragma once
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
-#include "arlight/truth.hpp"
+#include "arlight/pose.hpp"
 
 namespace arlight::track {
 
-using recording::Pose;
-
-// a * b: b's frame -> a's frame -> a's parent (b expressed in a, then a in its parent).
-Pose compose(const Pose& a, const Pose& b);
-Pose inverse(const Pose& p);
-
-// The angle of the rotation between two orientations, degrees (0..180; q and -q are equal).
-double angle_deg(const glm::dquat& a, const glm::dquat& b);
-
-// Rotation vector (axis * angle, radians) of a unit quaternion, the shorter way round, and back.
-glm::dvec3 log_map(const glm::dquat& q);
-glm::dquat exp_map(const glm::dvec3& v);
+using arlight::angle_deg;
+using arlight::compose;
+using arlight::exp_map;
+using arlight::inverse;
+using arlight::log_map;
+using arlight::Pose;
 
 // The nearest rotation to a 3x3 matrix (SVD, det +1), as a unit quaternion.
 glm::dquat nearest_rotation(const glm::dmat3& m);
