@@ -1,8 +1,9 @@
 // The thin client's per-frame work at 1280x720 with the bunny, headless on Mesa's CPU renderer
 // (llvmpipe): marker tracking, rendering (image-based lighting from a map set, shadow catcher)
-// and camera-matched tone mapping + compositing with readback — what arlight-client does for
-// every frame, without the network (the lighting is computed here once, as arlightd would send
-// it). Frames come from a simulated 1280x720 orbit around a marker in venice (arlight-sim).
+// and camera-matched tone mapping + compositing with readback — arlight_client_app's pipeline,
+// as arlight-client runs it for every frame, without the network (the lighting is computed here
+// once, as arlightd would send it). Frames come from a simulated 1280x720 orbit around a marker in
+// venice (arlight-sim).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "arlight/client_app.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/render.hpp"
@@ -59,58 +61,40 @@ const ClientFixture& fixture() {
   return *f;
 }
 
+// The client's per-frame pipeline itself (arlight_client_app, as arlight-client runs it), with
+// the lighting fixed instead of coming over the network.
 void BM_ClientFrame(benchmark::State& state, bool shadow) {
   const ClientFixture& fx = fixture();
   render::GlContext gl = render::GlContext::headless();
-  render::Renderer renderer(fx.camera.width, fx.camera.height);
-  renderer.set_maps(fx.shininess, fx.maps);
-  const render::Mesh mesh =
-      render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb");
-  const render::GpuMesh gpu_mesh(mesh);
-  const glm::mat4 model = render::standing_on_marker(mesh.bounds, 0.3f);
-  render::Material material;
-  material.kd = glm::vec3(0.7f), material.ks = glm::vec3(0.3f), material.shininess = 80;
-  track::MarkerTracker tracker(fx.camera, {"DICT_4X4_50", 7, 0.2});
-  track::WorldFromMarker world_from_marker;
-  render::ToneMapping tone;
+  client_app::PipelineOptions options;
+  options.camera = fx.camera;
+  options.marker = {"DICT_4X4_50", 7, 0.2};
+  options.object_height = 0.3;
+  options.material.kd = glm::vec3(0.7f), options.material.ks = glm::vec3(0.3f);
+  options.material.shininess = 80;
+  options.shadow = shadow;
+  client_app::FramePipeline pipeline(
+      options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
+  auto maps = std::make_shared<client::MapSet>();
+  maps->shininess = fx.shininess, maps->maps = fx.maps, maps->complete = true;
+  client_app::FixedLighting lighting({.maps_version = 1,
+                                      .maps = maps,
+                                      .dominant_direction = fx.light.direction,
+                                      .dominant_colour = fx.light.colour});
   cv::Mat out;
-  std::vector<double> track_ms, render_ms, tonemap_ms, total_ms;
+  client_app::RunStats stats;
   std::size_t k = 0, drawn = 0;
   for (auto _ : state) {
-    const source::SourceFrame& f = fx.frames[k++ % fx.frames.size()];
-    const auto t0 = std::chrono::steady_clock::now();
-    const track::TrackResult tr = tracker.track(f.bgr, f.timestamp);
-    if (tr.tracked && f.orientation)
-      world_from_marker.add(f.timestamp, *f.orientation, tr.raw.orientation);
-    const double t_track =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    renderer.begin_frame();
-    if (tr.tracked && world_from_marker.world_from_marker()) {
-      renderer.set_camera(fx.camera, track::view_matrix(tr.smoothed));
-      renderer.set_world_from_scene(*world_from_marker.world_from_marker());
-      renderer.set_shadow({.enabled = shadow,
-                           .light_direction = fx.light.direction,
-                           .light_colour = fx.light.colour});
-      renderer.draw(gpu_mesh, material, model);
-      ++drawn;
-    }
-    tone.exposure = f.exposure, tone.gain = f.gain;
-    renderer.composite(f.bgr, tone, out);
-    const render::FrameTimings& t = renderer.timings();
-    track_ms.push_back(t_track);
-    render_ms.push_back(t.render_ms);
-    tonemap_ms.push_back(t.tonemap_ms + t.readback_ms);
-    total_ms.push_back(t_track + t.render_ms + t.tonemap_ms + t.readback_ms);
+    const client_app::FrameReport r =
+        pipeline.process(fx.frames[k++ % fx.frames.size()], lighting, out);
+    stats.add(r, 0.0);
+    drawn += r.drawn;
   }
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[v.size() / 2];
-  };
-  state.counters["tracking_ms"] = median(track_ms);
-  state.counters["render_ms"] = median(render_ms);
-  state.counters["tonemap_ms"] = median(tonemap_ms);
-  state.counters["median_ms"] = median(total_ms);
-  state.counters["fps"] = 1000.0 / std::max(1e-9, median(total_ms));
+  state.counters["tracking_ms"] = client_app::median(stats.track_ms);
+  state.counters["render_ms"] = client_app::median(stats.render_ms);
+  state.counters["tonemap_ms"] = client_app::median(stats.tonemap_ms);
+  state.counters["median_ms"] = client_app::median(stats.frame_ms);
+  state.counters["fps"] = 1000.0 / std::max(1e-9, client_app::median(stats.frame_ms));
   state.counters["drawn_pct"] = 100.0 * double(drawn) / double(std::max<std::size_t>(1, k));
 }
 

@@ -80,9 +80,13 @@ Offset<void> build(FlatBufferBuilder& b, const RequestMaps& m) {
       .Union();
 }
 
-Offset<void> build(FlatBufferBuilder& b, const Ping& m) { return fb::CreatePing(b, m.nonce).Union(); }
+Offset<void> build(FlatBufferBuilder& b, const Ping& m) {
+  return fb::CreatePing(b, m.nonce).Union();
+}
 Offset<void> build(FlatBufferBuilder& b, const Bye&) { return fb::CreateBye(b).Union(); }
-Offset<void> build(FlatBufferBuilder& b, const Pong& m) { return fb::CreatePong(b, m.nonce).Union(); }
+Offset<void> build(FlatBufferBuilder& b, const Pong& m) {
+  return fb::CreatePong(b, m.nonce).Union();
+}
 
 Offset<void> build(FlatBufferBuilder& b, const Welcome& m) {
   Offset<fb::Limits> limits = 0;
@@ -221,7 +225,8 @@ CameraFrame read_frame(const fb::CameraFrame& m, const WireLimits& limits, const
     refuse(Fault::OverLimit, name, "width",
            size + " pixels, over the limit of " + std::to_string(limits.max_frame_pixels));
   if (!m.data() || m.data()->size() == 0)
-    refuse(Fault::Missing, name, "data", "no image data (frame " + std::to_string(f.sequence) + ")");
+    refuse(Fault::Missing, name, "data",
+           "no image data (frame " + std::to_string(f.sequence) + ")");
   if (f.format == PixelFormat::Rgb8 && m.data()->size() != pixels * 3)
     refuse(Fault::WrongSize, name, "data",
            "RGB8 data of " + std::to_string(m.data()->size()) + " bytes for " + size + " pixels");
@@ -278,8 +283,8 @@ Welcome read(const fb::Welcome& m, const WireLimits&) {
   w.resumed = m.resumed();
   w.frames_processed = m.frames_processed();
   if (const fb::Limits* l = m.limits())
-    w.limits = WireLimits{l->max_message_bytes(), l->max_frame_pixels(), l->max_map_size(),
-                          l->max_maps()};
+    w.limits =
+        WireLimits{l->max_message_bytes(), l->max_frame_pixels(), l->max_map_size(), l->max_maps()};
   return w;
 }
 
@@ -367,27 +372,73 @@ CalibrationResult read(const fb::CalibrationResult& m, const WireLimits&) {
 // The generated table type of each alternative, in the union's order.
 template <class T>
 struct Table;
-template <> struct Table<Hello> { using type = fb::Hello; };
-template <> struct Table<CameraIntrinsicsMessage> { using type = fb::CameraIntrinsics; };
-template <> struct Table<CameraFrame> { using type = fb::CameraFrame; };
-template <> struct Table<CalibrationSet> { using type = fb::CalibrationSet; };
-template <> struct Table<RequestMaps> { using type = fb::RequestMaps; };
-template <> struct Table<Ping> { using type = fb::Ping; };
-template <> struct Table<Bye> { using type = fb::Bye; };
-template <> struct Table<Welcome> { using type = fb::Welcome; };
-template <> struct Table<LightingUpdate> { using type = fb::LightingUpdate; };
-template <> struct Table<MapTile> { using type = fb::MapTile; };
-template <> struct Table<MapSetComplete> { using type = fb::MapSetComplete; };
-template <> struct Table<Progress> { using type = fb::Progress; };
-template <> struct Table<Error> { using type = fb::Error; };
-template <> struct Table<Pong> { using type = fb::Pong; };
-template <> struct Table<CalibrationResult> { using type = fb::CalibrationResult; };
+template <>
+struct Table<Hello> {
+  using type = fb::Hello;
+};
+template <>
+struct Table<CameraIntrinsicsMessage> {
+  using type = fb::CameraIntrinsics;
+};
+template <>
+struct Table<CameraFrame> {
+  using type = fb::CameraFrame;
+};
+template <>
+struct Table<CalibrationSet> {
+  using type = fb::CalibrationSet;
+};
+template <>
+struct Table<RequestMaps> {
+  using type = fb::RequestMaps;
+};
+template <>
+struct Table<Ping> {
+  using type = fb::Ping;
+};
+template <>
+struct Table<Bye> {
+  using type = fb::Bye;
+};
+template <>
+struct Table<Welcome> {
+  using type = fb::Welcome;
+};
+template <>
+struct Table<LightingUpdate> {
+  using type = fb::LightingUpdate;
+};
+template <>
+struct Table<MapTile> {
+  using type = fb::MapTile;
+};
+template <>
+struct Table<MapSetComplete> {
+  using type = fb::MapSetComplete;
+};
+template <>
+struct Table<Progress> {
+  using type = fb::Progress;
+};
+template <>
+struct Table<Error> {
+  using type = fb::Error;
+};
+template <>
+struct Table<Pong> {
+  using type = fb::Pong;
+};
+template <>
+struct Table<CalibrationResult> {
+  using type = fb::CalibrationResult;
+};
 
 // Each alternative's table must carry the union tag its position in Message implies.
 template <std::size_t... I>
 constexpr bool tags_match(std::index_sequence<I...>) {
-  return ((fb::MessageTraits<typename Table<std::variant_alternative_t<I, Message>>::type>::
-               enum_value == fb::Message(I + 1)) &&
+  return ((fb::MessageTraits<
+               typename Table<std::variant_alternative_t<I, Message>>::type>::enum_value ==
+           fb::Message(I + 1)) &&
           ...);
 }
 static_assert(tags_match(std::make_index_sequence<std::variant_size_v<Message>>()),
@@ -425,16 +476,15 @@ bool CameraFrame::operator==(const CameraFrame& o) const {
 }
 
 bool Welcome::operator==(const Welcome& o) const {
-  return session_id == o.session_id && server_version == o.server_version &&
-         resumed == o.resumed && frames_processed == o.frames_processed && limits == o.limits;
+  return session_id == o.session_id && server_version == o.server_version && resumed == o.resumed &&
+         frames_processed == o.frames_processed && limits == o.limits;
 }
 
 bool LightingUpdate::operator==(const LightingUpdate& o) const {
-  return frame_sequence == o.frame_sequence && frame_used == o.frame_used &&
-         reason == o.reason && sh.order == o.sh.order && sh.c == o.sh.c &&
-         dominant_direction == o.dominant_direction && dominant_colour == o.dominant_colour &&
-         coverage == o.coverage && frames_processed == o.frames_processed &&
-         frames_dropped == o.frames_dropped;
+  return frame_sequence == o.frame_sequence && frame_used == o.frame_used && reason == o.reason &&
+         sh.order == o.sh.order && sh.c == o.sh.c && dominant_direction == o.dominant_direction &&
+         dominant_colour == o.dominant_colour && coverage == o.coverage &&
+         frames_processed == o.frames_processed && frames_dropped == o.frames_dropped;
 }
 
 const char* message_name(const Message& m) {
@@ -454,9 +504,9 @@ Message decode(std::span<const std::uint8_t> payload, const WireLimits& limits) 
   if (payload.size() < 8 || !fb::EnvelopeBufferHasIdentifier(payload.data()))
     refuse(Fault::NotArlight, "", "", "not an arlight message (no ARL1 identifier)");
   if (payload.size() > limits.max_message_bytes)
-    refuse(Fault::OverLimit, "", "", "message of " + std::to_string(payload.size()) +
-                                         " bytes is over the limit of " +
-                                         std::to_string(limits.max_message_bytes));
+    refuse(Fault::OverLimit, "", "",
+           "message of " + std::to_string(payload.size()) + " bytes is over the limit of " +
+               std::to_string(limits.max_message_bytes));
   flatbuffers::Verifier verifier(payload.data(), payload.size(), /*max_depth=*/16,
                                  /*max_tables=*/100000);
   if (!fb::VerifyEnvelopeBuffer(verifier))

@@ -65,11 +65,12 @@ class FramedTransport final : public Transport {
   void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) override {
     out_header_ = frame_header(bytes.size());
     const std::array<asio::const_buffer, 2> buffers{
-        asio::buffer(out_header_, framed ? kHeaderBytes : 0), asio::buffer(bytes.data(), bytes.size())};
-    asio::async_write(stream_, buffers,
-                      asio::bind_executor(strand_, [done = std::move(done)](
-                                                       boost::system::error_code ec,
-                                                       std::size_t) { done(ec); }));
+        asio::buffer(out_header_, framed ? kHeaderBytes : 0),
+        asio::buffer(bytes.data(), bytes.size())};
+    asio::async_write(
+        stream_, buffers,
+        asio::bind_executor(strand_, [done = std::move(done)](boost::system::error_code ec,
+                                                              std::size_t) { done(ec); }));
   }
 
   void close() override {
@@ -141,7 +142,9 @@ void MessageStream::read_next() {
       });
 }
 
-void MessageStream::send(std::vector<std::uint8_t> envelope) { enqueue({std::move(envelope), true}); }
+void MessageStream::send(std::vector<std::uint8_t> envelope) {
+  enqueue({std::move(envelope), true});
+}
 
 void MessageStream::send_unframed(std::vector<std::uint8_t> bytes) {
   enqueue({std::move(bytes), false});
@@ -177,20 +180,21 @@ void MessageStream::write_next() {
     return;
   }
   writing_ = true;
-  transport_->async_write(out_.front().bytes, out_.front().framed, [self = shared_from_this()](
-                                            const boost::system::error_code& ec) {
-    const std::size_t n = self->out_.front().bytes.size();
-    self->queued_bytes_ -= n;
-    self->out_.pop_front();
-    if (ec) {
-      for (const auto& m : self->out_) self->queued_bytes_ -= m.bytes.size();
-      self->out_.clear();
-      self->writing_ = false;
-      return self->end("send failed: " + ec.message());
-    }
-    if (self->handlers_.on_sent) self->handlers_.on_sent(n);
-    self->write_next();
-  });
+  transport_->async_write(out_.front().bytes, out_.front().framed,
+                          [self = shared_from_this()](const boost::system::error_code& ec) {
+                            const std::size_t n = self->out_.front().bytes.size();
+                            self->queued_bytes_ -= n;
+                            self->out_.pop_front();
+                            if (ec) {
+                              for (const auto& m : self->out_)
+                                self->queued_bytes_ -= m.bytes.size();
+                              self->out_.clear();
+                              self->writing_ = false;
+                              return self->end("send failed: " + ec.message());
+                            }
+                            if (self->handlers_.on_sent) self->handlers_.on_sent(n);
+                            self->write_next();
+                          });
 }
 
 void MessageStream::close_after_sending() {

@@ -11,22 +11,29 @@
 namespace arlight::wire {
 
 const char* error_code_name(ErrorCode code) {
-  static constexpr const char* kNames[] = {"Unknown",    "Unauthorized", "BadMessage",
-                                           "TooLarge",   "OutOfOrder",   "Unsupported",
-                                           "Busy",       "SessionNotFound", "Internal"};
+  static constexpr const char* kNames[] = {"Unknown",  "Unauthorized",    "BadMessage",
+                                           "TooLarge", "OutOfOrder",      "Unsupported",
+                                           "Busy",     "SessionNotFound", "Internal"};
   const auto i = std::size_t(code);
   return i < std::size(kNames) ? kNames[i] : "Unknown";
 }
 
 const char* fault_name(Fault f) {
   switch (f) {
-    case Fault::NotArlight: return "NotArlight";
-    case Fault::Malformed: return "Malformed";
-    case Fault::UnknownMessage: return "UnknownMessage";
-    case Fault::OutOfRange: return "OutOfRange";
-    case Fault::WrongSize: return "WrongSize";
-    case Fault::OverLimit: return "OverLimit";
-    case Fault::Missing: return "Missing";
+    case Fault::NotArlight:
+      return "NotArlight";
+    case Fault::Malformed:
+      return "Malformed";
+    case Fault::UnknownMessage:
+      return "UnknownMessage";
+    case Fault::OutOfRange:
+      return "OutOfRange";
+    case Fault::WrongSize:
+      return "WrongSize";
+    case Fault::OverLimit:
+      return "OverLimit";
+    case Fault::Missing:
+      return "Missing";
   }
   return "?";
 }
@@ -49,12 +56,14 @@ DecodeError::DecodeError(Fault fault, std::string message, std::string field,
 
 ErrorCode DecodeError::code() const {
   switch (fault_) {
-    case Fault::OverLimit: return ErrorCode::TooLarge;
+    case Fault::OverLimit:
+      return ErrorCode::TooLarge;
     // An enum value this version does not know: a newer peer, or a feature not offered.
     case Fault::OutOfRange:
       return field_ == "format" || field_ == "projection" ? ErrorCode::Unsupported
-                                                         : ErrorCode::BadMessage;
-    default: return ErrorCode::BadMessage;
+                                                          : ErrorCode::BadMessage;
+    default:
+      return ErrorCode::BadMessage;
   }
 }
 

@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <boost/asio/connect.hpp>
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/read.hpp>
-#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/write.hpp>
 #include <chrono>
 #include <condition_variable>
@@ -111,8 +111,7 @@ TEST(MessageStream, CarriesMessagesInOrderBothWays) {
 }
 
 TEST(MessageStream, RefusesAnOversizeHeaderAndGarbage) {
-  for (const auto& [bytes, fault] :
-       std::vector<std::pair<std::vector<std::uint8_t>, wire::Fault>>{
+  for (const auto& [bytes, fault] : std::vector<std::pair<std::vector<std::uint8_t>, wire::Fault>>{
            {{0, 0, 0, 0x40}, wire::Fault::OverLimit},  // 1 GiB announced: nothing allocated
            {{8, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8}, wire::Fault::NotArlight},
            {{0, 0, 0, 0}, wire::Fault::Malformed}}) {

@@ -46,7 +46,8 @@ TEST(WireCodec, EveryMessageRoundTripsWithNoOptionalField) {
     EXPECT_TRUE(back == m) << wire::message_name(m);
   }
   // Absent really means absent: the frame without orientation says so, Welcome has no limits.
-  const auto frame = std::get<wire::CameraFrame>(wire::decode(wire::encode(test::sample_frame(0, false))));
+  const auto frame =
+      std::get<wire::CameraFrame>(wire::decode(wire::encode(test::sample_frame(0, false))));
   EXPECT_FALSE(frame.has_orientation);
   EXPECT_EQ(frame.info.orientation, glm::dquat(0, 0, 0, 0));
   EXPECT_FALSE(std::get<wire::Welcome>(wire::decode(wire::encode(wire::Welcome{}))).limits);
@@ -115,18 +116,20 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   EXPECT_EQ(e.fault(), Fault::OutOfRange);
   EXPECT_EQ(e.field(), "code");
 
-  e = refusal(wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 32, 0, 64,
-                                         8, {1}}));
+  e = refusal(
+      wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 32, 0, 64, 8, {1}}));
   EXPECT_EQ(e.message(), "MapTile");
   EXPECT_EQ(e.field(), "x") << e.what();  // a tile reaching past the map's edge
-  e = refusal(wire::encode(
-      wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 13, 0, 0, 1, 1, {1}}));
+  e = refusal(
+      wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 13, 0, 0, 1, 1, {1}}));
   EXPECT_EQ(e.field(), "level");
 }
 
 TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {
-  const wire::WireLimits limits{.max_message_bytes = 1u << 20, .max_frame_pixels = 100 * 100,
-                                .max_map_size = 512, .max_maps = 4};
+  const wire::WireLimits limits{.max_message_bytes = 1u << 20,
+                                .max_frame_pixels = 100 * 100,
+                                .max_map_size = 512,
+                                .max_maps = 4};
   auto frame = test::sample_frame(1, false);
   frame.width = 101, frame.height = 100;
   DecodeError e = refusal(wire::encode(frame), limits);
@@ -218,7 +221,8 @@ TEST(WireCodec, SeedCorpusDecodesAsItsFolderSays) {
           .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     };
     int n = 0;
-    for (const auto& set : {test::messages_with_every_field(), test::messages_with_no_optional_field()})
+    for (const auto& set :
+         {test::messages_with_every_field(), test::messages_with_no_optional_field()})
       for (const wire::Message& m : set)
         write("valid/" + std::to_string(n++) + "-" + wire::message_name(m), wire::encode(m));
     const auto frame = wire::encode(test::sample_frame(3, true));

@@ -218,8 +218,8 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   }
   d.stream->start(d.handlers());
   d.io_thread = std::thread([&d] { d.io.run(); });
-  d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, {"maps", "jpeg"},
-                     resume_session});
+  d.send(wire::Hello{
+      wire::kProtocolVersion, client_name, device_id, token, {"maps", "jpeg"}, resume_session});
   std::unique_lock lock(d.mutex);
   d.changed.wait_for(lock, timeout, [&] { return d.welcome || d.error || !d.open; });
   if (d.welcome) return *d.welcome;
@@ -246,8 +246,8 @@ wire::CameraFrame jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int 
 }
 }  // namespace
 
-void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width,
-                             int height, std::span<const std::uint8_t> jpeg) {
+void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
+                             std::span<const std::uint8_t> jpeg) {
   impl_->send(jpeg_frame(sequence, info, width, height, jpeg));
 }
 

@@ -32,7 +32,8 @@ class Transport {
   using Done = std::function<void(const boost::system::error_code&)>;
   // `refused` is set (and ec clear) when the framing announced a message that cannot be
   // accepted (over max_bytes, empty).
-  using ReadDone = std::function<void(const boost::system::error_code& ec, const DecodeError* refused)>;
+  using ReadDone =
+      std::function<void(const boost::system::error_code& ec, const DecodeError* refused)>;
 
   virtual boost::asio::any_io_executor executor() = 0;
   // Whatever must happen before the first message (a TLS server handshake); may complete at once.
@@ -42,7 +43,7 @@ class Transport {
   // `bytes` stay alive until `done` runs. Unframed: written as they are, header and all (tests
   // of what a misbehaving peer can send).
   virtual void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) = 0;
-  virtual void close() = 0;  // ends the connection at once (no TLS close_notify)
+  virtual void close() = 0;              // ends the connection at once (no TLS close_notify)
   virtual std::string peer() const = 0;  // "address:port"
 };
 

@@ -120,7 +120,7 @@ struct Welcome {
   std::string server_version;
   bool resumed = false;
   std::uint64_t frames_processed = 0;  // of the session so far (non-zero after a resume)
-  std::optional<WireLimits> limits;   // what this server accepts
+  std::optional<WireLimits> limits;    // what this server accepts
   bool operator==(const Welcome& o) const;
 };
 
@@ -128,7 +128,7 @@ struct LightingUpdate {
   std::uint64_t frame_sequence = 0;  // the newest frame this reflects
   bool frame_used = false;           // false: that frame was skipped (see reason)
   std::string reason;
-  ShCoeffs sh;                          // radiance SH; float precision on the wire
+  ShCoeffs sh;                         // radiance SH; float precision on the wire
   glm::vec3 dominant_direction{0.0f};  // unit, world frame: where the strongest light comes from
   glm::vec3 dominant_colour{0.0f};     // its radiance
   float coverage = 0;                  // fraction of the sphere seen
@@ -144,7 +144,7 @@ struct MapTile {
   std::uint32_t map_width = 0, map_height = 0;
   std::uint8_t level = 0;  // 0 full resolution; >0 a coarse preview 2^level smaller
   std::uint32_t x = 0, y = 0, width = 0, height = 0;  // tile rectangle at that level
-  std::vector<std::uint8_t> data;  // encode_half_rgb of width*height RGB texels
+  std::vector<std::uint8_t> data;                     // encode_half_rgb of width*height RGB texels
   bool operator==(const MapTile&) const = default;
 };
 
@@ -182,10 +182,9 @@ struct CalibrationResult {
 };
 
 // In the schema's union order.
-using Message =
-    std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet, RequestMaps, Ping,
-                 Bye, Welcome, LightingUpdate, MapTile, MapSetComplete, Progress, Error, Pong,
-                 CalibrationResult>;
+using Message = std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet,
+                             RequestMaps, Ping, Bye, Welcome, LightingUpdate, MapTile,
+                             MapSetComplete, Progress, Error, Pong, CalibrationResult>;
 
 const char* message_name(const Message& m);  // "Hello", "CameraFrame", ...
 
@@ -207,7 +206,7 @@ class DecodeError : public InputError {
   Fault fault() const { return fault_; }
   const std::string& message() const { return message_; }  // "CameraFrame"; empty: envelope
   const std::string& field() const { return field_; }      // "width", "sh", ...
-  ErrorCode code() const;  // the ErrorCode a server answers with
+  ErrorCode code() const;                                  // the ErrorCode a server answers with
 
  private:
   Fault fault_;

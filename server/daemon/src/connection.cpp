@@ -77,8 +77,7 @@ void Connection::handle(wire::Message&& message) {
   }
   if (auto* c = std::get_if<wire::CalibrationSet>(&message))
     return handle_calibration(std::move(*c));
-  if (auto* p = std::get_if<wire::Ping>(&message))
-    return stream_->send(wire::Pong{p->nonce});
+  if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
   if (std::holds_alternative<wire::Bye>(message)) {
     try {
       session_->checkpoint();

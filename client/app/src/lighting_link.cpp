@@ -1,4 +1,4 @@
-#include "lighting_link.hpp"
+#include "arlight/lighting_link.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -39,6 +39,12 @@ void LightingLink::wait_connected(std::chrono::milliseconds timeout) {
                                 (stats_.last_error.empty() ? "" : ": " + stats_.last_error));
 }
 
+bool LightingLink::wait_for_maps(std::chrono::duration<double> timeout) {
+  std::unique_lock lock(mutex_);
+  return changed_.wait_for(lock, timeout, [&] { return lighting_.maps != nullptr || stop_; }) &&
+         lighting_.maps != nullptr;
+}
+
 bool LightingLink::connect_once() {
   auto c = std::make_shared<client::Client>();
   c->on_update = [this](const client::LightingUpdate& u) {
@@ -55,6 +61,7 @@ bool LightingLink::connect_once() {
     lighting_.maps = std::make_shared<const client::MapSet>(m);
     ++lighting_.maps_version;
     ++stats_.map_sets;
+    changed_.notify_all();
   };
   std::string resume;
   {
@@ -129,8 +136,8 @@ void LightingLink::run() {
   }
 }
 
-void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width,
-                              int height, std::span<const std::uint8_t> jpeg) {
+void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
+                              std::span<const std::uint8_t> jpeg) {
   std::shared_ptr<client::Client> c;
   {
     std::lock_guard lock(mutex_);

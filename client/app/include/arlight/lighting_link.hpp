@@ -67,6 +67,9 @@ class LightingLink {
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg);
 
+  // Waits up to `timeout` for the first complete map set; whether one came.
+  bool wait_for_maps(std::chrono::duration<double> timeout);
+
   Lighting lighting() const;
   LinkStats stats() const;
 

@@ -1,0 +1,126 @@
+// The client's per-frame pipeline, the same for every client (arlight-client, the benchmark,
+// and the browser page next): a source frame -> the device's orientation (IMU, or marker +
+// visual gyroscope for a webcam) -> the frame to arlightd -> the newest lighting (live SH until
+// a map set arrives) -> render the virtual object on the marker -> tone map like the camera
+// (thesis ch. 5, tutorial §4.1) -> composite -> a report of what happened and how long it took.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/frame.hpp"
+#include "arlight/lighting_link.hpp"
+#include "arlight/pose.hpp"
+#include "arlight/render.hpp"
+#include "arlight/response.hpp"
+#include "arlight/source.hpp"
+#include "arlight/track.hpp"
+#include "arlight/truth.hpp"
+
+namespace arlight::client_app {
+
+// Where the pipeline sends frames and gets its lighting: arlightd through a LightingLink, or a
+// fixed lighting (benchmarks and tests that leave the network out).
+class LightingChannel {
+ public:
+  virtual ~LightingChannel() = default;
+  virtual void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
+                          std::span<const std::uint8_t> jpeg) = 0;
+  virtual Lighting lighting() const = 0;
+};
+
+class LinkChannel final : public LightingChannel {
+ public:
+  explicit LinkChannel(LightingLink& link) : link_(link) {}
+  void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
+                  std::span<const std::uint8_t> jpeg) override {
+    link_.send_frame(sequence, info, width, height, jpeg);
+  }
+  Lighting lighting() const override { return link_.lighting(); }
+
+ private:
+  LightingLink& link_;
+};
+
+// The same lighting for every frame; frames go nowhere.
+class FixedLighting final : public LightingChannel {
+ public:
+  explicit FixedLighting(Lighting lighting) : lighting_(std::move(lighting)) {}
+  void send_frame(std::uint64_t, const FrameInfo&, int, int,
+                  std::span<const std::uint8_t>) override {}
+  Lighting lighting() const override { return lighting_; }
+
+ private:
+  Lighting lighting_;
+};
+
+struct PipelineOptions {
+  CameraIntrinsics camera;
+  track::MarkerSpec marker{"DICT_4X4_50", 0, 0.2};
+  double object_height = 0;  // metres; 0: 1.5 x the marker
+  render::Material material;
+  bool shadow = true;  // shadows on the real floor (the marker's plane)
+  render::ToneMode tone = render::ToneMode::CameraMatched;
+  CameraResponse response = CameraResponse::srgb();
+  // The simulator's ground truth of a replayed recording: pose errors are measured against it.
+  std::optional<recording::Truth> truth;
+};
+
+// What happened to one frame.
+struct FrameReport {
+  std::size_t index = 0;  // the source's frame number
+  bool tracked = false;
+  std::string track_status;  // "tracked" or why not
+  bool sent = false;         // went to the lighting channel (a webcam before the marker: no)
+  bool drawn = false;
+  render::LightingSource lit_by = render::LightingSource::None;
+  double track_ms = 0, render_ms = 0, tonemap_ms = 0;
+  double frame_ms = 0;  // the client's own work: tracking + render + tone map and composite
+  // Pose error against the truth, for frames where the marker is visible.
+  std::optional<double> error_cm, error_deg;
+};
+
+class FramePipeline {
+ public:
+  // Needs a current GL context (render::GlContext) for its whole life.
+  FramePipeline(PipelineOptions options, const render::Mesh& mesh);
+
+  // One frame through the whole pipeline; `composited` receives the frame with the object in.
+  FrameReport process(const source::SourceFrame& frame, LightingChannel& lighting,
+                      cv::Mat& composited);
+
+  render::Renderer& renderer() { return renderer_; }
+
+ private:
+  PipelineOptions options_;
+  render::Renderer renderer_;
+  render::GpuMesh mesh_;
+  glm::mat4 model_matrix_;
+  track::MarkerTracker tracker_;
+  track::WorldFromMarker world_from_marker_;
+  track::OrientationEstimator webcam_orientation_;
+  std::uint64_t sh_version_ = 0, maps_version_ = 0;
+  std::optional<Pose> last_pose_;  // smoothed, held through a briefly lost marker
+  double last_pose_time_ = -1;
+};
+
+// Flag values every client takes, with errors naming the flag.
+track::MarkerSpec parse_marker(const std::string& text);   // --marker ID,SIZE_M (DICT_4X4_50)
+render::Material parse_material(const std::string& text);  // --material kd,ks,shininess
+render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
+render::Mesh load_model(const std::string& name);          // --model a glTF file, or "sphere"
+
+// Median, 95th percentile and maximum of a run's figures (what arlight-client reports).
+struct RunStats {
+  std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg;
+  std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0;
+  void add(const FrameReport& r, double decode_ms);
+};
+double median(std::vector<double> v);
+double percentile(std::vector<double> v, double p);  // p in [0, 1]
+
+}  // namespace arlight::client_app

@@ -1,0 +1,184 @@
+#include "arlight/client_app.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arlight/error.hpp"
+#include "arlight/number_list.hpp"
+
+namespace arlight::client_app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// How long the last pose stands in for a marker lost for a moment (motion blur, a hand).
+constexpr double kPoseHoldSeconds = 0.2;
+// Exposure assumed for a source that cannot report one (a webcam on auto exposure).
+constexpr double kUnknownExposure = 1.0 / 30;
+
+PipelineOptions with_defaults(PipelineOptions o) {
+  if (o.object_height <= 0) o.object_height = 1.5 * o.marker.size_m;
+  return o;
+}
+
+}  // namespace
+
+FramePipeline::FramePipeline(PipelineOptions options, const render::Mesh& mesh)
+    : options_(with_defaults(std::move(options))),
+      renderer_(options_.camera.width, options_.camera.height),
+      mesh_(mesh),
+      model_matrix_(render::standing_on_marker(mesh.bounds, float(options_.object_height))),
+      tracker_(options_.camera, options_.marker),
+      webcam_orientation_(options_.camera) {
+  renderer_.set_response(options_.response);
+}
+
+FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel& channel,
+                                   cv::Mat& composited) {
+  FrameReport report;
+  report.index = f.index;
+
+  // Tracking, then the orientation that goes to arlightd and the lighting's rotation.
+  const auto t1 = Clock::now();
+  const track::TrackResult tr = tracker_.track(f.bgr, f.timestamp);
+  std::optional<glm::dquat> world_from_camera = f.orientation;
+  std::optional<glm::dquat> world_from_scene;
+  if (world_from_camera) {  // a phone: IMU orientation; the marker's rotation estimated
+    if (tr.tracked) world_from_marker_.add(f.timestamp, *world_from_camera, tr.raw.orientation);
+    world_from_scene = world_from_marker_.world_from_marker();
+  } else {  // a webcam: the world is defined by the marker, the visual gyro in between
+    const track::OrientationEstimate est = webcam_orientation_.update(f.bgr, f.timestamp, &tr);
+    world_from_camera = est.orientation;
+    world_from_scene = track::webcam_world_from_marker();
+  }
+  if (tr.tracked) {
+    last_pose_ = tr.smoothed;
+    last_pose_time_ = f.timestamp;
+  }
+  report.tracked = tr.tracked;
+  report.track_status = tr.tracked ? "tracked" : tr.status;
+  report.track_ms = ms_since(t1);
+
+  // To arlightd: the frame with its orientation (none yet: a webcam before the marker).
+  const double exposure = f.exposure > 0 ? f.exposure : kUnknownExposure;
+  if (world_from_camera) {
+    std::vector<std::uint8_t> encoded;
+    if (f.jpeg.empty()) cv::imencode(".jpg", f.bgr, encoded, {cv::IMWRITE_JPEG_QUALITY, 90});
+    channel.send_frame(f.index + 1, {f.timestamp, exposure, f.gain, *world_from_camera}, f.bgr.cols,
+                       f.bgr.rows, f.jpeg.empty() ? encoded : f.jpeg);
+    report.sent = true;
+  }
+
+  // Lighting: the newest map set once there is one, the live SH before.
+  const Lighting lighting = channel.lighting();
+  if (lighting.maps && lighting.maps_version != maps_version_) {
+    renderer_.set_maps(lighting.maps->shininess, lighting.maps->maps);
+    maps_version_ = lighting.maps_version;
+  } else if (!lighting.maps && lighting.sh && lighting.sh_version != sh_version_) {
+    renderer_.set_sh(*lighting.sh);
+    sh_version_ = lighting.sh_version;
+  }
+
+  // Render where the marker is (held briefly through a lost frame), tone map, composite.
+  renderer_.begin_frame();
+  const bool pose_fresh = last_pose_ && f.timestamp - last_pose_time_ <= kPoseHoldSeconds;
+  report.drawn =
+      pose_fresh && world_from_scene && renderer_.lighting_source() != render::LightingSource::None;
+  if (report.drawn) {
+    renderer_.set_camera(options_.camera, track::view_matrix(*last_pose_));
+    renderer_.set_world_from_scene(*world_from_scene);
+    render::ShadowSettings shadow;  // the dominant light is in the world frame
+    shadow.enabled = options_.shadow;
+    shadow.light_direction = lighting.dominant_direction;
+    shadow.light_colour = lighting.dominant_colour;
+    renderer_.set_shadow(shadow);
+    renderer_.draw(mesh_, options_.material, model_matrix_);
+    report.lit_by = renderer_.lighting_source();
+  }
+  render::ToneMapping tone;
+  tone.mode = options_.tone;
+  tone.exposure = exposure;
+  tone.gain = f.gain;
+  renderer_.composite(f.bgr, tone, composited);
+  const render::FrameTimings& rt = renderer_.timings();
+  report.render_ms = rt.render_ms;
+  report.tonemap_ms = rt.tonemap_ms + rt.readback_ms;
+  // The client's own work per frame (decoding a recording's JPEG and the network apart).
+  report.frame_ms = report.track_ms + report.render_ms + report.tonemap_ms;
+
+  // Pose error against the simulator's truth, for frames where the marker is visible.
+  const auto& truth = options_.truth;
+  if (truth && truth->marker && tr.tracked && f.index < truth->poses.size() &&
+      f.index < truth->marker_visible.size() && truth->marker_visible[f.index]) {
+    const Pose expected = compose(inverse(truth->marker->pose), truth->poses[f.index]);
+    report.error_cm = 100.0 * glm::length(tr.smoothed.position - expected.position);
+    report.error_deg = angle_deg(tr.smoothed.orientation, expected.orientation);
+  }
+  return report;
+}
+
+track::MarkerSpec parse_marker(const std::string& text) {
+  const std::vector<double> mk = parse_number_list(text, "--marker");
+  if (mk.size() != 2 || !(mk[1] > 0) || mk[0] < 0 || mk[0] != std::floor(mk[0]))
+    throw InputError("--marker: ID,SIZE_M with an integer ID and a size > 0");
+  return {"DICT_4X4_50", int(mk[0]), mk[1]};
+}
+
+render::Material parse_material(const std::string& text) {
+  const std::vector<double> mat = parse_number_list(text, "--material");
+  if (mat.size() != 3 || mat[0] < 0 || mat[1] < 0 || !(mat[2] >= 1))
+    throw InputError("--material: kd,ks,s with kd, ks >= 0 and s >= 1");
+  render::Material m;
+  m.kd = glm::vec3(float(mat[0]));
+  m.ks = glm::vec3(float(mat[1]));
+  m.shininess = float(mat[2]);
+  return m;
+}
+
+render::ToneMode parse_tone(const std::string& name) {
+  if (name == "camera") return render::ToneMode::CameraMatched;
+  if (name == "reinhard") return render::ToneMode::Reinhard;
+  if (name == "linear") return render::ToneMode::Linear;
+  throw InputError("--tone: '" + name + "' is not camera, reinhard or linear");
+}
+
+render::Mesh load_model(const std::string& name) {
+  render::Mesh mesh =
+      name == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(name);
+  if (mesh.positions.empty()) throw InputError(name + ": no triangles");
+  return mesh;
+}
+
+void RunStats::add(const FrameReport& r, double decode) {
+  ++frames;
+  if (r.tracked) ++tracked;
+  if (r.drawn) ++(r.lit_by == render::LightingSource::Maps ? lit_by_maps : lit_by_sh);
+  frame_ms.push_back(r.frame_ms);
+  track_ms.push_back(r.track_ms);
+  render_ms.push_back(r.render_ms);
+  tonemap_ms.push_back(r.tonemap_ms);
+  decode_ms.push_back(decode);
+  if (r.error_cm) error_cm.push_back(*r.error_cm), error_deg.push_back(*r.error_deg);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(p * double(v.size() - 1) + 0.5))];
+}
+
+}  // namespace arlight::client_app

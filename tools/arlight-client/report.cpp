@@ -1,0 +1,111 @@
+#include "report.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "arlight/atomic_file.hpp"
+
+namespace arlight::client_app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A few frames side by side: what the demo shows at a glance.
+void write_contact_sheet(const std::vector<cv::Mat>& frames, const fs::path& path) {
+  if (frames.empty()) return;
+  const int cols = std::min<int>(4, int(frames.size()));
+  const int rows = (int(frames.size()) + cols - 1) / cols;
+  const int w = 320, h = frames[0].rows * w / frames[0].cols;
+  cv::Mat sheet(rows * h, cols * w, CV_8UC3, cv::Scalar(0, 0, 0));
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    cv::Mat small;
+    cv::resize(frames[i], small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+    small.copyTo(sheet(cv::Rect(int(i) % cols * w, int(i) / cols * h, w, h)));
+  }
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", sheet, png);
+  write_file_atomically(path,
+                        std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
+}  // namespace
+
+static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
+  nlohmann::json j;
+  j["frames"] = s.frames;
+  j["tracked"] = s.tracked;
+  j["median_frame_ms"] = median(s.frame_ms);
+  j["stages_ms"] = {{"decode", median(s.decode_ms)},
+                    {"tracking", median(s.track_ms)},
+                    {"render", median(s.render_ms)},
+                    {"tonemap", median(s.tonemap_ms)}};
+  if (!s.error_cm.empty())
+    j["pose_error"] = {{"median_cm", median(s.error_cm)},
+                       {"median_deg", median(s.error_deg)},
+                       {"p95_cm", percentile(s.error_cm, 0.95)},
+                       {"p95_deg", percentile(s.error_deg, 0.95)},
+                       {"max_cm", percentile(s.error_cm, 1.0)},
+                       {"max_deg", percentile(s.error_deg, 1.0)},
+                       {"frames", s.error_cm.size()}};
+  j["lit_by_maps"] = s.lit_by_maps;
+  j["lit_by_sh"] = s.lit_by_sh;
+  j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
+                  {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
+                  {"updates", ls.updates},         {"map_sets", ls.map_sets},
+                  {"refused", ls.refused},         {"last_error", ls.last_error}};
+  return j;
+}
+
+RunOutput::RunOutput(fs::path out, fs::path json_path)
+    : out_(std::move(out)), json_path_(std::move(json_path)) {
+  if (!out_.empty()) fs::create_directories(out_ / "frames");
+}
+
+void RunOutput::add(const FrameReport& r, const cv::Mat& composited) {
+  if (!out_.empty()) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06zu.png", written_++);
+    cv::imwrite((out_ / "frames" / name).string(), composited);
+    if (r.drawn && drawn_.size() < 64) drawn_.push_back(composited.clone());
+  }
+  std::printf("frame %zu: %s, %s, track %.1f ms, render %.1f ms, tonemap %.1f ms\n", r.index,
+              r.track_status.c_str(),
+              !r.drawn                                   ? "not drawn"
+              : r.lit_by == render::LightingSource::Maps ? "maps"
+                                                         : "SH",
+              r.track_ms, r.render_ms, r.tonemap_ms);
+}
+
+void RunOutput::finish(const RunStats& stats, const LinkStats& link, const nlohmann::json& extra) {
+  if (!out_.empty()) {
+    std::vector<cv::Mat> picked;
+    const std::size_t n = std::min<std::size_t>(8, drawn_.size());
+    for (std::size_t i = 0; i < n; ++i) picked.push_back(drawn_[i * drawn_.size() / n]);
+    write_contact_sheet(picked, out_ / "contact_sheet.png");
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") == 0) {
+      const std::string cmd = "ffmpeg -loglevel error -y -framerate 30 -i '" +
+                              (out_ / "frames" / "%06d.png").string() + "' -pix_fmt yuv420p '" +
+                              (out_ / "composited.mp4").string() + "'";
+      if (std::system(cmd.c_str()) != 0) spdlog::warn("ffmpeg could not write the MP4");
+    }
+  }
+  nlohmann::json j = summary_json(stats, link);
+  j.update(extra);
+  const std::string text = j.dump(2) + "\n";
+  if (!json_path_.empty()) write_file_atomically(json_path_, text);
+  if (!out_.empty()) write_file_atomically(out_ / "client.json", text);
+  std::printf(
+      "%zu frames, %zu tracked, median %.1f ms per frame (tracking %.1f, render %.1f, "
+      "tone map %.1f)%s%s\n",
+      stats.frames, stats.tracked, median(stats.frame_ms), median(stats.track_ms),
+      median(stats.render_ms), median(stats.tonemap_ms), out_.empty() ? "" : "; frames in ",
+      out_.c_str());
+}
+
+}  // namespace arlight::client_app
