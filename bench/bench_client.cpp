@@ -18,6 +18,7 @@
 #include "arlight/render.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
+#include "arlight/sim.hpp"
 #include "arlight/source.hpp"
 #include "arlight/track.hpp"
 
@@ -41,11 +42,12 @@ const ClientFixture& fixture() {
     const fs::path rec = fs::temp_directory_path() / "arlight_bench_client_720p";
     const std::string probe = std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr";
     if (!fs::exists(rec / "recording.json")) {
-      const std::string cmd = std::string(ARLIGHT_SIM_EXE) + " --env " + probe + " --out " +
-                              rec.string() +
-                              " --frames 32 --size 1280x720 --trajectory orbit --marker 7,0.2"
-                              " --seed 3 > /dev/null 2>&1";
-      if (std::system(cmd.c_str()) != 0) throw std::runtime_error("arlight-sim failed: " + cmd);
+      sim::SimOptions o;
+      o.env = probe, o.out = rec;
+      o.frames = 32, o.width = 1280, o.height = 720, o.seed = 3;
+      o.trajectory = sim::TrajectoryKind::Orbit;
+      o.marker = sim::MarkerSpec{7, 0.2, {0.0, -1.2, -0.8}};
+      sim::simulate(o);
     }
     source::ReplaySource src(rec);
     fx->camera = src.intrinsics();

@@ -50,6 +50,7 @@ if(NOT FLATC_EXECUTABLE)
   message(FATAL_ERROR "arlight needs flatc: install the Debian package 'flatbuffers-compiler' (or run `make deps`).")
 endif()
 arlight_find(zstd DEB libzstd-dev CONFIG)
+arlight_find_pkgconfig(XXHASH libxxhash DEB libxxhash-dev)
 arlight_find(OpenSSL DEB libssl-dev)
 
 # capture and tracking

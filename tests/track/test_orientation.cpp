@@ -19,9 +19,11 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 // A quicker orbit (60 frames, 2 s) with a drifting orientation sensor (1 degree/s of heading
 // drift).
 const test::TruthFrames& drifting_orbit() {
-  static const test::TruthFrames tf = test::load_truth_frames(test::simulated_recording(
-      "orbit_drift", "--trajectory orbit --marker 7,0.2 --frames 60 --size 640x480 --seed 3 "
-                     "--gyro-drift 1 --threads 2"));
+  static const test::TruthFrames tf = test::load_truth_frames([] {
+    sim::SimOptions o = test::orbit_options(60, 3);
+    o.gyro_drift_deg_per_s = 1;
+    return test::simulated_recording("orbit_drift", o);
+  }());
   return tf;
 }
 

@@ -21,8 +21,9 @@ namespace {
 // A tiny simulated recording (8 frames, 64x48, 30 fps, with gyro drift so the orientations
 // differ from frame to frame), copied to a fresh folder the test may damage.
 fs::path tiny_recording(const std::string& name) {
-  const fs::path shared = test::simulated_recording(
-      "tiny", "--frames 8 --size 64x48 --gyro-drift 3 --seed 5 --threads 1");
+  sim::SimOptions o;
+  o.frames = 8, o.width = 64, o.height = 48, o.gyro_drift_deg_per_s = 3, o.seed = 5;
+  const fs::path shared = test::simulated_recording("tiny", o);
   const fs::path dir = test::fresh_temp_dir("source_" + name + "_" + std::to_string(::getpid()));
   fs::copy(shared, dir / "rec", fs::copy_options::recursive);
   return dir / "rec";

@@ -200,9 +200,9 @@ TEST(MarkerTracker, RefusesBadSpecsAndImages) {
 TEST(MarkerTracker, TimingAt1280x720) {
   // A short orbit at 1280x720 (same geometry, so the marker is twice as many pixels): accuracy
   // and time per frame.
-  const test::TruthFrames tf = test::load_truth_frames(test::simulated_recording(
-      "orbit720", "--trajectory orbit --marker 7,0.2 --frames 16 --size 1280x720 --seed 4 "
-                  "--threads 2"));
+  sim::SimOptions o = test::orbit_options(16, 4);
+  o.width = 1280, o.height = 720;
+  const test::TruthFrames tf = test::load_truth_frames(test::simulated_recording("orbit720", o));
   MarkerTracker tracker(tf.camera, spec_of(tf.truth));
   const Errors e = run(tracker, tf);
   const test::Stats cm = test::stats(e.cm), deg = test::stats(e.deg);

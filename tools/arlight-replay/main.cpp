@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--map-size", map_size, "size of the requested maps")->capture_default_str();
   app.add_option("--resume", resume, "continue this session id");
-  app.add_option("--out", out, "folder for sh.json, maps/ and replay.json")->capture_default_str();
+  app.add_option("--out", out, "folder for replay.json and maps/")->capture_default_str();
   app.add_option("--json", json_path, "also write the summary here");
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");

@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "arlight/error.hpp"
-#include "sim.hpp"
+#include "arlight/sim.hpp"
 
 namespace {
 

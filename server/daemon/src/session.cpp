@@ -7,13 +7,11 @@
 #include <boost/asio/post.hpp>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <numbers>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/atomic_file.hpp"
 #include "arlight/calibration.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
@@ -28,27 +26,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr char kAccumMagic[8] = {'A', 'R', 'L', 'A', 'C', 'C', '0', '1'};
 constexpr int kTile = 64;  // level-0 tile side sent to clients
-
-std::uint64_t fnv1a(const std::string& bytes) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
-  return h;
-}
-
-json camera_json(const CameraIntrinsics& k) {
-  return {{"width", k.width}, {"height", k.height},        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
-          {"cy", k.cy},       {"distortion", k.distortion}};
-}
-
-CameraIntrinsics camera_from_json(const json& j) {
-  CameraIntrinsics k;
-  k.width = j.at("width"), k.height = j.at("height");
-  k.fx = j.at("fx"), k.fy = j.at("fy"), k.cx = j.at("cx"), k.cy = j.at("cy");
-  k.distortion = j.at("distortion").get<std::array<double, 5>>();
-  return k;
-}
 
 bool same_camera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
@@ -411,108 +389,44 @@ void Session::checkpoint() {
   // Two at once would race: one's clean-up deletes the other's files, and manifests could
   // name an older generation after a newer one.
   std::lock_guard serial(checkpoint_mutex_);
-  capture::Accumulators acc;
-  json meta;
+  SessionCheckpoint c;
   int generation;
   {
     std::lock_guard lock(mutex_);
     if (!dirty_ || !capture_) return;
-    acc = capture_->accumulators();
+    c.accumulators = capture_->accumulators();
     generation = ++checkpoint_generation_;
-    meta = {{"format", "arlight-session"},
-            {"version", 1},
-            {"id", id_},
-            {"device_id", device_id_},
-            {"camera", camera_json(*camera_)},
-            {"response", response_name_},
-            {"map_size", env_.map_size},
-            {"frames_received", received_},
-            {"frames_processed", processed_},
-            {"frames_dropped", dropped_},
-            {"frames_skipped", skipped_},
-            {"last_sequence", last_sequence_}};
-    if (request_)
-      meta["request"] = {{"shininess", request_->shininess},
-                         {"size", request_->size},
-                         {"projection", std::string(projection_name(request_->projection))},
-                         {"method", request_->method}};
+    c.id = id_, c.device_id = device_id_, c.camera = *camera_, c.response = response_name_;
+    c.map_size = env_.map_size;
+    c.frames_received = received_, c.frames_processed = processed_, c.frames_dropped = dropped_;
+    c.frames_skipped = skipped_, c.last_sequence = last_sequence_;
+    c.request = request_;
     dirty_ = false;
   }
-  const fs::path dir = session_dir(env_, id_);
-  fs::create_directories(dir);
-  std::string bytes(kAccumMagic, sizeof kAccumMagic);
-  const std::uint64_t texels = acc.weight.size();
-  bytes.append(reinterpret_cast<const char*>(&texels), sizeof texels);
-  bytes.append(reinterpret_cast<const char*>(acc.weighted_radiance.data()),
-               acc.weighted_radiance.size() * sizeof(float));
-  bytes.append(reinterpret_cast<const char*>(acc.weight.data()), acc.weight.size() * sizeof(float));
-  // The accumulators go to a new file; the manifest that names it (with its checksum) is
-  // renamed in last, so a crash at any point leaves the previous checkpoint whole.
-  const std::string name = "accum-" + std::to_string(generation) + ".bin";
-  write_file_atomically(dir / name, bytes);
-  meta["accumulators"] = name;
-  meta["checksum"] = fnv1a(bytes);
-  write_file_atomically(dir / "session.json", meta.dump(1) + "\n");
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string f = entry.path().filename().string();
-    if (f.starts_with("accum-") && f != name) fs::remove(entry.path());
-  }
+  write_checkpoint(session_dir(env_, id_), c, generation);
 }
 
 std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& env) {
-  const fs::path dir = session_dir(env, id);
-  const fs::path manifest = dir / "session.json";
-  if (!fs::exists(manifest)) return nullptr;
-  const std::string where = "session checkpoint '" + manifest.string() + "'";
+  const std::optional<SessionCheckpoint> c = read_checkpoint(session_dir(env, id));
+  if (!c) return nullptr;
+  const std::string where = "session checkpoint of " + id;
+  if (c->id != id) throw InputError(where + ": it names session " + c->id);
+  if (c->map_size != env.map_size)
+    throw InputError(where + ": its map size differs from this daemon's");
+  auto s = std::make_shared<Session>(id, c->device_id, env);
+  const std::string why = s->set_camera(c->camera);
+  if (!why.empty()) throw InputError(where + ": " + why);
   try {
-    const json meta = json::parse(std::ifstream(manifest));
-    if (meta.at("format") != "arlight-session" || meta.at("version") != 1)
-      throw InputError(where + ": not a version 1 session checkpoint");
-    auto s = std::make_shared<Session>(id, meta.at("device_id").get<std::string>(), env);
-    if (meta.at("map_size").get<int>() != env.map_size)
-      throw InputError(where + ": its map size differs from this daemon's");
-    const std::string why = s->set_camera(camera_from_json(meta.at("camera")));
-    if (!why.empty()) throw InputError(where + ": " + why);
-    std::ifstream in(dir / meta.at("accumulators").get<std::string>(), std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (fnv1a(bytes) != meta.at("checksum").get<std::uint64_t>())
-      throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
-    std::uint64_t texels = 0;
-    if (bytes.size() < sizeof kAccumMagic + sizeof texels ||
-        std::memcmp(bytes.data(), kAccumMagic, sizeof kAccumMagic) != 0)
-      throw InputError(where + ": the accumulator file has no ARLACC01 header");
-    std::memcpy(&texels, bytes.data() + sizeof kAccumMagic, sizeof texels);
-    const std::size_t offset = sizeof kAccumMagic + sizeof texels;
-    if (bytes.size() != offset + texels * 4 * sizeof(float))
-      throw InputError(where + ": the accumulator file has the wrong size");
-    capture::Accumulators acc;
-    acc.weighted_radiance.resize(texels * 3);
-    acc.weight.resize(texels);
-    std::memcpy(acc.weighted_radiance.data(), bytes.data() + offset, texels * 3 * sizeof(float));
-    std::memcpy(acc.weight.data(), bytes.data() + offset + texels * 3 * sizeof(float),
-                texels * sizeof(float));
-    s->capture_->restore(acc);
-    s->received_ = meta.at("frames_received"), s->processed_ = meta.at("frames_processed");
-    s->dropped_ = meta.at("frames_dropped"), s->skipped_ = meta.at("frames_skipped");
-    s->last_sequence_ = meta.at("last_sequence");
-    if (meta.contains("request")) {
-      const json& r = meta["request"];
-      MapRequest req;
-      req.shininess = r.at("shininess").get<std::vector<double>>();
-      req.size = r.at("size");
-      req.projection = parse_projection(r.at("projection").get<std::string>()).value();
-      req.method = r.at("method");
-      s->request_ = req;
-    }
-    s->dirty_ = false;
-    return s;
-  } catch (const json::exception& e) {
-    throw InputError(where + ": " + e.what());
+    s->capture_->restore(c->accumulators);
   } catch (const std::invalid_argument& e) {
     throw InputError(where + ": " + e.what());
-  } catch (const std::bad_optional_access&) {
-    throw InputError(where + ": unknown projection");
   }
+  s->received_ = c->frames_received, s->processed_ = c->frames_processed;
+  s->dropped_ = c->frames_dropped, s->skipped_ = c->frames_skipped;
+  s->last_sequence_ = c->last_sequence;
+  s->request_ = c->request;
+  s->dirty_ = false;
+  return s;
 }
 
 json Session::summary() const {

@@ -22,6 +22,7 @@
 #include "arlight/capture.hpp"
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
+#include "checkpoint.hpp"
 
 namespace arlight::daemon {
 
@@ -50,13 +51,6 @@ struct SessionEnv {
 struct FrameJob {
   wire::CameraFrame frame;
   Clock::time_point received;
-};
-
-struct MapRequest {
-  std::vector<double> shininess;
-  int size = 128;
-  Projection projection = Projection::AngleMap;
-  std::string method = "auto";
 };
 
 // Sends one encoded message (wire::encode) to the session's client; thread-safe; a no-op when

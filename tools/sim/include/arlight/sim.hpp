@@ -7,8 +7,8 @@
 #include <optional>
 #include <string>
 
-#include "marker.hpp"
-#include "trajectory.hpp"
+#include "arlight/sim/marker.hpp"
+#include "arlight/sim/trajectory.hpp"
 
 namespace arlight::sim {
 
@@ -33,6 +33,10 @@ struct SimOptions {
   std::uint64_t seed = 0;
   int bracket = 0;  // > 0: that many frames of one view, one stop apart
 };
+
+// Every option as one line of text, and when this simulator was built: two runs with the same
+// description make the same bytes (a key for caches of simulated recordings).
+std::string describe(const SimOptions& options);
 
 // Renders the recording and its ground truth. Throws InputError for bad input (an unreadable
 // probe or response file, an --out folder that is not a recording); returns the frame count.

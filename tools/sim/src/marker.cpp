@@ -1,4 +1,4 @@
-#include "marker.hpp"
+#include "arlight/sim/marker.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
@@ -15,7 +16,7 @@
 #include "arlight/truth.hpp"
 #include "imaging.hpp"
 #include "noise.hpp"
-#include "sim.hpp"
+#include "arlight/sim.hpp"
 
 namespace arlight::sim {
 
@@ -73,6 +74,22 @@ struct Scene {
 };
 
 }  // namespace
+
+std::string describe(const SimOptions& o) {
+  std::ostringstream d;
+  d.precision(17);
+  d << "env=" << o.env.string() << " frames=" << o.frames << " fps=" << o.fps << " size=" << o.width
+    << "x" << o.height << " hfov=" << o.hfov_deg << " trajectory=" << int(o.trajectory)
+    << " response=" << o.response << " auto_exposure=" << o.auto_exposure
+    << " hdr_stops=" << o.hdr_stops << " drift=" << o.gyro_drift_deg_per_s << " noise=" << o.noise
+    << " vignetting=" << o.vignetting << " jpeg=" << o.jpeg_quality << " seed=" << o.seed
+    << " bracket=" << o.bracket;
+  if (o.marker)
+    d << " marker=" << o.marker->id << "," << o.marker->size_m << "," << o.marker->centre.x << ","
+      << o.marker->centre.y << "," << o.marker->centre.z;
+  d << " built=" << __DATE__ << " " << __TIME__;
+  return d.str();
+}
 
 int simulate(const SimOptions& o) {
   const CameraResponse response = CameraResponse::named(o.response);

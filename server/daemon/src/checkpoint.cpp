@@ -1,0 +1,156 @@
+#include "checkpoint.hpp"
+
+#include <xxhash.h>
+
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "arlight/atomic_file.hpp"
+#include "arlight/error.hpp"
+
+namespace arlight::daemon {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr char kAccumMagic[8] = {'A', 'R', 'L', 'A', 'C', 'C', '0', '1'};
+constexpr char kManifest[] = "session.json";
+
+json camera_json(const CameraIntrinsics& k) {
+  return {{"width", k.width}, {"height", k.height},        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+          {"cy", k.cy},       {"distortion", k.distortion}};
+}
+
+CameraIntrinsics camera_from_json(const json& j) {
+  CameraIntrinsics k;
+  k.width = j.at("width"), k.height = j.at("height");
+  k.fx = j.at("fx"), k.fy = j.at("fy"), k.cx = j.at("cx"), k.cy = j.at("cy");
+  k.distortion = j.at("distortion").get<std::array<double, 5>>();
+  return k;
+}
+
+std::string accumulator_bytes(const capture::Accumulators& acc) {
+  std::string bytes(kAccumMagic, sizeof kAccumMagic);
+  const std::uint64_t texels = acc.weight.size();
+  bytes.append(reinterpret_cast<const char*>(&texels), sizeof texels);
+  bytes.append(reinterpret_cast<const char*>(acc.weighted_radiance.data()),
+               acc.weighted_radiance.size() * sizeof(float));
+  bytes.append(reinterpret_cast<const char*>(acc.weight.data()), acc.weight.size() * sizeof(float));
+  return bytes;
+}
+
+capture::Accumulators parse_accumulators(const std::string& bytes, const std::string& where) {
+  std::uint64_t texels = 0;
+  if (bytes.size() < sizeof kAccumMagic + sizeof texels ||
+      std::memcmp(bytes.data(), kAccumMagic, sizeof kAccumMagic) != 0)
+    throw InputError(where + ": the accumulator file has no ARLACC01 header");
+  std::memcpy(&texels, bytes.data() + sizeof kAccumMagic, sizeof texels);
+  const std::size_t offset = sizeof kAccumMagic + sizeof texels;
+  if (texels > (bytes.size() - offset) / (4 * sizeof(float)) ||
+      bytes.size() != offset + texels * 4 * sizeof(float))
+    throw InputError(where + ": the accumulator file has the wrong size");
+  capture::Accumulators acc;
+  acc.weighted_radiance.resize(texels * 3);
+  acc.weight.resize(texels);
+  std::memcpy(acc.weighted_radiance.data(), bytes.data() + offset, texels * 3 * sizeof(float));
+  std::memcpy(acc.weight.data(), bytes.data() + offset + texels * 3 * sizeof(float),
+              texels * sizeof(float));
+  return acc;
+}
+
+}  // namespace
+
+// Version 1's checksum as arlightd computed it: FNV-1a 64, but with the offset basis one digit
+// short (the standard one is 14695981039346656037). Kept as it was: version 1 files carry it.
+std::uint64_t checkpoint_fnv1a(const std::string& bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+std::uint64_t checkpoint_xxh3(const std::string& bytes) {
+  return XXH3_64bits(bytes.data(), bytes.size());
+}
+
+void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int generation) {
+  json meta = {{"format", "arlight-session"},
+               {"version", kCheckpointVersion},
+               {"id", c.id},
+               {"device_id", c.device_id},
+               {"camera", camera_json(c.camera)},
+               {"response", c.response},
+               {"map_size", c.map_size},
+               {"frames_received", c.frames_received},
+               {"frames_processed", c.frames_processed},
+               {"frames_dropped", c.frames_dropped},
+               {"frames_skipped", c.frames_skipped},
+               {"last_sequence", c.last_sequence}};
+  if (c.request)
+    meta["request"] = {{"shininess", c.request->shininess},
+                       {"size", c.request->size},
+                       {"projection", std::string(projection_name(c.request->projection))},
+                       {"method", c.request->method}};
+  fs::create_directories(dir);
+  const std::string bytes = accumulator_bytes(c.accumulators);
+  const std::string name = "accum-" + std::to_string(generation) + ".bin";
+  write_file_atomically(dir / name, bytes);
+  meta["accumulators"] = name;
+  meta["checksum_xxh3"] = checkpoint_xxh3(bytes);
+  write_file_atomically(dir / kManifest, meta.dump(1) + "\n");
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string f = entry.path().filename().string();
+    if (f.starts_with("accum-") && f != name) fs::remove(entry.path());
+  }
+}
+
+std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
+  const fs::path manifest = dir / kManifest;
+  if (!fs::exists(manifest)) return std::nullopt;
+  const std::string where = "session checkpoint '" + manifest.string() + "'";
+  try {
+    const json meta = json::parse(std::ifstream(manifest));
+    const int version = meta.at("version").get<int>();
+    if (meta.at("format") != "arlight-session" || version < 1 || version > kCheckpointVersion)
+      throw InputError(where + ": not a version 1 or 2 session checkpoint");
+    SessionCheckpoint c;
+    c.id = meta.at("id").get<std::string>();
+    c.device_id = meta.at("device_id").get<std::string>();
+    c.camera = camera_from_json(meta.at("camera"));
+    c.response = meta.value("response", std::string("srgb"));
+    c.map_size = meta.at("map_size").get<int>();
+    c.frames_received = meta.at("frames_received");
+    c.frames_processed = meta.at("frames_processed");
+    c.frames_dropped = meta.at("frames_dropped");
+    c.frames_skipped = meta.at("frames_skipped");
+    c.last_sequence = meta.at("last_sequence");
+    if (meta.contains("request")) {
+      const json& r = meta["request"];
+      MapRequest req;
+      req.shininess = r.at("shininess").get<std::vector<double>>();
+      req.size = r.at("size");
+      const auto projection = parse_projection(r.at("projection").get<std::string>());
+      if (!projection) throw InputError(where + ": unknown projection");
+      req.projection = *projection;
+      req.method = r.at("method");
+      c.request = req;
+    }
+    const std::string file = meta.at("accumulators").get<std::string>();
+    if (file.find('/') != std::string::npos || file.find("..") != std::string::npos)
+      throw InputError(where + ": the accumulator file name '" + file + "' leaves the folder");
+    std::ifstream in(dir / file, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const bool intact = version == 1
+                            ? checkpoint_fnv1a(bytes) == meta.at("checksum").get<std::uint64_t>()
+                            : checkpoint_xxh3(bytes) == meta.at("checksum_xxh3").get<std::uint64_t>();
+    if (!intact) throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
+    c.accumulators = parse_accumulators(bytes, where);
+    return c;
+  } catch (const json::exception& e) {
+    throw InputError(where + ": " + e.what());
+  }
+}
+
+}  // namespace arlight::daemon

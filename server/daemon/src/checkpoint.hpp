@@ -1,0 +1,60 @@
+// A session's checkpoint on disk (DATA/sessions/<id>/): what a resume needs to continue where
+// the session was. Two files: the accumulators (accum-<generation>.bin: "ARLACC01", the texel
+// count as a little-endian u64, then sum(w L) as 3 floats per texel and sum(w) as 1 float per
+// texel) and the manifest session.json naming them with their checksum. The accumulators are
+// written to a new file and the manifest renamed in last, so a crash at any point leaves the
+// previous checkpoint whole.
+//
+// Format versions: 2 (written) checks the accumulators with XXH3-64 (xxHash); 1 (arlightd
+// before 2026-12) with FNV-1a 64. Both are read.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/capture.hpp"
+#include "arlight/projection.hpp"
+
+namespace arlight::daemon {
+
+inline constexpr int kCheckpointVersion = 2;
+
+// A client's standing request for map sets.
+struct MapRequest {
+  std::vector<double> shininess;
+  int size = 128;
+  Projection projection = Projection::AngleMap;
+  std::string method = "auto";
+};
+
+struct SessionCheckpoint {
+  std::string id, device_id;
+  CameraIntrinsics camera;
+  std::string response = "srgb";  // the curve's name the frames were linearised with
+  int map_size = 0;
+  std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0,
+                frames_skipped = 0, last_sequence = 0;
+  std::optional<MapRequest> request;
+  capture::Accumulators accumulators;
+};
+
+// Writes `c` into `dir` (created if needed) as generation `generation` (increasing per session)
+// and removes the accumulator files of older generations. Throws on I/O failure; the previous
+// checkpoint stays whole then.
+void write_checkpoint(const std::filesystem::path& dir, const SessionCheckpoint& c,
+                      int generation);
+
+// The checkpoint in `dir`; std::nullopt when it has none (no manifest). InputError naming the
+// file and what is wrong when it is damaged: a manifest that does not parse or lacks a field,
+// an unknown version, an accumulator file missing, of the wrong size or failing its checksum.
+std::optional<SessionCheckpoint> read_checkpoint(const std::filesystem::path& dir);
+
+// The checksums of both versions, for tests that write a version 1 checkpoint.
+std::uint64_t checkpoint_fnv1a(const std::string& bytes);
+std::uint64_t checkpoint_xxh3(const std::string& bytes);
+
+}  // namespace arlight::daemon

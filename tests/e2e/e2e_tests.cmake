@@ -1,0 +1,26 @@
+# Programs end to end: each test runs the real binaries (build/bin) as a user would.
+# Included from tests/CMakeLists.txt; paths relative to this file.
+include(GoogleTest)
+add_executable(e2e_tests
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_maps.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_sim.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_capture.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlightd.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp)
+target_include_directories(e2e_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..)
+target_link_libraries(e2e_tests PRIVATE arlight_client_net arlight_wire arlight_capture
+  arlight_recording arlight_common arlight_warnings GTest::gtest_main nlohmann_json::nlohmann_json
+  Boost::system OpenSSL::Crypto opencv_core opencv_imgcodecs opencv_imgproc opencv_aruco
+  Threads::Threads)
+target_compile_definitions(e2e_tests PRIVATE
+  ARLIGHT_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
+  ARLIGHT_MAPS_EXE="$<TARGET_FILE:arlight-maps>"
+  ARLIGHT_SIM_EXE="$<TARGET_FILE:arlight-sim>"
+  ARLIGHT_CAPTURE_EXE="$<TARGET_FILE:arlight-capture>"
+  ARLIGHTD_EXE="$<TARGET_FILE:arlightd>"
+  ARLIGHT_REPLAY_EXE="$<TARGET_FILE:arlight-replay>"
+  ARLIGHT_CLIENT_EXE="$<TARGET_FILE:arlight-client>")
+add_dependencies(e2e_tests arlight-maps arlight-sim arlight-capture arlightd arlight-replay
+  arlight-client)
+set_target_properties(e2e_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+gtest_discover_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 300)
