@@ -9,6 +9,7 @@
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
+#include "arlight/truth.hpp"
 #include "track/sim_cache.hpp"
 
 namespace arlight {
@@ -63,7 +64,11 @@ client_app::PipelineOptions options(const Fixture& fx) {
   client_app::PipelineOptions o;
   o.camera = fx.camera;
   o.marker = {"DICT_4X4_50", 7, 0.2};
-  o.truth = fx.truth;
+  o.true_pose = [&fx](std::size_t i) -> std::optional<Pose> {
+    const recording::Truth& t = fx.truth;
+    if (i >= t.poses.size() || !t.marker_visible[i]) return std::nullopt;
+    return compose(inverse(t.marker->pose), t.poses[i]);
+  };
   return o;
 }
 

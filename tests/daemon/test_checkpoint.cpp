@@ -101,24 +101,32 @@ TEST(Checkpoint, ReadsVersion1AsEarlierDaemonsWroteIt) {
                c.accumulators.weight.size() * sizeof(float));
   write_file_atomically(dir / "accum-3.bin", bytes);
   const CameraIntrinsics& k = c.camera;
-  nlohmann::json meta = {
-      {"format", "arlight-session"},
-      {"version", 1},
-      {"id", c.id},
-      {"device_id", c.device_id},
-      {"camera", {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy},
-                  {"cx", k.cx}, {"cy", k.cy}, {"distortion", k.distortion}}},
-      {"response", c.response},
-      {"map_size", c.map_size},
-      {"frames_received", c.frames_received},
-      {"frames_processed", c.frames_processed},
-      {"frames_dropped", c.frames_dropped},
-      {"frames_skipped", c.frames_skipped},
-      {"last_sequence", c.last_sequence},
-      {"request", {{"shininess", c.request->shininess}, {"size", c.request->size},
-                   {"projection", "latlong"}, {"method", c.request->method}}},
-      {"accumulators", "accum-3.bin"},
-      {"checksum", checkpoint_fnv1a(bytes)}};
+  nlohmann::json meta = {{"format", "arlight-session"},
+                         {"version", 1},
+                         {"id", c.id},
+                         {"device_id", c.device_id},
+                         {"camera",
+                          {{"width", k.width},
+                           {"height", k.height},
+                           {"fx", k.fx},
+                           {"fy", k.fy},
+                           {"cx", k.cx},
+                           {"cy", k.cy},
+                           {"distortion", k.distortion}}},
+                         {"response", c.response},
+                         {"map_size", c.map_size},
+                         {"frames_received", c.frames_received},
+                         {"frames_processed", c.frames_processed},
+                         {"frames_dropped", c.frames_dropped},
+                         {"frames_skipped", c.frames_skipped},
+                         {"last_sequence", c.last_sequence},
+                         {"request",
+                          {{"shininess", c.request->shininess},
+                           {"size", c.request->size},
+                           {"projection", "latlong"},
+                           {"method", c.request->method}}},
+                         {"accumulators", "accum-3.bin"},
+                         {"checksum", checkpoint_fnv1a(bytes)}};
   write_file_atomically(dir / "session.json", meta.dump(1) + "\n");
   const auto back = read_checkpoint(dir);
   ASSERT_TRUE(back);

@@ -100,8 +100,9 @@ TEST(ArlightClient, KeepsRenderingWhenTheServerDiesAndResumesTheSession) {
   const fs::path orbit = simulate(dir, "orbit",
                                   "--frames 150 --size 320x240 --trajectory orbit --marker 7,0.2 "
                                   "--seed 13");
-  // 5 s of frames at their own pace; the daemon is killed after ~1 s and back ~0.5 s later
-  // (the client retries every second).
+  // 5 s of frames at their own pace; the daemon is killed once the client has streamed about a
+  // second of them (however long the client took to start) and is back ~0.5 s later (the client
+  // retries every second).
   auto client = std::async(std::launch::async, [&] {
     return test::run_tool(ARLIGHT_CLIENT_EXE,
                           "--server 127.0.0.1:" + std::to_string(port) + " --token " +
@@ -109,7 +110,18 @@ TEST(ArlightClient, KeepsRenderingWhenTheServerDiesAndResumesTheSession) {
                               " --model sphere --marker 7,0.2 --realtime --maps '' --resume " +
                               session + " --json " + (dir / "c.json").string());
   });
-  std::this_thread::sleep_for(1200ms);
+  const auto streaming = [&] {
+    const auto [status, body] = test::http_get(d->admin(), "/sessions");
+    if (status != 200) return false;
+    for (const json& s : json::parse(body))
+      if (s.at("id") == session && s.at("connected") == true &&
+          s.at("frames_received").get<int>() >= 120 + 30)  // the sweep's 120, then ~1 s more
+        return true;
+    return false;
+  };
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (!streaming() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(50ms);
   d->kill9();
   d.reset();
   std::this_thread::sleep_for(500ms);

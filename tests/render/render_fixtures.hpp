@@ -10,6 +10,7 @@
 
 #include "arlight/camera.hpp"
 #include "arlight/render.hpp"
+#include "arlight/render/opencv.hpp"
 
 namespace arlight::render::testing {
 

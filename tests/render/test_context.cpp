@@ -70,7 +70,7 @@ TEST(Renderer, RefusesAWrongSizedFrame) {
   context();
   Renderer r(32, 24);
   cv::Mat out;
-  EXPECT_THROW(r.composite(cv::Mat(10, 10, CV_8UC3), {}, out), std::invalid_argument);
+  EXPECT_THROW(composite(r, cv::Mat(10, 10, CV_8UC3), {}, out), std::invalid_argument);
 }
 
 }  // namespace

@@ -133,7 +133,7 @@ TEST(CameraMatched, VirtualPixelsGoThroughExposureGainAndResponse) {
     ToneMapping tone;
     tone.exposure = 1.0 / 50.0, tone.gain = 2.0;
     cv::Mat out;
-    s.r.composite(frame, tone, out);
+    composite(s.r, frame, tone, out);
     ASSERT_EQ(out.type(), CV_8UC3);
     int virt = 0, off_by_one = 0;
     for (int y = 0; y < H; ++y)
@@ -172,7 +172,7 @@ TEST(Reinhard, ConstantSphereGivesTheHandComputedCode) {
     ToneMapping tone;
     tone.mode = ToneMode::Reinhard, tone.key = key, tone.white = white;
     cv::Mat out;
-    s.r.composite(frame, tone, out);
+    composite(s.r, frame, tone, out);
     // Every virtual pixel has the same luminance, so the log-average is that luminance.
     const float lw = lum(cw);
     EXPECT_NEAR(s.r.last_log_average(), lw, lw * 1e-3);

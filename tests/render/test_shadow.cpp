@@ -105,7 +105,7 @@ TEST(Shadow, DirectionalShadowFallsAlongTheLight) {
   r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(centre)));
   const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(150, 160, 170));
   cv::Mat out;
-  r.composite(frame, {}, out);
+  composite(r, frame, {}, out);
   maybe_write("shadow_directional.png", out);
   const HdrReadback hdr = r.read_hdr();
 
@@ -170,7 +170,7 @@ TEST(Shadow, ContactShadowUnderConstantLight) {
   r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 1.0f)));
   const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(150, 160, 170));
   cv::Mat out;
-  r.composite(frame, {}, out);
+  composite(r, frame, {}, out);
   maybe_write("shadow_contact.png", out);
   const HdrReadback hdr = r.read_hdr();
 
@@ -224,7 +224,7 @@ TEST(Shadow, DisabledIsByteIdenticalAndMaskUnchanged) {
     r.draw(sphere, m, glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 0.5f)));
     ToneMapping tone;
     tone.mode = mode;
-    r.composite(frame, tone, out);
+    composite(r, frame, tone, out);
     log_avg = r.last_log_average();
     hdr = r.read_hdr();
   };
@@ -289,7 +289,7 @@ TEST(Shadow, CostAt1280x720) {
     for (int f = -2; f < frames; ++f) {
       r.begin_frame();
       r.draw(bunny, m, model);
-      r.composite(frame, {}, out);
+      composite(r, frame, {}, out);
       if (f < 0) continue;
       (on ? with : without) += r.timings().total() / frames;
       if (on) shadow += r.timings().shadow_ms / frames;

@@ -49,7 +49,7 @@ TEST(Timing, BunnyAt1280x720) {
       r.draw(bunny, m, model);
       ToneMapping tone;
       tone.mode = mode, tone.exposure = 1.0 / 60.0, tone.gain = 4.0;
-      r.composite(frame, tone, out);
+      composite(r, frame, tone, out);
       (void)t0;
       if (f < 0) continue;
       sum.render_ms += r.timings().render_ms / frames;

@@ -61,7 +61,7 @@ TEST(Reinhard, LogAverageOverTheMaskOnlyAndPerPixelCodes) {
   ToneMapping tone;
   tone.mode = ToneMode::Reinhard, tone.key = 0.3f, tone.white = 1.5f;
   cv::Mat out;
-  s.r.composite(frame, tone, out);
+  composite(s.r, frame, tone, out);
   EXPECT_NEAR(s.r.last_log_average(), log_avg, 1e-3 * log_avg);
   int off = 0;
   for (int y = 0; y < H; ++y)
@@ -89,7 +89,7 @@ TEST(Linear, ClampsExposedRadiance) {
   ToneMapping tone;
   tone.mode = ToneMode::Linear, tone.exposure = 0.05, tone.gain = 1.5;
   cv::Mat out;
-  s.r.composite(frame, tone, out);
+  composite(s.r, frame, tone, out);
   int clipped = 0;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {

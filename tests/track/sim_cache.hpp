@@ -28,8 +28,8 @@ inline std::filesystem::path simulated_recording(const std::string& name, sim::S
   o.env = std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr";
   const std::string stamp = sim::describe(o) + "\n";
   const std::size_t key = std::hash<std::string>{}(stamp);
-  const fs::path base = fs::temp_directory_path() / ("arlight_track_" + name + "_" +
-                                                     std::to_string(key % 1000000007));
+  const fs::path base = fs::temp_directory_path() /
+                        ("arlight_track_" + name + "_" + std::to_string(key % 1000000007));
   const fs::path rec = base / "rec";
   o.out = rec;
   const int lock = ::open((base.string() + ".lock").c_str(), O_CREAT | O_RDWR, 0644);

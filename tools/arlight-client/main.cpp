@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
     po.camera = src->intrinsics();
     spdlog::info("source: {}", src->describe());
     if (const auto* replay = dynamic_cast<source::ReplaySource*>(src.get()))
-      po.truth = recording::read_truth(replay->recording().folder);
+      po.true_pose = true_poses(recording::read_truth(replay->recording().folder));
     render::GlContext gl =
         window ? render::GlContext::window(po.camera.width, po.camera.height, "arlight-client")
                : render::GlContext::headless();

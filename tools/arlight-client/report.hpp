@@ -8,8 +8,13 @@
 #include <vector>
 
 #include "arlight/client_app.hpp"
+#include "arlight/truth.hpp"
 
 namespace arlight::client_app {
+
+// The camera's pose in the marker frame for each frame of a simulated recording where the
+// marker is in view (nothing without a truth or a marker).
+std::function<std::optional<Pose>(std::size_t)> true_poses(std::optional<recording::Truth> truth);
 
 // Where a run's results go: a line per frame on stdout, OUT/frames/NNNNNN.png, a contact sheet
 // of eight drawn frames spread over the run, OUT/composited.mp4 when ffmpeg is installed, the

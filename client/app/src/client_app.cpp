@@ -106,20 +106,18 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   tone.mode = options_.tone;
   tone.exposure = exposure;
   tone.gain = f.gain;
-  renderer_.composite(f.bgr, tone, composited);
+  render::composite(renderer_, f.bgr, tone, composited);
   const render::FrameTimings& rt = renderer_.timings();
   report.render_ms = rt.render_ms;
   report.tonemap_ms = rt.tonemap_ms + rt.readback_ms;
   // The client's own work per frame (decoding a recording's JPEG and the network apart).
   report.frame_ms = report.track_ms + report.render_ms + report.tonemap_ms;
 
-  // Pose error against the simulator's truth, for frames where the marker is visible.
-  const auto& truth = options_.truth;
-  if (truth && truth->marker && tr.tracked && f.index < truth->poses.size() &&
-      f.index < truth->marker_visible.size() && truth->marker_visible[f.index]) {
-    const Pose expected = compose(inverse(truth->marker->pose), truth->poses[f.index]);
-    report.error_cm = 100.0 * glm::length(tr.smoothed.position - expected.position);
-    report.error_deg = angle_deg(tr.smoothed.orientation, expected.orientation);
+  // Pose error against the truth, where it is known.
+  if (const auto expected =
+          tr.tracked && options_.true_pose ? options_.true_pose(f.index) : std::nullopt) {
+    report.error_cm = 100.0 * glm::length(tr.smoothed.position - expected->position);
+    report.error_deg = angle_deg(tr.smoothed.orientation, expected->orientation);
   }
   return report;
 }

@@ -1,3 +1,6 @@
+// The EGL side of the renderer (native only): a headless surfaceless context on Mesa, or an X11
+// window. The browser build replaces this file with a WebGL2 context; everything else in the
+// renderer only needs a current GLES 3 / WebGL2 context (gl.hpp).
 #include "arlight/render/gl_context.hpp"
 
 #include <EGL/egl.h>
@@ -15,33 +18,6 @@
 #endif
 
 namespace arlight::render {
-
-namespace gl {
-
-void check(const char* what) {
-  const GLenum e = glGetError();
-  if (e == GL_NO_ERROR) return;
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%04x", unsigned(e));
-  throw GlError(std::string(what) + ": GL error " + buf);
-}
-
-void set_sampling(GLenum target, GLenum filter, GLenum wrap_s, GLenum wrap_t) {
-  glTexParameteri(target, GL_TEXTURE_MIN_FILTER, GLint(filter));
-  glTexParameteri(target, GL_TEXTURE_MAG_FILTER, GLint(filter));
-  glTexParameteri(target, GL_TEXTURE_WRAP_S, GLint(wrap_s));
-  glTexParameteri(target, GL_TEXTURE_WRAP_T, GLint(wrap_t));
-}
-
-void check_framebuffer(const char* what) {
-  const GLenum s = glCheckFramebufferStatus(GL_DRAW_FRAMEBUFFER);
-  if (s == GL_FRAMEBUFFER_COMPLETE) return;
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%04x", unsigned(s));
-  throw GlError(std::string(what) + ": framebuffer incomplete (status " + buf + ")");
-}
-
-}  // namespace gl
 
 namespace {
 

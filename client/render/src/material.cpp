@@ -1,23 +1,33 @@
 #include "arlight/render/material.hpp"
 
-#include <opencv2/imgcodecs.hpp>
-
-#include "arlight/error.hpp"
+#include <stdexcept>
+#include <string>
 
 namespace arlight::render {
 
-std::shared_ptr<const TextureImage> make_texture(cv::Mat pixels, bool srgb) {
-  const int t = pixels.type();
-  if (pixels.empty() || !(t == CV_8UC1 || t == CV_8UC3 || t == CV_8UC4 || t == CV_32FC1 ||
-                          t == CV_32FC3))
-    throw std::invalid_argument("texture must be a non-empty CV_8UC1/3/4 or CV_32FC1/3 image");
-  return std::make_shared<const TextureImage>(TextureImage{std::move(pixels), srgb});
+std::shared_ptr<const TextureImage> make_texture(const ImageU8View& rgb, bool srgb) {
+  if (!rgb.data || rgb.width < 1 || rgb.height < 1 ||
+      !(rgb.channels == 1 || rgb.channels == 3 || rgb.channels == 4))
+    throw std::invalid_argument("texture must be a non-empty 8-bit image of 1, 3 or 4 channels");
+  auto t = std::make_shared<TextureImage>();
+  t->width = rgb.width, t->height = rgb.height, t->channels = rgb.channels, t->srgb = srgb;
+  const std::size_t row = std::size_t(rgb.width) * rgb.channels;
+  t->u8.resize(row * rgb.height);
+  for (int y = 0; y < rgb.height; ++y)
+    std::copy(rgb.row(y), rgb.row(y) + row, t->u8.begin() + std::ptrdiff_t(row * y));
+  return t;
 }
 
-std::shared_ptr<const TextureImage> load_texture(const std::filesystem::path& path, bool srgb) {
-  cv::Mat m = cv::imread(path.string(), cv::IMREAD_COLOR);  // 8-bit BGR
-  if (m.empty()) throw InputError("'" + path.string() + "': cannot read the image");
-  return make_texture(std::move(m), srgb);
+std::shared_ptr<const TextureImage> make_texture(int width, int height, int channels,
+                                                 std::vector<float> linear) {
+  if (width < 1 || height < 1 || !(channels == 1 || channels == 3) ||
+      linear.size() != std::size_t(width) * height * channels)
+    throw std::invalid_argument("float texture must hold width * height * (1 or 3) values, " +
+                                std::to_string(linear.size()) + " given");
+  auto t = std::make_shared<TextureImage>();
+  t->width = width, t->height = height, t->channels = channels;
+  t->f32 = std::move(linear);
+  return t;
 }
 
 }  // namespace arlight::render

@@ -5,7 +5,6 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <numbers>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
 #include <unordered_map>
@@ -23,16 +22,15 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-constexpr int kReduceBlock = 8;                               // loglum_reduce.frag's BLOCK
-constexpr int kShMapSize = 32;                                // SH maps: 64 x 32 lat-long
-const std::vector<double> kShShininess = {1, 8, 32, 128};    // SH maps' lobes
+constexpr int kReduceBlock = 8;                            // loglum_reduce.frag's BLOCK
+constexpr int kShMapSize = 32;                             // SH maps: 64 x 32 lat-long
+const std::vector<double> kShShininess = {1, 8, 32, 128};  // SH maps' lobes
 
 // Texture units.
 enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
 
 constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
 constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
-
 
 // A mesh drawn this frame, for the shadow pass (its scene-frame bounds and what draws it).
 struct Caster {
@@ -78,14 +76,20 @@ struct EnvSet {
     if (shininess[i] == s) return {i, i, 0.0f};
     const double t = (std::log(s) - std::log(shininess[i])) /
                      (std::log(shininess[i + 1]) - std::log(shininess[i]));
-    if (lookup == ReflectionLookup::Nearest) return t < 0.5 ? std::tuple{i, i, 0.0f} : std::tuple{i + 1, i + 1, 0.0f};
+    if (lookup == ReflectionLookup::Nearest)
+      return t < 0.5 ? std::tuple{i, i, 0.0f} : std::tuple{i + 1, i + 1, 0.0f};
     return {i, i + 1, float(t)};
   }
 };
 
 // Features of an ibl.frag variant (bits of its cache key, above the projection's 2 bits).
 enum Feature : unsigned {
-  kDiffuse = 1, kAlbedoMap = 2, kNormalMap = 4, kLightMap = 8, kSpecular = 16, kMix = 32
+  kDiffuse = 1,
+  kAlbedoMap = 2,
+  kNormalMap = 4,
+  kLightMap = 8,
+  kSpecular = 16,
+  kMix = 32
 };
 
 struct IblProgram {
@@ -96,11 +100,13 @@ struct IblProgram {
 
 }  // namespace
 
-glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int height,
-                                     float n, float f) {
+glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int height, float n,
+                                     float f) {
   if (k.width <= 0 || k.height <= 0 || !(k.fx > 0) || !(k.fy > 0))
-    throw std::invalid_argument("projection_from_intrinsics: intrinsics need a size and fx, fy > 0");
-  if (!(n > 0) || !(f > n)) throw std::invalid_argument("projection_from_intrinsics: need 0 < near < far");
+    throw std::invalid_argument(
+        "projection_from_intrinsics: intrinsics need a size and fx, fy > 0");
+  if (!(n > 0) || !(f > n))
+    throw std::invalid_argument("projection_from_intrinsics: need 0 < near < far");
   // Scale to the viewport; pixel edges (not centres) scale: (c + 0.5) * s - 0.5.
   const double sx = double(width) / k.width, sy = double(height) / k.height;
   const double fx = k.fx * sx, fy = k.fy * sy;
@@ -158,7 +164,8 @@ struct Renderer::Impl {
   gl::Framebuffer shadow_fbo, factor_fbo;
   int shadow_size = 0, factor_w = 0, factor_h = 0;
   std::vector<float> shadow_key;
-  std::vector<std::uint8_t> factors;  // the low-resolution factors, read back  // what the shadow map holds (light, casters); empty: nothing
+  std::vector<std::uint8_t> factors;  // the low-resolution factors, read back  // what the shadow
+                                      // map holds (light, casters); empty: nothing
   Program shadow_depth, shadow_catcher;
   ShCoeffs irradiance_sh;
   std::optional<EnvMap> irradiance_map;
@@ -195,10 +202,12 @@ struct Renderer::Impl {
       glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
       // The factors at 1/kFactorScale of the output's resolution (shadows are smooth).
-      factor_w = (w + kFactorScale - 1) / kFactorScale, factor_h = (h + kFactorScale - 1) / kFactorScale;
+      factor_w = (w + kFactorScale - 1) / kFactorScale,
+      factor_h = (h + kFactorScale - 1) / kFactorScale;
       factor_tex.create();
       glBindTexture(GL_TEXTURE_2D, factor_tex.id);
-      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, factor_w, factor_h, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, factor_w, factor_h, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                   nullptr);
       gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
       factor_fbo.create();
@@ -229,12 +238,16 @@ struct Renderer::Impl {
 
   // The shadow map and the shadow catcher's factors; when some are below 1, `shadowed` is the
   // frame with them applied and the result is true.
-  bool draw_shadows(const cv::Mat& frame);
-  cv::Mat shadowed, factor_full;
+  bool draw_shadows(const ImageU8View& frame);
+  ImageU8 shadowed;
+  std::vector<float> across;   // the factor rows upsampled horizontally
+  std::vector<int> taps;       // per column of the box: the left factor texel ...
+  std::vector<float> weights;  // ... and the right one's weight
 
   FrameTimings timings;
   Clock::time_point frame_start = Clock::now();
   std::vector<std::uint8_t> rgba;  // readback buffer
+  bool read_rgb = false;           // the output target reads back as packed RGB bytes
   bool composited = false;
 
   GLuint texture_for(const std::shared_ptr<const TextureImage>& img) {
@@ -256,7 +269,7 @@ struct Renderer::Impl {
     std::vector<std::pair<std::string, std::string>> defines = {
         {"ENV_PROJECTION", std::to_string(int(projection))}};
     const std::pair<Feature, const char*> names[] = {
-        {kDiffuse, "USE_DIFFUSE"}, {kAlbedoMap, "USE_ALBEDO"}, {kNormalMap, "USE_NORMAL_MAP"},
+        {kDiffuse, "USE_DIFFUSE"},    {kAlbedoMap, "USE_ALBEDO"},  {kNormalMap, "USE_NORMAL_MAP"},
         {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"}};
     for (auto [bit, name] : names)
       if (features & bit) defines.emplace_back(name, "1");
@@ -292,8 +305,9 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   if (!glGetString(GL_VERSION)) throw GlError("Renderer: no current OpenGL ES context");
   GLint major = 0;
   glGetIntegerv(GL_MAJOR_VERSION, &major);
-  if (major < 3) throw GlError("Renderer: needs OpenGL ES 3, the context is " +
-                               std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))));
+  if (major < 3)
+    throw GlError("Renderer: needs OpenGL ES 3, the context is " +
+                  std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))));
   bool float_targets = false;
   GLint n_ext = 0;
   glGetIntegerv(GL_NUM_EXTENSIONS, &n_ext);
@@ -302,8 +316,9 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
         "GL_EXT_color_buffer_float")
       float_targets = true;
   if (!float_targets)
-    throw GlError("Renderer: OpenGL ES extension GL_EXT_color_buffer_float is missing (needed for the "
-                  "RGBA16F HDR target)");
+    throw GlError(
+        "Renderer: OpenGL ES extension GL_EXT_color_buffer_float is missing (needed for the "
+        "RGBA16F HDR target)");
   Impl& p = *p_;
   p.w = width, p.h = height;
   p.shader_dir = shader_dir;
@@ -317,7 +332,8 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
   for (int mode = 0; mode < 3; ++mode) {
     Program& c = p.composite[mode];
-    c = Program(shader_dir, "fullscreen.vert", "composite.frag", {{"TONE_MODE", std::to_string(mode)}});
+    c = Program(shader_dir, "fullscreen.vert", "composite.frag",
+                {{"TONE_MODE", std::to_string(mode)}});
     glUseProgram(c.id());
     glUniform1i(c.uniform("u_hdr"), 0);
     glUniform1i(c.uniform("u_response"), 2);
@@ -328,7 +344,8 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
 
   // HDR target: RGBA16F radiance + R8 mask + depth. Only the mask and depth are cleared each
   // frame (llvmpipe clears float targets slowly); radiance is read only where the mask is set.
-  auto make_target = [&](gl::Texture& tex, GLenum internal, GLenum format, GLenum type, int tw, int th) {
+  auto make_target = [&](gl::Texture& tex, GLenum internal, GLenum format, GLenum type, int tw,
+                         int th) {
     tex.create();
     glBindTexture(GL_TEXTURE_2D, tex.id);
     glTexImage2D(GL_TEXTURE_2D, 0, GLint(internal), tw, th, 0, format, type, nullptr);
@@ -358,6 +375,10 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.out_tex.id, 0);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, p.depth.id);
   gl::check_framebuffer("composite target (RGB8 + the HDR depth)");
+  GLint read_format = 0, read_type = 0;
+  glGetIntegerv(GL_IMPLEMENTATION_COLOR_READ_FORMAT, &read_format);
+  glGetIntegerv(GL_IMPLEMENTATION_COLOR_READ_TYPE, &read_type);
+  p.read_rgb = read_format == GL_RGB && read_type == GL_UNSIGNED_BYTE;
 
   for (int lw = width, lh = height; lw > 1 || lh > 1;) {
     lw = (lw + kReduceBlock - 1) / kReduceBlock, lh = (lh + kReduceBlock - 1) / kReduceBlock;
@@ -428,8 +449,8 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
     if (!(shininess[i] > 0.0)) throw std::invalid_argument("set_maps: shininess must be positive");
   }
   p_->maps.upload(shininess, maps);
-  const std::size_t smallest = std::size_t(
-      std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
+  const std::size_t smallest =
+      std::size_t(std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
   p_->irradiance_map = maps[smallest];  // for the shadow's f (ShadowSettings)
 }
 
@@ -493,8 +514,9 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
   const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f);
   const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
-                            (use_normal ? kNormalMap : 0u) | (diffuse && use_light ? kLightMap : 0u) |
-                            (specular ? kSpecular : 0u) | (specular && a != b ? kMix : 0u);
+                            (use_normal ? kNormalMap : 0u) |
+                            (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
+                            (specular && a != b ? kMix : 0u);
   const IblProgram& u = p.ibl_program(env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
@@ -523,7 +545,8 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   // Environment maps: irradiance = the smallest shininess; reflection = around m.shininess.
   const GLenum target = env_target(env.projection);
   glUniform1f(u.reflection_mix, t);
-  for (auto [unit, index] : {std::pair{kIrr, std::size_t(0)}, std::pair{kRefl0, a}, std::pair{kRefl1, b}}) {
+  for (auto [unit, index] :
+       {std::pair{kIrr, std::size_t(0)}, std::pair{kRefl0, a}, std::pair{kRefl1, b}}) {
     glActiveTexture(GL_TEXTURE0 + GLenum(unit));
     glBindTexture(target, env.tex[index].id);
   }
@@ -554,11 +577,21 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   }
 }
 
-void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat& out) {
+void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone, ImageU8& out) {
+  out.resize(p_->w, p_->h, 3);
+  composite(frame, tone, std::span(out.data(), std::size_t(p_->w) * p_->h * 3));
+}
+
+void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
+                         std::span<std::uint8_t> out) {
   Impl& p = *p_;
-  if (frame.type() != CV_8UC3 || frame.cols != p.w || frame.rows != p.h)
+  if (!frame.data || frame.channels != 3 || frame.width != p.w || frame.height != p.h ||
+      frame.stride < std::ptrdiff_t(p.w) * 3)
     throw std::invalid_argument("composite: the camera frame must be 8-bit BGR of " +
                                 std::to_string(p.w) + "x" + std::to_string(p.h));
+  if (out.size() != std::size_t(p.w) * p.h * 3)
+    throw std::invalid_argument("composite: the output must hold " + std::to_string(p.w) + "x" +
+                                std::to_string(p.h) + "x3 bytes");
   if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
     throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
   glFinish();
@@ -573,10 +606,10 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   // the frame where they are below 1 (before the upload; the objects' pixels get darkened too,
   // but the composite pass overwrites every one of them).
   p.timings.shadow_ms = 0;
-  const cv::Mat* camera = &frame;
+  ImageU8View camera = frame;
   if (p.shadow.enabled && !p.casters.empty()) {
     const auto ts = Clock::now();
-    if (p.draw_shadows(frame)) camera = &p.shadowed;
+    if (p.draw_shadows(frame)) camera = p.shadowed.view();
     p.timings.shadow_ms = ms_since(ts);
     glBindVertexArray(p.empty_vao);
   }
@@ -585,14 +618,17 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, p.out_tex.id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  const bool packed = camera->step[0] % 3 == 0;
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, packed ? GLint(camera->step[0] / 3) : 0);
-  const cv::Mat src = packed ? *camera : camera->clone();
-  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, src.data);
+  if (camera.stride % 3 == 0) {  // rows a whole number of pixels apart: one upload
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(camera.stride / 3));
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, camera.data);
+  } else {
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    for (int y = 0; y < p.h; ++y)
+      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, y, p.w, 1, GL_RGB, GL_UNSIGNED_BYTE, camera.row(y));
+  }
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glBindTexture(GL_TEXTURE_2D, 0);
-
 
   if (tone.mode == ToneMode::Reinhard) {
     // Log-average luminance of the masked pixels: block sums down to one texel.
@@ -642,18 +678,28 @@ void Renderer::composite(const cv::Mat& frame, const ToneMapping& tone, cv::Mat&
   gl::check("tone mapping and compositing");
   p.timings.tonemap_ms = ms_since(t0);
 
+  // The texture holds B, G, R: read as RGB it is OpenCV's BGR. GLES 3 always reads RGBA; RGB
+  // straight into `out` where the implementation offers it for this target (Mesa does).
   const auto t1 = Clock::now();
-  p.rgba.resize(std::size_t(p.w) * p.h * 4);
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
-  gl::check("reading the composited frame");
-  // The texture holds B, G, R: dropping alpha gives OpenCV's BGR.
-  cv::cvtColor(cv::Mat(p.h, p.w, CV_8UC4, p.rgba.data()), out, cv::COLOR_RGBA2RGB);
+  if (p.read_rgb) {
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, out.data());
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl::check("reading the composited frame");
+  } else {
+    p.rgba.resize(std::size_t(p.w) * p.h * 4);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
+    gl::check("reading the composited frame");
+    const std::size_t pixels = std::size_t(p.w) * p.h;
+    for (std::size_t i = 0; i < pixels; ++i)
+      for (int c = 0; c < 3; ++c) out[3 * i + std::size_t(c)] = p.rgba[4 * i + std::size_t(c)];
+  }
   p.timings.readback_ms = ms_since(t1);
   p.composited = true;
 }
 
-bool Renderer::Impl::draw_shadows(const cv::Mat& frame) {
+bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   // The casters' union bounds (scene frame).
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const Caster& c : casters) lo = glm::min(lo, c.lo), hi = glm::max(hi, c.hi);
@@ -715,25 +761,25 @@ bool Renderer::Impl::draw_shadows(const cv::Mat& frame) {
       key.insert(key.end(), glm::value_ptr(c.model), glm::value_ptr(c.model) + 16);
     }
     if (key != shadow_key) {
-    shadow_key = std::move(key);
-    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
-    glViewport(0, 0, shadow_size, shadow_size);
-    glDisable(GL_BLEND);
-    glDisable(GL_CULL_FACE);
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
-    glDepthMask(GL_TRUE);
-    glClear(GL_DEPTH_BUFFER_BIT);
-    glUseProgram(shadow_depth.id());
-    glUniformMatrix4fv(shadow_depth.uniform("u_light_view_proj"), 1, GL_FALSE,
-                       glm::value_ptr(light_view_proj));
-    const GLint u_model = shadow_depth.uniform("u_model");
-    for (const Caster& c : casters) {
-      glUniformMatrix4fv(u_model, 1, GL_FALSE, glm::value_ptr(c.model));
-      glBindVertexArray(c.vao);
-      glDrawElements(GL_TRIANGLES, c.count, GL_UNSIGNED_INT, nullptr);
-    }
-    glBindVertexArray(0);
+      shadow_key = std::move(key);
+      glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
+      glViewport(0, 0, shadow_size, shadow_size);
+      glDisable(GL_BLEND);
+      glDisable(GL_CULL_FACE);
+      glEnable(GL_DEPTH_TEST);
+      glDepthFunc(GL_LESS);
+      glDepthMask(GL_TRUE);
+      glClear(GL_DEPTH_BUFFER_BIT);
+      glUseProgram(shadow_depth.id());
+      glUniformMatrix4fv(shadow_depth.uniform("u_light_view_proj"), 1, GL_FALSE,
+                         glm::value_ptr(light_view_proj));
+      const GLint u_model = shadow_depth.uniform("u_model");
+      for (const Caster& c : casters) {
+        glUniformMatrix4fv(u_model, 1, GL_FALSE, glm::value_ptr(c.model));
+        glBindVertexArray(c.vao);
+        glDrawElements(GL_TRIANGLES, c.count, GL_UNSIGNED_INT, nullptr);
+      }
+      glBindVertexArray(0);
     }
   }
 
@@ -796,16 +842,50 @@ bool Renderer::Impl::draw_shadows(const cv::Mat& frame) {
   // One texel of ones around the box (bilinear reach), then the box in full-resolution pixels.
   x0 = std::max(0, x0 - 1), y0 = std::max(0, y0 - 1);
   x1 = std::min(factor_w - 1, x1 + 1), y1 = std::min(factor_h - 1, y1 + 1);
-  const cv::Mat f4(factor_h, factor_w, CV_8UC4, factors.data());
-  cv::Mat f3;
-  cv::cvtColor(f4(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1)), f3, cv::COLOR_BGRA2BGR);
-  const cv::Rect full(x0 * kFactorScale, y0 * kFactorScale, (x1 - x0 + 1) * kFactorScale,
-                      (y1 - y0 + 1) * kFactorScale);
-  cv::resize(f3, factor_full, full.size(), 0, 0, cv::INTER_LINEAR);
-  const cv::Rect clipped = full & cv::Rect(0, 0, w, h);
-  frame.copyTo(shadowed);
-  cv::Mat dst = shadowed(clipped);
-  cv::multiply(dst, factor_full(cv::Rect(0, 0, clipped.width, clipped.height)), dst, 1.0 / 255.0);
+  // The frame, with the box's pixels multiplied by the factors upsampled bilinearly (texel
+  // centres at (i + 0.5) * scale, clamped at the box's edges: the ring of ones above).
+  shadowed.resize(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    std::copy(frame.row(y), frame.row(y) + std::size_t(w) * 3, shadowed.row(y));
+  const int px0 = x0 * kFactorScale, py0 = y0 * kFactorScale;
+  const int px1 = std::min(w, (x1 + 1) * kFactorScale), py1 = std::min(h, (y1 + 1) * kFactorScale);
+  // Separable: each factor row of the box interpolated across to full resolution once, then
+  // every output row between its two factor rows (B, G, R, like the frame).
+  const int bw = px1 - px0, rows = y1 - y0 + 1;
+  const auto tap = [](int p, int lo, int hi, int& i, float& f) {
+    const float s = std::clamp((p + 0.5f) / kFactorScale - 0.5f, float(lo), float(hi));
+    i = hi > lo ? std::min(int(s), hi - 1) : lo;
+    f = s - float(i);
+  };
+  across.resize(std::size_t(rows) * bw * 3);
+  taps.resize(std::size_t(bw));
+  weights.resize(std::size_t(bw));
+  for (int x = px0; x < px1; ++x)
+    tap(x, x0, x1, taps[std::size_t(x - px0)], weights[std::size_t(x - px0)]);
+  for (int j = y0; j <= y1; ++j) {
+    const std::uint8_t* src = &factors[std::size_t(j) * factor_w * 4];
+    float* out = &across[std::size_t(j - y0) * bw * 3];
+    for (int k = 0; k < bw; ++k) {
+      const int i = taps[std::size_t(k)], i1 = std::min(i + 1, x1);
+      const float fx = weights[std::size_t(k)];
+      for (int c = 0; c < 3; ++c)
+        out[3 * k + c] = src[4 * i + c] + fx * (float(src[4 * i1 + c]) - float(src[4 * i + c]));
+    }
+  }
+  for (int y = py0; y < py1; ++y) {
+    int j;
+    float fy;
+    tap(y, y0, y1, j, fy);
+    const float* a = &across[std::size_t(j - y0) * bw * 3];
+    const float* b = &across[std::size_t(std::min(j + 1, y1) - y0) * bw * 3];
+    std::uint8_t* row = shadowed.row(y) + std::size_t(px0) * 3;
+    for (int k = 0; k < bw * 3; ++k) {
+      const float f = a[k] + fy * (b[k] - a[k]);
+      // code * factor / 255, rounded (< 255.5 since factor <= 255): exact where the factor is 1;
+      // no branch, so it vectorises
+      row[k] = std::uint8_t(int(float(row[k]) * f * (1.0f / 255.0f) + 0.5f));
+    }
+  }
   return true;
 }
 

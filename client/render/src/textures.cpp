@@ -1,6 +1,5 @@
 #include "textures.hpp"
 
-#include <opencv2/imgproc.hpp>
 #include <vector>
 
 namespace arlight::render {
@@ -23,7 +22,8 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
   // RGBA: llvmpipe fetches 3-channel formats through a slow generic path.
   std::vector<float> rgba(env.image.texel_count() * 4, 1.0f);
   for (std::size_t i = 0; i < env.image.texel_count(); ++i)
-    for (int c = 0; c < 3; ++c) rgba[4 * i + std::size_t(c)] = env.image.data()[3 * i + std::size_t(c)];
+    for (int c = 0; c < 3; ++c)
+      rgba[4 * i + std::size_t(c)] = env.image.data()[3 * i + std::size_t(c)];
   if (target == GL_TEXTURE_CUBE_MAP) {
     const int n = env.layout.face_size();
     for (int f = 0; f < 6; ++f) {
@@ -49,26 +49,39 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
   gl::check("uploading an environment map");
 }
 
+namespace {
+
+// Gray, RGB or RGBA texels as RGBA (alpha 1 where there was none).
+template <class T>
+std::vector<T> to_rgba(const std::vector<T>& src, std::size_t texels, int channels, T one) {
+  std::vector<T> rgba(texels * 4, one);
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int c = 0; c < 4; ++c)
+      if (c < 3 || channels == 4) rgba[4 * i + c] = src[i * channels + (channels == 1 ? 0 : c)];
+  return rgba;
+}
+
+}  // namespace
+
 gl::Texture upload_material_texture(const TextureImage& image) {
-  const cv::Mat& src = image.pixels;
-  cv::Mat rgba;
-  const bool is_float = src.depth() == CV_32F;
-  switch (src.channels()) {
-    case 1: cv::cvtColor(src, rgba, cv::COLOR_GRAY2RGBA); break;
-    case 3: cv::cvtColor(src, rgba, cv::COLOR_BGR2RGBA); break;
-    default: cv::cvtColor(src, rgba, cv::COLOR_BGRA2RGBA); break;
-  }
+  const std::size_t texels = std::size_t(image.width) * image.height;
+  const bool is_float = !image.f32.empty();
+  const std::vector<float> rgba_f =
+      is_float ? to_rgba(image.f32, texels, image.channels, 1.0f) : std::vector<float>{};
+  const std::vector<std::uint8_t> rgba_u8 =
+      is_float ? std::vector<std::uint8_t>{}
+               : to_rgba(image.u8, texels, image.channels, std::uint8_t(255));
   gl::Texture tex;
   tex.create();
   glBindTexture(GL_TEXTURE_2D, tex.id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   if (is_float)
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, rgba.cols, rgba.rows, 0, GL_RGBA, GL_FLOAT,
-                 rgba.data);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, image.width, image.height, 0, GL_RGBA, GL_FLOAT,
+                 rgba_f.data());
   else
-    glTexImage2D(GL_TEXTURE_2D, 0, image.srgb ? GL_SRGB8_ALPHA8 : GL_RGBA8, rgba.cols, rgba.rows,
-                 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+    glTexImage2D(GL_TEXTURE_2D, 0, image.srgb ? GL_SRGB8_ALPHA8 : GL_RGBA8, image.width,
+                 image.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba_u8.data());
   glGenerateMipmap(GL_TEXTURE_2D);
   gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_REPEAT, GL_REPEAT);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
@@ -80,7 +93,8 @@ void upload_response_lut(const CameraResponse& response, gl::Texture& tex) {
   std::vector<float> lut(std::size_t(kResponseLutSize) * 4, 1.0f);
   for (int i = 0; i < kResponseLutSize; ++i) {
     const float t = float(i) / float(kResponseLutSize - 1);
-    for (int c = 0; c < 3; ++c) lut[std::size_t(i) * 4 + std::size_t(c)] = response.encode(t * t, c);
+    for (int c = 0; c < 3; ++c)
+      lut[std::size_t(i) * 4 + std::size_t(c)] = response.encode(t * t, c);
   }
   tex.create();
   glBindTexture(GL_TEXTURE_2D, tex.id);

@@ -142,10 +142,11 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
       throw InputError(where + ": the accumulator file name '" + file + "' leaves the folder");
     std::ifstream in(dir / file, std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const bool intact = version == 1
-                            ? checkpoint_fnv1a(bytes) == meta.at("checksum").get<std::uint64_t>()
-                            : checkpoint_xxh3(bytes) == meta.at("checksum_xxh3").get<std::uint64_t>();
-    if (!intact) throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
+    const bool intact =
+        version == 1 ? checkpoint_fnv1a(bytes) == meta.at("checksum").get<std::uint64_t>()
+                     : checkpoint_xxh3(bytes) == meta.at("checksum_xxh3").get<std::uint64_t>();
+    if (!intact)
+      throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
     c.accumulators = parse_accumulators(bytes, where);
     return c;
   } catch (const json::exception& e) {

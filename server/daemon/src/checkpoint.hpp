@@ -36,8 +36,8 @@ struct SessionCheckpoint {
   CameraIntrinsics camera;
   std::string response = "srgb";  // the curve's name the frames were linearised with
   int map_size = 0;
-  std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0,
-                frames_skipped = 0, last_sequence = 0;
+  std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0, frames_skipped = 0,
+                last_sequence = 0;
   std::optional<MapRequest> request;
   capture::Accumulators accumulators;
 };
@@ -45,8 +45,7 @@ struct SessionCheckpoint {
 // Writes `c` into `dir` (created if needed) as generation `generation` (increasing per session)
 // and removes the accumulator files of older generations. Throws on I/O failure; the previous
 // checkpoint stays whole then.
-void write_checkpoint(const std::filesystem::path& dir, const SessionCheckpoint& c,
-                      int generation);
+void write_checkpoint(const std::filesystem::path& dir, const SessionCheckpoint& c, int generation);
 
 // The checkpoint in `dir`; std::nullopt when it has none (no manifest). InputError naming the
 // file and what is wrong when it is damaged: a manifest that does not parse or lacks a field,

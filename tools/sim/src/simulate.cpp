@@ -13,10 +13,10 @@
 #include "arlight/recording.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/response.hpp"
+#include "arlight/sim.hpp"
 #include "arlight/truth.hpp"
 #include "imaging.hpp"
 #include "noise.hpp"
-#include "arlight/sim.hpp"
 
 namespace arlight::sim {
 
@@ -148,7 +148,8 @@ int simulate(const SimOptions& o) {
         const glm::dvec2 px((gx + 0.5) * o.width / kMeterCols - 0.5,
                             (gy + 0.5) * o.height / kMeterRows - 0.5);
         const Pose& p = poses[std::size_t(i)];
-        sum += luminance(glm::dvec3(scene.radiance(p.position, p.orientation * camera.unproject(px))));
+        sum +=
+            luminance(glm::dvec3(scene.radiance(p.position, p.orientation * camera.unproject(px))));
       }
     metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
   });

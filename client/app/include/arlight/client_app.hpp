@@ -5,6 +5,7 @@
 // (thesis ch. 5, tutorial §4.1) -> composite -> a report of what happened and how long it took.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -16,10 +17,10 @@
 #include "arlight/lighting_link.hpp"
 #include "arlight/pose.hpp"
 #include "arlight/render.hpp"
+#include "arlight/render/opencv.hpp"
 #include "arlight/response.hpp"
 #include "arlight/source.hpp"
 #include "arlight/track.hpp"
-#include "arlight/truth.hpp"
 
 namespace arlight::client_app {
 
@@ -66,8 +67,9 @@ struct PipelineOptions {
   bool shadow = true;  // shadows on the real floor (the marker's plane)
   render::ToneMode tone = render::ToneMode::CameraMatched;
   CameraResponse response = CameraResponse::srgb();
-  // The simulator's ground truth of a replayed recording: pose errors are measured against it.
-  std::optional<recording::Truth> truth;
+  // The camera's true pose in the marker frame for a frame index, where known (a simulated
+  // recording's ground truth) and the marker in view: pose errors are measured against it.
+  std::function<std::optional<Pose>(std::size_t frame_index)> true_pose;
 };
 
 // What happened to one frame.

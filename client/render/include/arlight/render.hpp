@@ -12,8 +12,10 @@
 //   r.set_shadow({.enabled = true, .light_direction = d, .light_colour = c});  // optional
 //   r.composite(frame_bgr, {ToneMode::CameraMatched, exposure, gain}, out_bgr);
 //
-// Frames and results are 8-bit BGR cv::Mats (OpenCV's order) of the renderer's size, row 0 at
-// the top. Every GL object lives in the context current when the Renderer was made.
+// Frames and results are 8-bit BGR images (ImageU8View / ImageU8, OpenCV's channel order) of the
+// renderer's size, row 0 at the top; arlight/render/opencv.hpp bridges cv::Mat natively. The
+// core needs no OpenCV, oneTBB or EGL (it builds for WebGL2 too): only a current GLES 3 context.
+// Every GL object lives in the context current when the Renderer was made.
 #pragma once
 
 #include <array>
@@ -23,11 +25,12 @@
 #include <glm/mat3x3.hpp>
 #include <glm/mat4x4.hpp>
 #include <memory>
-#include <opencv2/core/mat.hpp>
+#include <span>
 #include <vector>
 
 #include "arlight/camera.hpp"
 #include "arlight/image.hpp"
+#include "arlight/image_u8.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/render/gl_context.hpp"
 #include "arlight/render/material.hpp"
@@ -181,9 +184,11 @@ class Renderer {
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model);
   // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
   // renderer's size) in one pass; pixels outside the mask keep the frame exactly (except the
-  // shadow catcher's darkening, when shadows are on). `out` is
-  // (re)allocated only when its size or type differs.
-  void composite(const cv::Mat& frame_bgr, const ToneMapping& tone, cv::Mat& out_bgr);
+  // shadow catcher's darkening, when shadows are on). `out` is reshaped to the frame's size
+  // (reallocated only when it grows); the span form writes width * height * 3 bytes, packed.
+  void composite(const ImageU8View& frame_bgr, const ToneMapping& tone, ImageU8& out_bgr);
+  void composite(const ImageU8View& frame_bgr, const ToneMapping& tone,
+                 std::span<std::uint8_t> out_bgr);
   // Shows the last composite in a window context's default framebuffer (then swap_buffers()).
   void present();
 

@@ -2,32 +2,39 @@
 // albedo, tangent-space normal and light maps.
 #pragma once
 
-#include <filesystem>
+#include <cstdint>
 #include <glm/vec3.hpp>
 #include <memory>
-#include <opencv2/core/mat.hpp>
+#include <vector>
+
+#include "arlight/image_u8.hpp"
 
 namespace arlight::render {
 
-// A texture image as an OpenCV matrix: CV_8UC1/3/4 in OpenCV's channel order (gray, BGR, BGRA)
-// or CV_32FC1/3 (gray, BGR) in linear float. Row 0 is the top of the image (uv v = 0).
-// `srgb` says whether 8-bit values are sRGB-encoded (albedo photos) or linear (normal maps,
-// light maps); float images are always linear. The renderer uploads each TextureImage once and
-// keeps it while the shared_ptr lives.
+// A texture image: width x height texels of 1 (gray), 3 (RGB) or 4 (RGBA) channels, packed, row
+// 0 the top of the image (uv v = 0), either 8-bit (`u8`) or linear float (`f32`, 1 or 3
+// channels). `srgb` says whether 8-bit values are sRGB-encoded (albedo photos) or linear
+// (normal maps, light maps); float images are always linear. The renderer uploads each
+// TextureImage once and keeps it while the shared_ptr lives. Image files and cv::Mat come in
+// through arlight/render/opencv.hpp (native only).
 struct TextureImage {
-  cv::Mat pixels;
+  int width = 0, height = 0, channels = 0;
+  std::vector<std::uint8_t> u8;
+  std::vector<float> f32;
   bool srgb = false;
 };
 
-// Reads an image file with OpenCV (PNG, JPEG, WebP, ...); throws arlight::InputError naming the
-// file when it cannot be read.
-std::shared_ptr<const TextureImage> load_texture(const std::filesystem::path& path, bool srgb);
-std::shared_ptr<const TextureImage> make_texture(cv::Mat pixels, bool srgb);
+// 8-bit texels in R, G, B(, A) order (or gray); std::invalid_argument for an empty image or
+// another channel count.
+std::shared_ptr<const TextureImage> make_texture(const ImageU8View& rgb, bool srgb);
+// Linear float texels, 1 or 3 channels (R, G, B), packed.
+std::shared_ptr<const TextureImage> make_texture(int width, int height, int channels,
+                                                 std::vector<float> linear);
 
 struct Material {
-  glm::vec3 kd{0.8f};      // diffuse reflectance (multiplied by the albedo map, if any)
-  glm::vec3 ks{0.0f};      // specular reflectance
-  float shininess = 32.0f;  // Phong exponent: picks (interpolates) the reflection map
+  glm::vec3 kd{0.8f};         // diffuse reflectance (multiplied by the albedo map, if any)
+  glm::vec3 ks{0.0f};         // specular reflectance
+  float shininess = 32.0f;    // Phong exponent: picks (interpolates) the reflection map
   bool double_sided = false;  // false: back faces are culled (closed meshes, glTF's default)
   // Diffuse colour texture (usually srgb = true), multiplies kd.
   std::shared_ptr<const TextureImage> albedo;

@@ -24,9 +24,9 @@ struct Bounds {
 // pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
 struct Mesh {
   std::vector<glm::vec3> positions;
-  std::vector<glm::vec3> normals;   // unit, one per position
-  std::vector<glm::vec2> uvs;       // empty or one per position
-  std::vector<glm::vec4> tangents;  // empty or one per position (computed when uvs exist)
+  std::vector<glm::vec3> normals;      // unit, one per position
+  std::vector<glm::vec2> uvs;          // empty or one per position
+  std::vector<glm::vec4> tangents;     // empty or one per position (computed when uvs exist)
   std::vector<std::uint32_t> indices;  // triangles
   Bounds bounds;
 
