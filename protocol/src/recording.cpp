@@ -257,7 +257,10 @@ std::size_t RecordingWriter::add_frame(const std::vector<std::uint8_t>& jpeg, do
   std::ofstream f(folder_ / name, std::ios::binary | std::ios::trunc);
   f.write(reinterpret_cast<const char*>(jpeg.data()), std::streamsize(jpeg.size()));
   if (!f.flush()) throw std::runtime_error("cannot write " + (folder_ / name).string());
-  rec_.frames.push_back({name, timestamp, exposure, gain, orientation, {}});
+  Frame frame;
+  frame.timestamp = timestamp, frame.exposure = exposure, frame.gain = gain;
+  frame.orientation = orientation, frame.file = name;
+  rec_.frames.push_back(std::move(frame));
   return rec_.frames.size() - 1;
 }
 

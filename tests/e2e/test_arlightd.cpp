@@ -151,7 +151,7 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
   good.send_intrinsics(rec.camera);
   const auto send_frame = [&](std::uint64_t seq) {
     const auto& f = rec.frames[seq % rec.frames.size()];
-    good.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+    good.send_jpeg_frame(seq, f, rec.camera.width,
                          rec.camera.height,
                          recording::read_frame_bytes(rec, seq % rec.frames.size()));
     ASSERT_TRUE(good.wait_for(
@@ -190,7 +190,7 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
     client::Client early;
     early.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
     const auto& f = rec.frames[0];
-    early.send_jpeg_frame(1, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+    early.send_jpeg_frame(1, f, rec.camera.width,
                           rec.camera.height, recording::read_frame_bytes(rec, 0));
     EXPECT_TRUE(early.wait_for([&] { return !early.connected(); }, 10s));
     ASSERT_TRUE(early.server_error().has_value());
@@ -251,7 +251,7 @@ TEST(Arlightd, CalibrationSetStoresTheDevicesCurve) {
   for (std::size_t i = 0; i < rec.frames.size(); ++i) {
     const auto& f = rec.frames[i];
     frames.push_back(
-        {{f.timestamp, f.exposure, f.gain, f.orientation}, recording::read_frame_bytes(rec, i)});
+        {f, recording::read_frame_bytes(rec, i)});
   }
   DaemonProcess d(dir / "daemon");
   client::Client c;
@@ -373,7 +373,7 @@ TEST(Arlightd, AFloodOfFramesIsBoundedNewestFramesWinAndDropsAreCounted) {
   for (std::uint64_t seq = 1; seq <= kFrames; ++seq) {
     const std::size_t i = std::size_t(seq) % rec.frames.size();
     const auto& f = rec.frames[i];
-    c.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+    c.send_jpeg_frame(seq, f, rec.camera.width,
                       rec.camera.height, recording::read_frame_bytes(rec, i));
   }
   // The last frame always survives (newest wins), and every frame is either processed or
@@ -397,7 +397,7 @@ TEST(Arlightd, AFullDaemonClosesItsIdlestDisconnectedSessionToMakeRoom) {
   const auto one_frame = [&](client::Client& c) {
     c.send_intrinsics(rec.camera);
     const auto& f = rec.frames[0];
-    c.send_jpeg_frame(1, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+    c.send_jpeg_frame(1, f, rec.camera.width,
                       rec.camera.height, recording::read_frame_bytes(rec, 0));
     ASSERT_TRUE(c.wait_for([&] { return c.last_update().has_value(); }, 20s));
   };
@@ -462,7 +462,7 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
           const std::size_t i = std::size_t(k + 7 * s) % rec.frames.size();
           const auto& f = rec.frames[i];
           clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k),
-                                                   {f.timestamp, f.exposure, f.gain, f.orientation},
+                                                   f,
                                                    rec.camera.width, rec.camera.height, jpegs[i]);
           if (k == 12 + 4 * s) clients[std::size_t(s)]->bye();
         }

@@ -157,7 +157,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
     if (reason.empty()) {
       try {
         const std::vector<std::uint8_t> bytes = recording::read_frame_bytes(rec, i);
-        r = session.add_encoded(bytes, {f.timestamp, f.exposure, f.gain, f.orientation});
+        r = session.add_encoded(bytes, f);
         reason = r.skipped_reason;
       } catch (const InputError& e) {
         reason = e.what();

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                   std::chrono::duration<double>(f.timestamp)));
       const std::uint64_t seq = w.frames_processed + i + 1;
-      c.send_jpeg_frame(seq, {f.timestamp, f.exposure, f.gain, f.orientation}, rec.camera.width,
+      c.send_jpeg_frame(seq, f, rec.camera.width,
                         rec.camera.height, bytes);
       ++sent;
       last_sequence = seq;

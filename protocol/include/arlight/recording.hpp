@@ -4,6 +4,7 @@
 #pragma once
 
 #include "arlight/camera.hpp"
+#include "arlight/frame.hpp"
 #include <cstdint>
 #include <filesystem>
 #include <glm/gtc/quaternion.hpp>
@@ -23,14 +24,12 @@ inline constexpr std::uintmax_t kMaxFrameBytes = 32u << 20;
 // Pinhole intrinsics in pixels, OpenCV's convention (common/include/arlight/camera.hpp).
 using CameraIntrinsics = arlight::CameraIntrinsics;
 
-struct Frame {
-  std::string file;      // relative to the recording's folder, e.g. "frames/000000.jpg"
-  double timestamp = 0;  // seconds since the recording started
-  double exposure = 0;   // exposure time, seconds
-  double gain = 1;       // analogue gain (ISO / 100)
-  // Unit quaternion rotating camera coordinates (x right, y up, looking down -z) into the
-  // gravity-aligned world frame (+Y up).
-  glm::dquat orientation{1, 0, 0, 0};
+// A recorded frame: its FrameInfo (timestamp in seconds since the recording started, exposure
+// time in seconds, analogue gain = ISO / 100, and the unit quaternion rotating camera
+// coordinates — x right, y up, looking down -z — into the gravity-aligned world, +Y up), the
+// image file and whether the frame is usable.
+struct Frame : FrameInfo {
+  std::string file;  // relative to the recording's folder, e.g. "frames/000000.jpg"
   // Empty when the frame is usable; otherwise why not (zero exposure, a quaternion that is not
   // a rotation, a missing or truncated image, ...). Readers keep such frames so consumers can
   // skip them with the reason; they never stop the rest of the recording from being read.
