@@ -15,6 +15,8 @@
 #include "arlight/calibration.hpp"
 #include "arlight/capture.hpp"
 #include "arlight/error.hpp"
+#include "arlight/pose.hpp"
+#include "drift_model.hpp"
 #include "linearize.hpp"
 
 using namespace arlight;
@@ -312,3 +314,35 @@ TEST(CaptureCalibration, CurvesAreFiledPerDeviceAndIdsCannotEscape) {
   EXPECT_THROW(store.path_for("a/b"), InputError);
   fs::remove_all(dir);
 }
+
+namespace arlight::capture {
+namespace {
+
+// A gyro whose heading drifts 0.8 deg/s about world +Y, measured by alignments every 0.1 s with
+// 0.05 deg of noise: the model finds the rate, and between alignments it extrapolates.
+TEST(DriftModel, FitsAConstantHeadingDriftAndExtrapolatesIt) {
+  DriftModel model(0.6, 3.0);
+  const double rate = glm::radians(0.8);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, glm::radians(0.05));
+  const auto truth = [&](double t) { return glm::angleAxis(rate * t, glm::dvec3(0, 1, 0)); };
+  EXPECT_EQ(model.predict(0.0), glm::dquat(1, 0, 0, 0));  // no drift known yet
+  for (int k = 1; k <= 60; ++k) {
+    const double t = 0.1 * k;
+    model.predict(t);
+    const glm::dquat measured = glm::angleAxis(noise(rng), glm::dvec3(1, 0, 0)) * truth(t);
+    model.update(measured, t);
+  }
+  EXPECT_NEAR(glm::length(model.rate()), rate, 0.1 * rate);
+  EXPECT_GT(model.rate().y, 0.0);
+  // One second without alignments: the prediction follows the drift, not the last offset.
+  const glm::dquat predicted = model.predict(7.0);
+  EXPECT_LT(angle_deg(predicted, truth(7.0)), 0.15);
+  EXPECT_GT(angle_deg(model.offset(), truth(6.0)), 0.5);
+  // A step of more than 5 s (a pause) is not extrapolated.
+  const glm::dquat before = model.offset();
+  EXPECT_EQ(model.predict(20.0), before);
+}
+
+}  // namespace
+}  // namespace arlight::capture

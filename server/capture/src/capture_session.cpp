@@ -16,6 +16,7 @@
 #include "align.hpp"
 #include "arlight/capture.hpp"
 #include "arlight/pose.hpp"
+#include "drift_model.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
 
@@ -166,7 +167,7 @@ struct CaptureSession::Impl {
   PinholeCamera align_camera{CameraIntrinsics{}};
   std::vector<glm::dvec3> align_rays;          // camera ray of each alignment-image pixel
   std::array<std::uint8_t, 4096> gray_code{};  // linear [0, 1] (sqrt-spaced) -> 8-bit code
-  glm::dquat offset{1, 0, 0, 0};  // world-frame drift correction: used = offset * sensor
+  DriftModel drift;  // the sensor's heading drift: used orientation = drift.offset() * sensor
   int frames_since_align = 0;
   // One alignment: what it was measured against, and the fit.
   struct Measurement {
@@ -176,14 +177,13 @@ struct CaptureSession::Impl {
     RotationFit fit;
   };
   std::future<Measurement> pending_alignment;  // align_async: measured on another thread
-  glm::dvec3 drift_rate{0.0};  // world-frame rotation vector per second of the offset
-  double last_time = 0;
-  bool has_time = false;
-  static constexpr double kRateWindow = 4.0;  // seconds of alignments the drift rate is fitted to
-  std::deque<std::pair<double, glm::dvec3>> history;  // (time, measured offset rotation vector)
 
   Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
-      : camera(k), pinhole(k), response(std::move(r)), options(std::move(o)) {
+      : camera(k),
+        pinhole(k),
+        response(std::move(r)),
+        options(std::move(o)),
+        drift(options.align_smoothing, options.align_max_drift_deg_per_s) {
     if (k.width < 1 || k.height < 1 || !(k.fx > 0) || !(k.fy > 0) || !std::isfinite(k.cx) ||
         !std::isfinite(k.cy))
       throw std::invalid_argument("capture: camera intrinsics are not usable (size " +
@@ -326,38 +326,6 @@ struct CaptureSession::Impl {
     return weight[i] > 0.0f;
   }
 
-  // The drift model: the offset turns at a constant rate (a gyro bias). The rate is the
-  // least-squares slope of the measured offsets (as rotation vectors) over the last few
-  // seconds, used once they span long enough to tell drift from noise; frames between
-  // alignments, and stretches without features, are corrected by extrapolating it.
-  glm::dquat predict_offset(double timestamp) {
-    const double dt = std::isfinite(timestamp) && has_time ? timestamp - last_time : 0.0;
-    if (std::isfinite(timestamp)) last_time = timestamp, has_time = true;
-    if (dt > 0.0 && dt < 5.0 && glm::length(drift_rate) > 0.0)
-      offset = glm::normalize(
-          glm::angleAxis(glm::length(drift_rate) * dt, glm::normalize(drift_rate)) * offset);
-    return offset;
-  }
-
-  void update_offset(const glm::dquat& measured_offset, double timestamp) {
-    const glm::dvec3 r = log_map(measured_offset * glm::conjugate(offset));
-    if (glm::length(r) > 0.0)
-      offset = glm::normalize(
-          glm::angleAxis(options.align_smoothing * glm::length(r), glm::normalize(r)) * offset);
-    if (!std::isfinite(timestamp)) return;
-    history.push_back({timestamp, log_map(measured_offset)});
-    while (!history.empty() && history.front().first < timestamp - kRateWindow) history.pop_front();
-    if (history.size() < 8 || timestamp - history.front().first < 0.5 * kRateWindow) return;
-    double st = 0, stt = 0;
-    glm::dvec3 sv(0.0), stv(0.0);
-    for (const auto& [t, v] : history) st += t, stt += t * t, sv += v, stv += t * v;
-    const double n = double(history.size()), den = n * stt - st * st;
-    if (!(den > 0.0)) return;
-    drift_rate = (n * stv - st * sv) / den;
-    const double max_rate = glm::radians(options.align_max_drift_deg_per_s);
-    if (glm::length(drift_rate) > max_rate) drift_rate *= max_rate / glm::length(drift_rate);
-  }
-
   // Kán's alignment: a corrected orientation for the frame, or the sensor's with the predicted
   // offset when the features do not allow one.
   glm::dquat align(const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
@@ -365,7 +333,7 @@ struct CaptureSession::Impl {
     // An alignment measured in the background from an earlier frame is applied first, at this
     // frame whatever the timing, so results do not depend on thread scheduling.
     if (pending_alignment.valid()) apply_alignment(pending_alignment.get(), result);
-    const glm::dquat predicted = glm::normalize(predict_offset(info.timestamp) * sensor);
+    const glm::dquat predicted = glm::normalize(drift.predict(info.timestamp) * sensor);
     if (!(covered_solid_angle > 0.0)) return predicted;  // nothing captured yet to align with
     if (++frames_since_align < options.align_every) return predicted;
     frames_since_align = 0;
@@ -401,7 +369,7 @@ struct CaptureSession::Impl {
       return predicted;
     }
     apply_alignment(measure(), result);
-    return glm::normalize(offset * sensor);
+    return glm::normalize(drift.offset() * sensor);
   }
 
   // Turns a measured correction into the drift offset (or says why not).
@@ -418,7 +386,7 @@ struct CaptureSession::Impl {
       return;
     }
     const glm::dquat measured = glm::normalize(m.predicted * correction);
-    update_offset(glm::normalize(measured * glm::conjugate(m.sensor)), m.timestamp);
+    drift.update(glm::normalize(measured * glm::conjugate(m.sensor)), m.timestamp);
     result.aligned = true;
   }
 
