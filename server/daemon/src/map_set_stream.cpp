@@ -1,0 +1,100 @@
+#include "map_set_stream.hpp"
+
+#include <tbb/task_arena.h>
+#include <tbb/task_scheduler_observer.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+#include "arlight/lighting.hpp"
+#include "arlight/resample.hpp"
+#include "priority.hpp"
+
+namespace arlight::daemon {
+
+namespace {
+
+// TBB workers drop to the map computation's priority when they join its arena (in arlightd
+// TBB only ever runs background work: map sets, and the SH of a resumed session).
+class BackgroundPriority : public tbb::task_scheduler_observer {
+ public:
+  explicit BackgroundPriority(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) {
+    observe(true);
+  }
+  ~BackgroundPriority() override { observe(false); }
+  void on_scheduler_entry(bool) override { lower_thread_priority(kMapNice); }
+};
+
+}  // namespace
+
+double stream_map_set(const MapSetJob& job, std::stop_token stop,
+                      const std::function<void(const wire::Message&)>& send) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const MapRequest& request = job.request;
+  const std::uint32_t set = job.id;
+  lower_thread_priority(kMapNice);
+  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
+  lighting::Hooks hooks;
+  hooks.stop = stop;
+  std::size_t last_reported = 0;
+  hooks.on_tile = [&](const lighting::TileDone& t) {
+    if (t.done * 10 / t.total == last_reported) return;  // every tenth
+    last_reported = t.done * 10 / t.total;
+    send(wire::Progress{set, std::uint32_t(t.done), std::uint32_t(t.total)});
+  };
+  try {
+    lighting::MapSet maps;
+    // Below the live path: the frames of every session come first.
+    tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
+    arena.initialize();
+    const BackgroundPriority background(arena);
+    arena.execute([&] {
+      maps = lighting::compute_maps(job.input, request.shininess, layout,
+                                    lighting::parse_method(request.method), hooks);
+    });
+    const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
+                                  int h) {
+      std::vector<float> px(std::size_t(w) * h * 3);
+      for (int r = 0; r < h; ++r)
+        std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
+                    sizeof(float) * 3 * std::size_t(w));
+      return wire::MapTile{.map_set = set,
+                           .map_index = std::uint16_t(map),
+                           .shininess = float(request.shininess[std::size_t(map)]),
+                           .projection = request.projection,
+                           .map_width = std::uint32_t(layout.width()),
+                           .map_height = std::uint32_t(layout.height()),
+                           .level = std::uint8_t(level),
+                           .x = std::uint32_t(x),
+                           .y = std::uint32_t(y),
+                           .width = std::uint32_t(w),
+                           .height = std::uint32_t(h),
+                           .data = wire::encode_half_rgb(px.data(), px.size() / 3)};
+    };
+    // Coarse first: each map 4x smaller in one tile (a preview the client can use at once),
+    // then the full-resolution tiles.
+    for (std::size_t k = 0; k < maps.maps.size() && !stop.stop_requested(); ++k) {
+      Image coarse = downsample2x(downsample2x(maps.maps[k].image.view()).view());
+      send(tile_message(int(k), coarse, 2, 0, 0, coarse.width(), coarse.height()));
+    }
+    for (std::size_t k = 0; k < maps.maps.size(); ++k)
+      for (int y = 0; y < layout.height() && !stop.stop_requested(); y += kTileSide)
+        for (int x = 0; x < layout.width(); x += kTileSide)
+          send(tile_message(int(k), maps.maps[k].image, 0, x, y,
+                            std::min(kTileSide, layout.width() - x),
+                            std::min(kTileSide, layout.height() - y)));
+    if (stop.stop_requested()) return -1.0;
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    send(wire::MapSetComplete{set, std::uint16_t(maps.maps.size()), float(seconds),
+                              float(job.coverage), job.frames});
+    return seconds;
+  } catch (const lighting::Cancelled&) {
+  } catch (const std::exception& e) {
+    send(wire::Error{wire::ErrorCode::Internal, std::string("map computation: ") + e.what()});
+  }
+  return -1.0;
+}
+
+}  // namespace arlight::daemon

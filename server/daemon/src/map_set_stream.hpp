@@ -1,0 +1,32 @@
+// One map set for a session's client: computed from a snapshot of the captured map below the
+// live path's priority (its own low-priority oneTBB arena, threads at nice 19), then streamed as
+// messages — Progress every tenth of the tiles, a coarse preview of each map (level 2, one
+// tile), the full-resolution 64x64 tiles, then MapSetComplete (protocol/PROTOCOL.md, item 7).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <stop_token>
+
+#include "arlight/projection.hpp"
+#include "arlight/wire.hpp"
+#include "checkpoint.hpp"
+
+namespace arlight::daemon {
+
+inline constexpr int kTileSide = 64;  // level-0 tile side sent to clients
+
+struct MapSetJob {
+  MapRequest request;
+  EnvMap input;              // the captured map when the set was started
+  std::uint32_t id = 0;      // the set's number in its session
+  double coverage = 0;       // of `input`
+  std::uint64_t frames = 0;  // merged into `input`
+};
+
+// Computes and sends the set; returns its seconds when it completed, or a negative number when
+// it was stopped. A failure of the computation is sent as Error{Internal}.
+double stream_map_set(const MapSetJob& job, std::stop_token stop,
+                      const std::function<void(const wire::Message&)>& send);
+
+}  // namespace arlight::daemon
