@@ -79,10 +79,10 @@ void BM_ClientFrame(benchmark::State& state, bool shadow) {
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
   auto maps = std::make_shared<client::MapSet>();
   maps->shininess = fx.shininess, maps->maps = fx.maps, maps->complete = true;
-  client_app::FixedLighting lighting({.maps_version = 1,
-                                      .maps = maps,
-                                      .dominant_direction = fx.light.direction,
-                                      .dominant_colour = fx.light.colour});
+  client_app::Lighting fixed;
+  fixed.maps = maps, fixed.maps_version = 1;
+  fixed.dominant_direction = fx.light.direction, fixed.dominant_colour = fx.light.colour;
+  client_app::FixedLighting lighting(fixed);
   cv::Mat out;
   client_app::RunStats stats;
   std::size_t k = 0, drawn = 0;

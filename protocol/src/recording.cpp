@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
@@ -299,6 +300,46 @@ void RecordingWriter::finish() {
   }
   write_file_atomically(folder_ / kManifestName, j.dump(1) + "\n");
   finished_ = true;
+}
+
+FrameReader::FrameReader(const Recording& rec, bool realtime, OnSkip on_skip)
+    : rec_(rec), realtime_(realtime), on_skip_(std::move(on_skip)) {}
+
+void FrameReader::skip(std::size_t index, const std::string& reason) {
+  ++skipped_;
+  if (on_skip_) on_skip_(index, reason);
+}
+
+std::optional<FrameReader::Item> FrameReader::next() {
+  while (next_ < rec_.frames.size()) {
+    Item item;
+    item.index = next_++;
+    item.frame = &rec_.frames[item.index];
+    if (!item.frame->problem.empty()) {
+      skip(item.index, item.frame->problem);
+      continue;
+    }
+    try {
+      item.jpeg = read_frame_bytes(rec_, item.index);
+    } catch (const InputError& e) {  // changed on disk since the manifest was read
+      skip(item.index, e.what());
+      continue;
+    }
+    if (realtime_) {
+      const auto now = std::chrono::steady_clock::now();
+      if (!start_) {
+        start_ = now;
+        first_timestamp_ = item.frame->timestamp;
+      } else {
+        const auto due =
+            *start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(item.frame->timestamp - first_timestamp_));
+        if (due > now) std::this_thread::sleep_until(due);
+      }
+    }
+    return item;
+  }
+  return std::nullopt;
 }
 
 }  // namespace arlight::recording

@@ -71,14 +71,13 @@ int run_calibration(const Options& o, const recording::Recording& rec) {
   std::vector<cv::Mat> images;
   std::vector<double> times;
   glm::dquat first_view{1, 0, 0, 0};
-  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
-    const auto& f = rec.frames[i];
-    if (!f.problem.empty()) {
-      std::fprintf(stderr, "frame %zu skipped: %s\n", i, f.problem.c_str());
-      continue;
-    }
-    const std::vector<std::uint8_t> bytes = recording::read_frame_bytes(rec, i);
-    cv::Mat im = cv::imdecode(bytes, cv::IMREAD_COLOR);
+  recording::FrameReader reader(rec, false, [](std::size_t i, const std::string& why) {
+    std::fprintf(stderr, "frame %zu skipped: %s\n", i, why.c_str());
+  });
+  while (const auto item = reader.next()) {
+    const std::size_t i = item->index;
+    const recording::Frame& f = *item->frame;
+    cv::Mat im = cv::imdecode(item->jpeg, cv::IMREAD_COLOR);
     if (im.empty() || im.cols != rec.camera.width || im.rows != rec.camera.height) {
       std::fprintf(stderr, "frame %zu skipped: not a %dx%d image\n", i, rec.camera.width,
                    rec.camera.height);
@@ -150,21 +149,15 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   std::vector<double> total_ms, decode_ms, linearize_ms, align_ms, project_ms, sh_ms;
   double squared_error = 0.0;
   std::size_t compared = 0, aligned = 0;
-  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
-    const recording::Frame& f = rec.frames[i];
-    std::string reason = f.problem;
-    capture::FrameResult r;
-    if (reason.empty()) {
-      try {
-        const std::vector<std::uint8_t> bytes = recording::read_frame_bytes(rec, i);
-        r = session.add_encoded(bytes, f);
-        reason = r.skipped_reason;
-      } catch (const InputError& e) {
-        reason = e.what();
-      }
-    }
-    if (!reason.empty()) {
-      skipped.push_back({{"frame", i}, {"reason", reason}});
+  recording::FrameReader reader(rec, false, [&](std::size_t i, const std::string& why) {
+    skipped.push_back({{"frame", i}, {"reason", why}});
+  });
+  while (const auto item = reader.next()) {
+    const std::size_t i = item->index;
+    const recording::Frame& f = *item->frame;
+    const capture::FrameResult r = session.add_encoded(item->jpeg, f);
+    if (!r.used) {
+      reader.skip(i, r.skipped_reason);
       continue;
     }
     total_ms.push_back(r.total_ms());

@@ -83,8 +83,9 @@ int main(int argc, char** argv) {
     po.tone = parse_tone(tone);
     po.response = CameraResponse::named(response);
     const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
-    std::unique_ptr<source::FrameSource> src = source::open_source(
-        source_spec, {.realtime = realtime, .intrinsics_file = intrinsics_file});
+    source::SourceOptions so;
+    so.realtime = realtime, so.intrinsics_file = intrinsics_file;
+    std::unique_ptr<source::FrameSource> src = source::open_source(source_spec, so);
     po.camera = src->intrinsics();
     spdlog::info("source: {}", src->describe());
     if (const auto* replay = dynamic_cast<source::ReplaySource*>(src.get()))

@@ -157,10 +157,10 @@ int main(int argc, char** argv) {
     const recording::Recording rec = recording::read_recording(recording_dir);
     std::vector<std::vector<std::uint8_t>> jpegs(rec.frames.size());
     std::vector<std::size_t> usable;
-    for (std::size_t i = 0; i < rec.frames.size(); ++i) {
-      if (!rec.frames[i].problem.empty()) continue;
-      jpegs[i] = recording::read_frame_bytes(rec, i);
-      usable.push_back(i);
+    recording::FrameReader reader(rec);
+    while (auto item = reader.next()) {
+      jpegs[item->index] = std::move(item->jpeg);
+      usable.push_back(item->index);
     }
     if (usable.empty()) throw InputError("'" + recording_dir + "' has no usable frames");
 

@@ -69,26 +69,13 @@ int main(int argc, char** argv) {
 
     std::size_t sent = 0;
     std::uint64_t last_sequence = 0;
-    const auto start = Clock::now();
-    for (std::size_t i = 0; i < rec.frames.size(); ++i) {
-      const auto& f = rec.frames[i];
-      if (!f.problem.empty()) {
-        std::fprintf(stderr, "frame %zu not sent: %s\n", i, f.problem.c_str());
-        continue;
-      }
-      std::vector<std::uint8_t> bytes;
-      try {
-        bytes = recording::read_frame_bytes(rec, i);
-      } catch (const InputError& e) {
-        std::fprintf(stderr, "frame %zu not sent: %s\n", i, e.what());
-        continue;
-      }
-      if (realtime)
-        std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
-                                                  std::chrono::duration<double>(f.timestamp)));
+    recording::FrameReader reader(rec, realtime, [](std::size_t i, const std::string& why) {
+      std::fprintf(stderr, "frame %zu not sent: %s\n", i, why.c_str());
+    });
+    while (const auto item = reader.next()) {
+      const std::size_t i = item->index;
       const std::uint64_t seq = w.frames_processed + i + 1;
-      c.send_jpeg_frame(seq, f, rec.camera.width,
-                        rec.camera.height, bytes);
+      c.send_jpeg_frame(seq, *item->frame, rec.camera.width, rec.camera.height, item->jpeg);
       ++sent;
       last_sequence = seq;
       if (!realtime && !c.wait_for(

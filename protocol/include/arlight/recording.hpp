@@ -3,15 +3,18 @@
 // optional IMU log) is specified in protocol/RECORDING.md.
 #pragma once
 
-#include "arlight/camera.hpp"
-#include "arlight/frame.hpp"
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "arlight/camera.hpp"
+#include "arlight/frame.hpp"
 
 namespace arlight::recording {
 
@@ -60,6 +63,35 @@ Recording read_recording(const std::filesystem::path& folder);
 // The bytes of frame i's JPEG, checked again (size limit, JPEG start and end markers), or
 // InputError naming the file.
 std::vector<std::uint8_t> read_frame_bytes(const Recording& rec, std::size_t i);
+
+// Reads a recording's frames in order the way every replayer does: frames with a problem, or
+// whose file cannot be read (changed on disk since the manifest was read), are skipped and
+// reported with the reason; with `realtime`, next() waits until each frame is due at the pace
+// of the timestamps (steady clock, from the first frame it returns).
+class FrameReader {
+ public:
+  using OnSkip = std::function<void(std::size_t index, const std::string& reason)>;
+  explicit FrameReader(const Recording& rec, bool realtime = false, OnSkip on_skip = {});
+
+  struct Item {
+    std::size_t index = 0;  // into rec.frames
+    const Frame* frame = nullptr;
+    std::vector<std::uint8_t> jpeg;
+  };
+  std::optional<Item> next();
+  std::size_t skipped() const { return skipped_; }
+  // Reports frame `index` as skipped for a reason found after next() returned it (it does not
+  // decode, say).
+  void skip(std::size_t index, const std::string& reason);
+
+ private:
+  const Recording& rec_;
+  bool realtime_;
+  OnSkip on_skip_;
+  std::size_t next_ = 0, skipped_ = 0;
+  std::optional<std::chrono::steady_clock::time_point> start_;
+  double first_timestamp_ = 0;
+};
 
 // Writes a recording frame by frame: images go to REC/frames/ as they are added, the manifest
 // (and IMU log) when finish() is called, atomically (temporary file, then rename), so an
