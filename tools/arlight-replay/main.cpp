@@ -5,7 +5,6 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "arlight/atomic_file.hpp"
 #include "arlight/client_net.hpp"
@@ -17,7 +16,6 @@
 
 namespace fs = std::filesystem;
 using namespace arlight;
-using Clock = std::chrono::steady_clock;
 
 namespace {}  // namespace
 
