@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -247,7 +248,6 @@ struct Renderer::Impl {
   FrameTimings timings;
   Clock::time_point frame_start = Clock::now();
   std::vector<std::uint8_t> rgba;  // readback buffer
-  bool read_rgb = false;           // the output target reads back as packed RGB bytes
   bool composited = false;
 
   GLuint texture_for(const std::shared_ptr<const TextureImage>& img) {
@@ -375,10 +375,6 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, p.out_tex.id, 0);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, p.depth.id);
   gl::check_framebuffer("composite target (RGB8 + the HDR depth)");
-  GLint read_format = 0, read_type = 0;
-  glGetIntegerv(GL_IMPLEMENTATION_COLOR_READ_FORMAT, &read_format);
-  glGetIntegerv(GL_IMPLEMENTATION_COLOR_READ_TYPE, &read_type);
-  p.read_rgb = read_format == GL_RGB && read_type == GL_UNSIGNED_BYTE;
 
   for (int lw = width, lh = height; lw > 1 || lh > 1;) {
     lw = (lw + kReduceBlock - 1) / kReduceBlock, lh = (lh + kReduceBlock - 1) / kReduceBlock;
@@ -678,23 +674,18 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   gl::check("tone mapping and compositing");
   p.timings.tonemap_ms = ms_since(t0);
 
-  // The texture holds B, G, R: read as RGB it is OpenCV's BGR. GLES 3 always reads RGBA; RGB
-  // straight into `out` where the implementation offers it for this target (Mesa does).
+  // The texture holds B, G, R: dropping alpha gives OpenCV's BGR. (Reading GL_RGB directly,
+  // where the implementation offers it, was slower on Mesa: it converts per pixel.)
   const auto t1 = Clock::now();
-  if (p.read_rgb) {
-    glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, p.w, p.h, GL_RGB, GL_UNSIGNED_BYTE, out.data());
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    gl::check("reading the composited frame");
-  } else {
-    p.rgba.resize(std::size_t(p.w) * p.h * 4);
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
-    gl::check("reading the composited frame");
-    const std::size_t pixels = std::size_t(p.w) * p.h;
-    for (std::size_t i = 0; i < pixels; ++i)
-      for (int c = 0; c < 3; ++c) out[3 * i + std::size_t(c)] = p.rgba[4 * i + std::size_t(c)];
-  }
+  p.rgba.resize(std::size_t(p.w) * p.h * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
+  gl::check("reading the composited frame");
+  // One 4-byte store per pixel, each overwriting the previous one's spare byte; the last pixel
+  // copies its 3 bytes alone.
+  const std::size_t pixels = std::size_t(p.w) * p.h;
+  for (std::size_t i = 0; i + 1 < pixels; ++i) std::memcpy(&out[3 * i], &p.rgba[4 * i], 4);
+  std::memcpy(&out[3 * (pixels - 1)], &p.rgba[4 * (pixels - 1)], 3);
   p.timings.readback_ms = ms_since(t1);
   p.composited = true;
 }
