@@ -73,8 +73,9 @@ std::array<std::uint8_t, kHeaderBytes> frame_header(std::size_t n) {
 
 std::vector<std::uint8_t> frame(std::span<const std::uint8_t> envelope) {
   const auto header = frame_header(envelope.size());
-  std::vector<std::uint8_t> out(header.begin(), header.end());
-  out.insert(out.end(), envelope.begin(), envelope.end());
+  std::vector<std::uint8_t> out(kHeaderBytes + envelope.size());
+  std::copy(header.begin(), header.end(), out.begin());
+  std::copy(envelope.begin(), envelope.end(), out.begin() + kHeaderBytes);
   return out;
 }
 

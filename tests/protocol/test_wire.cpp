@@ -94,7 +94,9 @@ TEST(WireCodec, UnknownUnionTagIsRefused) {
     // Tag 0 (NONE) with a table, or a tag past the schema's last member.
     EXPECT_TRUE(e.fault() == Fault::UnknownMessage || e.fault() == Fault::Malformed)
         << int(tag) << ": " << e.what();
-    if (tag != 0) EXPECT_EQ(e.fault(), Fault::UnknownMessage) << e.what();
+    if (tag != 0) {
+      EXPECT_EQ(e.fault(), Fault::UnknownMessage) << e.what();
+    }
   }
 }
 
