@@ -167,4 +167,11 @@ std::optional<Truth> read_truth(const fs::path& rec_folder) {
   return t;
 }
 
+std::optional<Pose> camera_in_marker(const Truth& truth, std::size_t i) {
+  if (!truth.marker || i >= truth.poses.size() || i >= truth.marker_visible.size() ||
+      !truth.marker_visible[i])
+    return std::nullopt;
+  return compose(inverse(truth.marker->pose), truth.poses[i]);
+}
+
 }  // namespace arlight::recording

@@ -64,11 +64,7 @@ client_app::PipelineOptions options(const Fixture& fx) {
   client_app::PipelineOptions o;
   o.camera = fx.camera;
   o.marker = {"DICT_4X4_50", 7, 0.2};
-  o.true_pose = [&fx](std::size_t i) -> std::optional<Pose> {
-    const recording::Truth& t = fx.truth;
-    if (i >= t.poses.size() || !t.marker_visible[i]) return std::nullopt;
-    return compose(inverse(t.marker->pose), t.poses[i]);
-  };
+  o.true_pose = [&fx](std::size_t i) { return recording::camera_in_marker(fx.truth, i); };
   return o;
 }
 

@@ -64,11 +64,7 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
 
 std::function<std::optional<Pose>(std::size_t)> true_poses(std::optional<recording::Truth> truth) {
   if (!truth || !truth->marker) return {};
-  return [t = std::move(*truth)](std::size_t i) -> std::optional<Pose> {
-    if (i >= t.poses.size() || i >= t.marker_visible.size() || !t.marker_visible[i])
-      return std::nullopt;
-    return compose(inverse(t.marker->pose), t.poses[i]);
-  };
+  return [t = std::move(*truth)](std::size_t i) { return recording::camera_in_marker(t, i); };
 }
 
 RunOutput::RunOutput(fs::path out, fs::path json_path)

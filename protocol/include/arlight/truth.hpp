@@ -51,4 +51,8 @@ void write_truth(const std::filesystem::path& rec_folder, const Truth& truth);
 // the field (e.g. "poses[3].orientation: missing") when it is malformed.
 std::optional<Truth> read_truth(const std::filesystem::path& rec_folder);
 
+// The true camera pose of frame i in the marker's frame (inverse(marker -> world) * (camera ->
+// world)), or std::nullopt when the truth has no marker, no pose i, or the marker is not in view.
+std::optional<Pose> camera_in_marker(const Truth& truth, std::size_t i);
+
 }  // namespace arlight::recording
