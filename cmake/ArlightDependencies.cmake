@@ -52,6 +52,8 @@ endif()
 arlight_find(zstd DEB libzstd-dev CONFIG)
 arlight_find_pkgconfig(XXHASH libxxhash DEB libxxhash-dev)
 arlight_find(OpenSSL DEB libssl-dev)
+# the phone page's URL as a QR code in the terminal
+arlight_find_pkgconfig(QRENCODE libqrencode DEB libqrencode-dev)
 
 # capture and tracking
 arlight_find(OpenCV DEB "libopencv-dev libopencv-contrib-dev" CONFIG COMPONENTS

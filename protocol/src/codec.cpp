@@ -114,7 +114,7 @@ Offset<void> build(FlatBufferBuilder& b, const MapTile& m) {
   const auto data = b.CreateVector(m.data);
   return fb::CreateMapTile(b, m.map_set, m.map_index, m.shininess,
                            fb::Projection(int(m.projection)), m.map_width, m.map_height, m.level,
-                           m.x, m.y, m.width, m.height, data)
+                           m.x, m.y, m.width, m.height, data, fb::TileCoding(int(m.coding)))
       .Union();
 }
 
@@ -326,6 +326,10 @@ MapTile read(const fb::MapTile& m, const WireLimits&) {
   t.map_width = m.map_width(), t.map_height = m.map_height();
   t.level = m.level();
   t.x = m.x(), t.y = m.y(), t.width = m.width(), t.height = m.height();
+  const int coding = int(m.coding());
+  if (coding < int(TileCoding::ZstdHalf) || coding > int(TileCoding::Half))
+    refuse(Fault::OutOfRange, name, "coding", "unknown tile coding " + std::to_string(coding));
+  t.coding = TileCoding(coding);
   if (t.map_index >= kMaxMapIndex)
     refuse(Fault::OutOfRange, name, "map_index", std::to_string(t.map_index) + " is over 63");
   if (t.map_width == 0 || t.map_height == 0 || t.map_width > kMaxMapSide ||

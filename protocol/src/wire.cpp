@@ -60,7 +60,8 @@ ErrorCode DecodeError::code() const {
       return ErrorCode::TooLarge;
     // An enum value this version does not know: a newer peer, or a feature not offered.
     case Fault::OutOfRange:
-      return field_ == "format" || field_ == "projection" ? ErrorCode::Unsupported
+      return field_ == "format" || field_ == "projection" || field_ == "coding"
+                 ? ErrorCode::Unsupported
                                                           : ErrorCode::BadMessage;
     default:
       return ErrorCode::BadMessage;
@@ -91,37 +92,62 @@ std::uint32_t read_header(std::span<const std::uint8_t, kHeaderBytes> header,
   return n;
 }
 
-std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels) {
-  std::vector<std::uint16_t> half(pixels * 3);
-  for (std::size_t i = 0; i < half.size(); ++i) half[i] = Imath::half(rgb[i]).bits();
-  std::vector<std::uint8_t> out(ZSTD_compressBound(half.size() * 2));
-  const std::size_t n = ZSTD_compress(out.data(), out.size(), half.data(), half.size() * 2, 3);
+bool has_capability(const std::vector<std::string>& capabilities, std::string_view name) {
+  return std::find(capabilities.begin(), capabilities.end(), name) != capabilities.end();
+}
+
+TileCoding choose_tile_coding(const std::vector<std::string>& capabilities) {
+  const bool zstd = has_capability(capabilities, kCapabilityTilesZstd);
+  const bool half = has_capability(capabilities, kCapabilityTilesHalf);
+  return half && !zstd ? TileCoding::Half : TileCoding::ZstdHalf;
+}
+
+std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels,
+                                          TileCoding coding) {
+  std::vector<std::uint8_t> half(pixels * 6);
+  for (std::size_t i = 0; i < pixels * 3; ++i) {
+    const std::uint16_t bits = Imath::half(rgb[i]).bits();
+    half[2 * i] = std::uint8_t(bits & 0xff), half[2 * i + 1] = std::uint8_t(bits >> 8);
+  }
+  if (coding == TileCoding::Half) return half;
+  std::vector<std::uint8_t> out(ZSTD_compressBound(half.size()));
+  const std::size_t n = ZSTD_compress(out.data(), out.size(), half.data(), half.size(), 3);
   out.resize(ZSTD_isError(n) ? 0 : n);
   return out;
 }
 
 std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> data,
-                                                  std::size_t pixels, std::string& why) {
-  const unsigned long long size = ZSTD_getFrameContentSize(data.data(), data.size());
-  if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN) {
-    why = "tile data is not a zstd frame with a known size";
-    return std::nullopt;
-  }
-  if (size != pixels * 6) {
-    why = "tile data holds " + std::to_string(size) + " bytes, expected " +
+                                                  std::size_t pixels, TileCoding coding,
+                                                  std::string& why) {
+  std::vector<std::uint8_t> unpacked;
+  std::span<const std::uint8_t> half = data;
+  if (coding == TileCoding::ZstdHalf) {
+    const unsigned long long size = ZSTD_getFrameContentSize(data.data(), data.size());
+    if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN) {
+      why = "tile data is not a zstd frame with a known size";
+      return std::nullopt;
+    }
+    if (size != pixels * 6) {
+      why = "tile data holds " + std::to_string(size) + " bytes, expected " +
+            std::to_string(pixels * 6);
+      return std::nullopt;
+    }
+    unpacked.resize(pixels * 6);
+    const std::size_t n = ZSTD_decompress(unpacked.data(), unpacked.size(), data.data(), data.size());
+    if (ZSTD_isError(n) || n != unpacked.size()) {
+      why = "tile data does not decompress";
+      return std::nullopt;
+    }
+    half = unpacked;
+  } else if (data.size() != pixels * 6) {
+    why = "tile data holds " + std::to_string(data.size()) + " bytes, expected " +
           std::to_string(pixels * 6);
     return std::nullopt;
   }
-  std::vector<std::uint16_t> half(pixels * 3);
-  const std::size_t n = ZSTD_decompress(half.data(), half.size() * 2, data.data(), data.size());
-  if (ZSTD_isError(n) || n != half.size() * 2) {
-    why = "tile data does not decompress";
-    return std::nullopt;
-  }
-  std::vector<float> out(half.size());
-  for (std::size_t i = 0; i < half.size(); ++i) {
+  std::vector<float> out(pixels * 3);
+  for (std::size_t i = 0; i < out.size(); ++i) {
     Imath::half h;
-    h.setBits(half[i]);
+    h.setBits(std::uint16_t(half[2 * i] | half[2 * i + 1] << 8));
     out[i] = float(h);
     if (!std::isfinite(out[i])) {
       why = "tile data holds a non-finite value";

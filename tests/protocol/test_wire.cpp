@@ -114,6 +114,13 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   EXPECT_EQ(e.field(), "projection");
   EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
 
+  e = refusal(wire::encode(wire::MapTile{.map_width = 64, .map_height = 64, .width = 1,
+                                         .height = 1, .data = {1},
+                                         .coding = wire::TileCoding(5)}));
+  EXPECT_EQ(e.message(), "MapTile");
+  EXPECT_EQ(e.field(), "coding");
+  EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
+
   e = refusal(wire::encode(wire::Error{wire::ErrorCode(99), "?"}));
   EXPECT_EQ(e.fault(), Fault::OutOfRange);
   EXPECT_EQ(e.field(), "code");
@@ -202,14 +209,41 @@ TEST(WireCodec, FramingAddsTheLittleEndianLength) {
 
 TEST(WireCodec, HalfFloatTilesRoundTripAndRefuseDamage) {
   std::vector<float> rgb = {0.0f, 0.5f, 1.0f, 2.0f, 65000.0f, 1e-3f};
-  const auto data = wire::encode_half_rgb(rgb.data(), 2);
+  for (const auto coding : {wire::TileCoding::ZstdHalf, wire::TileCoding::Half}) {
+    SCOPED_TRACE(int(coding));
+    const auto data = wire::encode_half_rgb(rgb.data(), 2, coding);
+    std::string why;
+    const auto back = wire::decode_half_rgb(data, 2, coding, why);
+    ASSERT_TRUE(back) << why;
+    for (std::size_t i = 0; i < rgb.size(); ++i) EXPECT_NEAR((*back)[i], rgb[i], rgb[i] * 1e-3);
+    EXPECT_FALSE(wire::decode_half_rgb(data, 3, coding, why));
+    EXPECT_NE(why.find("expected 18"), std::string::npos) << why;
+    EXPECT_FALSE(wire::decode_half_rgb(std::span(data).first(3), 2, coding, why));
+  }
+  // Half is the bytes a browser reads with a DataView: little-endian IEEE halves (1.0 = 0x3c00).
+  const auto half = wire::encode_half_rgb(rgb.data(), 2, wire::TileCoding::Half);
+  ASSERT_EQ(half.size(), 12u);
+  EXPECT_EQ(half[4], 0x00);
+  EXPECT_EQ(half[5], 0x3c);
+  // Each coding refuses the other's bytes: zstd is not 12 raw bytes, raw bytes are not zstd.
   std::string why;
-  const auto back = wire::decode_half_rgb(data, 2, why);
-  ASSERT_TRUE(back) << why;
-  for (std::size_t i = 0; i < rgb.size(); ++i) EXPECT_NEAR((*back)[i], rgb[i], rgb[i] * 1e-3);
-  EXPECT_FALSE(wire::decode_half_rgb(data, 3, why));
-  EXPECT_NE(why.find("expected 18"), std::string::npos) << why;
-  EXPECT_FALSE(wire::decode_half_rgb(std::span(data).first(3), 2, why));
+  EXPECT_FALSE(wire::decode_half_rgb(half, 2, wire::TileCoding::ZstdHalf, why));
+  EXPECT_FALSE(wire::decode_half_rgb(wire::encode_half_rgb(rgb.data(), 2), 2,
+                                     wire::TileCoding::Half, why));
+  // A non-finite texel is refused.
+  std::vector<float> inf = {0, 0, 0, 1e9f, 0, 0};
+  EXPECT_FALSE(wire::decode_half_rgb(wire::encode_half_rgb(inf.data(), 2, wire::TileCoding::Half),
+                                     2, wire::TileCoding::Half, why));
+  EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
+}
+
+TEST(WireCodec, TileCodingFollowsTheHelloCapabilities) {
+  using wire::TileCoding;
+  EXPECT_EQ(wire::choose_tile_coding({"maps", "jpeg"}), TileCoding::ZstdHalf);  // before codings
+  EXPECT_EQ(wire::choose_tile_coding({"maps", wire::kCapabilityTilesHalf}), TileCoding::Half);
+  EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesHalf, wire::kCapabilityTilesZstd}),
+            TileCoding::ZstdHalf);
+  EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesZstd}), TileCoding::ZstdHalf);
 }
 
 // The seed corpus for the fuzzers: valid/ decodes, broken/ is refused. ARLIGHT_WRITE_CORPUS=1

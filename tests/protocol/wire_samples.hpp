@@ -51,7 +51,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
                            .coverage = 0.375f,
                            .frames_processed = 8,
                            .frames_dropped = 1},
-      wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3}},
+      wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3}, wire::TileCoding::Half},
       wire::MapSetComplete{3, 8, 0.25f, 0.5f, 120},
       wire::Progress{3, 5, 10},
       wire::Error{wire::ErrorCode::SessionNotFound, "no session 42 for this device"},

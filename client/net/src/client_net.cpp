@@ -6,10 +6,15 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core/tcp_stream.hpp>
+#include <boost/beast/ssl.hpp>
+#include <boost/beast/websocket.hpp>
 #include <cstring>
 #include <thread>
 
 #include "arlight/message_stream.hpp"
+#include "arlight/websocket_transport.hpp"
 
 namespace arlight::client {
 
@@ -26,6 +31,10 @@ constexpr std::size_t kMaxQueuedBytes = 16u << 20;
 struct Client::Impl {
   asio::io_context io;
   TlsOptions tls_options;
+  bool websocket = false;
+  std::string websocket_path = "/ws";
+  std::vector<std::string> capabilities = {"maps", "jpeg", wire::kCapabilityTilesZstd,
+                                           wire::kCapabilityTilesHalf};
   std::unique_ptr<asio::ssl::context> tls_context;
   std::shared_ptr<wire::MessageStream> stream;
   std::thread io_thread;
@@ -146,7 +155,7 @@ struct Client::Impl {
     if (x + w > std::uint64_t(map.image.width()) || y + h > std::uint64_t(map.image.height()))
       return;  // another size than the set's first tile said
     std::string why;
-    const auto px = wire::decode_half_rgb(t.data, std::size_t(w * h), why);
+    const auto px = wire::decode_half_rgb(t.data, std::size_t(w * h), t.coding, why);
     if (!px) return;
     for (std::uint64_t r = 0; r < h; ++r)
       std::memcpy(map.image.view().pixel(int(x), int(y + r)), px->data() + r * w * 3,
@@ -182,6 +191,15 @@ void Client::use_tls(const TlsOptions& options) {
   d.tls_context->set_verify_mode(options.verify ? asio::ssl::verify_peer : asio::ssl::verify_none);
 }
 
+void Client::use_websocket(bool enabled, const std::string& path) {
+  impl_->websocket = enabled;
+  impl_->websocket_path = path;
+}
+
+void Client::set_capabilities(std::vector<std::string> capabilities) {
+  impl_->capabilities = std::move(capabilities);
+}
+
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                         const std::string& token, const std::string& client_name,
                         const std::string& resume_session, std::chrono::milliseconds timeout) {
@@ -192,23 +210,42 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
   if (ec) throw ClientError("Network", "cannot resolve " + host + ": " + ec.message());
   const std::string where = host + ":" + std::to_string(port);
-  tcp::socket socket(d.io);
-  asio::connect(socket, endpoints, ec);
-  if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
   std::unique_ptr<wire::Transport> transport;
-  if (d.tls_context) {
-    wire::TlsSocket tls(std::move(socket), *d.tls_context);
-    // Server name indication, and the certificate must name the host (or its IP address).
+  if (d.websocket) {
+    namespace beast = boost::beast;
+    if (!d.tls_context) use_tls({.enabled = true, .ca_file = {}, .verify = true});
+    beast::ssl_stream<beast::tcp_stream> tls(asio::make_strand(d.io), *d.tls_context);
+    beast::get_lowest_layer(tls).connect(endpoints, ec);
+    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
     SSL_set_tlsext_host_name(tls.native_handle(), host.c_str());
     if (d.tls_options.verify) tls.set_verify_callback(asio::ssl::host_name_verification(host));
     tls.handshake(asio::ssl::stream_base::client, ec);
-    if (ec) {
-      tls.lowest_layer().close(ec);
-      throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
-    }
-    transport = wire::make_tls_transport(std::move(tls), wire::TlsRole::Established);
+    if (ec) throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
+    wire::SecureWebSocket ws(std::move(tls));
+    wire::configure_websocket(ws, /*server=*/false);
+    ws.handshake(where, d.websocket_path, ec);
+    if (ec)
+      throw ClientError("Network", "WebSocket handshake with " + where + d.websocket_path +
+                                       " failed: " + ec.message());
+    transport = wire::make_websocket_transport(std::move(ws));
   } else {
-    transport = wire::make_tcp_transport(std::move(socket));
+    tcp::socket socket(d.io);
+    asio::connect(socket, endpoints, ec);
+    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
+    if (d.tls_context) {
+      wire::TlsSocket tls(std::move(socket), *d.tls_context);
+      // Server name indication, and the certificate must name the host (or its IP address).
+      SSL_set_tlsext_host_name(tls.native_handle(), host.c_str());
+      if (d.tls_options.verify) tls.set_verify_callback(asio::ssl::host_name_verification(host));
+      tls.handshake(asio::ssl::stream_base::client, ec);
+      if (ec) {
+        tls.lowest_layer().close(ec);
+        throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
+      }
+      transport = wire::make_tls_transport(std::move(tls), wire::TlsRole::Established);
+    } else {
+      transport = wire::make_tcp_transport(std::move(socket));
+    }
   }
   d.stream = std::make_shared<wire::MessageStream>(std::move(transport),
                                                    wire::MessageStream::Options{d.limits, 0});
@@ -219,7 +256,7 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   d.stream->start(d.handlers());
   d.io_thread = std::thread([&d] { d.io.run(); });
   d.send(wire::Hello{
-      wire::kProtocolVersion, client_name, device_id, token, {"maps", "jpeg"}, resume_session});
+      wire::kProtocolVersion, client_name, device_id, token, d.capabilities, resume_session});
   std::unique_lock lock(d.mutex);
   d.changed.wait_for(lock, timeout, [&] { return d.welcome || d.error || !d.open; });
   if (d.welcome) return *d.welcome;

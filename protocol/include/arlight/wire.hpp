@@ -15,6 +15,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -136,6 +137,21 @@ struct LightingUpdate {
   bool operator==(const LightingUpdate& o) const;
 };
 
+// How a MapTile's texels are coded (arlight.fbs TileCoding).
+enum class TileCoding : std::uint8_t { ZstdHalf = 0, Half = 1 };
+
+// Capabilities a Hello may name beside "maps" and "jpeg" (PROTOCOL.md, capabilities).
+inline constexpr const char* kCapabilityTilesZstd = "tiles:zstd-half";  // accepts ZstdHalf tiles
+inline constexpr const char* kCapabilityTilesHalf = "tiles:half";       // accepts Half tiles
+// The client cannot report exposure or gain (most browsers): the server treats its frames as
+// taken at one locked exposure, whatever CameraFrame.exposure and gain say.
+inline constexpr const char* kCapabilityExposureUnknown = "exposure:unknown";
+
+// The coding the server sends a client with these capabilities: ZstdHalf when it accepts it or
+// names no coding at all (clients from before codings were negotiated), otherwise Half.
+TileCoding choose_tile_coding(const std::vector<std::string>& capabilities);
+bool has_capability(const std::vector<std::string>& capabilities, std::string_view name);
+
 struct MapTile {
   std::uint32_t map_set = 0;    // increases with every recomputation
   std::uint16_t map_index = 0;  // index into the requested shininess list
@@ -145,6 +161,7 @@ struct MapTile {
   std::uint8_t level = 0;  // 0 full resolution; >0 a coarse preview 2^level smaller
   std::uint32_t x = 0, y = 0, width = 0, height = 0;  // tile rectangle at that level
   std::vector<std::uint8_t> data;                     // encode_half_rgb of width*height RGB texels
+  TileCoding coding = TileCoding::ZstdHalf;           // of data
   bool operator==(const MapTile&) const = default;
 };
 
@@ -225,12 +242,14 @@ std::array<std::uint8_t, kHeaderBytes> frame_header(std::size_t envelope_bytes);
 std::uint32_t read_header(std::span<const std::uint8_t, kHeaderBytes> header,
                           std::uint32_t max_message_bytes);
 
-// Map tiles travel as zstd-compressed IEEE half floats (RGB, row-major).
-std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels);
-// Inverse of encode_half_rgb; std::nullopt (with why) when the data is not zstd, does not
-// decompress to exactly pixels * 6 bytes, or holds non-finite values.
+// Map tiles travel as IEEE half floats (RGB, row-major, little-endian), zstd-compressed or not.
+std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels,
+                                          TileCoding coding = TileCoding::ZstdHalf);
+// Inverse of encode_half_rgb; std::nullopt (with why) when the data is not zstd (ZstdHalf), is
+// not exactly pixels * 6 bytes (after decompression), or holds non-finite values.
 std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> data,
-                                                  std::size_t pixels, std::string& why);
+                                                  std::size_t pixels, TileCoding coding,
+                                                  std::string& why);
 
 // "host:port" (port 0-65535) -> host, port; InputError naming the text otherwise.
 void parse_endpoint(const std::string& text, std::string& host, std::uint16_t& port);

@@ -49,6 +49,16 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.tls_cert = value.get<std::string>();
       else if (key == "tls_key")
         c.tls_key = value.get<std::string>();
+      else if (key == "web") {
+        const std::string w = value.get<std::string>();
+        c.web_enabled = !w.empty();
+        if (c.web_enabled) wire::parse_endpoint(w, c.web_host, c.web_port);
+      } else if (key == "web_root")
+        c.web_root = value.get<std::string>();
+      else if (key == "web_device")
+        c.web_device = value.get<std::string>();
+      else if (key == "web_url_host")
+        c.web_url_host = value.get<std::string>();
       else
         throw InputError("unknown key");
     } catch (const nlohmann::json::exception& e) {

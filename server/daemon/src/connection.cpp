@@ -103,9 +103,12 @@ void Connection::handle_hello(const wire::Hello& m) {
   session_ = env_.open_session(m, code, why);
   if (!session_) return fail(code, why);
   std::weak_ptr<wire::MessageStream> weak = stream_;
-  session_->attach([weak](std::vector<std::uint8_t> envelope) {
-    if (auto stream = weak.lock()) stream->send(std::move(envelope));
-  });
+  session_->attach(
+      [weak](std::vector<std::uint8_t> envelope) {
+        if (auto stream = weak.lock()) stream->send(std::move(envelope));
+      },
+      wire::choose_tile_coding(m.capabilities));
+  exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
                               session_->frames_processed(), env_.limits});
 }
@@ -144,6 +147,12 @@ void Connection::handle_frame(wire::CameraFrame&& m) {
   if (!session_->has_camera())
     return fail(wire::ErrorCode::OutOfOrder, "CameraFrame before CameraIntrinsics");
   // The codec checked the size against the limits and RGB8 data against the size.
+  if (exposure_unknown_) {
+    // One locked exposure for every frame (whatever the client wrote there): the map's scale
+    // is then relative to this exposure, and consistent across the session.
+    m.info.exposure = kLockedExposureSeconds;
+    m.info.gain = 1.0;
+  }
   session_->submit(FrameJob{std::move(m), Clock::now()});
 }
 

@@ -13,6 +13,10 @@
 
 namespace arlight::daemon {
 
+// The exposure assumed for the frames of a client that cannot report it (1/60 s, gain 1: what
+// a phone camera in a lit room locks to; any fixed value gives the same relative map).
+inline constexpr double kLockedExposureSeconds = 1.0 / 60.0;
+
 // What a connection needs from the daemon.
 struct ConnectionEnv {
   wire::WireLimits limits;
@@ -43,6 +47,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
   ConnectionEnv env_;
   std::shared_ptr<Session> session_;
   bool closing_ = false;
+  bool exposure_unknown_ = false;  // the Hello said exposure:unknown
 };
 
 }  // namespace arlight::daemon

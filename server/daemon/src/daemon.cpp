@@ -20,8 +20,10 @@
 #include "arlight/error.hpp"
 #include "arlight/metrics.hpp"
 #include "connection.hpp"
+#include "phone_link.hpp"
 #include "priority.hpp"
 #include "tokens.hpp"
+#include "web_server.hpp"
 
 namespace arlight::daemon {
 
@@ -52,23 +54,38 @@ unsigned hardware_threads() { return std::max(1u, std::thread::hardware_concurre
 
 // The server's TLS context: TLS 1.2 or newer, the certificate chain and key from PEM files.
 // A file that cannot be used is an InputError naming it and what OpenSSL said.
-std::unique_ptr<asio::ssl::context> make_tls_context(const DaemonConfig& c) {
-  if (c.tls_cert.empty() && c.tls_key.empty()) return nullptr;
-  if (c.tls_cert.empty() || c.tls_key.empty())
-    throw InputError("TLS needs both a certificate (--tls-cert) and its key (--tls-key)");
+std::unique_ptr<asio::ssl::context> make_tls_context(const std::filesystem::path& cert,
+                                                     const std::filesystem::path& key) {
   auto ctx = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_server);
   ctx->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
                    asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
                    asio::ssl::context::no_tlsv1_1 | asio::ssl::context::single_dh_use);
   boost::system::error_code ec;
-  ctx->use_certificate_chain_file(c.tls_cert.string(), ec);
-  if (ec) throw InputError(c.tls_cert.string() + ": not a usable PEM certificate: " + ec.message());
-  ctx->use_private_key_file(c.tls_key.string(), asio::ssl::context::pem, ec);
-  if (ec) throw InputError(c.tls_key.string() + ": not a usable PEM private key: " + ec.message());
+  ctx->use_certificate_chain_file(cert.string(), ec);
+  if (ec) throw InputError(cert.string() + ": not a usable PEM certificate: " + ec.message());
+  ctx->use_private_key_file(key.string(), asio::ssl::context::pem, ec);
+  if (ec) throw InputError(key.string() + ": not a usable PEM private key: " + ec.message());
   if (SSL_CTX_check_private_key(ctx->native_handle()) != 1)
-    throw InputError(c.tls_key.string() + ": does not match the certificate " +
-                     c.tls_cert.string());
+    throw InputError(key.string() + ": does not match the certificate " + cert.string());
   return ctx;
+}
+
+// The client port's TLS context (--tls-cert/--tls-key), or null for plain TCP.
+std::unique_ptr<asio::ssl::context> make_tls_context(const DaemonConfig& c) {
+  if (c.tls_cert.empty() && c.tls_key.empty()) return nullptr;
+  if (c.tls_cert.empty() || c.tls_key.empty())
+    throw InputError("TLS needs both a certificate (--tls-cert) and its key (--tls-key)");
+  return make_tls_context(c.tls_cert, c.tls_key);
+}
+
+// Where the browser client's files are when no --web-root is given: beside the executable (the
+// build tree), or in the installed share folder.
+std::filesystem::path default_web_root() {
+  std::error_code ec;
+  const auto exe_dir = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
+  for (const auto& dir : {exe_dir / "web", exe_dir.parent_path() / "share" / "arlight" / "web"})
+    if (std::filesystem::exists(dir / "index.html", ec)) return dir;
+  return exe_dir / "web";
 }
 
 }  // namespace
@@ -82,6 +99,10 @@ struct Daemon::Impl {
   asio::thread_pool disk{1};  // checkpoints (fsync) stay off the frame workers
   tcp::acceptor acceptor{io};
   std::unique_ptr<asio::ssl::context> tls;  // null: plain TCP
+  std::unique_ptr<asio::ssl::context> web_tls;
+  std::unique_ptr<WebServer> web_server;
+  std::filesystem::path web_certificate;
+  std::string phone_url;
   admin::Registry metrics;
   SessionEnv session_env;
   ConnectionEnv connection_env;
@@ -158,6 +179,8 @@ struct Daemon::Impl {
     acceptor.listen();
     bound_port = acceptor.local_endpoint().port();
 
+    if (config.web_enabled) start_web();
+
     if (config.admin_enabled) {
       admin::AdminHandlers h;
       h.metrics = [this] { return metrics.render(); };
@@ -172,6 +195,34 @@ struct Daemon::Impl {
       admin_server =
           std::make_unique<admin::AdminServer>(io, config.admin_host, config.admin_port, h);
     }
+  }
+
+  // The web port: its certificate (the given one, or a self-signed one kept in DATA/tls), the
+  // listener, and the URL a phone opens.
+  void start_web() {
+    CertificateFiles cert{config.tls_cert, config.tls_key, false};
+    if (config.tls_cert.empty()) {
+      cert = ensure_self_signed_certificate(config.data_dir / "tls", local_names());
+      if (cert.created)
+        spdlog::info("made a self-signed certificate for the web port: {}", cert.cert.string());
+    }
+    web_tls = make_tls_context(cert.cert, cert.key);
+    web_certificate = cert.cert;
+    const std::string device = config.web_device.empty() ? tokens.first_device() : config.web_device;
+    const std::string* token = tokens.token_of(device);
+    if (!token)
+      throw InputError("--web-device '" + device + "' is not in the tokens file " +
+                       config.tokens_file.string());
+    WebServerOptions o;
+    o.host = config.web_host;
+    o.port = config.web_port;
+    o.root = config.web_root.empty() ? default_web_root() : config.web_root;
+    o.on_websocket = [this](std::unique_ptr<wire::Transport> t) { adopt(std::move(t)); };
+    o.log = [this](const std::string& line) { log(line); };
+    web_server = std::make_unique<WebServer>(io, *web_tls, std::move(o));
+    phone_url = daemon::phone_url(
+        config.web_url_host.empty() ? reachable_host(config.web_host) : config.web_url_host,
+        web_server->port(), device, *token);
   }
 
   void log(const std::string& line) {
@@ -291,19 +342,22 @@ struct Daemon::Impl {
         if (acceptor.is_open()) accept();
         return;
       }
-      auto c = std::make_shared<Connection>(
-          tls ? wire::make_tls_transport(wire::TlsSocket(std::move(socket), *tls),
-                                         wire::TlsRole::AcceptAsServer)
-              : wire::make_tcp_transport(std::move(socket)),
-          connection_env);
-      {
-        std::lock_guard lock(connections_mutex);
-        std::erase_if(connections, [](const auto& w) { return w.expired(); });
-        connections.push_back(c);
-      }
-      c->start();
+      adopt(tls ? wire::make_tls_transport(wire::TlsSocket(std::move(socket), *tls),
+                                           wire::TlsRole::AcceptAsServer)
+                : wire::make_tcp_transport(std::move(socket)));
       accept();
     });
+  }
+
+  // A client connection from any transport (TCP, TLS, WebSocket): one code path from here on.
+  void adopt(std::unique_ptr<wire::Transport> transport) {
+    auto c = std::make_shared<Connection>(std::move(transport), connection_env);
+    {
+      std::lock_guard lock(connections_mutex);
+      std::erase_if(connections, [](const auto& w) { return w.expired(); });
+      connections.push_back(c);
+    }
+    c->start();
   }
 
   // Every second: checkpoint what changed (at the configured interval) and close sessions idle
@@ -354,6 +408,7 @@ void Daemon::start() {
   d.work.emplace(d.io.get_executor());
   d.accept();
   if (d.admin_server) d.admin_server->start();
+  if (d.web_server) d.web_server->start();
   d.schedule_housekeeping();
   const unsigned n = d.config.threads > 0 ? unsigned(d.config.threads) : hardware_threads();
   for (unsigned i = 0; i < n; ++i) d.threads.emplace_back([&d] { d.io.run(); });
@@ -374,6 +429,7 @@ void Daemon::stop() {
     d.acceptor.close(e);
     d.housekeeping.cancel();
     if (d.admin_server) d.admin_server->stop();
+    if (d.web_server) d.web_server->stop();
   });
   {
     std::lock_guard lock(d.connections_mutex);
@@ -404,6 +460,14 @@ void Daemon::wait() {
 }
 
 std::uint16_t Daemon::port() const { return impl_->bound_port; }
+
+std::uint16_t Daemon::web_port() const {
+  return impl_->web_server ? impl_->web_server->port() : 0;
+}
+
+std::string Daemon::phone_url() const { return impl_->phone_url; }
+
+std::filesystem::path Daemon::web_certificate() const { return impl_->web_certificate; }
 
 std::uint16_t Daemon::admin_port() const {
   return impl_->admin_server ? impl_->admin_server->port() : 0;

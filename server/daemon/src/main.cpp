@@ -6,9 +6,11 @@
 #include <csignal>
 #include <cstdio>
 #include <thread>
+#include <unistd.h>
 
 #include "arlight/daemon.hpp"
 #include "arlight/error.hpp"
+#include "phone_link.hpp"
 
 using namespace arlight;
 
@@ -21,7 +23,7 @@ int main(int argc, char** argv) {
       "arlightd: builds HDR environment maps from phones' and webcams' frames and "
       "streams lighting back"};
   daemon::DaemonConfig c;
-  std::string listen, admin, config, tls_cert, tls_key;
+  std::string listen, admin, config, tls_cert, tls_key, web, web_root, web_device, web_url_host;
   std::string data_dir, tokens;
   app.add_option("--config", config, "JSON config file (flags given here override it)");
   app.add_option("--listen", listen, "HOST:PORT for clients (default 127.0.0.1:7878)");
@@ -40,6 +42,18 @@ int main(int argc, char** argv) {
                  "frames of a session that may wait; a newer one drops the oldest (default 2)");
   app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");
   app.add_option("--tls-key", tls_key, "TLS: private key (PEM) of that certificate");
+  app.add_option("--web", web,
+                 "HOST:PORT of the web port for phones (HTTPS: the browser client and /ws), e.g. "
+                 "0.0.0.0:8443; off by default");
+  app.add_option("--web-root", web_root,
+                 "the browser client's files (default: web/ beside arlightd, or "
+                 "../share/arlight/web)");
+  app.add_option("--web-device", web_device,
+                 "the device whose id and token the phone URL carries (default: the first in "
+                 "the tokens file)");
+  app.add_option("--web-url-host", web_url_host,
+                 "the host name or address in the phone URL (default: this machine's LAN "
+                 "address)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -68,6 +82,13 @@ int main(int argc, char** argv) {
     if (!tokens.empty()) c.tokens_file = tokens;
     if (!tls_cert.empty()) c.tls_cert = tls_cert;
     if (!tls_key.empty()) c.tls_key = tls_key;
+    if (!web.empty()) {
+      c.web_enabled = true;
+      wire::parse_endpoint(web, c.web_host, c.web_port);
+    }
+    if (!web_root.empty()) c.web_root = web_root;
+    if (!web_device.empty()) c.web_device = web_device;
+    if (!web_url_host.empty()) c.web_url_host = web_url_host;
     if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
     if (c.queue_depth < 1 || c.queue_depth > 64)
       throw InputError("queue depth " + std::to_string(c.queue_depth) + " is not in [1, 64]");
@@ -80,8 +101,19 @@ int main(int argc, char** argv) {
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     daemon::Daemon d(c);
     d.start();
-    std::printf("arlightd: listening on %s:%u, admin on %u%s\n", c.listen_host.c_str(),
-                unsigned(d.port()), unsigned(d.admin_port()), c.tls_cert.empty() ? "" : ", TLS");
+    if (d.web_port()) {
+      // What the user needs for a phone: the URL (its fragment holds the device's token and
+      // never leaves the phone) and the same as a QR code to scan.
+      std::printf("arlightd: phone page %s\n", d.phone_url().c_str());
+      std::printf("%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()),
+                                            isatty(fileno(stdout)) != 0)
+                            .c_str());
+      std::printf("arlightd: the web port's certificate is %s (a phone accepts it once)\n",
+                  d.web_certificate().c_str());
+    }
+    std::printf("arlightd: listening on %s:%u, admin on %u, web on %u%s\n", c.listen_host.c_str(),
+                unsigned(d.port()), unsigned(d.admin_port()), unsigned(d.web_port()),
+                c.tls_cert.empty() ? "" : ", TLS");
     std::fflush(stdout);
     std::thread signals([&] {
       int sig = 0;

@@ -56,6 +56,7 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     });
     const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
                                   int h) {
+      const wire::TileCoding coding = job.tile_coding();
       std::vector<float> px(std::size_t(w) * h * 3);
       for (int r = 0; r < h; ++r)
         std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
@@ -71,7 +72,8 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
                            .y = std::uint32_t(y),
                            .width = std::uint32_t(w),
                            .height = std::uint32_t(h),
-                           .data = wire::encode_half_rgb(px.data(), px.size() / 3)};
+                           .data = wire::encode_half_rgb(px.data(), px.size() / 3, coding),
+                           .coding = coding};
     };
     // Coarse first: each map 4x smaller in one tile (a preview the client can use at once),
     // then the full-resolution tiles.

@@ -22,6 +22,9 @@ struct MapSetJob {
   std::uint32_t id = 0;      // the set's number in its session
   double coverage = 0;       // of `input`
   std::uint64_t frames = 0;  // merged into `input`
+  // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
+  // a browser without zstd) gets the rest in the coding it accepts.
+  std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };
 };
 
 // Computes and sends the set; returns its seconds when it completed, or a negative number when

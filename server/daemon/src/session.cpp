@@ -78,9 +78,10 @@ bool Session::has_camera() const {
   return camera_.has_value();
 }
 
-void Session::attach(Sink sink) {
+void Session::attach(Sink sink, wire::TileCoding tile_coding) {
   std::lock_guard lock(mutex_);
   sink_ = std::move(sink);
+  tile_coding_ = tile_coding;
   last_activity_ = Clock::now();
 }
 
@@ -253,8 +254,12 @@ void Session::on_idle(Clock::time_point now) {
 void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
                                   std::uint32_t set, double coverage, std::uint64_t frames) {
   const double seconds =
-      stream_map_set({std::move(request), std::move(input), set, coverage, frames}, stop,
-                     [this](const wire::Message& m) { send(m); });
+      stream_map_set({std::move(request), std::move(input), set, coverage, frames,
+                      [this] {
+                        std::lock_guard lock(mutex_);
+                        return tile_coding_;
+                      }},
+                     stop, [this](const wire::Message& m) { send(m); });
   if (seconds >= 0.0) {
     env_.map_sets->inc();
     env_.map_set_seconds->observe(seconds);

@@ -75,7 +75,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string set_camera(const CameraIntrinsics& camera);
   bool has_camera() const;
 
-  void attach(Sink sink);
+  // The connected client: where messages go, and the tile coding its Hello accepts.
+  void attach(Sink sink, wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf);
   void detach();
   bool attached() const;
   Clock::time_point last_activity() const;
@@ -111,6 +112,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<CameraIntrinsics> camera_;
   std::string response_name_ = "srgb";
   Sink sink_;
+  wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
   bool busy_ = false;             // a process() is queued or running
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;

@@ -15,6 +15,12 @@ class TokenStore {
   static TokenStore load(const std::filesystem::path& path);
   bool check(const std::string& device_id, const std::string& token) const;
   std::size_t size() const { return tokens_.size(); }
+  // For the phone page's URL: the first device id (in sorted order) and a device's token.
+  const std::string& first_device() const { return tokens_.begin()->first; }
+  const std::string* token_of(const std::string& device_id) const {
+    const auto it = tokens_.find(device_id);
+    return it == tokens_.end() ? nullptr : &it->second;
+  }
 
  private:
   std::map<std::string, std::string> tokens_;

@@ -1,5 +1,6 @@
 // The protocol client (protocol/PROTOCOL.md): connect to arlightd, handshake, send intrinsics
-// and frames, receive lighting updates and assemble map tiles into maps, over TCP or TLS.
+// and frames, receive lighting updates and assemble map tiles into maps, over TCP, TLS or a
+// WebSocket on the web port.
 // Sends queue (bounded) from the caller's thread; one background thread does all the network
 // I/O: it writes the queue and reads, verifies and decodes what the server sends.
 #pragma once
@@ -81,6 +82,13 @@ class Client {
 
   // Before connect(): speak TLS. Throws ClientError "TLS" when the CA file cannot be used.
   void use_tls(const TlsOptions& options);
+  // Before connect(): talk to arlightd's web port (--web) over a WebSocket at `path`, as the
+  // browser client does. The web port is always TLS: use_tls says whom to trust (for instance
+  // the daemon's self-signed certificate); without it, the system's certificates.
+  void use_websocket(bool enabled = true, const std::string& path = "/ws");
+  // Before connect(): the capabilities the Hello names (wire.hpp; default "maps", "jpeg" and
+  // both tile codings, so the server picks zstd).
+  void set_capabilities(std::vector<std::string> capabilities);
 
   // Connects and handshakes; throws ClientError (e.g. code "Unauthorized", "TLS").
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,

@@ -25,6 +25,14 @@ struct DaemonConfig {
   // TLS on the client port (both PEM files, or neither for plain TCP): the certificate chain
   // and its private key. The admin port stays plain HTTP on loopback.
   std::filesystem::path tls_cert, tls_key;
+  // The web port (HTTPS): the browser client for phones and its WebSocket endpoint /ws. Served
+  // with tls_cert/tls_key, or without them a self-signed certificate kept in DATA/tls/.
+  bool web_enabled = false;
+  std::string web_host = "0.0.0.0";
+  std::uint16_t web_port = 8443;  // 0: ephemeral
+  std::filesystem::path web_root;  // the client's files; empty: beside the executable
+  std::string web_device;          // the device whose token the phone URL carries; empty: first
+  std::string web_url_host;        // the host in that URL; empty: this machine's LAN address
   int threads = 0;                    // network threads; 0: hardware concurrency
   int workers = 0;                    // frame-processing threads; 0: hardware concurrency
   int max_sessions = 32;              // live sessions at once
@@ -47,7 +55,7 @@ struct DaemonConfig {
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
 // idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers, queue_depth,
-// tls_cert, tls_key) over `config`. InputError
+// tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`. InputError
 // names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
@@ -65,6 +73,11 @@ class Daemon {
   void wait();   // until stop() (e.g. from a signal handler thread)
   std::uint16_t port() const;
   std::uint16_t admin_port() const;  // 0 when disabled
+  std::uint16_t web_port() const;    // 0 when disabled
+  // The phone page's URL with the device id and token in its fragment; empty when no web port.
+  std::string phone_url() const;
+  // The certificate the web port serves (the self-signed one, or tls_cert).
+  std::filesystem::path web_certificate() const;
 
  private:
   struct Impl;
