@@ -68,6 +68,7 @@ arlight_find_pkgconfig(GLESV2 glesv2 DEB libgles-dev)
 arlight_find(embree DEB libembree-dev 3 CONFIG)
 arlight_find(draco DEB libdraco-dev CONFIG)
 
-# tests and benchmarks
+# tests and benchmarks (ZBar reads the phone link's QR code back)
+arlight_find_pkgconfig(ZBAR zbar DEB libzbar-dev)
 arlight_find(GTest DEB "libgtest-dev libgmock-dev")
 arlight_find(benchmark DEB libbenchmark-dev CONFIG)

@@ -40,20 +40,7 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// 60 frames of venice, 320x240, shared by the tests of one process (ctest runs tests in
-// parallel processes, so the folder is per process).
-const fs::path& sample_recording() {
-  static const fs::path rec = [] {
-    const fs::path r = test::fresh_temp_dir("daemon_rec_" + std::to_string(getpid())) / "rec";
-    const auto s =
-        test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
-                                            "/data/probes/venice.exr --out " + r.string() +
-                                            " --frames 60 --size 320x240 --seed 4");
-    if (s.status != 0) throw std::runtime_error(s.output);
-    return r;
-  }();
-  return rec;
-}
+const fs::path& sample_recording() { return test::daemon_sample_recording(); }
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 

@@ -20,6 +20,8 @@
 #include <utility>
 #include <vector>
 
+#include "support/run_tool.hpp"
+
 namespace arlight::test {
 
 namespace fs = std::filesystem;
@@ -59,8 +61,9 @@ class DaemonProcess {
       _exit(127);
     }
     close(out[1]);
-    // A line on stdout names the ports ("arlightd: listening on 127.0.0.1:P, admin on A").
-    const std::regex ports(R"(listening on 127\.0\.0\.1:(\d+), admin on (\d+))");
+    // A line on stdout names the ports ("arlightd: listening on 127.0.0.1:P, admin on A, web
+    // on W"); the lines before it (the phone page's URL and QR code) are kept as the banner.
+    const std::regex ports(R"(listening on 127\.0\.0\.1:(\d+), admin on (\d+), web on (\d+))");
     std::string line, seen;
     std::smatch m;
     char c;
@@ -79,6 +82,8 @@ class DaemonProcess {
       throw std::runtime_error("arlightd did not start: '" + seen + line + "'");
     }
     port_ = std::uint16_t(std::stoi(m[1])), admin_ = std::uint16_t(std::stoi(m[2]));
+    web_ = std::uint16_t(std::stoi(m[3]));
+    banner_ = seen;
   }
   ~DaemonProcess() { kill9(); }
   void kill9() {
@@ -90,12 +95,30 @@ class DaemonProcess {
   }
   std::uint16_t port() const { return port_; }
   std::uint16_t admin() const { return admin_; }
+  std::uint16_t web() const { return web_; }  // 0 without --web
+  const std::string& banner() const { return banner_; }
   std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
 
  private:
   pid_t pid_ = -1;
-  std::uint16_t port_ = 0, admin_ = 0;
+  std::uint16_t port_ = 0, admin_ = 0, web_ = 0;
+  std::string banner_;
 };
+
+// 60 frames of venice, 320x240, made once per test process (ctest runs tests in parallel
+// processes, so the folder is per process). Needs ARLIGHT_SIM_EXE and ARLIGHT_SOURCE_DIR.
+inline const fs::path& daemon_sample_recording() {
+  static const fs::path rec = [] {
+    const fs::path r = fresh_temp_dir("daemon_rec_" + std::to_string(getpid())) / "rec";
+    const auto s =
+        run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                      "/data/probes/venice.exr --out " + r.string() +
+                                      " --frames 60 --size 320x240 --seed 4");
+    if (s.status != 0) throw std::runtime_error(s.output);
+    return r;
+  }();
+  return rec;
+}
 
 // A minimal HTTP/1.0 GET: status code and body.
 inline std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path) {
