@@ -20,9 +20,15 @@ constexpr std::size_t kReadChunk = 64 * 1024;
 
 template <class Ws>
 void configure(Ws& ws, bool server) {
+  // permessage-deflate is for browsers: they have no zstd, so their map tiles travel as raw half
+  // floats that deflate compresses. Native clients never offer it: their tiles are zstd already
+  // and JPEG frames do not compress (deflating a 40 KB frame costs ~4 ms at Beast's default
+  // level, which on this 2-core machine cost 8 sessions most of their frames; bench/RESULTS.md).
+  // The server compresses at level 3: tiles compress nearly as well, in a fraction of the time.
   websocket::permessage_deflate deflate;
   deflate.server_enable = server;
-  deflate.client_enable = !server;
+  deflate.client_enable = false;
+  deflate.compLevel = 3;
   ws.set_option(deflate);
   // Opening and closing handshakes are bounded; an idle connection is the session's business.
   websocket::stream_base::timeout timeout;

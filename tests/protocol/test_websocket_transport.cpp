@@ -60,6 +60,7 @@ struct WebSocketPair {
   std::thread thread;
   std::shared_ptr<wire::MessageStream> server;
   std::optional<wire::WebSocket> client;
+  std::string extensions;  // what the server's 101 answer agreed to
 
   explicit WebSocketPair(Seen& at_server, wire::WireLimits limits = {}) {
     thread = std::thread([this] { io.run(); });
@@ -69,7 +70,13 @@ struct WebSocketPair {
       wire::WebSocket ws(asio::make_strand(io));
       beast::get_lowest_layer(ws).connect(ep);
       wire::configure_websocket(ws, /*server=*/false);
-      ws.handshake("127.0.0.1", "/ws");
+      // As a browser does (a native client does not): offer permessage-deflate.
+      websocket::permessage_deflate deflate;
+      deflate.client_enable = true;
+      ws.set_option(deflate);
+      websocket::response_type response;
+      ws.handshake(response, "127.0.0.1", "/ws");
+      extensions = std::string(response[beast::http::field::sec_websocket_extensions]);
       client.emplace(std::move(ws));
     });
     tcp::socket socket = acceptor.accept(asio::make_strand(io));
@@ -148,6 +155,7 @@ TEST(WebSocketTransport, RefusesTextOversizeEmptyAndInflatedBombsThenClosesClean
     SCOPED_TRACE(c.name);
     Seen at_server;
     WebSocketPair pair(at_server, {.max_message_bytes = 1u << 20});
+    EXPECT_NE(pair.extensions.find("permessage-deflate"), std::string::npos) << pair.extensions;
     wire::WebSocket& ws = *pair.client;
     ws.text(c.text);
     beast::error_code ec;

@@ -45,10 +45,11 @@ void run_session(const std::string& host, std::uint16_t port, const std::string&
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
                  const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
                  double phase, std::size_t first_frame, const client::TlsOptions& tls,
-                 Clock::time_point start, SessionReport& report) {
+                 bool websocket, Clock::time_point start, SessionReport& report) {
   try {
     client::Client c;
     c.use_tls(tls);
+    c.use_websocket(websocket);
     std::mutex m;
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
     Clock::time_point first;
@@ -141,6 +142,10 @@ int main(int argc, char** argv) {
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
+  bool websocket = false;
+  app.add_flag("--websocket", websocket,
+               "connect to arlightd's web port (--server HOST:WEBPORT) over wss://.../ws, as the "
+               "browser client does (with --tls-ca for a self-signed certificate)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -171,7 +176,7 @@ int main(int argc, char** argv) {
       threads.emplace_back([&, s] {
         run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
                     rate, duration, maps, spread ? double(s) / sessions : 0.0,
-                    spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0, tls, start,
+                    spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0, tls, websocket, start,
                     reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();

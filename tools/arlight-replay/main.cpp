@@ -42,6 +42,10 @@ int main(int argc, char** argv) {
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
+  bool websocket = false;
+  app.add_flag("--websocket", websocket,
+               "connect to arlightd's web port (--server HOST:WEBPORT) over wss://.../ws, as the "
+               "browser client does (with --tls-ca for a self-signed certificate)");
   app.add_option("--timeout", timeout_s, "seconds to wait for updates and the map set")
       ->capture_default_str();
   try {
@@ -59,6 +63,7 @@ int main(int argc, char** argv) {
 
     client::Client c;
     c.use_tls(tls);
+    c.use_websocket(websocket);
     const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device, token,
                                         "arlight-replay", resume);
     std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");

@@ -1,5 +1,5 @@
 // The WebSocket transport (Boost.Beast): one binary WebSocket message per Envelope, no length
-// header (the WebSocket frames carry the length), permessage-deflate offered and accepted. It is
+// header (the WebSocket frames carry the length), permessage-deflate accepted from browsers. It is
 // a MessageStream Transport like TCP and TLS, so a browser on arlightd's /ws endpoint gets the
 // same handshake, limits, back-pressure and sessions as a native client.
 //
@@ -33,7 +33,8 @@ std::unique_ptr<Transport> make_websocket_transport(WebSocket ws, UpgradeRequest
 std::unique_ptr<Transport> make_websocket_transport(SecureWebSocket ws);
 std::unique_ptr<Transport> make_websocket_transport(WebSocket ws);
 
-// The options both sides set before their handshake: permessage-deflate, timeouts for the
+// The options both sides set before their handshake: permessage-deflate (the server accepts it,
+// a native client does not offer it), timeouts for the
 // opening and closing handshakes (no idle timeout: the daemon's sessions have their own), no
 // message size limit of Beast's own (the transport bounds each read itself).
 void configure_websocket(WebSocket& ws, bool server);
