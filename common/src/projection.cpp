@@ -1,6 +1,6 @@
 #include "arlight/projection.hpp"
 
-#include <tbb/parallel_for.h>
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <array>
@@ -371,7 +371,7 @@ std::shared_ptr<const TexelTable> texel_table(const EnvLayout& layout) {
   }
   const int w = layout.width(), h = layout.height();
   std::vector<double> omega(layout.texel_count());
-  tbb::parallel_for(0, h, [&](int y) {
+  detail::parallel_for(0, h, [&](int y) {
     for (int x = 0; x < w; ++x) omega[std::size_t(y) * w + x] = layout.texel_solid_angle(x, y);
   });
   auto table = std::make_shared<TexelTable>(TexelTable{layout, {}, {}, {}, {}, {}});

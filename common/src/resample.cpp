@@ -1,6 +1,6 @@
 #include "arlight/resample.hpp"
 
-#include <tbb/parallel_for.h>
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -102,7 +102,7 @@ EnvMap resample(const EnvMap& src, const EnvLayout& dst) {
   const EnvSampler sampler(src);
   const std::vector<float> dst_omega = solid_angles(dst);
   EnvMap out(dst);
-  tbb::parallel_for(0, dst.height(), [&](int y) {
+  detail::parallel_for(0, dst.height(), [&](int y) {
     for (int x = 0; x < dst.width(); ++x) {
       const double omega = dst_omega[std::size_t(y) * dst.width() + x];
       if (omega <= 0.0) continue;

@@ -13,7 +13,7 @@
 // the double range anyway.
 #include "arlight/sh.hpp"
 
-#include <tbb/parallel_for.h>
+#include "parallel.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -330,7 +330,7 @@ ShCoeffs sh_project(const EnvMap& env, int order) {
       std::max<std::size_t>(1, std::min({std::size_t(64), n_batches, budget / (3 * n_coeff)}));
   std::vector<double> partial(n_chunks * 3 * n_coeff, 0.0);
   const float* pixels = env.image.data();
-  tbb::parallel_for(std::size_t(0), n_chunks, [&](std::size_t chunk) {
+  detail::parallel_for(std::size_t(0), n_chunks, [&](std::size_t chunk) {
     double* acc = partial.data() + chunk * 3 * n_coeff;
     Batch b;
     for (std::size_t batch = chunk * n_batches / n_chunks;
@@ -413,7 +413,7 @@ Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout) {
   Image out(layout.width(), layout.height());
   float* pixels = out.data();
   const std::size_t n_batches = (table->size() + kLanes - 1) / kLanes;
-  tbb::parallel_for(std::size_t(0), n_batches, [&](std::size_t batch) {
+  detail::parallel_for(std::size_t(0), n_batches, [&](std::size_t batch) {
     Batch b;
     const std::size_t first = batch * kLanes;
     fill_directions(*table, first, b);

@@ -1,12 +1,15 @@
 #include "arlight/wire.hpp"
 
 #include <Imath/half.h>
+#if !ARLIGHT_NO_ZSTD
 #include <zstd.h>
+#endif
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 
 namespace arlight::wire {
 
@@ -110,10 +113,14 @@ std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels,
     half[2 * i] = std::uint8_t(bits & 0xff), half[2 * i + 1] = std::uint8_t(bits >> 8);
   }
   if (coding == TileCoding::Half) return half;
+#if ARLIGHT_NO_ZSTD
+  throw std::logic_error("this build has no zstd: send TileCoding::Half");
+#else
   std::vector<std::uint8_t> out(ZSTD_compressBound(half.size()));
   const std::size_t n = ZSTD_compress(out.data(), out.size(), half.data(), half.size(), 3);
   out.resize(ZSTD_isError(n) ? 0 : n);
   return out;
+#endif
 }
 
 std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> data,
@@ -122,6 +129,10 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
   std::vector<std::uint8_t> unpacked;
   std::span<const std::uint8_t> half = data;
   if (coding == TileCoding::ZstdHalf) {
+#if ARLIGHT_NO_ZSTD
+    why = "tile data is zstd, which this build cannot read (its Hello did not accept it)";
+    return std::nullopt;
+#else
     const unsigned long long size = ZSTD_getFrameContentSize(data.data(), data.size());
     if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN) {
       why = "tile data is not a zstd frame with a known size";
@@ -139,6 +150,7 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
       return std::nullopt;
     }
     half = unpacked;
+#endif
   } else if (data.size() != pixels * 6) {
     why = "tile data holds " + std::to_string(data.size()) + " bytes, expected " +
           std::to_string(pixels * 6);

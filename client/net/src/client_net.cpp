@@ -47,7 +47,7 @@ struct Client::Impl {
   std::optional<LightingUpdate> last_update;
   std::optional<std::pair<std::string, std::string>> error;
   std::uint64_t updates = 0, completed = 0;
-  std::map<std::uint32_t, MapSet> building;
+  MapSetAssembler assembler;
   std::optional<MapSet> last_complete;
   std::optional<CalibrationResult> calibration;
   Client* owner = nullptr;
@@ -110,16 +110,10 @@ struct Client::Impl {
         update_cb = owner->on_update;
         update_copy = std::move(u);
       } else if (auto* t = std::get_if<wire::MapTile>(&message)) {
-        add_tile(*t);
+        assembler.add_tile(*t);
       } else if (auto* c = std::get_if<wire::MapSetComplete>(&message)) {
-        auto it = building.find(c->map_set);
-        if (it != building.end()) {
-          it->second.complete = true;
-          it->second.server_seconds = c->seconds;
-          it->second.coverage = c->coverage;
-          it->second.frames = c->frames;
-          last_complete = std::move(it->second);
-          building.erase(building.begin(), std::next(it));  // older sets are stale
+        if (auto set = assembler.complete(*c)) {
+          last_complete = std::move(*set);
           ++completed;
           maps_cb = owner->on_map_set_complete;
           maps_copy = *last_complete;
@@ -133,35 +127,6 @@ struct Client::Impl {
     if (maps_cb && maps_copy) maps_cb(*maps_copy);
   }
 
-  // With `mutex` held. The codec has checked the tile's rectangle against its map's size.
-  void add_tile(const wire::MapTile& t) {
-    if (!EnvLayout::guess_projection(int(t.map_width), int(t.map_height))) return;
-    MapSet& set = building[t.map_set];
-    set.id = t.map_set;
-    const std::size_t index = t.map_index;
-    if (set.maps.size() <= index) {
-      const EnvLayout layout(t.projection, int(t.map_width), int(t.map_height));
-      while (set.maps.size() <= index) set.maps.emplace_back(layout);
-      set.shininess.resize(set.maps.size(), 0.0);
-      set.texels_received.resize(set.maps.size(), 0);
-    }
-    set.shininess[index] = t.shininess;
-    if (t.level > 0) {
-      set.preview_received = true;
-      return;
-    }
-    EnvMap& map = set.maps[index];
-    const std::uint64_t x = t.x, y = t.y, w = t.width, h = t.height;
-    if (x + w > std::uint64_t(map.image.width()) || y + h > std::uint64_t(map.image.height()))
-      return;  // another size than the set's first tile said
-    std::string why;
-    const auto px = wire::decode_half_rgb(t.data, std::size_t(w * h), t.coding, why);
-    if (!px) return;
-    for (std::uint64_t r = 0; r < h; ++r)
-      std::memcpy(map.image.view().pixel(int(x), int(y + r)), px->data() + r * w * 3,
-                  sizeof(float) * 3 * w);
-    set.texels_received[index] += std::size_t(w * h);
-  }
 };
 
 Client::Client() : impl_(std::make_unique<Impl>()) { impl_->owner = this; }

@@ -148,6 +148,10 @@ GlContext GlContext::window([[maybe_unused]] int width, [[maybe_unused]] int hei
 #endif
 }
 
+GlContext GlContext::canvas(const std::string& selector) {
+  throw GlError("no canvas '" + selector + "' in a native build: a canvas is the browser build's");
+}
+
 void GlContext::make_current() {
   if (!eglMakeCurrent(s_->display, s_->surface, s_->surface, s_->context))
     throw GlError(egl_error("eglMakeCurrent"));

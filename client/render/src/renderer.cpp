@@ -585,7 +585,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
       frame.stride < std::ptrdiff_t(p.w) * 3)
     throw std::invalid_argument("composite: the camera frame must be 8-bit BGR of " +
                                 std::to_string(p.w) + "x" + std::to_string(p.h));
-  if (out.size() != std::size_t(p.w) * p.h * 3)
+  if (!out.empty() && out.size() != std::size_t(p.w) * p.h * 3)
     throw std::invalid_argument("composite: the output must hold " + std::to_string(p.w) + "x" +
                                 std::to_string(p.h) + "x3 bytes");
   if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
@@ -674,6 +674,11 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   gl::check("tone mapping and compositing");
   p.timings.tonemap_ms = ms_since(t0);
 
+  p.composited = true;
+  if (out.empty()) {  // shown with present() (the page's canvas): nothing to read back
+    p.timings.readback_ms = 0;
+    return;
+  }
   // The texture holds B, G, R: dropping alpha gives OpenCV's BGR. (Reading GL_RGB directly,
   // where the implementation offers it, was slower on Mesa: it converts per pixel.)
   const auto t1 = Clock::now();
@@ -687,7 +692,6 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   for (std::size_t i = 0; i + 1 < pixels; ++i) std::memcpy(&out[3 * i], &p.rgba[4 * i], 4);
   std::memcpy(&out[3 * (pixels - 1)], &p.rgba[4 * (pixels - 1)], 3);
   p.timings.readback_ms = ms_since(t1);
-  p.composited = true;
 }
 
 bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {

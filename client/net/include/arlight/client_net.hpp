@@ -20,6 +20,7 @@
 
 #include "arlight/camera.hpp"
 #include "arlight/frame.hpp"
+#include "arlight/map_assembly.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/sh.hpp"
 #include "arlight/wire.hpp"
@@ -43,19 +44,6 @@ using Welcome = wire::Welcome;
 // A LightingUpdate as the client keeps it: the message and when it arrived.
 struct LightingUpdate : wire::LightingUpdate {
   std::chrono::steady_clock::time_point received;
-};
-
-// A map set as it arrives: level-0 tiles fill `maps`; complete once MapSetComplete came.
-struct MapSet {
-  std::uint32_t id = 0;
-  std::vector<double> shininess;
-  std::vector<EnvMap> maps;
-  std::vector<std::size_t> texels_received;  // per map, level 0
-  bool preview_received = false;             // the coarse tiles of every map
-  bool complete = false;
-  double server_seconds = 0;
-  double coverage = 0;       // of the environment map the set was computed from
-  std::uint64_t frames = 0;  // frames merged into that map
 };
 
 using CalibrationResult = wire::CalibrationResult;

@@ -1,6 +1,7 @@
 // An OpenGL ES 3 context through EGL: headless (Mesa's surfaceless platform, rendering into
 // framebuffer objects only) by default, or an X11 window when built with libx11 and $DISPLAY is
-// set. Every failure throws GlError naming the EGL/GL step that failed.
+// set; in the browser build a WebGL2 context on a canvas. Every failure throws GlError naming
+// the EGL/GL step that failed.
 #pragma once
 
 #include <memory>
@@ -24,6 +25,9 @@ class GlContext {
   static GlContext window(int width, int height, const std::string& title);
   // Whether window() can work in this build and environment (X11 built in, $DISPLAY set).
   static bool window_available();
+  // The browser build (gl_context_web.cpp): a WebGL2 context on the page's canvas named by a
+  // CSS selector ("#view"), with EXT_color_buffer_float enabled. Natively: GlError.
+  static GlContext canvas(const std::string& selector);
 
   GlContext(GlContext&&) noexcept;
   GlContext& operator=(GlContext&&) noexcept;

@@ -1,0 +1,50 @@
+#include "arlight/map_assembly.hpp"
+
+#include <cstring>
+#include <string>
+
+namespace arlight::client {
+
+// The codec has checked the tile's rectangle against its map's size at its level.
+void MapSetAssembler::add_tile(const wire::MapTile& t) {
+  if (!EnvLayout::guess_projection(int(t.map_width), int(t.map_height))) return;
+  MapSet& set = building_[t.map_set];
+  set.id = t.map_set;
+  const std::size_t index = t.map_index;
+  if (set.maps.size() <= index) {
+    const EnvLayout layout(t.projection, int(t.map_width), int(t.map_height));
+    while (set.maps.size() <= index) set.maps.emplace_back(layout);
+    set.shininess.resize(set.maps.size(), 0.0);
+    set.texels_received.resize(set.maps.size(), 0);
+  }
+  set.shininess[index] = t.shininess;
+  if (t.level > 0) {
+    set.preview_received = true;
+    return;
+  }
+  EnvMap& map = set.maps[index];
+  const std::uint64_t x = t.x, y = t.y, w = t.width, h = t.height;
+  if (x + w > std::uint64_t(map.image.width()) || y + h > std::uint64_t(map.image.height()))
+    return;  // another size than the set's first tile said
+  std::string why;
+  const auto px = wire::decode_half_rgb(t.data, std::size_t(w * h), t.coding, why);
+  if (!px) return;
+  for (std::uint64_t r = 0; r < h; ++r)
+    std::memcpy(map.image.view().pixel(int(x), int(y + r)), px->data() + r * w * 3,
+                sizeof(float) * 3 * w);
+  set.texels_received[index] += std::size_t(w * h);
+}
+
+std::optional<MapSet> MapSetAssembler::complete(const wire::MapSetComplete& c) {
+  const auto it = building_.find(c.map_set);
+  if (it == building_.end()) return std::nullopt;
+  MapSet set = std::move(it->second);
+  set.complete = true;
+  set.server_seconds = c.seconds;
+  set.coverage = c.coverage;
+  set.frames = c.frames;
+  building_.erase(building_.begin(), std::next(it));  // older sets are stale
+  return set;
+}
+
+}  // namespace arlight::client

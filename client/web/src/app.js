@@ -1,0 +1,328 @@
+// The arlight page: what only a browser has — the camera, the motion sensors, the WebSocket to
+// arlightd — around the project's C++ compiled to WebAssembly (arlight_web.js: the protocol
+// codec, the map-set assembly and the renderer). Frames go to arlightd as JPEG with the camera's
+// orientation; lighting comes back (live SH, then a map set) and the renderer composites the
+// object over the camera view in the canvas.
+//
+// The URL's fragment (never sent to the server in an HTTP request) carries the session:
+//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
+// window.arlight.status() reports what the page is doing (tests read it).
+import createArlight from './arlight_web.js';
+import { openCamera, FrameGrabber } from './camera.js';
+import {
+  cameraQuatFromDeviceOrientation,
+  cameraQuatFromSensorQuaternion,
+  quatRotateVector,
+} from './orientation.js';
+
+const params = new URLSearchParams(location.hash.slice(1));
+const $ = (id) => document.getElementById(id);
+
+// Sending: at most this much may wait in the WebSocket before a newer frame replaces the next.
+const kMaxBuffered = 256 * 1024;
+const kJpegQuality = 0.85;
+const kReconnectMs = 1000;
+
+const state = {
+  connected: false,
+  sessionId: '',
+  framesSent: 0,
+  updates: 0,
+  framesProcessed: 0,
+  mapSets: 0,
+  trackedFrames: 0,  // marker tracking is not in the page yet: the object stands ahead of the view
+  fps: 0,
+  lastError: '',
+  lighting: 'none',
+  coverage: 0,
+  renderMs: 0,
+  jpegMs: 0,        // encoding the newest frame for arlightd
+  latencies: [],     // ms from sending a frame to the update that reflects it
+  refused: false,
+  started: false,
+  orientation: 'none',
+};
+
+window.arlight = {
+  status() {
+    const sorted = [...state.latencies].sort((a, b) => a - b);
+    const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
+    return {
+      connected: state.connected,
+      session_id: state.sessionId,
+      frames_sent: state.framesSent,
+      updates: state.updates,
+      frames_processed: state.framesProcessed,
+      map_sets: state.mapSets,
+      tracked_frames: state.trackedFrames,
+      fps: state.fps,
+      last_error: state.lastError,
+      lighting: state.lighting,
+      coverage: state.coverage,
+      render_ms: state.renderMs,
+      jpeg_ms: state.jpegMs,
+      latency_p50_ms: pick(0.5),
+      latency_p99_ms: pick(0.99),
+      orientation: state.orientation,
+      started: state.started,
+    };
+  },
+};
+
+function showError(message) {
+  state.lastError = message;
+  $('error').textContent = message;
+}
+
+// The camera's orientation (camera -> world, [w, x, y, z]) from whatever the browser offers.
+function startOrientation() {
+  let latest = [1, 0, 0, 0];
+  const screenAngle = () => (screen.orientation ? screen.orientation.angle : window.orientation || 0);
+  if ('AbsoluteOrientationSensor' in window) {
+    try {
+      const sensor = new AbsoluteOrientationSensor({ frequency: 60, referenceFrame: 'device' });
+      sensor.addEventListener('reading', () => {
+        latest = cameraQuatFromSensorQuaternion(sensor.quaternion, screenAngle());
+        state.orientation = 'absolute-orientation-sensor';
+      });
+      sensor.addEventListener('error', (e) => showError(`orientation sensor: ${e.error.name}`));
+      sensor.start();
+    } catch (e) {
+      showError(`orientation sensor: ${e.name || e}`);
+    }
+  }
+  window.addEventListener('deviceorientation', (e) => {
+    if (state.orientation === 'absolute-orientation-sensor' || e.alpha === null) return;
+    latest = cameraQuatFromDeviceOrientation(e.alpha, e.beta, e.gamma, screenAngle());
+    state.orientation = 'deviceorientation';
+  });
+  return () => latest;
+}
+
+// Cells of a 36 x 18 lat-long grid the camera has looked at (its view cone), drawn as a map of
+// where the capture has been and where to point next.
+class CoverageView {
+  constructor(canvas, fovYDeg, aspect) {
+    this.ctx = canvas.getContext('2d');
+    this.cols = 36;
+    this.rows = 18;
+    this.seen = new Uint8Array(this.cols * this.rows);
+    this.setFov(fovYDeg, aspect);
+    this.dirs = [];
+    for (let r = 0; r < this.rows; ++r) {
+      for (let c = 0; c < this.cols; ++c) {
+        const phi = 2 * Math.PI * ((c + 0.5) / this.cols - 0.5);
+        const el = Math.PI * (0.5 - (r + 0.5) / this.rows);
+        // common/CONVENTIONS.md lat-long: u = 0.5 is -Z, v = 0 is +Y.
+        this.dirs.push([Math.sin(phi) * Math.cos(el), Math.sin(el), -Math.cos(phi) * Math.cos(el)]);
+      }
+    }
+  }
+  setFov(fovYDeg, aspect) {
+    const half = Math.atan(Math.tan((fovYDeg * Math.PI) / 360) * Math.min(1, aspect));
+    this.cosHalf = Math.cos(half);
+  }
+  add(q) {
+    const f = quatRotateVector(q, [0, 0, -1]);
+    this.dirs.forEach((d, i) => {
+      if (d[0] * f[0] + d[1] * f[1] + d[2] * f[2] >= this.cosHalf) this.seen[i] = 1;
+    });
+  }
+  draw(forward) {
+    const { ctx } = this;
+    const w = ctx.canvas.width / this.cols;
+    const h = ctx.canvas.height / this.rows;
+    ctx.fillStyle = '#222';
+    ctx.fillRect(0, 0, ctx.canvas.width, ctx.canvas.height);
+    ctx.fillStyle = '#3fb950';
+    this.seen.forEach((s, i) => {
+      if (s) ctx.fillRect((i % this.cols) * w, Math.floor(i / this.cols) * h, w, h);
+    });
+    if (forward) {  // where the camera looks now
+      const phi = Math.atan2(forward[0], -forward[2]);
+      const el = Math.asin(Math.max(-1, Math.min(1, forward[1])));
+      ctx.strokeStyle = '#fff';
+      ctx.strokeRect((phi / (2 * Math.PI) + 0.5) * ctx.canvas.width - 4,
+        (0.5 - el / Math.PI) * ctx.canvas.height - 4, 8, 8);
+    }
+  }
+}
+
+// JPEG encoding in a worker (jpeg_worker.js says why).
+class JpegEncoder {
+  constructor() {
+    this.worker = new Worker('jpeg_worker.js');
+    this.pending = new Map();
+    this.next = 0;
+    this.worker.onmessage = ({ data }) => {
+      const p = this.pending.get(data.id);
+      this.pending.delete(data.id);
+      if (!p) return;
+      if (data.error) p.reject(new Error(data.error));
+      else p.resolve(new Uint8Array(data.jpeg));
+    };
+  }
+  encode(bitmap, quality) {
+    const id = ++this.next;
+    return new Promise((resolve, reject) => {
+      this.pending.set(id, { resolve, reject });
+      this.worker.postMessage({ id, bitmap, quality }, [bitmap]);
+    });
+  }
+}
+
+async function start() {
+  if (state.started) return;
+  state.started = true;
+  $('start').disabled = true;
+  const device = params.get('device');
+  const token = params.get('token');
+  if (!device || !token) {
+    showError('this page needs #device=…&token=… in its address: scan the QR code arlightd prints');
+    return;
+  }
+  // iOS asks for motion sensors on a tap.
+  if (typeof DeviceOrientationEvent !== 'undefined' &&
+      typeof DeviceOrientationEvent.requestPermission === 'function') {
+    try {
+      await DeviceOrientationEvent.requestPermission();
+    } catch (e) {
+      showError(`motion sensors: ${e.name || e}`);
+    }
+  }
+  const [width, height] = (params.get('size') || '640x480').split('x').map(Number);
+  let camera;
+  try {
+    camera = await openCamera({ width, height });
+  } catch (e) {
+    showError(`camera: ${e.message || e}`);
+    return;
+  }
+  const w = camera.width;
+  const h = camera.height;
+  const canvas = $('view');
+  canvas.width = w;
+  canvas.height = h;
+  const module = await createArlight();
+  const client = new module.WebClient('#view', w, h);
+  const fov = Number(params.get('fov') || localStorage.getItem('arlight.fov') || 63);
+  $('fov').value = String(fov);
+  client.setFov(fov);
+  client.setMaterial(params.get('material') || $('material').value);
+  const coverage = new CoverageView($('coverage'), fov, w / h);
+  const orientation = startOrientation();
+  const grabber = new FrameGrabber(camera.video, { width: w, height: h });
+  camera.lockExposure().catch(() => {});
+
+  $('material').addEventListener('change', (e) => client.setMaterial(e.target.value));
+  $('fov').addEventListener('change', (e) => {
+    try {
+      client.setFov(Number(e.target.value));
+      coverage.setFov(Number(e.target.value), w / h);
+      localStorage.setItem('arlight.fov', e.target.value);
+    } catch (err) {
+      showError(String(err.message || err));
+    }
+  });
+
+  // ---- the connection: Hello, intrinsics, a map request; resumed after a drop ----
+  let ws = null;
+  let sequence = 0;
+  const sentAt = new Map();
+  let encoding = false;
+  const connect = () => {
+    ws = new WebSocket(`wss://${location.host}/ws`);
+    ws.binaryType = 'arraybuffer';
+    ws.onopen = () => {
+      ws.send(client.hello(device, token, state.sessionId));
+      ws.send(client.intrinsics());
+      ws.send(client.requestMaps());
+    };
+    ws.onmessage = (event) => {
+      const name = client.receive(new Uint8Array(event.data));
+      const s = client.status();
+      if (name === 'Welcome') {
+        state.connected = true;
+        state.sessionId = s.session_id;
+      } else if (name === 'LightingUpdate') {
+        state.updates = s.updates;
+        state.framesProcessed = s.frames_processed;
+        state.coverage = s.coverage;
+        const t = sentAt.get(s.last_sequence);
+        if (t !== undefined) {
+          state.latencies.push(performance.now() - t);
+          if (state.latencies.length > 2000) state.latencies.shift();
+          for (const k of sentAt.keys()) if (k <= s.last_sequence) sentAt.delete(k);
+        }
+      } else if (name === 'MapSetComplete') {
+        state.mapSets = s.map_sets;
+      } else if (name === 'Error') {
+        showError(`refused: ${s.last_error}`);
+        if (/^(Unauthorized|Unsupported|SessionNotFound)/.test(s.last_error)) state.refused = true;
+      } else if (name.startsWith('refused')) {
+        showError(name);
+        ws.close();
+      }
+      state.lighting = s.lighting;
+    };
+    ws.onclose = () => {
+      state.connected = false;
+      if (!state.refused) setTimeout(connect, kReconnectMs);
+    };
+  };
+  connect();
+
+  // ---- every camera frame (newest wins): composite it, and send it unless one is on its way ----
+  let frames = 0;
+  let since = performance.now();
+  const encoder = new JpegEncoder();
+  const sendFrame = async (q) => {
+    encoding = true;
+    try {
+      const t0 = performance.now();
+      // The frame drawn for the composite, encoded off the main thread.
+      const jpeg = await encoder.encode(await createImageBitmap(grabber.canvas), kJpegQuality);
+      state.jpegMs = performance.now() - t0;
+      const seq = ++sequence;
+      ws.send(client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
+      sentAt.set(seq, performance.now());
+      state.framesSent = seq;
+      coverage.add(q);
+    } catch (e) {
+      showError(`frame: ${e.message || e}`);
+    } finally {
+      encoding = false;
+    }
+  };
+  const updatePanel = (q) => {
+    coverage.draw(quatRotateVector(q, [0, 0, -1]));
+    $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
+    $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
+    $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen`;
+    const p = window.arlight.status();
+    $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
+  };
+  grabber.onFrame(() => {
+    const q = orientation();
+    try {
+      module.HEAPU8.set(grabber.rgba(), client.frameBuffer());
+      state.renderMs = client.render(q[0], q[1], q[2], q[3]);
+      ++frames;
+    } catch (e) {
+      if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);
+      return;
+    }
+    if (state.connected && !encoding && ws.readyState === WebSocket.OPEN &&
+        ws.bufferedAmount <= kMaxBuffered) sendFrame(q);
+    const now = performance.now();
+    if (now - since >= 1000) {
+      state.fps = (frames * 1000) / (now - since);
+      frames = 0;
+      since = now;
+      updatePanel(q);
+    }
+  });
+}
+
+$('start').addEventListener('click', start);
+if (params.get('autostart') === '1') start();

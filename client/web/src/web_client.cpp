@@ -1,0 +1,252 @@
+// The browser client's C++ (compiled to WebAssembly with emscripten, bound with embind): the
+// protocol codec, the map-set assembly and the renderer are the project's own, unchanged; this
+// file is the page's API over them. JavaScript owns what only a browser has (camera, sensors,
+// the WebSocket) and moves bytes: messages to send come out of here encoded, messages received
+// go in here to be decoded and turned into lighting, and the camera frame is composited with the
+// object into the page's canvas by the same renderer and shaders as the native client.
+#include <emscripten/bind.h>
+#include <emscripten/val.h>
+
+#include <chrono>
+#include <cmath>
+#include <glm/gtc/quaternion.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "arlight/map_assembly.hpp"
+#include "arlight/pose.hpp"
+#include "arlight/render.hpp"
+#include "arlight/wire.hpp"
+
+namespace arlight::web {
+
+using emscripten::val;
+
+namespace {
+
+// The maps the page asks for: the irradiance map and reflection maps for the materials it
+// offers, small enough for a phone (lat-long 2N x N).
+const std::vector<float> kShininess = {1, 10, 40, 160, 640};
+constexpr int kMapSize = 128;
+// Until the marker is found the object stands on an imagined table this far ahead of where the
+// camera first looked and this far below it (metres), so the lighting shows from the first frame.
+constexpr double kPreviewDistance = 0.8, kPreviewDrop = 0.25;
+constexpr float kObjectHeight = 0.15f;  // metres
+// The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
+// virtual object goes through the same exposure, so it matches the map's scale.
+constexpr double kLockedExposure = 1.0 / 60.0;
+
+val bytes_to_js(const std::vector<std::uint8_t>& bytes) {
+  // A copy: the view into the module's memory would change under the next call.
+  return val::global("Uint8Array").new_(emscripten::typed_memory_view(bytes.size(), bytes.data()));
+}
+
+glm::dmat4 matrix_of(const Pose& p) {
+  glm::dmat4 m = glm::mat4_cast(p.orientation);
+  m[3] = glm::dvec4(p.position, 1.0);
+  return m;
+}
+
+render::Material material_named(const std::string& name) {
+  render::Material m;
+  if (name == "plastic") {
+    m.kd = glm::vec3(0.55f, 0.1f, 0.08f), m.ks = glm::vec3(0.25f), m.shininess = 160;
+  } else if (name == "metal") {
+    m.kd = glm::vec3(0.05f), m.ks = glm::vec3(0.9f, 0.8f, 0.6f), m.shininess = 640;
+  } else if (name == "matte") {
+    m.kd = glm::vec3(0.8f), m.ks = glm::vec3(0.0f), m.shininess = 10;
+  } else {
+    throw std::invalid_argument("material '" + name + "': matte, plastic or metal");
+  }
+  return m;
+}
+
+}  // namespace
+
+class WebClient {
+ public:
+  WebClient(const std::string& canvas, int width, int height)
+      : context_(render::GlContext::canvas(canvas)),
+        renderer_(width, height, "/shaders"),
+        mesh_(render::make_sphere(0.5f, 48, 96)),
+        material_(material_named("plastic")),
+        model_(render::standing_on_marker(mesh_.bounds(), kObjectHeight)),
+        width_(width),
+        height_(height),
+        rgba_(std::size_t(width) * height * 4, 0),
+        bgr_(width, height, 3) {
+    camera_.width = width, camera_.height = height;
+    set_fov(63.0);
+  }
+
+  // ---- messages to send ----
+  val hello(const std::string& device, const std::string& token, const std::string& resume) {
+    return bytes_to_js(wire::encode(wire::Hello{
+        wire::kProtocolVersion, "arlight-web 0.1", device, token,
+        {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown}, resume}));
+  }
+  // Browsers do not report intrinsics: a pinhole of the given vertical field of view (degrees).
+  void set_fov(double fov_y_deg) {
+    if (!(fov_y_deg > 10.0 && fov_y_deg < 150.0))
+      throw std::invalid_argument("field of view " + std::to_string(fov_y_deg) +
+                                  " is not in (10, 150) degrees");
+    const double f = 0.5 * height_ / std::tan(0.5 * fov_y_deg * M_PI / 180.0);
+    camera_.fx = camera_.fy = f;
+    camera_.cx = 0.5 * width_ - 0.5, camera_.cy = 0.5 * height_ - 0.5;
+  }
+  val intrinsics() { return bytes_to_js(wire::encode(wire::CameraIntrinsicsMessage{camera_})); }
+  val frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
+            const val& jpeg) {
+    wire::CameraFrame f;
+    f.sequence = std::uint64_t(sequence);
+    f.info.timestamp = timestamp;
+    f.info.exposure = kLockedExposure;  // exposure:unknown: the daemon locks it anyway
+    f.info.gain = 1.0;
+    f.info.orientation = glm::normalize(glm::dquat(qw, qx, qy, qz));
+    f.format = wire::PixelFormat::Jpeg;
+    f.width = std::uint32_t(width_), f.height = std::uint32_t(height_);
+    f.data = emscripten::convertJSArrayToNumberVector<std::uint8_t>(jpeg);
+    ++frames_sent_;
+    return bytes_to_js(wire::encode(f));
+  }
+  val request_maps() {
+    return bytes_to_js(
+        wire::encode(wire::RequestMaps{kShininess, kMapSize, Projection::LatLong, "auto"}));
+  }
+
+  // ---- messages received: the message's name, or "refused: why" (the page then closes) ----
+  std::string receive(const val& bytes) {
+    const std::vector<std::uint8_t> envelope =
+        emscripten::convertJSArrayToNumberVector<std::uint8_t>(bytes);
+    wire::Message m;
+    try {
+      m = wire::decode(envelope);
+    } catch (const wire::DecodeError& e) {
+      last_error_ = std::string("bad message from the server: ") + e.what();
+      return "refused: " + last_error_;
+    }
+    if (auto* w = std::get_if<wire::Welcome>(&m)) {
+      welcome_ = *w;
+    } else if (auto* e = std::get_if<wire::Error>(&m)) {
+      last_error_ = std::string(wire::error_code_name(e->code)) + ": " + e->message;
+    } else if (auto* u = std::get_if<wire::LightingUpdate>(&m)) {
+      ++updates_;
+      last_sequence_ = u->frame_sequence;
+      coverage_ = u->coverage;
+      frames_processed_ = u->frames_processed;
+      if (!maps_) renderer_.set_sh(u->sh);
+      light_direction_ = u->dominant_direction, light_colour_ = u->dominant_colour;
+    } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
+      assembler_.add_tile(*t);
+    } else if (auto* c = std::get_if<wire::MapSetComplete>(&m)) {
+      if (auto set = assembler_.complete(*c)) {
+        renderer_.set_maps(set->shininess, set->maps);
+        maps_ = true;
+        ++map_sets_;
+      }
+    }
+    return wire::message_name(m);
+  }
+
+  // ---- the camera frame and the composite ----
+  // Where JavaScript writes the camera frame: width * height RGBA bytes, row 0 at the top.
+  std::uintptr_t frame_buffer() { return reinterpret_cast<std::uintptr_t>(rgba_.data()); }
+
+  // Composites the object, lit by the newest lighting, over the frame in frame_buffer() into
+  // the canvas; the camera's orientation (camera -> world, as sent) places it. Milliseconds.
+  double render(double qw, double qx, double qy, double qz) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
+    if (!anchor_) {
+      // The preview table: ahead of the first view, level, below the eye. Its frame has +Z up
+      // (world +Y), +X world +X, +Y world -Z: right-handed, as a marker's frame would be.
+      glm::dvec3 ahead = world_from_camera * glm::dvec3(0, 0, -1);
+      ahead.y = 0;
+      ahead = glm::length(ahead) > 1e-6 ? glm::normalize(ahead) : glm::dvec3(0, 0, -1);
+      const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
+      anchor_ = Pose{glm::quat_cast(axes), ahead * kPreviewDistance - glm::dvec3(0, kPreviewDrop, 0)};
+    }
+    const Pose camera_from_scene = compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
+    // RGBA -> the renderer's BGR.
+    const std::size_t pixels = std::size_t(width_) * height_;
+    std::uint8_t* out = bgr_.data();
+    for (std::size_t i = 0; i < pixels; ++i) {
+      out[3 * i] = rgba_[4 * i + 2], out[3 * i + 1] = rgba_[4 * i + 1], out[3 * i + 2] = rgba_[4 * i];
+    }
+    renderer_.begin_frame();
+    if (renderer_.lighting_source() != render::LightingSource::None) {
+      renderer_.set_camera(camera_, matrix_of(camera_from_scene));
+      renderer_.set_world_from_scene(anchor_->orientation);
+      renderer_.draw(mesh_, material_, model_);
+    }
+    renderer_.composite(bgr_.view(), {render::ToneMode::CameraMatched, kLockedExposure, 1.0},
+                        std::span<std::uint8_t>());
+    renderer_.present();
+    ++frames_rendered_;
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+        .count();
+  }
+
+  void set_material(const std::string& name) { material_ = material_named(name); }
+
+  val status() const {
+    val s = val::object();
+    s.set("connected", welcome_.has_value());
+    s.set("session_id", welcome_ ? welcome_->session_id : std::string());
+    s.set("server_version", welcome_ ? welcome_->server_version : std::string());
+    s.set("updates", double(updates_));
+    s.set("last_sequence", double(last_sequence_));
+    s.set("frames_processed", double(frames_processed_));
+    s.set("map_sets", double(map_sets_));
+    s.set("coverage", coverage_);
+    s.set("frames_encoded", double(frames_sent_));
+    s.set("frames_rendered", double(frames_rendered_));
+    const auto source = renderer_.lighting_source();
+    s.set("lighting", std::string(source == render::LightingSource::Maps  ? "maps"
+                                  : source == render::LightingSource::Sh ? "sh"
+                                                                         : "none"));
+    s.set("last_error", last_error_);
+    val light = val::array();
+    for (int i = 0; i < 3; ++i) light.call<void>("push", light_direction_[i]);
+    s.set("light_direction", light);
+    return s;
+  }
+
+ private:
+  render::GlContext context_;
+  render::Renderer renderer_;
+  render::GpuMesh mesh_;
+  render::Material material_;
+  glm::mat4 model_;
+  int width_, height_;
+  CameraIntrinsics camera_;
+  std::vector<std::uint8_t> rgba_;
+  ImageU8 bgr_;
+  std::optional<Pose> anchor_;
+  client::MapSetAssembler assembler_;
+  std::optional<wire::Welcome> welcome_;
+  std::string last_error_;
+  std::uint64_t updates_ = 0, last_sequence_ = 0, frames_processed_ = 0, map_sets_ = 0, frames_sent_ = 0,
+                frames_rendered_ = 0;
+  double coverage_ = 0;
+  bool maps_ = false;
+  glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
+};
+
+EMSCRIPTEN_BINDINGS(arlight_web) {
+  emscripten::class_<WebClient>("WebClient")
+      .constructor<std::string, int, int>()
+      .function("hello", &WebClient::hello)
+      .function("setFov", &WebClient::set_fov)
+      .function("intrinsics", &WebClient::intrinsics)
+      .function("frame", &WebClient::frame)
+      .function("requestMaps", &WebClient::request_maps)
+      .function("receive", &WebClient::receive)
+      .function("frameBuffer", &WebClient::frame_buffer)
+      .function("render", &WebClient::render)
+      .function("setMaterial", &WebClient::set_material)
+      .function("status", &WebClient::status);
+}
+
+}  // namespace arlight::web

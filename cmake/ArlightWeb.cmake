@@ -1,0 +1,38 @@
+# The browser client, built with the native build: client/web is a project of its own compiled by
+# emscripten (its CMakeLists.txt); this runs it as an external project and puts the page where
+# arlightd serves it from by default, build/bin/web/ (index.html, its scripts, the WebAssembly
+# module). `make build` (and so `make test` and `make demo`) builds it.
+include(ExternalProject)
+find_program(EMCMAKE_EXECUTABLE emcmake)
+if(NOT EMCMAKE_EXECUTABLE)
+  message(FATAL_ERROR "arlight needs emscripten for the browser client: install the Debian package 'emscripten' (or run `make deps`).")
+endif()
+
+set(ARLIGHT_WEB_DIR ${CMAKE_BINARY_DIR}/bin/web)
+# emscripten's Node tools need Debian's Node modules where the machine's node is not Debian's.
+set(ARLIGHT_EMSCRIPTEN_ENV ${CMAKE_COMMAND} -E env NODE_PATH=/usr/share/nodejs)
+ExternalProject_Add(arlight_web_module
+  SOURCE_DIR ${CMAKE_SOURCE_DIR}/client/web
+  BINARY_DIR ${CMAKE_BINARY_DIR}/web-module
+  CONFIGURE_COMMAND ${ARLIGHT_EMSCRIPTEN_ENV} ${EMCMAKE_EXECUTABLE} ${CMAKE_COMMAND}
+                    -S <SOURCE_DIR> -B <BINARY_DIR> -G Ninja -DCMAKE_BUILD_TYPE=Release
+  BUILD_COMMAND ${ARLIGHT_EMSCRIPTEN_ENV} ${CMAKE_COMMAND} --build <BINARY_DIR>
+  INSTALL_COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}
+  COMMAND ${CMAKE_COMMAND} -E copy_if_different <BINARY_DIR>/arlight_web.js
+          <BINARY_DIR>/arlight_web.wasm ${ARLIGHT_WEB_DIR}
+  BUILD_ALWAYS ON  # its own ninja decides what is out of date
+  USES_TERMINAL_BUILD ON)
+
+# The page's own files, copied when they change.
+file(GLOB ARLIGHT_WEB_PAGE CONFIGURE_DEPENDS
+  ${CMAKE_SOURCE_DIR}/client/web/index.html
+  ${CMAKE_SOURCE_DIR}/client/web/style.css
+  ${CMAKE_SOURCE_DIR}/client/web/src/*.js)
+set(ARLIGHT_WEB_PAGE_STAMP ${CMAKE_BINARY_DIR}/web-page.stamp)
+add_custom_command(OUTPUT ${ARLIGHT_WEB_PAGE_STAMP}
+  COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}
+  COMMAND ${CMAKE_COMMAND} -E copy_if_different ${ARLIGHT_WEB_PAGE} ${ARLIGHT_WEB_DIR}
+  COMMAND ${CMAKE_COMMAND} -E touch ${ARLIGHT_WEB_PAGE_STAMP}
+  DEPENDS ${ARLIGHT_WEB_PAGE}
+  COMMENT "The browser client's page -> bin/web")
+add_custom_target(arlight_web ALL DEPENDS ${ARLIGHT_WEB_PAGE_STAMP} arlight_web_module)
