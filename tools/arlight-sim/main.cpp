@@ -100,6 +100,10 @@ int main(int argc, char** argv) {
   app.add_option("--marker", marker, "ArUco marker ID,SIZE_M[,X,Y,Z] on the floor");
   app.add_option("--seed", seed, "random seed, 0..2^64-1")->capture_default_str();
   app.add_option("--bracket", o.bracket, "N frames of one view, one stop apart");
+  std::string y4m;
+  app.add_option("--y4m", y4m,
+                 "also write the frames as a YUV4MPEG2 video for Chromium's fake camera "
+                 "(exposure fixed at the first view's, as a browser locks it)");
   app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
   try {
     app.parse(argc, argv);
@@ -115,6 +119,10 @@ int main(int argc, char** argv) {
   try {
     o.env = env;
     o.out = out;
+    o.y4m = y4m;
+    if (!y4m.empty() && (o.hdr_stops > 0 || o.bracket > 0))
+      throw InputError("--y4m: a browser's camera has one locked exposure (no --hdr-stops, "
+                       "--bracket)");
     parse_size(size, o);
     if (o.frames < 1 || o.frames > 1000000) throw InputError("--frames: must be 1..1000000");
     if (!(o.fps > 0) || o.fps > 10000) throw InputError("--fps: must be > 0 (and <= 10000)");

@@ -41,9 +41,21 @@ const state = {
   refused: false,
   started: false,
   orientation: 'none',
+  firstFrameAt: 0,   // Date.now() of the first camera frame the page composited
+  cameraOpenedAt: 0, // Date.now() when the camera opened (its first frame; tests pace sensors)
+  sh: [],            // bands 0-2 of the live SH, RGB triples
 };
 
+// Set once the page runs: see start().
+let probeComposite = () => null;
+
 window.arlight = {
+  // For tests and for people wondering whether the object is where they think: the object's
+  // centre in the canvas, and at that pixel and at the canvas corner farthest from it, the
+  // composite's RGB beside the camera frame's RGB it was drawn over.
+  probe() {
+    return probeComposite();
+  },
   status() {
     const sorted = [...state.latencies].sort((a, b) => a - b);
     const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
@@ -65,6 +77,9 @@ window.arlight = {
       latency_p99_ms: pick(0.99),
       orientation: state.orientation,
       started: state.started,
+      first_frame_at: state.firstFrameAt,
+      camera_opened_at: state.cameraOpenedAt,
+      sh: state.sh,
     };
   },
 };
@@ -190,6 +205,8 @@ async function start() {
       showError(`motion sensors: ${e.name || e}`);
     }
   }
+  // The module first: the camera's frames start as soon as it opens.
+  const module = await createArlight();
   const [width, height] = (params.get('size') || '640x480').split('x').map(Number);
   let camera;
   try {
@@ -198,12 +215,12 @@ async function start() {
     showError(`camera: ${e.message || e}`);
     return;
   }
+  state.cameraOpenedAt = Date.now();
   const w = camera.width;
   const h = camera.height;
   const canvas = $('view');
   canvas.width = w;
   canvas.height = h;
-  const module = await createArlight();
   const client = new module.WebClient('#view', w, h);
   const fov = Number(params.get('fov') || localStorage.getItem('arlight.fov') || 63);
   $('fov').value = String(fov);
@@ -246,6 +263,7 @@ async function start() {
         state.sessionId = s.session_id;
       } else if (name === 'LightingUpdate') {
         state.updates = s.updates;
+        state.sh = s.sh;
         state.framesProcessed = s.frames_processed;
         state.coverage = s.coverage;
         const t = sentAt.get(s.last_sequence);
@@ -302,7 +320,26 @@ async function start() {
     const p = window.arlight.status();
     $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
   };
+  const readBack = document.createElement('canvas');
+  readBack.width = w;
+  readBack.height = h;
+  const readCtx = readBack.getContext('2d', { willReadFrequently: true });
+  probeComposite = () => {
+    const centre = client.objectPixel();
+    if (!centre) return null;
+    readCtx.drawImage(canvas, 0, 0);
+    const px = (x, y) => {
+      const xi = Math.min(w - 1, Math.max(0, Math.round(x)));
+      const yi = Math.min(h - 1, Math.max(0, Math.round(y)));
+      const c = readCtx.getImageData(xi, yi, 1, 1).data;
+      const f = module.HEAPU8.subarray(client.frameBuffer() + 4 * (yi * w + xi));
+      return { x: xi, y: yi, composite: [c[0], c[1], c[2]], frame: [f[0], f[1], f[2]] };
+    };
+    const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
+    return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h };
+  };
   grabber.onFrame(() => {
+    if (!state.firstFrameAt) state.firstFrameAt = Date.now();
     const q = orientation();
     try {
       module.HEAPU8.set(grabber.rgba(), client.frameBuffer());

@@ -11,14 +11,15 @@
  * `openCamera` rejects with a subclass of {@link CameraError}, each with its own `name` and a
  * stable `code`, and the browser's DOMException (if any) as `cause`:
  *
- * | class                       | `code`             | when                                              |
- * |-----------------------------|--------------------|---------------------------------------------------|
- * | {@link InsecureContextError}   | `insecure-context`  | not a secure context (`http://` to a LAN address) |
- * | {@link CameraUnsupportedError} | `unsupported`       | no `navigator.mediaDevices.getUserMedia`          |
- * | {@link CameraPermissionError}  | `permission-denied` | NotAllowedError / SecurityError: user or policy refused |
- * | {@link CameraNotFoundError}    | `not-found`         | NotFoundError / OverconstrainedError: no camera   |
- * | {@link CameraBusyError}        | `busy`              | NotReadableError / AbortError: in use or failed to start |
- * | {@link CameraError}            | `failed`            | anything else                                     |
+ * - {@link InsecureContextError} `insecure-context`: not a secure context (plain `http://` to a
+ *   LAN address)
+ * - {@link CameraUnsupportedError} `unsupported`: no `navigator.mediaDevices.getUserMedia`
+ * - {@link CameraPermissionError} `permission-denied`: NotAllowedError / SecurityError, the user
+ *   or a permissions policy refused
+ * - {@link CameraNotFoundError} `not-found`: NotFoundError / OverconstrainedError, no camera
+ * - {@link CameraBusyError} `busy`: NotReadableError / AbortError, in use elsewhere or failed to
+ *   start, or no frame within the timeout
+ * - {@link CameraError} `failed`: anything else
  *
  * ## Frames
  *

@@ -136,6 +136,7 @@ class WebClient {
       coverage_ = u->coverage;
       frames_processed_ = u->frames_processed;
       if (!maps_) renderer_.set_sh(u->sh);
+      sh_ = u->sh;
       light_direction_ = u->dominant_direction, light_colour_ = u->dominant_colour;
     } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
       assembler_.add_tile(*t);
@@ -176,7 +177,8 @@ class WebClient {
     }
     renderer_.begin_frame();
     if (renderer_.lighting_source() != render::LightingSource::None) {
-      renderer_.set_camera(camera_, matrix_of(camera_from_scene));
+      last_camera_from_scene_ = matrix_of(camera_from_scene);
+      renderer_.set_camera(camera_, *last_camera_from_scene_);
       renderer_.set_world_from_scene(anchor_->orientation);
       renderer_.draw(mesh_, material_, model_);
     }
@@ -189,6 +191,18 @@ class WebClient {
   }
 
   void set_material(const std::string& name) { material_ = material_named(name); }
+
+  // Where the object's centre is in the last composite (pixels, row 0 at the top), or null when
+  // it is behind the camera or nothing was drawn yet.
+  val object_pixel() const {
+    if (!anchor_ || !last_camera_from_scene_) return val::null();
+    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(0, 0, 0.5 * kObjectHeight, 1);
+    if (c.z >= -1e-3) return val::null();  // looking down -z
+    val p = val::array();
+    p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
+    p.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
+    return p;
+  }
 
   val status() const {
     val s = val::object();
@@ -207,6 +221,11 @@ class WebClient {
                                   : source == render::LightingSource::Sh ? "sh"
                                                                          : "none"));
     s.set("last_error", last_error_);
+    // Bands 0-2 of the live SH (RGB triples, index l(l+1)+m): the room's irradiance.
+    val sh = val::array();
+    for (int k = 0; k < 9 && sh_ && k < int(sh_->c.size()); ++k)
+      for (int ch = 0; ch < 3; ++ch) sh.call<void>("push", sh_->c[std::size_t(k)][ch]);
+    s.set("sh", sh);
     val light = val::array();
     for (int i = 0; i < 3; ++i) light.call<void>("push", light_direction_[i]);
     s.set("light_direction", light);
@@ -224,6 +243,8 @@ class WebClient {
   std::vector<std::uint8_t> rgba_;
   ImageU8 bgr_;
   std::optional<Pose> anchor_;
+  std::optional<glm::dmat4> last_camera_from_scene_;
+  std::optional<ShCoeffs> sh_;
   client::MapSetAssembler assembler_;
   std::optional<wire::Welcome> welcome_;
   std::string last_error_;
@@ -246,7 +267,8 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("frameBuffer", &WebClient::frame_buffer)
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
-      .function("status", &WebClient::status);
+      .function("status", &WebClient::status)
+      .function("objectPixel", &WebClient::object_pixel);
 }
 
 }  // namespace arlight::web

@@ -6,6 +6,8 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <utility>
 #include <sstream>
 
 #include "arlight/error.hpp"
@@ -17,6 +19,7 @@
 #include "arlight/truth.hpp"
 #include "imaging.hpp"
 #include "noise.hpp"
+#include "y4m.hpp"
 
 namespace arlight::sim {
 
@@ -83,7 +86,7 @@ std::string describe(const SimOptions& o) {
     << " response=" << o.response << " auto_exposure=" << o.auto_exposure
     << " hdr_stops=" << o.hdr_stops << " drift=" << o.gyro_drift_deg_per_s << " noise=" << o.noise
     << " vignetting=" << o.vignetting << " jpeg=" << o.jpeg_quality << " seed=" << o.seed
-    << " bracket=" << o.bracket;
+    << " bracket=" << o.bracket << " y4m=" << !o.y4m.empty();
   if (o.marker)
     d << " marker=" << o.marker->id << "," << o.marker->size_m << "," << o.marker->centre.x << ","
       << o.marker->centre.y << "," << o.marker->centre.z;
@@ -154,7 +157,8 @@ int simulate(const SimOptions& o) {
     metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
   });
   std::vector<ExposureSetting> settings =
-      bracket ? bracket_exposures(metered[0], n) : auto_exposure(metered, o.auto_exposure);
+      bracket ? bracket_exposures(metered[0], n)
+              : auto_exposure(metered, o.auto_exposure && o.y4m.empty());
   if (!bracket && o.hdr_stops > 0)
     for (std::size_t i = 1; i < settings.size(); i += 2)
       settings[i] = split_exposure(settings[i].product() * std::exp2(-o.hdr_stops));
@@ -201,7 +205,7 @@ int simulate(const SimOptions& o) {
     std::vector<std::uint8_t> jpeg;
     if (!cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
       throw std::runtime_error("JPEG encoding failed");
-    return jpeg;
+    return std::pair(std::move(jpeg), bgr);
   };
 
   // What the phone's orientation sensor reports: heading drift about world +Y (an IMU with
@@ -220,14 +224,19 @@ int simulate(const SimOptions& o) {
   };
 
   recording::RecordingWriter writer(o.out, intrinsics, "arlight-sim");
+  std::optional<Y4mWriter> video;
+  if (!o.y4m.empty()) video.emplace(o.y4m, o.width, o.height, int(std::lround(o.fps)));
   constexpr int kBatch = 8;  // frames rendered concurrently, then written in order
   for (int first = 0; first < n; first += kBatch) {
     const int count = std::min(kBatch, n - first);
-    std::vector<std::vector<std::uint8_t>> jpegs(static_cast<std::size_t>(count));
-    tbb::parallel_for(0, count, [&](int k) { jpegs[std::size_t(k)] = render(first + k); });
+    std::vector<std::pair<std::vector<std::uint8_t>, cv::Mat>> frames(
+        static_cast<std::size_t>(count));
+    tbb::parallel_for(0, count, [&](int k) { frames[std::size_t(k)] = render(first + k); });
     for (int k = 0; k < count; ++k) {
       const int i = first + k;
-      writer.add_frame(jpegs[std::size_t(k)], i / o.fps, settings[std::size_t(i)].exposure,
+      const cv::Mat& bgr = frames[std::size_t(k)].second;
+      if (video) video->add(bgr.data, std::ptrdiff_t(bgr.step));
+      writer.add_frame(frames[std::size_t(k)].first, i / o.fps, settings[std::size_t(i)].exposure,
                        settings[std::size_t(i)].gain, sensor_orientation(i));
     }
   }

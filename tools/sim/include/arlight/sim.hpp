@@ -32,6 +32,9 @@ struct SimOptions {
   std::optional<MarkerSpec> marker;
   std::uint64_t seed = 0;
   int bracket = 0;  // > 0: that many frames of one view, one stop apart
+  // Also write the frames as a YUV4MPEG2 video here (Chromium's fake camera plays it to the
+  // browser client). Its exposure is fixed at the first view's, as a browser locks it.
+  std::filesystem::path y4m;
 };
 
 // Every option as one line of text, and when this simulator was built: two runs with the same
