@@ -38,6 +38,7 @@ demo: deps
 	  --trajectory orbit --marker 7,0.2 --gyro-drift 0.5 --seed 2
 	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon \
 	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client
+	node deploy/web-demo.mjs $(BUILD)/bin $(DEMO_OUT)/web $(DEMO_PROBE)
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
 	@echo "  auto_s<S>.exr / .png      irradiance (s = 1) and reflection maps (s = 10 ... 1280) of"
@@ -59,6 +60,10 @@ demo: deps
 	@echo "  ar/client/contact_sheet.png  the bunny on the marker, lit by the captured room"
 	@echo "  ar/client/frames/          every composited frame (arlight-client, camera-matched"
 	@echo "                            tone mapping); client.json: timings and pose error vs truth"
+	@echo "  web/contact_sheet.png     the phone page arlightd serves, in headless Chromium: a simulated"
+	@echo "                            phone sweeps the room, the sphere takes on its light; page_*.png"
+	@echo "                            screenshots, web.json the page's own figures (fps, latency)"
+	@echo "  Connect your phone: README.md, \"Connect your phone\" (arlightd --web 0.0.0.0:8443)"
 
 bench: deps
 	@$(MAKE) --no-print-directory build

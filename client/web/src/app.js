@@ -79,6 +79,8 @@ window.arlight = {
       started: state.started,
       first_frame_at: state.firstFrameAt,
       camera_opened_at: state.cameraOpenedAt,
+      frame_media_time: state.frameMediaTime,
+      frames_presented: state.framesPresented,
       sh: state.sh,
     };
   },
@@ -338,8 +340,10 @@ async function start() {
     const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
     return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h };
   };
-  grabber.onFrame(() => {
+  grabber.onFrame((info) => {
     if (!state.firstFrameAt) state.firstFrameAt = Date.now();
+    state.frameMediaTime = info.mediaTime;
+    state.framesPresented = info.presentedFrames;
     const q = orientation();
     try {
       module.HEAPU8.set(grabber.rgba(), client.frameBuffer());

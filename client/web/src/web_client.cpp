@@ -29,9 +29,10 @@ namespace {
 // offers, small enough for a phone (lat-long 2N x N).
 const std::vector<float> kShininess = {1, 10, 40, 160, 640};
 constexpr int kMapSize = 128;
-// Until the marker is found the object stands on an imagined table this far ahead of where the
-// camera first looked and this far below it (metres), so the lighting shows from the first frame.
-constexpr double kPreviewDistance = 0.8, kPreviewDrop = 0.25;
+// Until the marker is found (tracking comes next) the object floats this far ahead of the camera
+// and this far below the view's centre (metres), upright in the world: it follows the view, so
+// the room's light on it shows from the first frame wherever the phone points.
+constexpr double kPreviewDistance = 0.6, kPreviewDrop = 0.08;
 constexpr float kObjectHeight = 0.15f;  // metres
 // The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
 // virtual object goes through the same exposure, so it matches the map's scale.
@@ -159,15 +160,11 @@ class WebClient {
   double render(double qw, double qx, double qy, double qz) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
-    if (!anchor_) {
-      // The preview table: ahead of the first view, level, below the eye. Its frame has +Z up
-      // (world +Y), +X world +X, +Y world -Z: right-handed, as a marker's frame would be.
-      glm::dvec3 ahead = world_from_camera * glm::dvec3(0, 0, -1);
-      ahead.y = 0;
-      ahead = glm::length(ahead) > 1e-6 ? glm::normalize(ahead) : glm::dvec3(0, 0, -1);
-      const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
-      anchor_ = Pose{glm::quat_cast(axes), ahead * kPreviewDistance - glm::dvec3(0, kPreviewDrop, 0)};
-    }
+    // The object's frame has +Z up (world +Y), +X world +X, +Y world -Z: right-handed, as a
+    // marker's frame would be; its origin ahead of the camera.
+    const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
+    anchor_ = Pose{glm::quat_cast(axes),
+                   world_from_camera * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance)};
     const Pose camera_from_scene = compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
     // RGBA -> the renderer's BGR.
     const std::size_t pixels = std::size_t(width_) * height_;

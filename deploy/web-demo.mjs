@@ -1,0 +1,77 @@
+// The browser part of `make demo`: a simulated phone opens the page arlightd serves in headless
+// Chromium, sweeps the room (arlight-sim's video as its camera, the true orientation as its
+// sensor) and the page composites a sphere lit by what arlightd captured. Saves screenshots along
+// the way, a contact sheet of them and web.json (the page's own figures), then prints how to
+// connect a real phone.
+//   node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE
+import fs from 'node:fs';
+import path from 'node:path';
+
+import { launchChromium } from '../tests/web/harness.mjs';
+import { simulateRoom, startDaemon, playRoom } from '../tests/web/phone_session.mjs';
+
+const [bin, out, probe] = process.argv.slice(2);
+if (!bin || !out || !probe) {
+  console.error('usage: node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE');
+  process.exit(2);
+}
+fs.rmSync(out, { recursive: true, force: true });
+fs.mkdirSync(out, { recursive: true });
+const token = [...crypto.getRandomValues(new Uint8Array(16))].map((b) => b.toString(16).padStart(2, '0')).join('');
+
+const room = simulateRoom({ bin, probe, dir: out, frames: 96, fps: 4, width: 640, height: 480, seed: 3 });
+const daemon = await startDaemon({ bin, dir: path.join(out, 'daemon'), webRoot: path.join(bin, 'web'), token });
+const { browser, page } = await launchChromium({ y4m: room.y4m });
+const shots = [];
+try {
+  await page.setViewportSize({ width: 960, height: 600 });  // landscape: camera view beside the panel
+  let nextShot = 0;
+  await playRoom(page, daemon.url, room, {
+    onTick: async (s) => {
+      if (!s.camera_opened_at || Date.now() < nextShot) return;
+      nextShot = Date.now() + 2000;
+      const file = path.join(out, `page_${String(shots.length).padStart(2, '0')}.png`);
+      await page.screenshot({ path: file });
+      shots.push(file);
+    },
+  });
+  await page.waitForFunction(() => window.arlight.status().map_sets >= 1, null, { timeout: 60000 });
+  await page.waitForTimeout(1500);
+  await page.screenshot({ path: path.join(out, 'page.png') });
+  shots.push(path.join(out, 'page.png'));
+  const status = await page.evaluate(() => window.arlight.status());
+  fs.writeFileSync(path.join(out, 'web.json'), JSON.stringify({ ...status, sh: undefined }, null, 2));
+
+  // The contact sheet, drawn by the browser itself (no image library needed).
+  const images = shots.slice(-12).map((f) => `data:image/png;base64,${fs.readFileSync(f).toString('base64')}`);
+  await page.setViewportSize({ width: 1440, height: 900 });
+  await page.setContent('<body style="margin:0;background:#000"><canvas id="sheet"></canvas></body>');
+  await page.evaluate(async (urls) => {
+    const imgs = await Promise.all(urls.map((u) => new Promise((resolve) => {
+      const img = new Image();
+      img.onload = () => resolve(img);
+      img.src = u;
+    })));
+    const cols = 4;
+    const w = 360;
+    const h = Math.round((w * imgs[0].height) / imgs[0].width);
+    const sheet = document.getElementById('sheet');
+    sheet.width = cols * w;
+    sheet.height = Math.ceil(imgs.length / cols) * h;
+    const ctx = sheet.getContext('2d');
+    imgs.forEach((img, i) => ctx.drawImage(img, (i % cols) * w, Math.floor(i / cols) * h, w, h));
+  }, images);
+  await page.locator('#sheet').screenshot({ path: path.join(out, 'contact_sheet.png') });
+  console.log(`web demo: ${status.frames_processed} frames captured by arlightd from the page, ` +
+    `${status.map_sets} map sets, coverage ${(status.coverage * 100).toFixed(0)} %, ` +
+    `${status.fps.toFixed(1)} fps in headless Chromium (SwiftShader), ` +
+    `latency p50 ${status.latency_p50_ms.toFixed(0)} ms`);
+} finally {
+  await browser.close();
+  await daemon.stop();
+}
+console.log(`
+To connect your phone: on this machine run
+  ${path.join(bin, 'arlightd')} --tokens TOKENS_FILE --web 0.0.0.0:8443
+(a TOKENS_FILE line: "phone <a-long-random-token>"), then scan the QR code it prints with the
+phone's camera, accept the self-signed certificate once, tap Start and sweep the room.`);

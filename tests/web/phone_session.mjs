@@ -1,0 +1,123 @@
+// A simulated phone for the browser client, shared by its end-to-end test and `make demo`:
+// arlight-sim renders a room sweep as a recording (with its ground truth) and as a Y4M for
+// Chromium's fake camera; arlightd runs with its web port; the page's orientation sensor is
+// driven over CDP from the recording's true poses, in step with the video.
+import { spawn, execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+
+import { enableOrientationOverride, overrideOrientation } from './harness.mjs';
+import { sensorQuaternionFromCameraQuat } from '../../client/web/src/orientation.js';
+
+/**
+ * Renders the room: REC (recording + truth/) and camera.y4m in `dir`.
+ * @returns {{rec: string, y4m: string, poses: Array<{orientation: number[]}>, exposure: number,
+ *   fps: number, frames: number, width: number, height: number, vfovDeg: number}}
+ */
+export function simulateRoom({ bin, probe, dir, frames = 96, fps = 4, width = 320, height = 240, seed = 11 }) {
+  const rec = path.join(dir, 'rec');
+  const y4m = path.join(dir, 'camera.y4m');
+  execFileSync(path.join(bin, 'arlight-sim'), [
+    '--env', probe, '--out', rec, '--frames', String(frames), '--fps', String(fps),
+    '--size', `${width}x${height}`, '--gyro-drift', '0', '--seed', String(seed), '--y4m', y4m,
+  ], { stdio: 'pipe' });
+  const poses = JSON.parse(fs.readFileSync(path.join(rec, 'truth', 'truth.json'))).poses;
+  const recording = JSON.parse(fs.readFileSync(path.join(rec, 'recording.json')));
+  const k = recording.camera;
+  return {
+    rec, y4m, poses, fps, frames, width, height,
+    exposure: recording.frames[0].exposure * recording.frames[0].gain,
+    vfovDeg: (2 * Math.atan((0.5 * k.height) / k.fy) * 180) / Math.PI,
+  };
+}
+
+/**
+ * arlightd on loopback with its web port serving `webRoot`; one device, "phone".
+ * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>}>}
+ */
+export async function startDaemon({ bin, dir, webRoot, token }) {
+  fs.mkdirSync(dir, { recursive: true });
+  fs.writeFileSync(path.join(dir, 'tokens'), `phone ${token}\n`);
+  const daemon = spawn(path.join(bin, 'arlightd'), [
+    '--listen', '127.0.0.1:0', '--admin', '127.0.0.1:0', '--web', '127.0.0.1:0',
+    '--web-root', webRoot, '--data-dir', path.join(dir, 'data'),
+    '--tokens', path.join(dir, 'tokens'), '--idle-timeout', '600',
+  ], { stdio: ['ignore', 'pipe', 'pipe'] });
+  let out = '';
+  let err = '';
+  daemon.stderr.on('data', (d) => { err += d; });
+  const ready = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`arlightd did not start: ${out}${err}`)), 20000);
+    daemon.stdout.on('data', (d) => {
+      out += d;
+      const url = /phone page (\S+)/.exec(out);
+      const ports = /listening on 127\.0\.0\.1:(\d+), admin on (\d+), web on (\d+)/.exec(out);
+      if (url && ports) {
+        clearTimeout(timer);
+        resolve({ url: url[1], web: Number(ports[3]), banner: out });
+      }
+    });
+    daemon.on('exit', (code) => reject(new Error(`arlightd exited (${code}): ${out}${err}`)));
+  });
+  const exited = new Promise((resolve) => daemon.on('exit', resolve));
+  // SIGTERM: arlightd checkpoints its sessions, then exits.
+  const stop = async () => {
+    daemon.kill('SIGTERM');
+    await exited;
+  };
+  return { ...ready, log: () => err, stop };
+}
+
+/** The sensor reading (device -> ENU, [x, y, z, w] as {x, y, z, w}) of a camera pose. */
+export function sensorReadingFor(pose) {
+  const [x, y, z, w] = sensorQuaternionFromCameraQuat(pose.orientation, 0);
+  return { x, y, z, w };
+}
+
+/**
+ * Opens the phone page at `url` and plays one pass of the room, keeping the orientation sensor on
+ * the true pose of the frame the page is showing. The page reports the shown frame's media time
+ * (Chromium's fake camera stamps frame i with i / fps); as soon as frame i shows, the sensor is
+ * set to frame i + 1's pose, which reaches the page ~100 ms later (Chromium's sensor latency),
+ * well before that frame is due. Pacing from the time the camera opened instead raced that
+ * latency: one run in three put every frame's orientation one frame off. Before the page shows
+ * its first frame, the pose follows the time since the camera opened. `onTick(status)` runs
+ * between polls (every ~20 ms).
+ */
+export async function playRoom(page, url, room, { onTick = async () => {}, timeoutMs = 150000 } = {}) {
+  await enableOrientationOverride(page);
+  await overrideOrientation(page, sensorReadingFor(room.poses[0]));
+  await page.goto(`${url}&autostart=1&fov=${room.vfovDeg}`);
+  let last = 0;
+  const deadline = Date.now() + timeoutMs;
+  while (Date.now() < deadline) {
+    const status = await page.evaluate(() => window.arlight.status());
+    let next = null;
+    if (typeof status.frame_media_time === 'number') {
+      const shown = Math.round(status.frame_media_time * room.fps);
+      if (shown >= room.frames - 1) return;
+      next = shown + 1;
+    } else if (status.camera_opened_at) {
+      next = Math.floor(((Date.now() - status.camera_opened_at) / 1000) * room.fps) + 1;
+    }
+    if (next !== null && next !== last && next < room.frames) {
+      await overrideOrientation(page, sensorReadingFor(room.poses[next]));
+      last = next;
+    }
+    await onTick(status);
+    await new Promise((r) => setTimeout(r, 20));
+  }
+  throw new Error('the room did not play to its end in time');
+}
+
+/**
+ * Bands 0-2 of a probe's SH (arlight-maps sh), scaled: what a session that assumed another
+ * exposure than the video's should have captured.
+ */
+export function truthSh({ bin, envExr, dir, scale = 1 }) {
+  execFileSync(path.join(bin, 'arlight-maps'), [
+    'sh', '--input', envExr, '--order', '3', '--size', '256', '--out', dir,
+  ], { stdio: 'pipe' });
+  return JSON.parse(fs.readFileSync(path.join(dir, 'sh.json'))).coefficients
+    .map((rgb) => rgb.map((v) => v * scale));
+}
