@@ -47,5 +47,9 @@ void main() {
 #else
   outc = clamp(c * u_exposure_gain, 0.0, 1.0);
 #endif
-  o_color = vec4(outc.bgr, 1.0);
+#if FRAME_RGB
+  o_color = vec4(outc, 1.0);  // the output holds R, G, B (the browser's video frame)
+#else
+  o_color = vec4(outc.bgr, 1.0);  // the output holds B, G, R (an OpenCV frame)
+#endif
 }

@@ -10,6 +10,12 @@ namespace arlight::render {
 namespace gl {
 
 void check(const char* what) {
+#ifdef __EMSCRIPTEN__
+  // In a browser glGetError is a round trip to the GPU process that stalls the page: check the
+  // first 256 calls (construction, shader variants, the first frames) and then every 64th.
+  static unsigned calls = 0;
+  if (++calls > 256 && calls % 64 != 0) return;
+#endif
   const GLenum e = glGetError();
   if (e == GL_NO_ERROR) return;
   char buf[16];

@@ -131,6 +131,10 @@ struct Renderer::Impl {
   std::filesystem::path shader_dir;
   std::unordered_map<unsigned, IblProgram> ibl;  // by projection | features << 2, made lazily
   Program reduce_first, reduce, composite[3], present;  // composite per ToneMode
+  // The same for a frame stored R, G, B in the output (composite_in_place), made when first used.
+  Program composite_rgb[3], present_rgb;
+  bool frame_rgb = false;  // what the last composite left in the output
+  void tone_map_and_composite(const ToneMapping& tone, bool rgb);
   GLuint empty_vao = 0;
 
   gl::Framebuffer hdr_fbo, out_fbo;
@@ -299,6 +303,21 @@ struct Renderer::Impl {
   }
 };
 
+namespace {
+
+// composite.frag for a ToneMode, for an output holding B, G, R (OpenCV) or R, G, B (browser).
+Program composite_program(const std::filesystem::path& shader_dir, int mode, bool rgb) {
+  Program c(shader_dir, "fullscreen.vert", "composite.frag",
+            {{"TONE_MODE", std::to_string(mode)}, {"FRAME_RGB", rgb ? "1" : "0"}});
+  glUseProgram(c.id());
+  glUniform1i(c.uniform("u_hdr"), 0);
+  glUniform1i(c.uniform("u_response"), 2);
+  glUniform1i(c.uniform("u_log_sum"), 3);
+  return c;
+}
+
+}  // namespace
+
 Renderer::Renderer(int width, int height, const std::filesystem::path& shader_dir)
     : p_(std::make_unique<Impl>()) {
   if (width < 1 || height < 1) throw std::invalid_argument("Renderer: size must be positive");
@@ -330,16 +349,8 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   p.reduce_first = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag",
                            {{"BLOCK", block}, {"FIRST_PASS", "1"}});
   p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
-  for (int mode = 0; mode < 3; ++mode) {
-    Program& c = p.composite[mode];
-    c = Program(shader_dir, "fullscreen.vert", "composite.frag",
-                {{"TONE_MODE", std::to_string(mode)}});
-    glUseProgram(c.id());
-    glUniform1i(c.uniform("u_hdr"), 0);
-    glUniform1i(c.uniform("u_response"), 2);
-    glUniform1i(c.uniform("u_log_sum"), 3);
-  }
-  p.present = Program(shader_dir, "fullscreen.vert", "present.frag");
+  for (int mode = 0; mode < 3; ++mode) p.composite[mode] = composite_program(shader_dir, mode, false);
+  p.present = Program(shader_dir, "fullscreen.vert", "present.frag", {{"FRAME_RGB", "0"}});
   glGenVertexArrays(1, &p.empty_vao);
 
   // HDR target: RGBA16F radiance + R8 mask + depth. Only the mask and depth are cleared each
@@ -626,6 +637,55 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glBindTexture(GL_TEXTURE_2D, 0);
 
+  p.tone_map_and_composite(tone, false);
+  p.timings.tonemap_ms = ms_since(t0);
+
+  p.composited = true;
+  if (out.empty()) {  // shown with present() (the page's canvas): nothing to read back
+    p.timings.readback_ms = 0;
+    return;
+  }
+  // The texture holds B, G, R: dropping alpha gives OpenCV's BGR. (Reading GL_RGB directly,
+  // where the implementation offers it, was slower on Mesa: it converts per pixel.)
+  const auto t1 = Clock::now();
+  p.rgba.resize(std::size_t(p.w) * p.h * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
+  gl::check("reading the composited frame");
+  // One 4-byte store per pixel, each overwriting the previous one's spare byte; the last pixel
+  // copies its 3 bytes alone.
+  const std::size_t pixels = std::size_t(p.w) * p.h;
+  for (std::size_t i = 0; i + 1 < pixels; ++i) std::memcpy(&out[3 * i], &p.rgba[4 * i], 4);
+  std::memcpy(&out[3 * (pixels - 1)], &p.rgba[4 * (pixels - 1)], 3);
+  p.timings.readback_ms = ms_since(t1);
+}
+
+unsigned Renderer::camera_texture() const { return p_->out_tex.id; }
+
+void Renderer::composite_in_place(const ToneMapping& tone) {
+  Impl& p = *p_;
+  if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
+    throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
+  // No glFinish here: in a browser each is a round trip to the GPU process that stalls the
+  // page (the timings are then the time to issue the frame, not to draw it).
+  p.timings.render_ms = ms_since(p.frame_start);
+  const auto t0 = Clock::now();
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  glBindVertexArray(p.empty_vao);
+  p.timings.shadow_ms = 0;  // the shadow catcher needs the frame on the CPU: composite() only
+  p.tone_map_and_composite(tone, true);
+  p.timings.tonemap_ms = ms_since(t0);
+  p.timings.readback_ms = 0;
+  p.composited = true;
+}
+
+// The tone-mapping pass: Reinhard's log-average (when asked) and the composite of the objects'
+// pixels into the output, whose other pixels already hold the camera frame.
+void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
+  Impl& p = *this;
+  frame_rgb = rgb;
   if (tone.mode == ToneMode::Reinhard) {
     // Log-average luminance of the masked pixels: block sums down to one texel.
     GLuint input = p.hdr_tex.id;
@@ -647,9 +707,9 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
     }
   }
 
-  const Program& comp = p.composite[tone.mode == ToneMode::CameraMatched ? 0
-                                    : tone.mode == ToneMode::Reinhard    ? 1
-                                                                         : 2];
+  const int mode = tone.mode == ToneMode::CameraMatched ? 0 : tone.mode == ToneMode::Reinhard ? 1 : 2;
+  if (rgb && !p.composite_rgb[mode].id()) p.composite_rgb[mode] = composite_program(shader_dir, mode, true);
+  const Program& comp = rgb ? p.composite_rgb[mode] : p.composite[mode];
   glUseProgram(comp.id());
   glUniform1f(comp.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
   glUniform1f(comp.uniform("u_key"), tone.key);
@@ -670,28 +730,8 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   glDepthFunc(GL_LESS);
   glDisable(GL_DEPTH_TEST);
   glBindVertexArray(0);
-  glFinish();
+  if (!rgb) glFinish();  // composite() times the pass; the browser's path does not wait for it
   gl::check("tone mapping and compositing");
-  p.timings.tonemap_ms = ms_since(t0);
-
-  p.composited = true;
-  if (out.empty()) {  // shown with present() (the page's canvas): nothing to read back
-    p.timings.readback_ms = 0;
-    return;
-  }
-  // The texture holds B, G, R: dropping alpha gives OpenCV's BGR. (Reading GL_RGB directly,
-  // where the implementation offers it, was slower on Mesa: it converts per pixel.)
-  const auto t1 = Clock::now();
-  p.rgba.resize(std::size_t(p.w) * p.h * 4);
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glReadPixels(0, 0, p.w, p.h, GL_RGBA, GL_UNSIGNED_BYTE, p.rgba.data());
-  gl::check("reading the composited frame");
-  // One 4-byte store per pixel, each overwriting the previous one's spare byte; the last pixel
-  // copies its 3 bytes alone.
-  const std::size_t pixels = std::size_t(p.w) * p.h;
-  for (std::size_t i = 0; i + 1 < pixels; ++i) std::memcpy(&out[3 * i], &p.rgba[4 * i], 4);
-  std::memcpy(&out[3 * (pixels - 1)], &p.rgba[4 * (pixels - 1)], 3);
-  p.timings.readback_ms = ms_since(t1);
 }
 
 bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
@@ -887,14 +927,18 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
 void Renderer::present() {
   Impl& p = *p_;
   if (!p.composited) return;
-  // present.frag flips the rows (the window's row 0 is its bottom) and swaps B and R.
+  // present.frag flips the rows (the window's row 0 is its bottom) and swaps B and R (unless
+  // the output holds the browser's R, G, B frame).
+  if (p.frame_rgb && !p.present_rgb.id())
+    p.present_rgb = Program(p.shader_dir, "fullscreen.vert", "present.frag", {{"FRAME_RGB", "1"}});
+  const Program& present = p.frame_rgb ? p.present_rgb : p.present;
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   GLint vp[4];
   glGetIntegerv(GL_VIEWPORT, vp);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
-  glUseProgram(p.present.id());
-  glUniform1i(p.present.uniform("u_image"), 0);
+  glUseProgram(present.id());
+  glUniform1i(present.uniform("u_image"), 0);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, p.out_tex.id);
   glBindVertexArray(p.empty_vao);

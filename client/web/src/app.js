@@ -6,6 +6,7 @@
 //
 // The URL's fragment (never sent to the server in an HTTP request) carries the session:
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
+//   [&upload=video|canvas|imagedata]  (how the camera frame reaches WebGL; for measurements)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
 import { openCamera, FrameGrabber } from './camera.js';
@@ -36,6 +37,7 @@ const state = {
   lighting: 'none',
   coverage: 0,
   renderMs: 0,
+  grabMs: 0,        // the camera frame into the renderer's texture
   jpegMs: 0,        // encoding the newest frame for arlightd
   latencies: [],     // ms from sending a frame to the update that reflects it
   refused: false,
@@ -44,6 +46,7 @@ const state = {
   firstFrameAt: 0,   // Date.now() of the first camera frame the page composited
   cameraOpenedAt: 0, // Date.now() when the camera opened (its first frame; tests pace sensors)
   sh: [],            // bands 0-2 of the live SH, RGB triples
+  readyMs: 0,        // navigation start to the renderer ready (WASM loaded, shaders compiled)
 };
 
 // Set once the page runs: see start().
@@ -72,6 +75,8 @@ window.arlight = {
       lighting: state.lighting,
       coverage: state.coverage,
       render_ms: state.renderMs,
+      grab_ms: state.grabMs,
+      ready_ms: state.readyMs,
       jpeg_ms: state.jpegMs,
       latency_p50_ms: pick(0.5),
       latency_p99_ms: pick(0.99),
@@ -224,6 +229,7 @@ async function start() {
   canvas.width = w;
   canvas.height = h;
   const client = new module.WebClient('#view', w, h);
+  state.readyMs = performance.now();  // since the page's navigation started: its first load
   const fov = Number(params.get('fov') || localStorage.getItem('arlight.fov') || 63);
   $('fov').value = String(fov);
   client.setFov(fov);
@@ -301,7 +307,7 @@ async function start() {
     try {
       const t0 = performance.now();
       // The frame drawn for the composite, encoded off the main thread.
-      const jpeg = await encoder.encode(await createImageBitmap(grabber.canvas), kJpegQuality);
+      const jpeg = await encoder.encode(await createImageBitmap(camera.video), kJpegQuality);
       state.jpegMs = performance.now() - t0;
       const seq = ++sequence;
       ws.send(client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
@@ -322,11 +328,43 @@ async function start() {
     const p = window.arlight.status();
     $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
   };
+  // The video frame straight into the renderer's texture, in the module's WebGL2 context.
+  const gl = module.GL.currentContext.GLctx;
+  const cameraTexture = module.GL.textures[client.cameraTexture()];
+  const upload = params.get('upload') || 'video';
+  const uploadFrame = (how = upload) => {
+    gl.bindTexture(gl.TEXTURE_2D, cameraTexture);
+    gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    let source = camera.video;
+    if (how === 'drawn') {
+      source = grabber.canvas;  // the frame grabber.draw() drew last
+    } else if (how === 'canvas') {
+      grabber.draw();
+      source = grabber.canvas;
+    } else if (upload === 'imagedata') {
+      grabber.draw();
+      source = grabber.ctx.getImageData(0, 0, w, h);
+    }
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, w, h, gl.RGB, gl.UNSIGNED_BYTE, source);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.bindTexture(gl.TEXTURE_2D, null);
+  };
+  const composite = (q, how) => {
+    const tg = performance.now();
+    uploadFrame(how);
+    state.grabMs = performance.now() - tg;
+    state.renderMs = client.render(q[0], q[1], q[2], q[3]);
+  };
   const readBack = document.createElement('canvas');
   readBack.width = w;
   readBack.height = h;
   const readCtx = readBack.getContext('2d', { willReadFrequently: true });
+  // The video's current frame drawn for reference, composited from that same drawing, and the
+  // canvas read back.
   probeComposite = () => {
+    const frame = grabber.rgba();
+    composite(orientation(), 'drawn');
     const centre = client.objectPixel();
     if (!centre) return null;
     readCtx.drawImage(canvas, 0, 0);
@@ -334,7 +372,7 @@ async function start() {
       const xi = Math.min(w - 1, Math.max(0, Math.round(x)));
       const yi = Math.min(h - 1, Math.max(0, Math.round(y)));
       const c = readCtx.getImageData(xi, yi, 1, 1).data;
-      const f = module.HEAPU8.subarray(client.frameBuffer() + 4 * (yi * w + xi));
+      const f = frame.subarray(4 * (yi * w + xi));
       return { x: xi, y: yi, composite: [c[0], c[1], c[2]], frame: [f[0], f[1], f[2]] };
     };
     const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
@@ -346,8 +384,7 @@ async function start() {
     state.framesPresented = info.presentedFrames;
     const q = orientation();
     try {
-      module.HEAPU8.set(grabber.rgba(), client.frameBuffer());
-      state.renderMs = client.render(q[0], q[1], q[2], q[3]);
+      composite(q);
       ++frames;
     } catch (e) {
       if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);

@@ -74,9 +74,7 @@ class WebClient {
         material_(material_named("plastic")),
         model_(render::standing_on_marker(mesh_.bounds(), kObjectHeight)),
         width_(width),
-        height_(height),
-        rgba_(std::size_t(width) * height * 4, 0),
-        bgr_(width, height, 3) {
+        height_(height) {
     camera_.width = width, camera_.height = height;
     set_fov(63.0);
   }
@@ -152,11 +150,13 @@ class WebClient {
   }
 
   // ---- the camera frame and the composite ----
-  // Where JavaScript writes the camera frame: width * height RGBA bytes, row 0 at the top.
-  std::uintptr_t frame_buffer() { return reinterpret_cast<std::uintptr_t>(rgba_.data()); }
+  // The GL texture the page uploads its video frame into (texSubImage2D from the <video>: no
+  // copy through JavaScript), R, G, B, the renderer's size, top row first.
+  unsigned camera_texture() const { return renderer_.camera_texture(); }
 
-  // Composites the object, lit by the newest lighting, over the frame in frame_buffer() into
-  // the canvas; the camera's orientation (camera -> world, as sent) places it. Milliseconds.
+  // Composites the object, lit by the newest lighting, over the frame in camera_texture() and
+  // shows it in the canvas; the camera's orientation (camera -> world, as sent) places it.
+  // Milliseconds of this call.
   double render(double qw, double qx, double qy, double qz) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
@@ -166,12 +166,6 @@ class WebClient {
     anchor_ = Pose{glm::quat_cast(axes),
                    world_from_camera * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance)};
     const Pose camera_from_scene = compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
-    // RGBA -> the renderer's BGR.
-    const std::size_t pixels = std::size_t(width_) * height_;
-    std::uint8_t* out = bgr_.data();
-    for (std::size_t i = 0; i < pixels; ++i) {
-      out[3 * i] = rgba_[4 * i + 2], out[3 * i + 1] = rgba_[4 * i + 1], out[3 * i + 2] = rgba_[4 * i];
-    }
     renderer_.begin_frame();
     if (renderer_.lighting_source() != render::LightingSource::None) {
       last_camera_from_scene_ = matrix_of(camera_from_scene);
@@ -179,8 +173,7 @@ class WebClient {
       renderer_.set_world_from_scene(anchor_->orientation);
       renderer_.draw(mesh_, material_, model_);
     }
-    renderer_.composite(bgr_.view(), {render::ToneMode::CameraMatched, kLockedExposure, 1.0},
-                        std::span<std::uint8_t>());
+    renderer_.composite_in_place({render::ToneMode::CameraMatched, kLockedExposure, 1.0});
     renderer_.present();
     ++frames_rendered_;
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
@@ -237,8 +230,6 @@ class WebClient {
   glm::mat4 model_;
   int width_, height_;
   CameraIntrinsics camera_;
-  std::vector<std::uint8_t> rgba_;
-  ImageU8 bgr_;
   std::optional<Pose> anchor_;
   std::optional<glm::dmat4> last_camera_from_scene_;
   std::optional<ShCoeffs> sh_;
@@ -261,7 +252,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("frame", &WebClient::frame)
       .function("requestMaps", &WebClient::request_maps)
       .function("receive", &WebClient::receive)
-      .function("frameBuffer", &WebClient::frame_buffer)
+      .function("cameraTexture", &WebClient::camera_texture)
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
       .function("status", &WebClient::status)

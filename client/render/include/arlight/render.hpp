@@ -190,6 +190,12 @@ class Renderer {
   void composite(const ImageU8View& frame_bgr, const ToneMapping& tone, ImageU8& out_bgr);
   void composite(const ImageU8View& frame_bgr, const ToneMapping& tone,
                  std::span<std::uint8_t> out_bgr);
+  // The browser's way, without the frame ever on the CPU: the page uploads its video frame
+  // (R, G, B, the renderer's size, top row first) into camera_texture(), the GL texture the
+  // composite is made in, then composite_in_place() tone maps the objects over it there, for
+  // present(). No shadow catcher (it works on the frame's bytes) and no readback.
+  unsigned camera_texture() const;
+  void composite_in_place(const ToneMapping& tone);
   // Shows the last composite in a window context's default framebuffer (then swap_buffers()).
   void present();
 

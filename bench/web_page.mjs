@@ -1,0 +1,81 @@
+// The browser page's own figures in headless Chromium on SwiftShader (CPU WebGL2): frames
+// composited per second and the C++ frame time (render + tone map + composite into the canvas),
+// JPEG encoding, frame -> LightingUpdate latency over wss, first load; at 640x480 and 1280x720
+// from Chromium's built-in fake camera, against a real arlightd on loopback. Also the size of
+// the page's code (gzip). Prints a Markdown table.
+//   node bench/web_page.mjs [BUILD_BIN] [SECONDS]
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import zlib from 'node:zlib';
+
+import { launchChromium, enableOrientationOverride, overrideOrientation } from '../tests/web/harness.mjs';
+import { startDaemon } from '../tests/web/phone_session.mjs';
+
+const bin = path.resolve(process.argv[2] || 'build/bin');
+const seconds = Number(process.argv[3] || 15);
+const web = path.join(bin, 'web');
+const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-web-bench-'));
+const token = 'bench-token-0123456789';
+const daemon = await startDaemon({ bin, dir: path.join(dir, 'daemon'), webRoot: web, token });
+
+const median = (v) => {
+  const s = [...v].sort((a, b) => a - b);
+  return s.length ? s[Math.floor(s.length / 2)] : 0;
+};
+const rows = [];
+try {
+  for (const size of ['640x480', '1280x720']) {
+    const { browser, page } = await launchChromium();
+    try {
+      await enableOrientationOverride(page);
+      await overrideOrientation(page, { x: 0.5, y: 0, z: 0, w: Math.sqrt(0.75) });
+      await page.goto(`${daemon.url}&autostart=1&size=${size}`);
+      await page.waitForFunction(() => window.arlight.status().lighting !== 'none', null, { timeout: 60000 });
+      const samples = [];
+      const t0 = Date.now();
+      const first = await page.evaluate(() => window.arlight.status());
+      while (Date.now() - t0 < seconds * 1000) {
+        await new Promise((r) => setTimeout(r, 250));
+        samples.push(await page.evaluate(() => window.arlight.status()));
+      }
+      const last = samples[samples.length - 1];
+      rows.push({
+        size,
+        fps: median(samples.map((s) => s.fps)),
+        render: median(samples.map((s) => s.render_ms)),
+        grab: median(samples.map((s) => s.grab_ms)),
+        jpeg: median(samples.map((s) => s.jpeg_ms)),
+        sent: last.frames_sent - first.frames_sent,
+        p50: last.latency_p50_ms,
+        p99: last.latency_p99_ms,
+        ready: last.ready_ms,
+      });
+    } finally {
+      await browser.close();
+    }
+  }
+} finally {
+  await daemon.stop();
+  fs.rmSync(dir, { recursive: true, force: true });
+}
+
+console.log(`headless Chromium ${seconds} s per size, Chromium's fake camera at 30 fps, arlightd on loopback (wss)\n`);
+console.log('| camera | composited fps | camera frame in | frame time (C++) | JPEG (worker) | frames sent/s | latency p50 / p99 | first load |');
+console.log('|---|---|---|---|---|---|---|---|');
+for (const r of rows)
+  console.log(`| ${r.size} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ` +
+    `${(r.sent / seconds).toFixed(1)} | ${r.p50.toFixed(0)} / ${r.p99.toFixed(0)} ms | ${r.ready.toFixed(0)} ms |`);
+
+// The page's code as a phone downloads it (opencv.js apart: not used yet).
+const files = fs.readdirSync(web).filter((f) => !f.endsWith('.png'));
+let raw = 0;
+let gz = 0;
+for (const f of files) {
+  const b = fs.readFileSync(path.join(web, f));
+  raw += b.length;
+  gz += zlib.gzipSync(b, { level: 9 }).length;
+}
+const wasm = fs.readFileSync(path.join(web, 'arlight_web.wasm'));
+console.log(`\npage code: ${files.length} files, ${(raw / 1024).toFixed(0)} KiB, ${(gz / 1024).toFixed(0)} KiB gzip ` +
+  `(arlight_web.wasm ${(wasm.length / 1024).toFixed(0)} KiB, ${(zlib.gzipSync(wasm, { level: 9 }).length / 1024).toFixed(0)} KiB gzip)`);
