@@ -38,6 +38,7 @@ try {
   await page.waitForFunction(() => window.arlight.status().map_sets >= 1, null, { timeout: 60000 });
   await page.waitForTimeout(1500);
   await page.screenshot({ path: path.join(out, 'page.png') });
+  await page.screenshot({ path: path.join(out, 'page.jpg'), type: 'jpeg', quality: 80 });
   shots.push(path.join(out, 'page.png'));
   const status = await page.evaluate(() => window.arlight.status());
   fs.writeFileSync(path.join(out, 'web.json'), JSON.stringify({ ...status, sh: undefined }, null, 2));
@@ -62,6 +63,12 @@ try {
     imgs.forEach((img, i) => ctx.drawImage(img, (i % cols) * w, Math.floor(i / cols) * h, w, h));
   }, images);
   await page.locator('#sheet').screenshot({ path: path.join(out, 'contact_sheet.png') });
+
+  // What arlightd printed for the phone (its URL and QR code), as a terminal shows it.
+  const banner = daemon.banner.replace(/&/g, '&amp;').replace(/</g, '&lt;');
+  await page.setContent(`<body style="margin:0;background:#111"><pre id="term" style="display:inline-block;
+    margin:0;padding:12px;color:#eee;background:#111;font:13px/13px monospace">${banner}</pre></body>`);
+  await page.locator('#term').screenshot({ path: path.join(out, 'terminal.png') });
   console.log(`web demo: ${status.frames_processed} frames captured by arlightd from the page, ` +
     `${status.map_sets} map sets, coverage ${(status.coverage * 100).toFixed(0)} %, ` +
     `${status.fps.toFixed(1)} fps in headless Chromium (SwiftShader), ` +
