@@ -1,7 +1,5 @@
 #include "arlight/projection.hpp"
 
-#include "parallel.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,6 +9,8 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "parallel.hpp"
 
 namespace arlight {
 

@@ -1,9 +1,9 @@
 #include "arlight/resample.hpp"
 
-#include "parallel.hpp"
-
 #include <algorithm>
 #include <cmath>
+
+#include "parallel.hpp"
 
 namespace arlight {
 

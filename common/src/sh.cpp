@@ -13,8 +13,6 @@
 // the double range anyway.
 #include "arlight/sh.hpp"
 
-#include "parallel.hpp"
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -25,6 +23,8 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "parallel.hpp"
 
 // Multi-versioned SIMD kernels: one binary runs everywhere and uses AVX-512 or AVX+FMA where the
 // CPU has them (GCC function multiversioning). ISA names rather than arch= keep the clones'

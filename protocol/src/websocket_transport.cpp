@@ -39,9 +39,8 @@ void configure(Ws& ws, bool server) {
   ws.read_message_max(0);  // no limit of Beast's: async_read bounds each message itself
   ws.binary(true);
   if (server)
-    ws.set_option(websocket::stream_base::decorator([](websocket::response_type& res) {
-      res.set(beast::http::field::server, "arlightd");
-    }));
+    ws.set_option(websocket::stream_base::decorator(
+        [](websocket::response_type& res) { res.set(beast::http::field::server, "arlightd"); }));
 }
 
 template <class Ws>
@@ -64,9 +63,8 @@ class WebSocketTransport final : public Transport {
   void async_start(Done done) override {
     if (!upgrade_) return asio::post(ws_->get_executor(), [done = std::move(done)] { done({}); });
     configure(*ws_, /*server=*/true);
-    ws_->async_accept(*upgrade_, [done = std::move(done)](boost::system::error_code ec) {
-      done(ec);
-    });
+    ws_->async_accept(*upgrade_,
+                      [done = std::move(done)](boost::system::error_code ec) { done(ec); });
   }
 
   void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
@@ -79,10 +77,9 @@ class WebSocketTransport final : public Transport {
   // header of our own) does not apply here.
   void async_write(std::span<const std::uint8_t> bytes, bool /*framed*/, Done done) override {
     ws_->binary(true);
-    ws_->async_write(asio::buffer(bytes.data(), bytes.size()),
-                     [done = std::move(done)](boost::system::error_code ec, std::size_t) {
-                       done(ec);
-                     });
+    ws_->async_write(
+        asio::buffer(bytes.data(), bytes.size()),
+        [done = std::move(done)](boost::system::error_code ec, std::size_t) { done(ec); });
   }
 
   // A close frame (normal closure), then the socket; bounded by the handshake timeout. The
@@ -119,14 +116,13 @@ class WebSocketTransport final : public Transport {
                                             "a text WebSocket message: arlight messages are "
                                             "binary, one Envelope each"));
           if (envelope.size() > max_bytes)
-            return refuse(done, DecodeError(Fault::OverLimit, "", "",
-                                            "message of more than " + std::to_string(max_bytes) +
-                                                " bytes is over the limit of " +
-                                                std::to_string(max_bytes)));
+            return refuse(
+                done, DecodeError(Fault::OverLimit, "", "",
+                                  "message of more than " + std::to_string(max_bytes) +
+                                      " bytes is over the limit of " + std::to_string(max_bytes)));
           if (!ws_->is_message_done()) return read_more(envelope, max_bytes, std::move(done));
           if (envelope.empty())
-            return refuse(done, DecodeError(Fault::Malformed, "", "",
-                                            "empty message (length 0)"));
+            return refuse(done, DecodeError(Fault::Malformed, "", "", "empty message (length 0)"));
           done({}, nullptr);
         });
   }

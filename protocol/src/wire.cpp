@@ -65,7 +65,7 @@ ErrorCode DecodeError::code() const {
     case Fault::OutOfRange:
       return field_ == "format" || field_ == "projection" || field_ == "coding"
                  ? ErrorCode::Unsupported
-                                                          : ErrorCode::BadMessage;
+                 : ErrorCode::BadMessage;
     default:
       return ErrorCode::BadMessage;
   }
@@ -105,8 +105,7 @@ TileCoding choose_tile_coding(const std::vector<std::string>& capabilities) {
   return half && !zstd ? TileCoding::Half : TileCoding::ZstdHalf;
 }
 
-std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels,
-                                          TileCoding coding) {
+std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels, TileCoding coding) {
   std::vector<std::uint8_t> half(pixels * 6);
   for (std::size_t i = 0; i < pixels * 3; ++i) {
     const std::uint16_t bits = Imath::half(rgb[i]).bits();
@@ -144,7 +143,8 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
       return std::nullopt;
     }
     unpacked.resize(pixels * 6);
-    const std::size_t n = ZSTD_decompress(unpacked.data(), unpacked.size(), data.data(), data.size());
+    const std::size_t n =
+        ZSTD_decompress(unpacked.data(), unpacked.size(), data.data(), data.size());
     if (ZSTD_isError(n) || n != unpacked.size()) {
       why = "tile data does not decompress";
       return std::nullopt;

@@ -1,6 +1,6 @@
 // The phone link: the URL a phone opens, its QR code as the terminal shows it (read back with
-// ZBar, as a phone's camera app would), the self-signed certificate kept in the data folder, and which files the
-// web port serves.
+// ZBar, as a phone's camera app would), the self-signed certificate kept in the data folder, and
+// which files the web port serves.
 #include <gtest/gtest.h>
 #include <openssl/pem.h>
 #include <openssl/x509v3.h>
@@ -21,7 +21,8 @@ using namespace arlight::daemon;
 namespace {
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("arlight_" + name + "_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("arlight_" + name + "_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -51,8 +52,7 @@ cv::Mat render_terminal_qr(const std::string& text) {
   cv::Mat img(h * s, w * s, CV_8U, cv::Scalar(255));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      if (!light_rows[std::size_t(y)][std::size_t(x)])
-        img(cv::Rect(x * s, y * s, s, s)).setTo(0);
+      if (!light_rows[std::size_t(y)][std::size_t(x)]) img(cv::Rect(x * s, y * s, s, s)).setTo(0);
   cv::Mat padded;
   cv::copyMakeBorder(img, padded, 32, 32, 32, 32, cv::BORDER_CONSTANT, cv::Scalar(255));
   return padded;
@@ -84,7 +84,7 @@ TEST(PhoneLink, UrlCarriesDeviceAndTokenInTheFragmentEncoded) {
 TEST(PhoneLink, TheTerminalQrCodeDecodesToTheUrl) {
   const std::string url = phone_url("192.168.1.20", 8443, "phone-7", "Zq8-token_0123456789");
   const auto modules = qr_modules(url);
-  ASSERT_GE(modules.size(), 21u);  // version 1 is 21 modules
+  ASSERT_GE(modules.size(), 21u);     // version 1 is 21 modules
   EXPECT_EQ(modules.size() % 4, 1u);  // 17 + 4 * version
   for (const bool colour : {false, true}) {
     const std::string text = qr_terminal(modules, colour);
@@ -161,9 +161,9 @@ TEST(WebServer, ServesOnlyPlainFilesUnderTheRoot) {
   EXPECT_EQ(resolve_static_file(root, "/").path, root / "index.html");
   EXPECT_EQ(resolve_static_file(root, "/index.html?v=3").path, root / "index.html");
   EXPECT_EQ(resolve_static_file(root, "/assets/app.wasm").path, root / "assets" / "app.wasm");
-  for (const char* bad : {"/../outside.txt", "/assets/../../outside.txt", "/.secret",
-                          "/assets//app.wasm", "/assets/", "/%2e%2e/outside.txt", "/missing.js",
-                          "/assets", "/index.html/"})
+  for (const char* bad :
+       {"/../outside.txt", "/assets/../../outside.txt", "/.secret", "/assets//app.wasm", "/assets/",
+        "/%2e%2e/outside.txt", "/missing.js", "/assets", "/index.html/"})
     EXPECT_FALSE(resolve_static_file(root, bad).path) << bad;
   EXPECT_EQ(resolve_static_file(root, "index.html").status, 400);
   EXPECT_EQ(resolve_static_file(root, "/nope").status, 404);

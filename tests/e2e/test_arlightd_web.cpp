@@ -42,8 +42,8 @@ struct WebDaemon {
     fs::create_directories(dir / "root");
     std::ofstream(dir / "root" / "index.html") << "<!doctype html><title>arlight</title>";
     d = std::make_unique<DaemonProcess>(
-        dir / "daemon", std::vector<std::string>{"--web", "127.0.0.1:0", "--web-root",
-                                                 (dir / "root").string()});
+        dir / "daemon",
+        std::vector<std::string>{"--web", "127.0.0.1:0", "--web-root", (dir / "root").string()});
   }
   fs::path certificate() const { return dir / "daemon" / "data" / "tls" / "self-signed-cert.pem"; }
 };
@@ -88,8 +88,8 @@ class RawWebSocket {
     ws_.emplace(std::move(tls));
     ws_->handshake("127.0.0.1", "/ws");
     ws_->binary(true);
-    send(wire::encode(wire::Hello{wire::kProtocolVersion, "raw", "arlight-sim", token,
-                                  {"maps", "jpeg"}, ""}));
+    send(wire::encode(
+        wire::Hello{wire::kProtocolVersion, "raw", "arlight-sim", token, {"maps", "jpeg"}, ""}));
   }
   void send(const std::vector<std::uint8_t>& bytes, bool text = false) {
     ws_->text(text);
@@ -131,8 +131,8 @@ TEST(ArlightdWeb, ServesTheClientOverHttpsAndPrintsThePhoneLink) {
   const DaemonProcess& d = *w.d;
   ASSERT_GT(d.web(), 0);
   // The URL carries the device and token in its fragment, the QR code follows it.
-  const std::string url = "https://127.0.0.1:" + std::to_string(d.web()) +
-                          "/#device=arlight-sim&token=" + kToken;
+  const std::string url =
+      "https://127.0.0.1:" + std::to_string(d.web()) + "/#device=arlight-sim&token=" + kToken;
   EXPECT_NE(d.banner().find("phone page " + url), std::string::npos) << d.banner();
   EXPECT_NE(d.banner().find("\u2588\u2588\u2588\u2588"), std::string::npos) << "no QR code";
   ASSERT_TRUE(fs::exists(w.certificate()));
@@ -162,8 +162,8 @@ TEST(ArlightdWeb, BrowserSessionOverWssMatchesTheSameFramesOverTcp) {
     if (browser) {
       c.use_websocket();
       c.use_tls({.enabled = true, .ca_file = w.certificate().string(), .verify = true});
-      c.set_capabilities({"maps", "jpeg", wire::kCapabilityTilesHalf,
-                          wire::kCapabilityExposureUnknown});
+      c.set_capabilities(
+          {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown});
     }
     c.connect("127.0.0.1", browser ? d.web() : d.port(), "arlight-sim", kToken);
     c.send_intrinsics(rec.camera);
@@ -253,7 +253,7 @@ TEST(ArlightdWeb, BadInputOverWsGetsTheSameErrorAndCloseAsTcp) {
   for (int i = 0; i < 64; ++i) garbage.push_back(std::uint8_t(i * 37 + 11));
   expect(garbage, false, "BadMessage");
   expect(std::vector<std::uint8_t>((16u << 20) + 1, 7), false, "TooLarge");
-  expect(wire::encode(wire::Ping{1}), true, "BadMessage");  // a text message
+  expect(wire::encode(wire::Ping{1}), true, "BadMessage");     // a text message
   expect(wire::encode(wire::Welcome{}), false, "OutOfOrder");  // a server-to-client message
   {
     // A frame before the camera's intrinsics.

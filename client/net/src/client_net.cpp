@@ -126,7 +126,6 @@ struct Client::Impl {
     if (update_cb && update_copy) update_cb(*update_copy);
     if (maps_cb && maps_copy) maps_cb(*maps_copy);
   }
-
 };
 
 Client::Client() : impl_(std::make_unique<Impl>()) { impl_->owner = this; }
@@ -220,8 +219,8 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   }
   d.stream->start(d.handlers());
   d.io_thread = std::thread([&d] { d.io.run(); });
-  d.send(wire::Hello{
-      wire::kProtocolVersion, client_name, device_id, token, d.capabilities, resume_session});
+  d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, d.capabilities,
+                     resume_session});
   std::unique_lock lock(d.mutex);
   d.changed.wait_for(lock, timeout, [&] { return d.welcome || d.error || !d.open; });
   if (d.welcome) return *d.welcome;

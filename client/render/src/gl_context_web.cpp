@@ -40,8 +40,9 @@ GlContext GlContext::canvas(const std::string& selector) {
   if (emscripten_webgl_make_context_current(state->context) != EMSCRIPTEN_RESULT_SUCCESS)
     throw GlError("cannot make the WebGL2 context current");
   if (!emscripten_webgl_enable_extension(state->context, "EXT_color_buffer_float"))
-    throw GlError("WebGL2 extension EXT_color_buffer_float is missing (needed for the renderer's "
-                  "RGBA16F HDR target)");
+    throw GlError(
+        "WebGL2 extension EXT_color_buffer_float is missing (needed for the renderer's "
+        "RGBA16F HDR target)");
   return GlContext(std::move(state));
 }
 

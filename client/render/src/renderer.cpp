@@ -349,7 +349,8 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   p.reduce_first = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag",
                            {{"BLOCK", block}, {"FIRST_PASS", "1"}});
   p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
-  for (int mode = 0; mode < 3; ++mode) p.composite[mode] = composite_program(shader_dir, mode, false);
+  for (int mode = 0; mode < 3; ++mode)
+    p.composite[mode] = composite_program(shader_dir, mode, false);
   p.present = Program(shader_dir, "fullscreen.vert", "present.frag", {{"FRAME_RGB", "0"}});
   glGenVertexArrays(1, &p.empty_vao);
 
@@ -707,8 +708,11 @@ void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
     }
   }
 
-  const int mode = tone.mode == ToneMode::CameraMatched ? 0 : tone.mode == ToneMode::Reinhard ? 1 : 2;
-  if (rgb && !p.composite_rgb[mode].id()) p.composite_rgb[mode] = composite_program(shader_dir, mode, true);
+  const int mode = tone.mode == ToneMode::CameraMatched ? 0
+                   : tone.mode == ToneMode::Reinhard    ? 1
+                                                        : 2;
+  if (rgb && !p.composite_rgb[mode].id())
+    p.composite_rgb[mode] = composite_program(shader_dir, mode, true);
   const Program& comp = rgb ? p.composite_rgb[mode] : p.composite[mode];
   glUseProgram(comp.id());
   glUniform1f(comp.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));

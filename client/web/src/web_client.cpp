@@ -81,9 +81,13 @@ class WebClient {
 
   // ---- messages to send ----
   val hello(const std::string& device, const std::string& token, const std::string& resume) {
-    return bytes_to_js(wire::encode(wire::Hello{
-        wire::kProtocolVersion, "arlight-web 0.1", device, token,
-        {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown}, resume}));
+    return bytes_to_js(wire::encode(
+        wire::Hello{wire::kProtocolVersion,
+                    "arlight-web 0.1",
+                    device,
+                    token,
+                    {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown},
+                    resume}));
   }
   // Browsers do not report intrinsics: a pinhole of the given vertical field of view (degrees).
   void set_fov(double fov_y_deg) {
@@ -165,7 +169,8 @@ class WebClient {
     const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
     anchor_ = Pose{glm::quat_cast(axes),
                    world_from_camera * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance)};
-    const Pose camera_from_scene = compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
+    const Pose camera_from_scene =
+        compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
     renderer_.begin_frame();
     if (renderer_.lighting_source() != render::LightingSource::None) {
       last_camera_from_scene_ = matrix_of(camera_from_scene);
@@ -176,8 +181,7 @@ class WebClient {
     renderer_.composite_in_place({render::ToneMode::CameraMatched, kLockedExposure, 1.0});
     renderer_.present();
     ++frames_rendered_;
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-        .count();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
 
   void set_material(const std::string& name) { material_ = material_named(name); }
@@ -207,7 +211,7 @@ class WebClient {
     s.set("frames_encoded", double(frames_sent_));
     s.set("frames_rendered", double(frames_rendered_));
     const auto source = renderer_.lighting_source();
-    s.set("lighting", std::string(source == render::LightingSource::Maps  ? "maps"
+    s.set("lighting", std::string(source == render::LightingSource::Maps ? "maps"
                                   : source == render::LightingSource::Sh ? "sh"
                                                                          : "none"));
     s.set("last_error", last_error_);
@@ -236,8 +240,8 @@ class WebClient {
   client::MapSetAssembler assembler_;
   std::optional<wire::Welcome> welcome_;
   std::string last_error_;
-  std::uint64_t updates_ = 0, last_sequence_ = 0, frames_processed_ = 0, map_sets_ = 0, frames_sent_ = 0,
-                frames_rendered_ = 0;
+  std::uint64_t updates_ = 0, last_sequence_ = 0, frames_processed_ = 0, map_sets_ = 0,
+                frames_sent_ = 0, frames_rendered_ = 0;
   double coverage_ = 0;
   bool maps_ = false;
   glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};

@@ -208,7 +208,8 @@ struct Daemon::Impl {
     }
     web_tls = make_tls_context(cert.cert, cert.key);
     web_certificate = cert.cert;
-    const std::string device = config.web_device.empty() ? tokens.first_device() : config.web_device;
+    const std::string device =
+        config.web_device.empty() ? tokens.first_device() : config.web_device;
     const std::string* token = tokens.token_of(device);
     if (!token)
       throw InputError("--web-device '" + device + "' is not in the tokens file " +
@@ -265,8 +266,7 @@ struct Daemon::Impl {
     while (int(sessions.size()) >= config.max_sessions) {
       std::shared_ptr<Session> idlest;
       for (const auto& [id, s] : sessions)
-        if (!s->attached() && (!idlest || s->last_activity() < idlest->last_activity()))
-          idlest = s;
+        if (!s->attached() && (!idlest || s->last_activity() < idlest->last_activity())) idlest = s;
       if (!idlest) return;
       sessions.erase(idlest->id());
       lock.unlock();
@@ -340,17 +340,17 @@ struct Daemon::Impl {
   }
 
   void accept() {
-    acceptor.async_accept(asio::make_strand(io), [this](boost::system::error_code ec,
-                                                        tcp::socket socket) {
-      if (ec) {
-        if (acceptor.is_open()) accept();
-        return;
-      }
-      adopt(tls ? wire::make_tls_transport(wire::TlsSocket(std::move(socket), *tls),
-                                           wire::TlsRole::AcceptAsServer)
-                : wire::make_tcp_transport(std::move(socket)));
-      accept();
-    });
+    acceptor.async_accept(
+        asio::make_strand(io), [this](boost::system::error_code ec, tcp::socket socket) {
+          if (ec) {
+            if (acceptor.is_open()) accept();
+            return;
+          }
+          adopt(tls ? wire::make_tls_transport(wire::TlsSocket(std::move(socket), *tls),
+                                               wire::TlsRole::AcceptAsServer)
+                    : wire::make_tcp_transport(std::move(socket)));
+          accept();
+        });
   }
 
   // A client connection from any transport (TCP, TLS, WebSocket): one code path from here on.
@@ -465,9 +465,7 @@ void Daemon::wait() {
 
 std::uint16_t Daemon::port() const { return impl_->bound_port; }
 
-std::uint16_t Daemon::web_port() const {
-  return impl_->web_server ? impl_->web_server->port() : 0;
-}
+std::uint16_t Daemon::web_port() const { return impl_->web_server ? impl_->web_server->port() : 0; }
 
 std::string Daemon::phone_url() const { return impl_->phone_url; }
 

@@ -1,12 +1,12 @@
 // arlightd: the lighting daemon (see README.md and protocol/PROTOCOL.md).
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
 #include <thread>
-#include <unistd.h>
 
 #include "arlight/daemon.hpp"
 #include "arlight/error.hpp"
@@ -105,9 +105,9 @@ int main(int argc, char** argv) {
       // What the user needs for a phone: the URL (its fragment holds the device's token and
       // never leaves the phone) and the same as a QR code to scan.
       std::printf("arlightd: phone page %s\n", d.phone_url().c_str());
-      std::printf("%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()),
-                                            isatty(fileno(stdout)) != 0)
-                            .c_str());
+      std::printf(
+          "%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()), isatty(fileno(stdout)) != 0)
+                    .c_str());
       std::printf("arlightd: the web port's certificate is %s (a phone accepts it once)\n",
                   d.web_certificate().c_str());
     }

@@ -25,8 +25,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr long kValidDays = 825;        // the longest a browser accepts for a private certificate
-constexpr long kRenewBeforeDays = 30;   // made anew this close to expiry
+constexpr long kValidDays = 825;       // the longest a browser accepts for a private certificate
+constexpr long kRenewBeforeDays = 30;  // made anew this close to expiry
 
 template <class T, void (*Free)(T*)>
 struct Deleter {
@@ -100,8 +100,8 @@ CertificateFiles ensure_self_signed_certificate(const fs::path& dir,
                              reinterpret_cast<const unsigned char*>("arlightd (self-signed)"), -1,
                              -1, 0);
   X509_NAME_add_entry_by_txt(subject, "CN", MBSTRING_UTF8,
-                             reinterpret_cast<const unsigned char*>(names.front().c_str()), -1,
-                             -1, 0);
+                             reinterpret_cast<const unsigned char*>(names.front().c_str()), -1, -1,
+                             0);
   X509_set_issuer_name(x.get(), subject);
   std::string san;
   for (const auto& n : names) {
@@ -149,8 +149,7 @@ std::vector<std::string> local_names() {
           (a->ifa_flags & IFF_LOOPBACK))
         continue;
       const auto* in = reinterpret_cast<const sockaddr_in*>(a->ifa_addr);
-      const std::string ip =
-          boost::asio::ip::address_v4(ntohl(in->sin_addr.s_addr)).to_string();
+      const std::string ip = boost::asio::ip::address_v4(ntohl(in->sin_addr.s_addr)).to_string();
       if (std::find(names.begin(), names.end(), ip) == names.end()) names.push_back(ip);
     }
     freeifaddrs(list);
@@ -192,8 +191,9 @@ std::string phone_url(const std::string& host, unsigned port, const std::string&
 
 std::vector<std::vector<bool>> qr_modules(const std::string& text) {
   QRcode* code = QRcode_encodeString8bit(text.c_str(), 0, QR_ECLEVEL_M);
-  if (!code) throw InputError("the text of " + std::to_string(text.size()) +
-                              " bytes does not fit a QR code");
+  if (!code)
+    throw InputError("the text of " + std::to_string(text.size()) +
+                     " bytes does not fit a QR code");
   std::vector<std::vector<bool>> modules(std::size_t(code->width),
                                          std::vector<bool>(std::size_t(code->width)));
   for (int y = 0; y < code->width; ++y)

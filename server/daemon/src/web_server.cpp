@@ -46,8 +46,8 @@ void set_common_headers(http::response<Body>& res) {
 bool allowed_segment(std::string_view s) {
   if (s.empty() || s.front() == '.') return false;
   return std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           c == '.' || c == '_' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == '-';
   });
 }
 
@@ -130,10 +130,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     parser_->header_limit(kHeaderLimit);
     parser_->body_limit(kBodyLimit);
     beast::get_lowest_layer(stream_).expires_after(kRequestTimeout);
-    http::async_read(stream_, buffer_, *parser_,
-                     [self = shared_from_this()](beast::error_code ec, std::size_t) {
-                       self->on_request(ec);
-                     });
+    http::async_read(
+        stream_, buffer_, *parser_,
+        [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_request(ec); });
   }
 
   void on_request(beast::error_code ec) {
@@ -153,7 +152,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       beast::get_lowest_layer(stream_).expires_never();
       wire::SecureWebSocket ws(std::move(stream_));
       if (server_->options.on_websocket)
-        server_->options.on_websocket(wire::make_websocket_transport(std::move(ws), std::move(req)));
+        server_->options.on_websocket(
+            wire::make_websocket_transport(std::move(ws), std::move(req)));
       return;
     }
     const bool keep_alive = req.keep_alive();
@@ -212,11 +212,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   template <class Response>
   void write(std::shared_ptr<Response> res, bool keep_alive) {
-    http::async_write(stream_, *res,
-                      [self = shared_from_this(), res, keep_alive](beast::error_code ec,
-                                                                   std::size_t) {
-                        self->after_write(ec, keep_alive);
-                      });
+    http::async_write(
+        stream_, *res,
+        [self = shared_from_this(), res, keep_alive](beast::error_code ec, std::size_t) {
+          self->after_write(ec, keep_alive);
+        });
   }
 
   void after_write(beast::error_code ec, bool keep_alive) {
@@ -244,21 +244,23 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 }  // namespace
 
 void WebServer::Impl::accept() {
-  acceptor.async_accept(asio::make_strand(io), [self = shared_from_this()](
-                                                   beast::error_code ec, tcp::socket socket) {
-    if (!self->acceptor.is_open()) return;
-    if (ec) {
-      // Out of file descriptors and the like: try again shortly rather than spin.
-      if (self->options.log) self->options.log("web port: accept failed: " + ec.message());
-      self->retry.expires_after(kAcceptRetry);
-      self->retry.async_wait([self](beast::error_code e) {
-        if (!e) self->accept();
-      });
-      return;
-    }
-    std::make_shared<HttpSession>(std::move(socket), self)->start();
-    self->accept();
-  });
+  acceptor.async_accept(asio::make_strand(io),
+                        [self = shared_from_this()](beast::error_code ec, tcp::socket socket) {
+                          if (!self->acceptor.is_open()) return;
+                          if (ec) {
+                            // Out of file descriptors and the like: try again shortly rather than
+                            // spin.
+                            if (self->options.log)
+                              self->options.log("web port: accept failed: " + ec.message());
+                            self->retry.expires_after(kAcceptRetry);
+                            self->retry.async_wait([self](beast::error_code e) {
+                              if (!e) self->accept();
+                            });
+                            return;
+                          }
+                          std::make_shared<HttpSession>(std::move(socket), self)->start();
+                          self->accept();
+                        });
 }
 
 WebServer::WebServer(asio::io_context& io, asio::ssl::context& tls, WebServerOptions options)

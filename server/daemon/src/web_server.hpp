@@ -18,7 +18,7 @@ namespace arlight::daemon {
 
 struct WebServerOptions {
   std::string host = "127.0.0.1";
-  std::uint16_t port = 8443;  // 0: ephemeral (tests)
+  std::uint16_t port = 8443;   // 0: ephemeral (tests)
   std::filesystem::path root;  // the browser client's files (index.html, its JS and WASM)
   // Each accepted /ws connection, TLS and upgrade request read (the upgrade is answered when
   // the transport starts).

@@ -7,8 +7,8 @@
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
-#include <utility>
 #include <sstream>
+#include <utility>
 
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"

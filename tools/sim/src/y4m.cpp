@@ -30,8 +30,7 @@ Y4mWriter::Y4mWriter(const std::filesystem::path& path, int width, int height, i
 
 void Y4mWriter::add(const std::uint8_t* bgr, std::ptrdiff_t stride) {
   const int w = width_, h = height_;
-  std::vector<std::uint8_t> y(std::size_t(w) * h), cb(std::size_t(w / 2) * (h / 2)),
-      cr(cb.size());
+  std::vector<std::uint8_t> y(std::size_t(w) * h), cb(std::size_t(w / 2) * (h / 2)), cr(cb.size());
   for (int row = 0; row < h; ++row) {
     const std::uint8_t* p = bgr + row * stride;
     for (int x = 0; x < w; ++x) {
@@ -45,8 +44,7 @@ void Y4mWriter::add(const std::uint8_t* bgr, std::ptrdiff_t stride) {
       double r = 0, g = 0, b = 0;
       for (int dy = 0; dy < 2; ++dy) {
         const std::uint8_t* p = bgr + (2 * by + dy) * stride + 3 * 2 * bx;
-        for (int dx = 0; dx < 2; ++dx)
-          b += p[3 * dx], g += p[3 * dx + 1], r += p[3 * dx + 2];
+        for (int dx = 0; dx < 2; ++dx) b += p[3 * dx], g += p[3 * dx + 1], r += p[3 * dx + 2];
       }
       r /= 4 * 255.0, g /= 4 * 255.0, b /= 4 * 255.0;
       const double luma = kKr * r + kKg * g + kKb * b;
