@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "arlight/message_stream.hpp"
+#include "stream_seen.hpp"
 
 namespace arlight {
 namespace {
@@ -21,35 +22,7 @@ namespace asio = boost::asio;
 using asio::ip::tcp;
 using namespace std::chrono_literals;
 
-// What one end saw, under a lock.
-struct Seen {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::vector<wire::Message> messages;
-  std::optional<wire::DecodeError> bad;
-  std::optional<std::string> closed;
-  int overflows = 0;
-
-  wire::MessageStream::Handlers handlers() {
-    wire::MessageStream::Handlers h;
-    h.on_message = [this](wire::Message&& m) { note([&] { messages.push_back(std::move(m)); }); };
-    h.on_bad_message = [this](const wire::DecodeError& e) { note([&] { bad = e; }); };
-    h.on_closed = [this](const std::string& why) { note([&] { closed = why; }); };
-    h.on_overflow = [this] { note([&] { ++overflows; }); };
-    return h;
-  }
-  template <class F>
-  void note(F f) {
-    std::lock_guard lock(mutex);
-    f();
-    cv.notify_all();
-  }
-  template <class P>
-  bool wait(P pred) {
-    std::unique_lock lock(mutex);
-    return cv.wait_for(lock, 10s, pred);
-  }
-};
+using test::Seen;
 
 // A connected pair of sockets on loopback, with an io thread.
 struct Loopback {

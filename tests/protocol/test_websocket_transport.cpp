@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "arlight/websocket_transport.hpp"
+#include "stream_seen.hpp"
 
 namespace arlight {
 namespace {
@@ -25,32 +26,7 @@ namespace websocket = beast::websocket;
 using asio::ip::tcp;
 using namespace std::chrono_literals;
 
-struct Seen {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::vector<wire::Message> messages;
-  std::optional<wire::DecodeError> bad;
-  std::optional<std::string> closed;
-
-  wire::MessageStream::Handlers handlers() {
-    wire::MessageStream::Handlers h;
-    h.on_message = [this](wire::Message&& m) { note([&] { messages.push_back(std::move(m)); }); };
-    h.on_bad_message = [this](const wire::DecodeError& e) { note([&] { bad = e; }); };
-    h.on_closed = [this](const std::string& why) { note([&] { closed = why; }); };
-    return h;
-  }
-  template <class F>
-  void note(F f) {
-    std::lock_guard lock(mutex);
-    f();
-    cv.notify_all();
-  }
-  template <class P>
-  bool wait(P pred) {
-    std::unique_lock lock(mutex);
-    return cv.wait_for(lock, 10s, pred);
-  }
-};
+using test::Seen;
 
 // A server MessageStream on a WebSocket transport that answered a real upgrade request, and the
 // client's WebSocket (handshake done) for the test to drive.

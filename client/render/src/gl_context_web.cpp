@@ -62,24 +62,6 @@ void GlContext::swap_buffers() {}  // the browser shows the canvas when the fram
 
 bool GlContext::has_window() const { return true; }
 
-std::string GlContext::renderer() const {
-  const auto* s = glGetString(GL_RENDERER);
-  return s ? reinterpret_cast<const char*>(s) : "";
-}
-
-std::string GlContext::version() const {
-  const auto* s = glGetString(GL_VERSION);
-  return s ? reinterpret_cast<const char*>(s) : "";
-}
-
-bool GlContext::has_extension(const std::string& name) const {
-  GLint n = 0;
-  glGetIntegerv(GL_NUM_EXTENSIONS, &n);
-  for (GLint i = 0; i < n; ++i) {
-    const auto* e = reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, GLuint(i)));
-    if (e && name == e) return true;
-  }
-  return false;
-}
+// renderer(), version(), has_extension(): gl.cpp (the same in both builds).
 
 }  // namespace arlight::render

@@ -134,6 +134,7 @@ struct Renderer::Impl {
   // The same for a frame stored R, G, B in the output (composite_in_place), made when first used.
   Program composite_rgb[3], present_rgb;
   bool frame_rgb = false;  // what the last composite left in the output
+  Clock::time_point begin_composite(const ToneMapping& tone, bool wait);
   void tone_map_and_composite(const ToneMapping& tone, bool rgb);
   GLuint empty_vao = 0;
 
@@ -600,15 +601,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   if (!out.empty() && out.size() != std::size_t(p.w) * p.h * 3)
     throw std::invalid_argument("composite: the output must hold " + std::to_string(p.w) + "x" +
                                 std::to_string(p.h) + "x3 bytes");
-  if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
-    throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
-  glFinish();
-  p.timings.render_ms = ms_since(p.frame_start);
-  const auto t0 = Clock::now();
-  glDisable(GL_DEPTH_TEST);
-  glDisable(GL_BLEND);
-  glDisable(GL_CULL_FACE);
-  glBindVertexArray(p.empty_vao);
+  const auto t0 = p.begin_composite(tone, /*wait=*/true);
 
   // Shadows on the floor: the factors at low resolution on the GPU, multiplied into a copy of
   // the frame where they are below 1 (before the upload; the objects' pixels get darkened too,
@@ -665,21 +658,29 @@ unsigned Renderer::camera_texture() const { return p_->out_tex.id; }
 
 void Renderer::composite_in_place(const ToneMapping& tone) {
   Impl& p = *p_;
-  if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
-    throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
-  // No glFinish here: in a browser each is a round trip to the GPU process that stalls the
-  // page (the timings are then the time to issue the frame, not to draw it).
-  p.timings.render_ms = ms_since(p.frame_start);
-  const auto t0 = Clock::now();
-  glDisable(GL_DEPTH_TEST);
-  glDisable(GL_BLEND);
-  glDisable(GL_CULL_FACE);
-  glBindVertexArray(p.empty_vao);
+  // No glFinish: in a browser it is a round trip to the GPU process that stalls the page (the
+  // timings are then the time to issue the frame, not to draw it).
+  const auto t0 = p.begin_composite(tone, /*wait=*/false);
   p.timings.shadow_ms = 0;  // the shadow catcher needs the frame on the CPU: composite() only
   p.tone_map_and_composite(tone, true);
   p.timings.tonemap_ms = ms_since(t0);
   p.timings.readback_ms = 0;
   p.composited = true;
+}
+
+// Checks the tone mapping, ends the render timing (after the GPU finished, with `wait`) and sets
+// the state the fullscreen passes need; the start of the compositing's timing.
+Clock::time_point Renderer::Impl::begin_composite(const ToneMapping& tone, bool wait) {
+  if (!(tone.exposure > 0) || !(tone.gain > 0) || !(tone.key > 0) || !(tone.white > 0))
+    throw std::invalid_argument("composite: exposure, gain, key and white must be positive");
+  if (wait) glFinish();
+  timings.render_ms = ms_since(frame_start);
+  const auto t0 = Clock::now();
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  glBindVertexArray(empty_vao);
+  return t0;
 }
 
 // The tone-mapping pass: Reinhard's log-average (when asked) and the composite of the objects'
