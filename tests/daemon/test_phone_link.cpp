@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "arlight/daemon.hpp"
 #include "phone_link.hpp"
 #include "web_server.hpp"
 
@@ -170,4 +171,30 @@ TEST(WebServer, ServesOnlyPlainFilesUnderTheRoot) {
   EXPECT_STREQ(content_type("a/b.wasm"), "application/wasm");
   EXPECT_STREQ(content_type("x.js"), "text/javascript; charset=utf-8");
   EXPECT_STREQ(content_type("x.unknown"), "application/octet-stream");
+}
+
+TEST(WebConfig, TheConfigFileTurnsTheWebPortOnAndNamesBadValues) {
+  const fs::path dir = fresh_dir("webconfig");
+  std::ofstream(dir / "on.json") << R"({"web": "0.0.0.0:8443", "web_device": "phone",
+                                        "web_url_host": "ar.example", "web_root": "/srv/web"})";
+  DaemonConfig c;
+  load_config_file(dir / "on.json", c);
+  EXPECT_TRUE(c.web_enabled);
+  EXPECT_EQ(c.web_host, "0.0.0.0");
+  EXPECT_EQ(c.web_port, 8443);
+  EXPECT_EQ(c.web_device, "phone");
+  EXPECT_EQ(c.web_url_host, "ar.example");
+  EXPECT_EQ(c.web_root, "/srv/web");
+  // The example file leaves it off.
+  DaemonConfig example;
+  load_config_file(fs::path(ARLIGHT_SOURCE_DIR) / "deploy" / "arlightd.example.json", example);
+  EXPECT_FALSE(example.web_enabled);
+  std::ofstream(dir / "bad.json") << R"({"web": "8443"})";
+  try {
+    load_config_file(dir / "bad.json", c);
+    FAIL() << "a web address without a host was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("web"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("HOST:PORT"), std::string::npos) << e.what();
+  }
 }
