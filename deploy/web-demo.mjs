@@ -4,6 +4,7 @@
 // the way, a contact sheet of them and web.json (the page's own figures), then prints how to
 // connect a real phone.
 //   node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE
+import { randomBytes } from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
 
@@ -17,7 +18,7 @@ if (!bin || !out || !probe) {
 }
 fs.rmSync(out, { recursive: true, force: true });
 fs.mkdirSync(out, { recursive: true });
-const token = [...crypto.getRandomValues(new Uint8Array(16))].map((b) => b.toString(16).padStart(2, '0')).join('');
+const token = randomBytes(16).toString('hex');
 
 const room = simulateRoom({ bin, probe, dir: out, frames: 96, fps: 4, width: 640, height: 480, seed: 3 });
 const daemon = await startDaemon({ bin, dir: path.join(out, 'daemon'), webRoot: path.join(bin, 'web'), token });

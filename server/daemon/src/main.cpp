@@ -108,8 +108,10 @@ int main(int argc, char** argv) {
       std::printf(
           "%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()), isatty(fileno(stdout)) != 0)
                     .c_str());
-      std::printf("arlightd: the web port's certificate is %s (a phone accepts it once)\n",
-                  d.web_certificate().c_str());
+      if (c.tls_cert.empty())
+        std::printf("arlightd: the web port's certificate is %s, self-signed: a phone asks to "
+                    "accept it once\n",
+                    d.web_certificate().c_str());
     }
     std::printf("arlightd: listening on %s:%u, admin on %u, web on %u%s\n", c.listen_host.c_str(),
                 unsigned(d.port()), unsigned(d.admin_port()), unsigned(d.web_port()),
