@@ -1,6 +1,6 @@
 # The browser client's tests, run by Node's test runner: the orientation conversion (unit), the
-# browser harness against real headless Chromium, and a whole phone-shaped session against a real
-# arlightd. Included from tests/CMakeLists.txt; `make deps` installs node_modules (npm ci).
+# marker tracking step (opencv.js) against arlight-sim's truth, the browser harness against real
+# headless Chromium, and a whole phone-shaped session against a real arlightd. Included from tests/CMakeLists.txt; `make deps` installs node_modules (npm ci).
 find_program(NODE_EXECUTABLE NAMES node nodejs)
 if(NOT NODE_EXECUTABLE)
   message(FATAL_ERROR "arlight's browser tests need Node.js: install the Debian package 'nodejs' (or run `make deps`).")
@@ -10,6 +10,10 @@ add_test(NAME web.orientation
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/orientation.test.mjs)
 add_test(NAME web.harness
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/harness.test.mjs)
+add_test(NAME web.marker
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/marker.test.mjs)
+set_tests_properties(web.marker PROPERTIES TIMEOUT 300
+  ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin")
 add_test(NAME web.browser_session
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/browser_session.test.mjs)
 set_tests_properties(web.harness web.browser_session PROPERTIES

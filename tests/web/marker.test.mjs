@@ -1,0 +1,91 @@
+// The page's marker tracking step (client/web/src/marker.js, opencv.js) on frames arlight-sim
+// rendered of a phone orbiting an ArUco marker, against the simulator's true poses: the frames
+// are the Y4M the browser tests feed Chromium's camera (its luma), so this is what the page sees.
+// Needs ARLIGHT_BIN (ctest sets it).
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { execFileSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+import { createMarkerTracker } from '../../client/web/src/marker.js';
+import { quatConjugate, quatMultiply, quatRotateVector } from '../../client/web/src/orientation.js';
+
+const HERE = path.dirname(fileURLToPath(import.meta.url));
+const SOURCE = path.resolve(HERE, '..', '..');
+const BIN = process.env.ARLIGHT_BIN;
+
+// The module, once initialised. Wrapped: the emscripten Module is itself a thenable whose then()
+// hands back the Module, so resolving a promise with it never settles.
+function loadOpenCv() {
+  const require = createRequire(path.join(SOURCE, 'client', 'web', 'package.json'));
+  const cv = require('@techstark/opencv-js');
+  return new Promise((resolve) => {
+    if (cv.getBuildInformation) resolve({ cv });
+    else cv.onRuntimeInitialized = () => resolve({ cv });
+  });
+}
+
+// The luma planes of a YUV4MPEG2 file (limited range, expanded to 0-255).
+function readY4mLuma(file) {
+  const bytes = fs.readFileSync(file);
+  const headerEnd = bytes.indexOf(0x0a);
+  const header = bytes.subarray(0, headerEnd).toString();
+  const width = Number(/ W(\d+)/.exec(header)[1]);
+  const height = Number(/ H(\d+)/.exec(header)[1]);
+  const frameBytes = 6 + (width * height * 3) / 2;  // "FRAME\n", Y, U, V
+  const frames = [];
+  for (let at = headerEnd + 1; at + frameBytes <= bytes.length; at += frameBytes) {
+    const y = bytes.subarray(at + 6, at + 6 + width * height);
+    frames.push(Uint8Array.from(y, (v) => Math.max(0, Math.min(255, Math.round(((v - 16) * 255) / 219)))));
+  }
+  return { width, height, frames };
+}
+
+test('the marker pose from a simulated orbit is within 2 cm and 2 degrees of the truth', { timeout: 120000 }, async () => {
+  assert.ok(BIN, 'ARLIGHT_BIN must be set (ctest does)');
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-web-marker-'));
+  try {
+    execFileSync(path.join(BIN, 'arlight-sim'), [
+      '--env', path.join(SOURCE, 'data/probes/venice.exr'), '--out', path.join(dir, 'rec'),
+      '--frames', '16', '--trajectory', 'orbit', '--marker', '7,0.2', '--seed', '2',
+      '--y4m', path.join(dir, 'camera.y4m'),
+    ], { stdio: 'pipe' });
+    const truth = JSON.parse(fs.readFileSync(path.join(dir, 'rec', 'truth', 'truth.json')));
+    const k = JSON.parse(fs.readFileSync(path.join(dir, 'rec', 'recording.json'))).camera;
+    const video = readY4mLuma(path.join(dir, 'camera.y4m'));
+    const { cv } = await loadOpenCv();
+    const tracker = createMarkerTracker(cv, { id: 7, size: 0.2 });
+    const marker = truth.marker.pose;
+    const errorsCm = [];
+    const errorsDeg = [];
+    let visible = 0;
+    video.frames.forEach((gray, i) => {
+      if (!truth.marker_visible[i]) return;
+      ++visible;
+      const found = tracker.detect(gray, video.width, video.height, k);
+      if (!found) return;
+      // The truth: camera_from_marker = inverse(world_from_camera) * world_from_marker.
+      const cam = truth.poses[i];
+      const qCamInv = quatConjugate(cam.orientation);
+      const q = quatMultiply(qCamInv, marker.orientation);
+      const t = quatRotateVector(qCamInv, marker.position.map((v, a) => v - cam.position[a]));
+      errorsCm.push(100 * Math.hypot(...found.translation.map((v, a) => v - t[a])));
+      const dot = Math.abs(q.reduce((s, v, a) => s + v * found.rotation[a], 0));
+      errorsDeg.push((2 * Math.acos(Math.min(1, dot)) * 180) / Math.PI);
+    });
+    tracker.delete();
+    assert.ok(visible >= 8, `the marker was visible in only ${visible} frames`);
+    assert.equal(errorsCm.length, visible, `tracked ${errorsCm.length} of ${visible} visible frames`);
+    const max = (v) => Math.max(...v);
+    console.log(`marker: ${errorsCm.length} frames, position error max ${max(errorsCm).toFixed(2)} cm, ` +
+      `angle error max ${max(errorsDeg).toFixed(2)} deg`);
+    assert.ok(max(errorsCm) < 2, `position error up to ${max(errorsCm).toFixed(2)} cm`);
+    assert.ok(max(errorsDeg) < 2, `angle error up to ${max(errorsDeg).toFixed(2)} deg`);
+  } finally {
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+});
