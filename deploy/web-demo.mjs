@@ -11,11 +11,12 @@ import path from 'node:path';
 import { launchChromium } from '../tests/web/harness.mjs';
 import { simulateRoom, startDaemon, playRoom } from '../tests/web/phone_session.mjs';
 
-const [bin, out, probe] = process.argv.slice(2);
-if (!bin || !out || !probe) {
+if (process.argv.length < 5) {
   console.error('usage: node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE');
   process.exit(2);
 }
+// Absolute: Chromium reads the fake camera's file by absolute path.
+const [bin, out, probe] = process.argv.slice(2, 5).map((p) => path.resolve(p));
 fs.rmSync(out, { recursive: true, force: true });
 fs.mkdirSync(out, { recursive: true });
 const token = randomBytes(16).toString('hex');
