@@ -11,6 +11,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
+import { focalFromMarkerViews, homography } from '../../client/web/src/intrinsics.js';
 import { createMarkerTracker } from '../../client/web/src/marker.js';
 import { quatConjugate, quatMultiply, quatRotateVector } from '../../client/web/src/orientation.js';
 
@@ -62,12 +63,14 @@ test('the marker pose from a simulated orbit is within 2 cm and 2 degrees of the
     const marker = truth.marker.pose;
     const errorsCm = [];
     const errorsDeg = [];
+    const views = [];
     let visible = 0;
     video.frames.forEach((gray, i) => {
       if (!truth.marker_visible[i]) return;
       ++visible;
       const found = tracker.detect(gray, video.width, video.height, k);
       if (!found) return;
+      views.push(found.corners);
       // The truth: camera_from_marker = inverse(world_from_camera) * world_from_marker.
       const cam = truth.poses[i];
       const qCamInv = quatConjugate(cam.orientation);
@@ -85,7 +88,41 @@ test('the marker pose from a simulated orbit is within 2 cm and 2 degrees of the
       `angle error max ${max(errorsDeg).toFixed(2)} deg`);
     assert.ok(max(errorsCm) < 2, `position error up to ${max(errorsCm).toFixed(2)} cm`);
     assert.ok(max(errorsDeg) < 2, `angle error up to ${max(errorsDeg).toFixed(2)} deg`);
+
+    // The focal length from the same views (the page's intrinsics refinement), against the
+    // simulator's: within 2 %. A wrong guess of the page's default field of view does not
+    // enter: only the corners do.
+    const f = focalFromMarkerViews(views, (video.width - 1) / 2, (video.height - 1) / 2);
+    console.log(`focal length from ${views.length} views: ${f.toFixed(1)} px, truth ${k.fx.toFixed(1)} px ` +
+      `(${((f / k.fx - 1) * 100).toFixed(2)} %)`);
+    assert.ok(Math.abs(f / k.fx - 1) < 0.02, `focal ${f.toFixed(1)} px against ${k.fx.toFixed(1)}`);
   } finally {
     fs.rmSync(dir, { recursive: true, force: true });
   }
+});
+
+test('a homography and a focal length from exact projections', () => {
+  // A square at 1 m seen 35 degrees off its normal by a camera of f = 500 px.
+  const f = 500;
+  const tilt = (35 * Math.PI) / 180;
+  const project = ([x, y]) => {
+    const X = 0.1 * x;
+    const Y = 0.1 * y * Math.cos(tilt);
+    const Z = 1 + 0.1 * y * Math.sin(tilt);
+    return [(f * X) / Z, (f * Y) / Z];
+  };
+  const plane = [[-1, 1], [1, 1], [1, -1], [-1, -1]];
+  const image = plane.map(project);
+  const H = homography(plane, image);
+  for (const [i, p] of plane.entries()) {
+    const w = H[2][0] * p[0] + H[2][1] * p[1] + H[2][2];
+    assert.ok(Math.abs((H[0][0] * p[0] + H[0][1] * p[1] + H[0][2]) / w - image[i][0]) < 1e-9);
+    assert.ok(Math.abs((H[1][0] * p[0] + H[1][1] * p[1] + H[1][2]) / w - image[i][1]) < 1e-9);
+  }
+  const corners = image.flatMap(([u, v]) => [u + 320, v + 240]);
+  assert.ok(Math.abs(focalFromMarkerViews([corners], 320, 240) - f) < 1e-6);
+  // Square to the camera: nothing to tell.
+  const square = plane.flatMap(([x, y]) => [320 + 50 * x, 240 + 50 * y]);
+  assert.equal(focalFromMarkerViews([square], 320, 240), null);
+  assert.throws(() => homography([[0, 0], [0, 0], [0, 0], [0, 0]], image), /degenerate/);
 });
