@@ -598,7 +598,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
       frame.stride < std::ptrdiff_t(p.w) * 3)
     throw std::invalid_argument("composite: the camera frame must be 8-bit BGR of " +
                                 std::to_string(p.w) + "x" + std::to_string(p.h));
-  if (!out.empty() && out.size() != std::size_t(p.w) * p.h * 3)
+  if (out.size() != std::size_t(p.w) * p.h * 3)
     throw std::invalid_argument("composite: the output must hold " + std::to_string(p.w) + "x" +
                                 std::to_string(p.h) + "x3 bytes");
   const auto t0 = p.begin_composite(tone, /*wait=*/true);
@@ -635,10 +635,6 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   p.timings.tonemap_ms = ms_since(t0);
 
   p.composited = true;
-  if (out.empty()) {  // shown with present() (the page's canvas): nothing to read back
-    p.timings.readback_ms = 0;
-    return;
-  }
   // The texture holds B, G, R: dropping alpha gives OpenCV's BGR. (Reading GL_RGB directly,
   // where the implementation offers it, was slower on Mesa: it converts per pixel.)
   const auto t1 = Clock::now();

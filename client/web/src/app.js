@@ -43,7 +43,6 @@ const state = {
   refused: false,
   started: false,
   orientation: 'none',
-  firstFrameAt: 0,   // Date.now() of the first camera frame the page composited
   cameraOpenedAt: 0, // Date.now() when the camera opened (its first frame; tests pace sensors)
   sh: [],            // bands 0-2 of the live SH, RGB triples
   readyMs: 0,        // navigation start to the renderer ready (WASM loaded, shaders compiled)
@@ -82,10 +81,8 @@ window.arlight = {
       latency_p99_ms: pick(0.99),
       orientation: state.orientation,
       started: state.started,
-      first_frame_at: state.firstFrameAt,
       camera_opened_at: state.cameraOpenedAt,
       frame_media_time: state.frameMediaTime,
-      frames_presented: state.framesPresented,
       sh: state.sh,
     };
   },
@@ -379,9 +376,7 @@ async function start() {
     return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h };
   };
   grabber.onFrame((info) => {
-    if (!state.firstFrameAt) state.firstFrameAt = Date.now();
     state.frameMediaTime = info.mediaTime;
-    state.framesPresented = info.presentedFrames;
     const q = orientation();
     try {
       composite(q);

@@ -140,7 +140,7 @@ class WebClient {
       frames_processed_ = u->frames_processed;
       if (!maps_) renderer_.set_sh(u->sh);
       sh_ = u->sh;
-      light_direction_ = u->dominant_direction, light_colour_ = u->dominant_colour;
+      light_direction_ = u->dominant_direction;
     } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
       assembler_.add_tile(*t);
     } else if (auto* c = std::get_if<wire::MapSetComplete>(&m)) {
@@ -244,7 +244,7 @@ class WebClient {
                 frames_sent_ = 0, frames_rendered_ = 0;
   double coverage_ = 0;
   bool maps_ = false;
-  glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
+  glm::vec3 light_direction_{0.0f};
 };
 
 EMSCRIPTEN_BINDINGS(arlight_web) {

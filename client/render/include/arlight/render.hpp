@@ -185,8 +185,7 @@ class Renderer {
   // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
   // renderer's size) in one pass; pixels outside the mask keep the frame exactly (except the
   // shadow catcher's darkening, when shadows are on). `out` is reshaped to the frame's size
-  // (reallocated only when it grows); the span form writes width * height * 3 bytes, packed, or
-  // with an empty span reads nothing back (present() then shows it: the browser's canvas).
+  // (reallocated only when it grows); the span form writes width * height * 3 bytes, packed.
   void composite(const ImageU8View& frame_bgr, const ToneMapping& tone, ImageU8& out_bgr);
   void composite(const ImageU8View& frame_bgr, const ToneMapping& tone,
                  std::span<std::uint8_t> out_bgr);
