@@ -23,11 +23,18 @@ ExternalProject_Add(arlight_web_module
   BUILD_ALWAYS ON  # its own ninja decides what is out of date
   USES_TERMINAL_BUILD ON)
 
-# The page's own files, copied when they change.
+# The page's own files, copied when they change, and opencv.js for its tracking worker (npm
+# `@techstark/opencv-js`, pinned in client/web/package-lock.json; `make deps` runs npm ci).
+set(ARLIGHT_OPENCV_JS ${CMAKE_SOURCE_DIR}/client/web/node_modules/@techstark/opencv-js)
+if(NOT EXISTS ${ARLIGHT_OPENCV_JS}/dist/opencv.js)
+  message(FATAL_ERROR "the browser client needs opencv.js: run `make deps` (npm ci in client/web)")
+endif()
+configure_file(${ARLIGHT_OPENCV_JS}/LICENSE ${ARLIGHT_WEB_DIR}/opencv.js.LICENSE COPYONLY)
 file(GLOB ARLIGHT_WEB_PAGE CONFIGURE_DEPENDS
   ${CMAKE_SOURCE_DIR}/client/web/index.html
   ${CMAKE_SOURCE_DIR}/client/web/style.css
-  ${CMAKE_SOURCE_DIR}/client/web/src/*.js)
+  ${CMAKE_SOURCE_DIR}/client/web/src/*.js
+  ${ARLIGHT_OPENCV_JS}/dist/opencv.js)
 set(ARLIGHT_WEB_PAGE_STAMP ${CMAKE_BINARY_DIR}/web-page.stamp)
 add_custom_command(OUTPUT ${ARLIGHT_WEB_PAGE_STAMP}
   COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}

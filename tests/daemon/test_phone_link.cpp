@@ -171,6 +171,13 @@ TEST(WebServer, ServesOnlyPlainFilesUnderTheRoot) {
   EXPECT_STREQ(content_type("a/b.wasm"), "application/wasm");
   EXPECT_STREQ(content_type("x.js"), "text/javascript; charset=utf-8");
   EXPECT_STREQ(content_type("x.unknown"), "application/octet-stream");
+  // Only the tracking worker (opencv.js) may evaluate strings; the page may not.
+  const std::string page = content_security_policy(root / "index.html");
+  const std::string worker = content_security_policy(root / "marker_worker.js");
+  EXPECT_EQ(page.find("'unsafe-eval'"), std::string::npos);
+  EXPECT_EQ(std::string(content_security_policy(root / "app.js")), page);
+  EXPECT_NE(worker.find("'unsafe-eval'"), std::string::npos);
+  EXPECT_NE(worker.find("connect-src 'self'"), std::string::npos);
 }
 
 TEST(WebConfig, TheConfigFileTurnsTheWebPortOnAndNamesBadValues) {

@@ -190,6 +190,51 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
   EXPECT_FALSE(good.server_error().has_value());
 }
 
+TEST(Arlightd, RefinedIntrinsicsKeepTheMapAndAnotherSizeIsRefused) {
+  const fs::path dir = test::fresh_temp_dir("daemon_refine");
+  DaemonProcess d(dir / "daemon");
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  client::Client c;
+  c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  c.send_intrinsics(rec.camera);
+  const auto send_frame = [&](std::uint64_t seq) {
+    const std::size_t i = std::size_t(seq) % rec.frames.size();
+    c.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, i));
+    EXPECT_TRUE(c.wait_for(
+        [&] {
+          const auto u = c.last_update();
+          return u && u->frame_sequence >= seq;
+        },
+        20s))
+        << "no update for frame " << seq;
+    return *c.last_update();
+  };
+  for (std::uint64_t seq = 1; seq <= 3; ++seq) send_frame(seq);
+  const float coverage = c.last_update()->coverage;
+  ASSERT_GT(coverage, 0.0f);
+
+  // The same camera with a refined focal length: the map so far stays, frames carry on.
+  CameraIntrinsics refined = rec.camera;
+  refined.fx *= 1.04, refined.fy *= 1.04;
+  c.send_intrinsics(refined);
+  const wire::LightingUpdate u = send_frame(4);
+  EXPECT_TRUE(c.connected());
+  EXPECT_FALSE(c.server_error().has_value());
+  EXPECT_EQ(u.frames_processed, 4u);
+  EXPECT_GE(u.coverage, coverage);
+
+  // Another size needs a new session.
+  CameraIntrinsics other = rec.camera;
+  other.width /= 2, other.height /= 2;
+  c.send_intrinsics(other);
+  EXPECT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
+  ASSERT_TRUE(c.server_error().has_value());
+  EXPECT_EQ(c.server_error()->first, "BadMessage");
+  EXPECT_NE(c.server_error()->second.find("another size"), std::string::npos)
+      << c.server_error()->second;
+}
+
 TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
   const fs::path dir = test::fresh_temp_dir("daemon_resume");
   std::string session, before_png;

@@ -11,7 +11,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
-import { focalFromMarkerViews, homography } from '../../client/web/src/intrinsics.js';
+import { focalEstimate, focalFromMarkerViews, homography } from '../../client/web/src/intrinsics.js';
 import { createMarkerTracker } from '../../client/web/src/marker.js';
 import { quatConjugate, quatMultiply, quatRotateVector } from '../../client/web/src/orientation.js';
 
@@ -64,12 +64,14 @@ test('the marker pose from a simulated orbit is within 2 cm and 2 degrees of the
     const errorsCm = [];
     const errorsDeg = [];
     const views = [];
+    const reprojection = [];
     let visible = 0;
     video.frames.forEach((gray, i) => {
       if (!truth.marker_visible[i]) return;
       ++visible;
       const found = tracker.detect(gray, video.width, video.height, k);
-      if (!found) return;
+      if (!found || found.refused) return;
+      reprojection.push(found.reprojectionPx);
       views.push(found.corners);
       // The truth: camera_from_marker = inverse(world_from_camera) * world_from_marker.
       const cam = truth.poses[i];
@@ -85,16 +87,18 @@ test('the marker pose from a simulated orbit is within 2 cm and 2 degrees of the
     assert.equal(errorsCm.length, visible, `tracked ${errorsCm.length} of ${visible} visible frames`);
     const max = (v) => Math.max(...v);
     console.log(`marker: ${errorsCm.length} frames, position error max ${max(errorsCm).toFixed(2)} cm, ` +
-      `angle error max ${max(errorsDeg).toFixed(2)} deg`);
+      `angle error max ${max(errorsDeg).toFixed(2)} deg, reprojection max ${max(reprojection).toFixed(2)} px`);
     assert.ok(max(errorsCm) < 2, `position error up to ${max(errorsCm).toFixed(2)} cm`);
     assert.ok(max(errorsDeg) < 2, `angle error up to ${max(errorsDeg).toFixed(2)} deg`);
 
     // The focal length from the same views (the page's intrinsics refinement), against the
     // simulator's: within 2 %. A wrong guess of the page's default field of view does not
     // enter: only the corners do.
-    const f = focalFromMarkerViews(views, (video.width - 1) / 2, (video.height - 1) / 2);
+    const { focal: f, relativeError } = focalEstimate(views, (video.width - 1) / 2, (video.height - 1) / 2);
     console.log(`focal length from ${views.length} views: ${f.toFixed(1)} px, truth ${k.fx.toFixed(1)} px ` +
-      `(${((f / k.fx - 1) * 100).toFixed(2)} %)`);
+      `(${((f / k.fx - 1) * 100).toFixed(2)} %, standard error ${(relativeError * 100).toFixed(2)} %)`);
+    // The standard error is honest: the truth within three of it.
+    assert.ok(Math.abs(f / k.fx - 1) < 3 * relativeError, 'the focal length is further off than its error says');
     assert.ok(Math.abs(f / k.fx - 1) < 0.02, `focal ${f.toFixed(1)} px against ${k.fx.toFixed(1)}`);
   } finally {
     fs.rmSync(dir, { recursive: true, force: true });

@@ -11,21 +11,27 @@ import { sensorQuaternionFromCameraQuat } from '../../client/web/src/orientation
 
 /**
  * Renders the room: REC (recording + truth/) and camera.y4m in `dir`.
- * @returns {{rec: string, y4m: string, poses: Array<{orientation: number[]}>, exposure: number,
- *   fps: number, frames: number, width: number, height: number, vfovDeg: number}}
+ * `extraArgs` go to arlight-sim (e.g. an orbit around a marker).
+ * @returns {{rec: string, y4m: string, poses: Array<{orientation: number[]}>, truth: object,
+ *   camera: object, exposure: number, fps: number, frames: number, width: number,
+ *   height: number, vfovDeg: number}}
  */
-export function simulateRoom({ bin, probe, dir, frames = 96, fps = 4, width = 320, height = 240, seed = 11 }) {
+export function simulateRoom({
+  bin, probe, dir, frames = 96, fps = 4, width = 320, height = 240, seed = 11, extraArgs = [],
+}) {
   const rec = path.join(dir, 'rec');
   const y4m = path.join(dir, 'camera.y4m');
   execFileSync(path.join(bin, 'arlight-sim'), [
     '--env', probe, '--out', rec, '--frames', String(frames), '--fps', String(fps),
     '--size', `${width}x${height}`, '--gyro-drift', '0', '--seed', String(seed), '--y4m', y4m,
+    ...extraArgs,
   ], { stdio: 'pipe' });
-  const poses = JSON.parse(fs.readFileSync(path.join(rec, 'truth', 'truth.json'))).poses;
+  const truth = JSON.parse(fs.readFileSync(path.join(rec, 'truth', 'truth.json')));
+  const { poses } = truth;
   const recording = JSON.parse(fs.readFileSync(path.join(rec, 'recording.json')));
   const k = recording.camera;
   return {
-    rec, y4m, poses, fps, frames, width, height,
+    rec, y4m, poses, truth, camera: k, fps, frames, width, height,
     exposure: recording.frames[0].exposure * recording.frames[0].gain,
     vfovDeg: (2 * Math.atan((0.5 * k.height) / k.fy) * 180) / Math.PI,
   };
@@ -82,12 +88,15 @@ export function sensorReadingFor(pose) {
  * well before that frame is due. Pacing from the time the camera opened instead raced that
  * latency: one run in three put every frame's orientation one frame off. Before the page shows
  * its first frame, the pose follows the time since the camera opened. `onTick(status)` runs
- * between polls (every ~20 ms).
+ * between polls (every ~20 ms). `fragment` is added to the page's URL fragment; `fov` is the
+ * page's starting field of view (default the simulator's).
  */
-export async function playRoom(page, url, room, { onTick = async () => {}, timeoutMs = 150000 } = {}) {
+export async function playRoom(page, url, room, {
+  onTick = async () => {}, timeoutMs = 150000, fragment = '', fov = room.vfovDeg,
+} = {}) {
   await enableOrientationOverride(page);
   await overrideOrientation(page, sensorReadingFor(room.poses[0]));
-  await page.goto(`${url}&autostart=1&fov=${room.vfovDeg}`);
+  await page.goto(`${url}&autostart=1&fov=${fov}${fragment}`);
   let last = 0;
   const deadline = Date.now() + timeoutMs;
   while (Date.now() < deadline) {

@@ -1,6 +1,8 @@
 # The browser client's tests, run by Node's test runner: the orientation conversion (unit), the
 # marker tracking step (opencv.js) against arlight-sim's truth, the browser harness against real
-# headless Chromium, and a whole phone-shaped session against a real arlightd. Included from tests/CMakeLists.txt; `make deps` installs node_modules (npm ci).
+# headless Chromium, a whole phone-shaped session against a real arlightd, and the page's marker
+# tracking and focal-length refinement in Chromium. Included from tests/CMakeLists.txt; `make
+# deps` installs node_modules (npm ci).
 find_program(NODE_EXECUTABLE NAMES node nodejs)
 if(NOT NODE_EXECUTABLE)
   message(FATAL_ERROR "arlight's browser tests need Node.js: install the Debian package 'nodejs' (or run `make deps`).")
@@ -16,7 +18,9 @@ set_tests_properties(web.marker PROPERTIES TIMEOUT 300
   ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin")
 add_test(NAME web.browser_session
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/browser_session.test.mjs)
-set_tests_properties(web.harness web.browser_session PROPERTIES
+add_test(NAME web.marker_session
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/marker_session.test.mjs)
+set_tests_properties(web.harness web.browser_session web.marker_session PROPERTIES
   TIMEOUT 400
   # Chromium and SwiftShader want both cores, and the session's sensor pacing wants the page
   # not starved: these run alone (1 of 3 full `ctest -j2` runs failed the session test when it

@@ -3,7 +3,8 @@
 #include <cmath>
 #include <vector>
 
-#include "arlight/track/orientation.hpp"
+#include "arlight/pose.hpp"
+#include "arlight/track/world_from_marker.hpp"
 
 namespace arlight::track {
 

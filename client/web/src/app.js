@@ -2,10 +2,12 @@
 // arlightd — around the project's C++ compiled to WebAssembly (arlight_web.js: the protocol
 // codec, the map-set assembly and the renderer). Frames go to arlightd as JPEG with the camera's
 // orientation; lighting comes back (live SH, then a map set) and the renderer composites the
-// object over the camera view in the canvas.
+// object over the camera view in the canvas. A worker finds the marker (marker_worker.js,
+// opencv.js); the C++ pose filter places the object on it, and its views refine the focal length.
 //
 // The URL's fragment (never sent to the server in an HTTP request) carries the session:
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
+//   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&upload=video|canvas|imagedata]  (how the camera frame reaches WebGL; for measurements)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
@@ -15,6 +17,7 @@ import {
   cameraQuatFromSensorQuaternion,
   quatRotateVector,
 } from './orientation.js';
+import { focalEstimate } from './intrinsics.js';
 
 const params = new URLSearchParams(location.hash.slice(1));
 const $ = (id) => document.getElementById(id);
@@ -31,7 +34,17 @@ const state = {
   updates: 0,
   framesProcessed: 0,
   mapSets: 0,
-  trackedFrames: 0,  // marker tracking is not in the page yet: the object stands ahead of the view
+  trackedFrames: 0,
+  trackStatus: 'starting',  // 'tracked', or why not ('no marker in view', a refusal, ...)
+  trackMs: 0,        // the worker's time for the last frame
+  tracks: [],        // the recent tracking results (window.arlight.tracks())
+  intrinsics: 'default',  // or 'refined' (from the marker's views)
+  refinedMediaTime: null,  // the frame shown when the focal length was last refined
+  focalPx: 0,
+  focalError: null,  // the marker views' relative standard error of the focal length
+  tracker: 'loading',  // opencv.js in the worker: 'loading', 'ready' or 'failed'
+  trackerReadyMediaTime: null,  // the frame shown when it became ready
+  tracking: 'preview',  // the object floats ahead of the view; 'marker' once it stands on it
   fps: 0,
   lastError: '',
   lighting: 'none',
@@ -58,6 +71,12 @@ window.arlight = {
   probe() {
     return probeComposite();
   },
+  // The recent marker poses: {media_time (the frame's, as the camera stamped it), raw, smoothed
+  // (the camera's pose in the marker frame: position in metres, orientation [w, x, y, z]),
+  // reprojection_px}.
+  tracks() {
+    return state.tracks.slice();
+  },
   status() {
     const sorted = [...state.latencies].sort((a, b) => a - b);
     const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
@@ -69,6 +88,15 @@ window.arlight = {
       frames_processed: state.framesProcessed,
       map_sets: state.mapSets,
       tracked_frames: state.trackedFrames,
+      track_status: state.trackStatus,
+      track_ms: state.trackMs,
+      intrinsics: state.intrinsics,
+      intrinsics_refined_media_time: state.refinedMediaTime,
+      focal_px: state.focalPx,
+      focal_error: state.focalError,
+      tracker: state.tracker,
+      tracker_ready_media_time: state.trackerReadyMediaTime,
+      tracking: state.tracking,
       fps: state.fps,
       last_error: state.lastError,
       lighting: state.lighting,
@@ -167,6 +195,57 @@ class CoverageView {
   }
 }
 
+// Marker tracking in its worker (marker_worker.js): one frame at a time, the newest offered wins.
+// Started first thing on Start: opencv.js takes seconds to load, while the camera opens.
+class MarkerTracking {
+  constructor(marker, onError) {
+    this.ready = false;
+    this.busy = false;
+    this.next = 0;
+    this.frames = new Map();  // what the page knew of each frame in the worker
+    this.onReady = () => {};
+    this.onResult = () => {};  // (found, frame, ms): marker.js's detect() result
+    this.worker = new Worker('marker_worker.js');
+    this.worker.onmessage = ({ data }) => {
+      if (data.type === 'ready') {
+        this.ready = true;
+        this.onReady();
+        return;
+      }
+      const frame = this.frames.get(data.id);
+      this.frames.delete(data.id);
+      this.busy = false;
+      if (data.type === 'result' && frame) this.onResult(data.found, frame, data.ms);
+      else if (data.type === 'error') onError(data.message, this.ready);
+    };
+    this.worker.onerror = (e) => onError(e.message || 'the tracking worker failed', this.ready);
+    this.worker.postMessage({ type: 'marker', ...marker });
+  }
+  // The frame the page shows now, with what it knows of it ({t, q, mediaTime}); skipped while
+  // the worker is busy or still loading opencv.js.
+  async offer(video, k, frame) {
+    if (!this.ready || this.busy) return;
+    this.busy = true;
+    const id = ++this.next;
+    this.frames.set(id, frame);
+    try {
+      const bitmap = await createImageBitmap(video);
+      this.worker.postMessage({ type: 'frame', id, bitmap, k }, [bitmap]);
+    } catch {
+      this.frames.delete(id);
+      this.busy = false;
+    }
+  }
+}
+
+// "ID,SIZE_M" (the native client's --marker) -> {id, size, dictionary}.
+function parseMarker(text) {
+  const [id, size] = text.split(',').map(Number);
+  if (!Number.isInteger(id) || id < 0 || id >= 50 || !(size > 0.005 && size < 10))
+    throw new RangeError(`marker "${text}": ID,SIZE_M with ID in 0-49 and SIZE_M in metres`);
+  return { id, size, dictionary: 'DICT_4X4_50' };
+}
+
 // JPEG encoding in a worker (jpeg_worker.js says why).
 class JpegEncoder {
   constructor() {
@@ -209,7 +288,18 @@ async function start() {
       showError(`motion sensors: ${e.name || e}`);
     }
   }
-  // The module first: the camera's frames start as soon as it opens.
+  let marker;
+  try {
+    marker = parseMarker(params.get('marker') || '0,0.2');
+  } catch (e) {
+    showError(String(e.message || e));
+    return;
+  }
+  const tracking = new MarkerTracking(marker, (message, ready) => {
+    if (!ready) state.tracker = 'failed';
+    showError(`tracking: ${message}`);
+  });
+  // The module next: the camera's frames start as soon as it opens.
   const module = await createArlight();
   const [width, height] = (params.get('size') || '640x480').split('x').map(Number);
   let camera;
@@ -230,6 +320,8 @@ async function start() {
   const fov = Number(params.get('fov') || localStorage.getItem('arlight.fov') || 63);
   $('fov').value = String(fov);
   client.setFov(fov);
+  state.focalPx = client.camera().fx;
+  client.setMarkerSize(marker.size);
   client.setMaterial(params.get('material') || $('material').value);
   const coverage = new CoverageView($('coverage'), fov, w / h);
   const orientation = startOrientation();
@@ -237,11 +329,16 @@ async function start() {
   camera.lockExposure().catch(() => {});
 
   $('material').addEventListener('change', (e) => client.setMaterial(e.target.value));
+  const sendIntrinsics = () => {
+    if (ws && ws.readyState === WebSocket.OPEN) ws.send(client.intrinsics());
+  };
   $('fov').addEventListener('change', (e) => {
     try {
       client.setFov(Number(e.target.value));
+      state.focalPx = client.camera().fx;
       coverage.setFov(Number(e.target.value), w / h);
       localStorage.setItem('arlight.fov', e.target.value);
+      sendIntrinsics();
     } catch (err) {
       showError(String(err.message || err));
     }
@@ -295,6 +392,58 @@ async function start() {
   };
   connect();
 
+  // ---- the marker: its pose into the C++ filter, its views into the focal length ----
+  const views = [];    // the newest 64 views' corners
+  let viewsSeen = 0;
+  let refineAt = 8;    // views seen; doubling, then every 64
+  const refineFocal = (corners) => {
+    views.push(corners);
+    if (views.length > 64) views.shift();
+    if (++viewsSeen < refineAt) return;
+    refineAt = Math.min(2 * refineAt, refineAt + 64);
+    const k = client.camera();
+    const estimate = focalEstimate(views, k.cx, k.cy);
+    if (!estimate) return;
+    // Only a well-determined focal length (1 % standard error), and only a change it is sure of:
+    // views of a marker seen nearly square-on say little, and a worse focal length moves the
+    // object by as many per cent of its distance.
+    const { focal: f, relativeError } = estimate;
+    state.focalError = relativeError;
+    if (!(relativeError < 0.01) || !(f > 0.5 * k.fx && f < 2 * k.fx) ||
+        Math.abs(f / k.fx - 1) < Math.max(0.005, 2 * relativeError)) return;
+    client.setFocal(f);
+    state.focalPx = f;
+    sendIntrinsics();
+    const fovY = (2 * Math.atan(h / 2 / f) * 180) / Math.PI;
+    $('fov').value = fovY.toFixed(1);
+    localStorage.setItem('arlight.fov', fovY.toFixed(1));
+    coverage.setFov(fovY, w / h);
+    state.intrinsics = 'refined';
+    state.refinedMediaTime = state.frameMediaTime;
+  };
+  tracking.onReady = () => {
+    state.tracker = 'ready';
+    state.trackerReadyMediaTime = state.frameMediaTime;
+  };
+  if (tracking.ready) tracking.onReady();
+  tracking.onResult = (found, frame, ms) => {
+    state.trackMs = ms;
+    if (!found || found.refused) {
+      state.trackStatus = found ? `marker ${marker.id} refused: ${found.refused}` : `marker ${marker.id} not in view`;
+      // A refused pose's corners still tell the focal length (a wrong one is often why).
+      if (found) refineFocal(found.corners);
+      return;
+    }
+    const pose = client.markerSeen(frame.t, ...found.rvec, ...found.tvec, ...frame.q);
+    ++state.trackedFrames;
+    state.trackStatus = 'tracked';
+    state.tracking = 'marker';
+    state.tracks.push({ media_time: frame.mediaTime, raw: pose.raw, smoothed: pose.smoothed,
+      reprojection_px: found.reprojectionPx });
+    if (state.tracks.length > 1000) state.tracks.shift();
+    refineFocal(found.corners);
+  };
+
   // ---- every camera frame (newest wins): composite it, and send it unless one is on its way ----
   let frames = 0;
   let since = performance.now();
@@ -322,6 +471,7 @@ async function start() {
     $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
     $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
     $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen`;
+    $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
     const p = window.arlight.status();
     $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
   };
@@ -357,11 +507,12 @@ async function start() {
   readBack.width = w;
   readBack.height = h;
   const readCtx = readBack.getContext('2d', { willReadFrequently: true });
-  // The video's current frame drawn for reference, composited from that same drawing, and the
-  // canvas read back.
+  // The video's current frame drawn for reference, composited from that same drawing with the
+  // orientation the frame came with, and the canvas read back.
+  let shown = { q: [1, 0, 0, 0], mediaTime: undefined };
   probeComposite = () => {
     const frame = grabber.rgba();
-    composite(orientation(), 'drawn');
+    composite(shown.q, 'drawn');
     const centre = client.objectPixel();
     if (!centre) return null;
     readCtx.drawImage(canvas, 0, 0);
@@ -373,11 +524,15 @@ async function start() {
       return { x: xi, y: yi, composite: [c[0], c[1], c[2]], frame: [f[0], f[1], f[2]] };
     };
     const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
-    return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h };
+    const last = state.tracks[state.tracks.length - 1];
+    return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h,
+      media_time: shown.mediaTime, tracked_media_time: last ? last.media_time : null };
   };
   grabber.onFrame((info) => {
     state.frameMediaTime = info.mediaTime;
     const q = orientation();
+    shown = { q, mediaTime: info.mediaTime };
+    tracking.offer(camera.video, client.camera(), { t: performance.now() / 1000, q, mediaTime: info.mediaTime });
     try {
       composite(q);
       ++frames;

@@ -48,18 +48,19 @@ function solve(a, b) {
 }
 
 /**
- * The focal length (pixels) that best explains the views.
+ * The focal length (pixels) that best explains the views, and how well the views determine it.
  * @param {Array<number[]>} views each the marker's 4 corners in pixels, [u0, v0, ..., u3, v3], in
  *   cv::aruco's order (top-left, top-right, bottom-right, bottom-left of the marker image)
  * @param {number} cx principal point (pixels), the image centre
  * @param {number} cy
- * @returns {number|null} f, or null when the views are too square-on to tell
+ * @returns {{focal: number, relativeError: number}|null} f and its relative standard error (from
+ *   the least-squares residuals; Infinity with a single equation), or null when the views are too
+ *   square-on to tell
  */
-export function focalFromMarkerViews(views, cx, cy) {
+export function focalEstimate(views, cx, cy) {
   // The marker's corners in its plane (any scale: the homography absorbs it).
   const plane = [[-1, 1], [1, 1], [1, -1], [-1, -1]];
-  let saa = 0;
-  let sab = 0;
+  const rows = [];
   for (const c of views) {
     const image = [0, 1, 2, 3].map((i) => [c[2 * i] - cx, c[2 * i + 1] - cy]);
     const H = homography(plane, image);
@@ -67,15 +68,25 @@ export function focalFromMarkerViews(views, cx, cy) {
     const h2 = [H[0][1], H[1][1], H[2][1]];
     // Unweighted: a view square to the camera has both equations near 0 and so adds little
     // (scaling each to unit length would give its noise a full vote).
-    for (const [a, b] of [
-      [h1[0] * h2[0] + h1[1] * h2[1], h1[2] * h2[2]],
-      [h1[0] ** 2 + h1[1] ** 2 - h2[0] ** 2 - h2[1] ** 2, h1[2] ** 2 - h2[2] ** 2],
-    ]) {
-      saa += a * a;
-      sab += a * b;
-    }
+    rows.push([h1[0] * h2[0] + h1[1] * h2[1], h1[2] * h2[2]]);
+    rows.push([h1[0] ** 2 + h1[1] ** 2 - h2[0] ** 2 - h2[1] ** 2, h1[2] ** 2 - h2[2] ** 2]);
+  }
+  let saa = 0;
+  let sab = 0;
+  for (const [a, b] of rows) {
+    saa += a * a;
+    sab += a * b;
   }
   if (!(saa > 0)) return null;
   const w = -sab / saa;
-  return w > 0 ? 1 / Math.sqrt(w) : null;
+  if (!(w > 0)) return null;
+  // var(w) = s^2 / sum(a^2) with s^2 the residuals' variance; f = w^-1/2, so df/f = dw/(2w).
+  const s2 = rows.length > 1 ? rows.reduce((s, [a, b]) => s + (a * w + b) ** 2, 0) / (rows.length - 1) : Infinity;
+  return { focal: 1 / Math.sqrt(w), relativeError: Math.sqrt(s2 / saa) / (2 * w) };
+}
+
+/** focalEstimate's focal length alone (null when the views cannot tell). */
+export function focalFromMarkerViews(views, cx, cy) {
+  const e = focalEstimate(views, cx, cy);
+  return e ? e.focal : null;
 }

@@ -4,6 +4,9 @@
 // the WebSocket) and moves bytes: messages to send come out of here encoded, messages received
 // go in here to be decoded and turned into lighting, and the camera frame is composited with the
 // object into the page's canvas by the same renderer and shaders as the native client.
+// Tracking: the page's worker finds the marker with opencv.js (marker_worker.js) and hands its
+// solvePnP result here, where the native client's pose filter and WorldFromMarker
+// (arlight_track_core) turn it into the object's place.
 #include <emscripten/bind.h>
 #include <emscripten/val.h>
 
@@ -17,6 +20,9 @@
 #include "arlight/map_assembly.hpp"
 #include "arlight/pose.hpp"
 #include "arlight/render.hpp"
+#include "arlight/track/pose_filter.hpp"
+#include "arlight/track/pose_math.hpp"
+#include "arlight/track/world_from_marker.hpp"
 #include "arlight/wire.hpp"
 
 namespace arlight::web {
@@ -29,11 +35,13 @@ namespace {
 // offers, small enough for a phone (lat-long 2N x N).
 const std::vector<float> kShininess = {1, 10, 40, 160, 640};
 constexpr int kMapSize = 128;
-// Until the marker is found (tracking comes next) the object floats this far ahead of the camera
-// and this far below the view's centre (metres), upright in the world: it follows the view, so
-// the room's light on it shows from the first frame wherever the phone points.
-constexpr double kPreviewDistance = 0.6, kPreviewDrop = 0.08;
-constexpr float kObjectHeight = 0.15f;  // metres
+// Until the marker is found the object floats this many of its heights ahead of the camera and
+// half a height below the view's centre, upright in the world: it follows the view, so the
+// room's light on it shows from the first frame wherever the phone points.
+constexpr double kPreviewDistance = 4.0, kPreviewDrop = 0.5;
+// The object stands this many marker sides tall, as in the native client (client_app.hpp).
+constexpr double kObjectHeightPerMarker = 1.5;
+constexpr double kDefaultMarkerSize = 0.2;  // metres: the native client's default marker
 // The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
 // virtual object goes through the same exposure, so it matches the map's scale.
 constexpr double kLockedExposure = 1.0 / 60.0;
@@ -41,6 +49,17 @@ constexpr double kLockedExposure = 1.0 / 60.0;
 val bytes_to_js(const std::vector<std::uint8_t>& bytes) {
   // A copy: the view into the module's memory would change under the next call.
   return val::global("Uint8Array").new_(emscripten::typed_memory_view(bytes.size(), bytes.data()));
+}
+
+val pose_to_js(const Pose& p) {
+  val position = val::array(), orientation = val::array();
+  for (int i = 0; i < 3; ++i) position.call<void>("push", p.position[i]);
+  for (const double v : {p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z})
+    orientation.call<void>("push", v);
+  val out = val::object();
+  out.set("position", position);
+  out.set("orientation", orientation);
+  return out;
 }
 
 glm::dmat4 matrix_of(const Pose& p) {
@@ -70,13 +89,14 @@ class WebClient {
   WebClient(const std::string& canvas, int width, int height)
       : context_(render::GlContext::canvas(canvas)),
         renderer_(width, height, "/shaders"),
+        mesh_bounds_(render::make_sphere(0.5f, 48, 96).bounds),
         mesh_(render::make_sphere(0.5f, 48, 96)),
         material_(material_named("plastic")),
-        model_(render::standing_on_marker(mesh_.bounds(), kObjectHeight)),
         width_(width),
         height_(height) {
     camera_.width = width, camera_.height = height;
     set_fov(63.0);
+    set_marker_size(kDefaultMarkerSize);
   }
 
   // ---- messages to send ----
@@ -94,9 +114,28 @@ class WebClient {
     if (!(fov_y_deg > 10.0 && fov_y_deg < 150.0))
       throw std::invalid_argument("field of view " + std::to_string(fov_y_deg) +
                                   " is not in (10, 150) degrees");
-    const double f = 0.5 * height_ / std::tan(0.5 * fov_y_deg * M_PI / 180.0);
+    set_focal(0.5 * height_ / std::tan(0.5 * fov_y_deg * M_PI / 180.0));
+  }
+  // A focal length in pixels (square pixels, principal point at the centre): the page's
+  // refinement from the marker's views (intrinsics.js). The page then sends intrinsics() again.
+  void set_focal(double f) {
+    if (!(f > 0.05 * height_ && f < 20.0 * height_))
+      throw std::invalid_argument("focal length " + std::to_string(f) + " px is out of range");
     camera_.fx = camera_.fy = f;
     camera_.cx = 0.5 * width_ - 0.5, camera_.cy = 0.5 * height_ - 0.5;
+  }
+  val camera() const {
+    val k = val::object();
+    k.set("fx", camera_.fx), k.set("fy", camera_.fy), k.set("cx", camera_.cx);
+    k.set("cy", camera_.cy), k.set("width", width_), k.set("height", height_);
+    return k;
+  }
+  // The marker's side (metres): the object stands 1.5 of them tall on it.
+  void set_marker_size(double size_m) {
+    if (!(size_m > 0.005 && size_m < 10.0))
+      throw std::invalid_argument("marker size " + std::to_string(size_m) + " m is out of range");
+    object_height_ = kObjectHeightPerMarker * size_m;
+    model_ = render::standing_on_marker(mesh_bounds_, float(object_height_));
   }
   val intrinsics() { return bytes_to_js(wire::encode(wire::CameraIntrinsicsMessage{camera_})); }
   val frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
@@ -141,6 +180,7 @@ class WebClient {
       if (!maps_) renderer_.set_sh(u->sh);
       sh_ = u->sh;
       light_direction_ = u->dominant_direction;
+      light_colour_ = u->dominant_colour;
     } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
       assembler_.add_tile(*t);
     } else if (auto* c = std::get_if<wire::MapSetComplete>(&m)) {
@@ -151,6 +191,29 @@ class WebClient {
       }
     }
     return wire::message_name(m);
+  }
+
+  // ---- tracking ----
+  // The marker seen in the frame taken at `timestamp` (seconds, the page's clock): solvePnP's
+  // rvec/tvec (marker -> OpenCV camera) and the camera's orientation (camera -> world) when the
+  // frame was taken. Returns the camera's pose in the marker frame as measured and as smoothed:
+  // {raw: {position, orientation}, smoothed: {...}} (orientation [w, x, y, z]).
+  val marker_seen(double timestamp, double rx, double ry, double rz, double tx, double ty,
+                  double tz, double qw, double qx, double qy, double qz) {
+    const glm::dvec3 rvec(rx, ry, rz), tvec(tx, ty, tz);
+    if (!std::isfinite(timestamp) || !std::isfinite(glm::length(rvec)) ||
+        !std::isfinite(glm::length(tvec)) || !(tz > 0))
+      throw std::invalid_argument("marker pose: not finite, or the marker behind the camera");
+    const Pose raw = track::pose_from_opencv(rvec, tvec);
+    const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
+    const Pose smoothed = filter_.update(raw, timestamp);
+    world_from_marker_.add(timestamp, world_from_camera, raw.orientation);
+    track_ = Track{smoothed, world_from_camera};
+    ++tracked_frames_;
+    val out = val::object();
+    out.set("raw", pose_to_js(raw));
+    out.set("smoothed", pose_to_js(smoothed));
+    return out;
   }
 
   // ---- the camera frame and the composite ----
@@ -164,18 +227,38 @@ class WebClient {
   double render(double qw, double qx, double qy, double qz) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
-    // The object's frame has +Z up (world +Y), +X world +X, +Y world -Z: right-handed, as a
-    // marker's frame would be; its origin ahead of the camera.
-    const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
-    anchor_ = Pose{glm::quat_cast(axes),
-                   world_from_camera * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance)};
-    const Pose camera_from_scene =
-        compose(inverse(Pose{world_from_camera, glm::dvec3(0.0)}), *anchor_);
+    Pose camera_in_scene;
+    glm::dquat world_from_scene;
+    if (track_) {
+      // On the marker: the newest tracked pose, turned by the rotation the orientation sensor
+      // measured since its frame (the worker's result trails the shown frame; a rotation about
+      // the camera's centre moves no position). After the marker is lost the object stays there
+      // the same way, until it is seen again.
+      const glm::dquat since = glm::conjugate(track_->world_from_camera) * world_from_camera;
+      camera_in_scene = {glm::normalize(track_->camera_in_marker.orientation * since),
+                         track_->camera_in_marker.position};
+      world_from_scene = world_from_marker_.world_from_marker().value_or(
+          track_->world_from_camera * glm::conjugate(track_->camera_in_marker.orientation));
+    } else {
+      // The preview: the object's frame has +Z up (world +Y), +X world +X, +Y world -Z
+      // (right-handed, as a marker's frame), its origin ahead of the camera.
+      const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
+      world_from_scene = glm::quat_cast(axes);
+      const glm::dvec3 origin =
+          world_from_camera * (object_height_ * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance));
+      camera_in_scene = compose(inverse(Pose{world_from_scene, origin}),
+                                Pose{world_from_camera, glm::dvec3(0.0)});
+    }
     renderer_.begin_frame();
     if (renderer_.lighting_source() != render::LightingSource::None) {
-      last_camera_from_scene_ = matrix_of(camera_from_scene);
+      last_camera_from_scene_ = matrix_of(inverse(camera_in_scene));
       renderer_.set_camera(camera_, *last_camera_from_scene_);
-      renderer_.set_world_from_scene(anchor_->orientation);
+      renderer_.set_world_from_scene(world_from_scene);
+      render::ShadowSettings shadow;  // on the real floor: only where a marker says it is
+      shadow.enabled = track_.has_value();
+      shadow.light_direction = light_direction_;
+      shadow.light_colour = light_colour_;
+      renderer_.set_shadow(shadow);
       renderer_.draw(mesh_, material_, model_);
     }
     renderer_.composite_in_place({render::ToneMode::CameraMatched, kLockedExposure, 1.0});
@@ -189,8 +272,8 @@ class WebClient {
   // Where the object's centre is in the last composite (pixels, row 0 at the top), or null when
   // it is behind the camera or nothing was drawn yet.
   val object_pixel() const {
-    if (!anchor_ || !last_camera_from_scene_) return val::null();
-    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(0, 0, 0.5 * kObjectHeight, 1);
+    if (!last_camera_from_scene_) return val::null();
+    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(0, 0, 0.5 * object_height_, 1);
     if (c.z >= -1e-3) return val::null();  // looking down -z
     val p = val::array();
     p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
@@ -223,18 +306,32 @@ class WebClient {
     val light = val::array();
     for (int i = 0; i < 3; ++i) light.call<void>("push", light_direction_[i]);
     s.set("light_direction", light);
+    s.set("tracked_frames", double(tracked_frames_));
+    s.set("tracking", std::string(track_ ? "marker" : "preview"));
+    s.set("focal_px", camera_.fx);
     return s;
   }
 
  private:
   render::GlContext context_;
   render::Renderer renderer_;
+  render::Bounds mesh_bounds_;
   render::GpuMesh mesh_;
   render::Material material_;
-  glm::mat4 model_;
+  glm::mat4 model_{1.0f};
+  double object_height_ = 0;
   int width_, height_;
   CameraIntrinsics camera_;
-  std::optional<Pose> anchor_;
+  // The newest tracked pose (smoothed, camera -> marker) and the orientation its frame had.
+  struct Track {
+    Pose camera_in_marker;
+    glm::dquat world_from_camera;
+  };
+  std::optional<Track> track_;
+  track::PoseFilter filter_;
+  // One sample is enough to light the object; the window then averages the tracker's noise.
+  track::WorldFromMarker world_from_marker_{track::WorldFromMarkerOptions{.min_samples = 1}};
+  std::uint64_t tracked_frames_ = 0;
   std::optional<glm::dmat4> last_camera_from_scene_;
   std::optional<ShCoeffs> sh_;
   client::MapSetAssembler assembler_;
@@ -244,7 +341,7 @@ class WebClient {
                 frames_sent_ = 0, frames_rendered_ = 0;
   double coverage_ = 0;
   bool maps_ = false;
-  glm::vec3 light_direction_{0.0f};
+  glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
 };
 
 EMSCRIPTEN_BINDINGS(arlight_web) {
@@ -252,6 +349,10 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .constructor<std::string, int, int>()
       .function("hello", &WebClient::hello)
       .function("setFov", &WebClient::set_fov)
+      .function("setFocal", &WebClient::set_focal)
+      .function("camera", &WebClient::camera)
+      .function("setMarkerSize", &WebClient::set_marker_size)
+      .function("markerSeen", &WebClient::marker_seen)
       .function("intrinsics", &WebClient::intrinsics)
       .function("frame", &WebClient::frame)
       .function("requestMaps", &WebClient::request_maps)

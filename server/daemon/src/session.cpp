@@ -50,11 +50,29 @@ Session::~Session() { shutdown(); }
 
 std::string Session::set_camera(const CameraIntrinsics& camera) {
   const CameraResponse response = device_response(env_, device_id_);
+  std::lock_guard serial(process_mutex_);  // no frame is being added while the camera changes
   std::lock_guard lock(mutex_);
   if (camera_) {
-    if (!same_camera(*camera_, camera))
+    if (same_camera(*camera_, camera)) return {};
+    if (camera.width != camera_->width || camera.height != camera_->height)
       return "the session's camera is " + std::to_string(camera_->width) + "x" +
-             std::to_string(camera_->height) + " with other intrinsics; start a new session";
+             std::to_string(camera_->height) + "; start a new session for another size";
+    // Refined optics (a browser's focal length from the marker's views): the map so far stays,
+    // the frames from now on are projected with the new intrinsics.
+    if (camera_changes_ >= kMaxCameraChanges)
+      return "the session's intrinsics changed " + std::to_string(kMaxCameraChanges) +
+             " times already; start a new session";
+    try {
+      auto refined =
+          std::make_unique<capture::CaptureSession>(camera, capture_->response(), capture_->options());
+      refined->restore(capture_->accumulators());
+      capture_ = std::move(refined);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    camera_ = camera;
+    ++camera_changes_;
+    dirty_ = true;
     return {};
   }
   capture::CaptureOptions o;

@@ -70,8 +70,10 @@ class Session : public std::enable_shared_from_this<Session> {
   const std::string& device_id() const { return device_id_; }
 
   // The camera the frames come from. The first call creates the capture state, linearising
-  // with the device's calibrated curve (DATA/responses/<device>.json) or sRGB; later calls must
-  // describe the same camera. Returns why not, or empty.
+  // with the device's calibrated curve (DATA/responses/<device>.json) or sRGB. Later calls
+  // describe the same camera, or the same size with refined optics (a browser's focal length
+  // from the marker's views; at most kMaxCameraChanges a session): the map so far is kept and
+  // later frames use the new intrinsics. Returns why not, or empty.
   std::string set_camera(const CameraIntrinsics& camera);
   bool has_camera() const;
 
@@ -110,6 +112,8 @@ class Session : public std::enable_shared_from_this<Session> {
   mutable std::mutex mutex_;  // everything below
   std::unique_ptr<capture::CaptureSession> capture_;
   std::optional<CameraIntrinsics> camera_;
+  static constexpr int kMaxCameraChanges = 16;
+  int camera_changes_ = 0;
   std::string response_name_ = "srgb";
   Sink sink_;
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;

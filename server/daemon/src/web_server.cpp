@@ -31,6 +31,12 @@ constexpr const char* kContentSecurityPolicy =
     "default-src 'self'; script-src 'self' 'wasm-unsafe-eval'; worker-src 'self' blob:; "
     "connect-src 'self'; img-src 'self' data: blob:; media-src 'self' blob: mediastream:; "
     "style-src 'self' 'unsafe-inline'; frame-ancestors 'none'";
+// The tracking worker's own policy (a worker runs under the one its script came with): opencv.js's
+// bindings build functions from strings (embind without DYNAMIC_EXECUTION=0), so it alone may
+// eval. It has no DOM and reaches only this origin.
+constexpr const char* kEvalWorkerPolicy =
+    "default-src 'self'; script-src 'self' 'wasm-unsafe-eval' 'unsafe-eval'; connect-src 'self'";
+constexpr const char* kEvalWorkerScript = "marker_worker.js";
 
 using Stream = beast::ssl_stream<beast::tcp_stream>;
 
@@ -52,6 +58,10 @@ bool allowed_segment(std::string_view s) {
 }
 
 }  // namespace
+
+const char* content_security_policy(const fs::path& file) {
+  return file.filename() == kEvalWorkerScript ? kEvalWorkerPolicy : kContentSecurityPolicy;
+}
 
 StaticFile resolve_static_file(const fs::path& root, std::string_view target) {
   std::string_view path = target.substr(0, target.find_first_of("?#"));
@@ -180,6 +190,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     const auto size = body.size();
     const auto headers = [&](auto& res) {
       set_common_headers(res);
+      res.set("Content-Security-Policy", content_security_policy(*file.path));
       res.set(http::field::content_type, content_type(*file.path));
       res.content_length(size);
       res.keep_alive(keep_alive);

@@ -37,6 +37,10 @@ StaticFile resolve_static_file(const std::filesystem::path& root, std::string_vi
 // The Content-Type for a file name (application/wasm for .wasm: browsers compile it streaming
 // only with that type); application/octet-stream when unknown.
 const char* content_type(const std::filesystem::path& file);
+// The Content-Security-Policy a file is served with: the page's (its own scripts and WebAssembly,
+// no eval, only its own origin), or for the tracking worker's script, which runs opencv.js, the
+// same with eval allowed.
+const char* content_security_policy(const std::filesystem::path& file);
 
 class WebServer {
  public:

@@ -1,6 +1,7 @@
-// Rotations for tracking: the nearest rotation to a matrix, and the change between OpenCV's
-// camera (x right, y down, z forward) and the project's (x right, y up, looking down -z;
-// common/CONVENTIONS.md). Poses themselves and their algebra are common/ (arlight/pose.hpp).
+// Rotations for tracking: the change between OpenCV's camera (x right, y down, z forward) and
+// the project's (x right, y up, looking down -z; common/CONVENTIONS.md). Poses themselves and
+// their algebra are common/ (arlight/pose.hpp). Free of OpenCV, like the pose filter and
+// WorldFromMarker (arlight_track_core: the browser client compiles them).
 #pragma once
 
 #include <glm/gtc/quaternion.hpp>
@@ -17,9 +18,6 @@ using arlight::exp_map;
 using arlight::inverse;
 using arlight::log_map;
 using arlight::Pose;
-
-// The nearest rotation to a 3x3 matrix (SVD, det +1), as a unit quaternion.
-glm::dquat nearest_rotation(const glm::dmat3& m);
 
 // OpenCV solvePnP's marker -> OpenCV-camera transform (rvec, tvec: x_cv = R x_marker + t) as
 // the project's camera -> marker pose (orientation R^T F, position -R^T t, F = diag(1,-1,-1)).

@@ -1,0 +1,160 @@
+// The page's marker tracking end to end in headless Chromium: arlight-sim renders a phone
+// orbiting an ArUco marker (id 7, 20 cm) as the fake camera's video, the orientation sensor
+// follows the same trajectory, and the page's worker (opencv.js) with the C++ pose filter must
+// put the camera where the simulator says, the object where its truth projects, and refine a
+// wrong field of view from the marker's views. Run by ctest (tests/web/web_tests.cmake).
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+
+import { launchChromium } from './harness.mjs';
+import { simulateRoom, startDaemon, playRoom } from './phone_session.mjs';
+import { quatConjugate, quatMultiply, quatRotateVector } from '../../client/web/src/orientation.js';
+
+const BIN = process.env.ARLIGHT_BIN;
+const SOURCE = process.env.ARLIGHT_SOURCE_DIR;
+const TOKEN = 'web-marker-token-0123456789';
+const MARKER = { id: 7, size: 0.2 };
+
+const sub = (a, b) => a.map((v, i) => v - b[i]);
+const angleDeg = (a, b) => {
+  const dot = Math.abs(a.reduce((s, v, i) => s + v * b[i], 0));
+  return (2 * Math.acos(Math.min(1, dot)) * 180) / Math.PI;
+};
+
+// The camera's true pose in the marker frame for frame i.
+function trueCameraInMarker(truth, i) {
+  const m = truth.marker.pose;
+  const c = truth.poses[i];
+  const toMarker = quatConjugate(m.orientation);
+  return {
+    position: quatRotateVector(toMarker, sub(c.position, m.position)),
+    orientation: quatMultiply(toMarker, c.orientation),
+  };
+}
+
+// Where the truth puts the object's centre (1.5 marker sides tall, standing on the marker) in
+// frame i's image, for a pinhole camera k (pixels, row 0 at the top), and its distance (metres).
+function trueObjectPixel(truth, i, k) {
+  const m = truth.marker.pose;
+  const c = truth.poses[i];
+  const centre = quatRotateVector(m.orientation, [0, 0, 0.75 * MARKER.size]).map((v, a) => v + m.position[a]);
+  const p = quatRotateVector(quatConjugate(c.orientation), sub(centre, c.position));
+  return { pixel: [k.cx + (k.fx * p[0]) / -p[2], k.cy - (k.fy * p[1]) / -p[2]], distance: Math.hypot(...p) };
+}
+
+// Position (cm) and angle (degrees) errors of the page's tracks against the truth, on the frames
+// where the marker is visible; `after` keeps only tracks from that media time on.
+function trackErrors(tracks, room, pick, after = -1) {
+  const out = { cm: [], deg: [], frames: new Set() };
+  for (const t of tracks) {
+    const i = Math.round(t.media_time * room.fps);
+    if (t.media_time < after || i >= room.frames || !room.truth.marker_visible[i]) continue;
+    const want = trueCameraInMarker(room.truth, i);
+    out.cm.push(100 * Math.hypot(...sub(t[pick].position, want.position)));
+    out.deg.push(angleDeg(t[pick].orientation, want.orientation));
+    out.frames.add(i);
+    if (process.env.ARLIGHT_DEBUG) console.log(pick, i, t.media_time, out.cm.at(-1).toFixed(2), out.deg.at(-1).toFixed(2), t.reprojection_px.toFixed(2));
+  }
+  return out;
+}
+
+const max = (v) => Math.max(...v);
+
+test('the page tracks the marker, stands the object on it and refines its focal length', { timeout: 300000 }, async () => {
+  assert.ok(BIN && SOURCE, 'ARLIGHT_BIN and ARLIGHT_SOURCE_DIR must be set (ctest does)');
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-web-marker-'));
+  const room = simulateRoom({
+    bin: BIN, probe: path.join(SOURCE, 'data/probes/venice.exr'), dir, frames: 32, fps: 2,
+    width: 640, height: 480, seed: 5, extraArgs: ['--trajectory', 'orbit', '--marker', `${MARKER.id},${MARKER.size}`],
+  });
+  const visible = room.truth.marker_visible.filter(Boolean).length;
+  assert.ok(visible >= 16, `the marker is visible in only ${visible} of ${room.frames} frames`);
+  const d = await startDaemon({ bin: BIN, dir: path.join(dir, 'daemon'), webRoot: path.join(BIN, 'web'), token: TOKEN });
+  let { browser, page } = await launchChromium({ y4m: room.y4m });
+  try {
+    // 1. The simulator's field of view: every visible frame's pose, and the object's pixels.
+    const pageErrors = [];
+    page.on('pageerror', (e) => pageErrors.push(e.message));
+    const probes = [];
+    await playRoom(page, d.url, room, {
+      fragment: `&marker=${MARKER.id},${MARKER.size}`,
+      onTick: async (s) => {
+        if (!s.tracked_frames || s.lighting === 'none') return;
+        const p = await page.evaluate(() => window.arlight.probe());
+        // Only composites drawn with the pose tracked in the very frame they show.
+        if (p && p.media_time === p.tracked_media_time && !probes.some((q) => q.media_time === p.media_time))
+          probes.push(p);
+      },
+    });
+    const status = await page.evaluate(() => window.arlight.status());
+    const tracks = await page.evaluate(() => window.arlight.tracks());
+    assert.deepEqual(pageErrors, []);
+    assert.equal(status.last_error, '');
+    const raw = trackErrors(tracks, room, 'raw');
+    const smoothed = trackErrors(tracks, room, 'smoothed');
+    console.log(`tracked ${raw.frames.size} of ${visible} visible frames (opencv.js ready at ${status.tracker_ready_media_time} s; ` +
+      `worker ${status.track_ms.toFixed(0)} ms): raw max ${max(raw.cm).toFixed(2)} cm ${max(raw.deg).toFixed(2)} deg, ` +
+      `smoothed max ${max(smoothed.cm).toFixed(2)} cm ${max(smoothed.deg).toFixed(2)} deg`);
+    // The page shows each frame for half a second: once opencv.js is loaded the worker takes
+    // every one.
+    assert.equal(status.tracker, 'ready');
+    const offered = room.truth.marker_visible.filter((v, i) => v && i / room.fps > status.tracker_ready_media_time).length;
+    assert.ok(offered >= 16, `opencv.js was ready only at ${status.tracker_ready_media_time} s`);
+    // (The last may still be in the worker when the video ends.)
+    assert.ok(raw.frames.size >= offered - 1, `tracked ${raw.frames.size} of the ${offered} visible frames after opencv.js was ready`);
+    assert.ok(max(raw.cm) < 2 && max(raw.deg) < 2, `raw pose up to ${max(raw.cm)} cm, ${max(raw.deg)} deg off`);
+    assert.ok(max(smoothed.cm) < 2 && max(smoothed.deg) < 2,
+      `smoothed pose up to ${max(smoothed.cm)} cm, ${max(smoothed.deg)} deg off`);
+    assert.equal(status.tracking, 'marker');
+
+    // The composite: the object's centre where the truth projects it, drawn over the camera's
+    // pixels there, and the camera's pixels kept away from it.
+    assert.ok(probes.length >= 4, `only ${probes.length} composites of tracked frames`);
+    const diff = (a, b) => a.reduce((s, v, k) => s + Math.abs(v - b[k]), 0);
+    // Off by no more than 2 cm across the line of sight would move it.
+    const offsets = probes.map((p) => {
+      const want = trueObjectPixel(room.truth, Math.round(p.media_time * room.fps), room.camera);
+      const px = Math.hypot(p.centre[0] - want.pixel[0], p.centre[1] - want.pixel[1]);
+      return { px, cm: (100 * px * want.distance) / room.camera.fx };
+    });
+    const worst = offsets.reduce((a, b) => (b.cm > a.cm ? b : a));
+    console.log(`object centre: ${probes.length} composites, up to ${worst.px.toFixed(1)} px ` +
+      `(${worst.cm.toFixed(2)} cm at its distance) from the truth's projection`);
+    assert.ok(worst.cm < 2, `the object's centre up to ${worst.cm.toFixed(2)} cm from where the truth puts it`);
+    for (const p of probes) {
+      assert.ok(diff(p.at_corner.composite, p.at_corner.frame) <= 3, `corner ${JSON.stringify(p.at_corner)}`);
+      assert.ok(diff(p.at_object.composite, p.at_object.frame) > 20, `object ${JSON.stringify(p.at_object)}`);
+    }
+
+    // 2. A field of view 12 % too wide (a phone's default guess): the marker's views refine the
+    // focal length to within 2 % of the simulator's, arlightd takes the new intrinsics, and the
+    // poses after it are right. A second browser: the fake camera plays on from where it was in
+    // the first.
+    await browser.close();
+    ({ browser, page } = await launchChromium({ y4m: room.y4m }));
+    const second = page;
+    second.on('pageerror', (e) => pageErrors.push(e.message));
+    await playRoom(second, d.url, room, { fragment: `&marker=${MARKER.id},${MARKER.size}`, fov: room.vfovDeg * 1.12 });
+    const refined = await second.evaluate(() => window.arlight.status());
+    assert.deepEqual(pageErrors, []);
+    assert.equal(refined.last_error, '', 'arlightd refused the refined intrinsics?');
+    assert.equal(refined.intrinsics, 'refined', `focal ${refined.focal_px} px, standard error ${refined.focal_error}`);
+    console.log(`focal length: ${refined.focal_px.toFixed(1)} px from a ${(room.vfovDeg * 1.12).toFixed(1)}° start, ` +
+      `truth ${room.camera.fx.toFixed(1)} px (${((refined.focal_px / room.camera.fx - 1) * 100).toFixed(2)} %)`);
+    assert.ok(Math.abs(refined.focal_px / room.camera.fx - 1) < 0.02, `focal ${refined.focal_px} px`);
+    const after = trackErrors(await second.evaluate(() => window.arlight.tracks()), room, 'raw',
+      refined.intrinsics_refined_media_time + 1 / room.fps);
+    console.log(`after the refinement at ${refined.intrinsics_refined_media_time} s: ${after.frames.size} frames, ` +
+      `raw max ${max(after.cm).toFixed(2)} cm ${max(after.deg).toFixed(2)} deg`);
+    assert.ok(after.frames.size >= 4, `only ${after.frames.size} tracked frames after the refinement`);
+    assert.ok(max(after.cm) < 2 && max(after.deg) < 2, `after the refinement up to ${max(after.cm)} cm, ${max(after.deg)} deg off`);
+    assert.equal(refined.connected, true);
+  } finally {
+    await browser.close();
+    await d.stop();
+  }
+  fs.rmSync(dir, { recursive: true, force: true });
+});
