@@ -42,4 +42,18 @@ add_custom_command(OUTPUT ${ARLIGHT_WEB_PAGE_STAMP}
   COMMAND ${CMAKE_COMMAND} -E touch ${ARLIGHT_WEB_PAGE_STAMP}
   DEPENDS ${ARLIGHT_WEB_PAGE}
   COMMENT "The browser client's page -> bin/web")
-add_custom_target(arlight_web ALL DEPENDS ${ARLIGHT_WEB_PAGE_STAMP} arlight_web_module)
+# The page's models (bin/web/models/): the bundled ones re-encoded without Draco, which the
+# WebAssembly build cannot decode.
+set(ARLIGHT_WEB_MODELS)
+foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb")
+  list(GET pair 0 from)
+  list(GET pair 1 to)
+  set(out ${ARLIGHT_WEB_DIR}/models/${to})
+  add_custom_command(OUTPUT ${out}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}/models
+    COMMAND arlight-model convert ${CMAKE_SOURCE_DIR}/data/models/${from} ${out} > /dev/null
+    DEPENDS arlight-model ${CMAKE_SOURCE_DIR}/data/models/${from}
+    COMMENT "The page's model ${to} (no Draco)")
+  list(APPEND ARLIGHT_WEB_MODELS ${out})
+endforeach()
+add_custom_target(arlight_web ALL DEPENDS ${ARLIGHT_WEB_PAGE_STAMP} ${ARLIGHT_WEB_MODELS} arlight_web_module)

@@ -154,4 +154,44 @@ TEST(Gltf, EmbeddedBufferNodeTransformAndTangents) {
 }
 
 }  // namespace
+// The browser client's copies (arlight-model convert): a plain GLB read back from memory gives
+// the same mesh (normals to a rounding: the loader renormalises them); one with uvs keeps them; a separate-file buffer is refused there.
+TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
+  for (const char* name : {"bunny.glb", "suzi.glb"}) {
+    const Mesh m = load_gltf(kModels / name);
+    const std::vector<std::uint8_t> glb = encode_glb(m);
+    ASSERT_EQ(glb.size() % 4, 0u);
+    const Mesh back = load_gltf(glb, name);
+    EXPECT_EQ(back.positions, m.positions) << name;
+    ASSERT_EQ(back.normals.size(), m.normals.size());
+    for (std::size_t i = 0; i < m.normals.size(); ++i)
+      ASSERT_LT(glm::length(back.normals[i] - m.normals[i]), 1e-6f) << name << " normal " << i;
+    EXPECT_EQ(back.indices, m.indices) << name;
+    EXPECT_EQ(back.bounds.min, m.bounds.min);
+    EXPECT_EQ(back.bounds.max, m.bounds.max);
+  }
+  const Mesh sphere = make_sphere(0.5f, 8, 16);
+  const Mesh back = load_gltf(encode_glb(sphere), "sphere.glb");
+  EXPECT_EQ(back.uvs, sphere.uvs);
+  EXPECT_EQ(back.tangents.size(), sphere.positions.size());  // recomputed from the uvs
+
+  const std::string gltf = R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "mesh.bin", "byteLength": 36}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}]})";
+  const std::vector<std::uint8_t> bytes(gltf.begin(), gltf.end());
+  try {
+    load_gltf(bytes, "page.gltf");
+    FAIL() << "a separate buffer file was read from memory";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'page.gltf'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mesh.bin"), std::string::npos) << e.what();
+  }
+  Mesh broken = sphere;
+  broken.indices.push_back(9999);
+  broken.indices.push_back(0);
+  broken.indices.push_back(1);
+  EXPECT_THROW(encode_glb(broken), std::invalid_argument);
+}
+
 }  // namespace arlight::render

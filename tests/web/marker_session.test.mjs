@@ -1,8 +1,9 @@
 // The page's marker tracking end to end in headless Chromium: arlight-sim renders a phone
 // orbiting an ArUco marker (id 7, 20 cm) as the fake camera's video, the orientation sensor
 // follows the same trajectory, and the page's worker (opencv.js) with the C++ pose filter must
-// put the camera where the simulator says, the object where its truth projects, and refine a
-// wrong field of view from the marker's views. Run by ctest (tests/web/web_tests.cmake).
+// put the camera where the simulator says, the object where its truth projects (the sphere, the
+// bunny, Suzanne), and refine a wrong field of view from the marker's views. Run by ctest
+// (tests/web/web_tests.cmake).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -128,6 +129,24 @@ test('the page tracks the marker, stands the object on it and refines its focal 
       assert.ok(diff(p.at_corner.composite, p.at_corner.frame) <= 3, `corner ${JSON.stringify(p.at_corner)}`);
       assert.ok(diff(p.at_object.composite, p.at_object.frame) > 20, `object ${JSON.stringify(p.at_object)}`);
     }
+
+    // The other models: the page fetches them (re-encoded without Draco) and stands them on the
+    // marker; a missing one is named and the object stays.
+    for (const [model, vertices] of [['bunny', 2826], ['suzanne', 7503]]) {
+      await page.selectOption('#model', model);
+      await page.waitForFunction((m) => window.arlight.status().model === m, model, { timeout: 10000 });
+      assert.equal((await page.evaluate(() => window.arlight.status())).model_vertices, vertices);
+      const p = await page.evaluate(() => window.arlight.probe());
+      assert.ok(p && diff(p.at_object.composite, p.at_object.frame) > 20, `${model}: ${JSON.stringify(p && p.at_object)}`);
+    }
+    await page.evaluate(() => {
+      const option = document.createElement('option');
+      option.value = 'missing';
+      document.getElementById('model').append(option);
+    });
+    await page.selectOption('#model', 'missing');
+    await page.waitForFunction(() => /model missing: 404/.test(window.arlight.status().last_error), null, { timeout: 10000 });
+    assert.equal((await page.evaluate(() => window.arlight.status())).model, 'suzanne');
 
     // 2. A field of view 12 % too wide (a phone's default guess): the marker's views refine the
     // focal length to within 2 % of the simulator's, arlightd takes the new intrinsics, and the

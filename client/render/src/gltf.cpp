@@ -1,6 +1,10 @@
-// glTF 2.0 loading (.glb and .gltf), with KHR_draco_mesh_compression decoded by libdraco.
-// Every read is bounds-checked; problems throw InputError("'<file>': <what>").
+// glTF 2.0 loading (.glb and .gltf), with KHR_draco_mesh_compression decoded by libdraco, and
+// writing (.glb). Every read is bounds-checked; problems throw InputError("'<file>': <what>").
+// ARLIGHT_NO_DRACO (the browser client's WebAssembly build: no libdraco there) leaves Draco out:
+// such models are refused by name, and `arlight-model convert` re-encodes them without it.
+#ifndef ARLIGHT_NO_DRACO
 #include <draco/compression/decode.h>
+#endif
 
 #include <cstring>
 #include <fstream>
@@ -75,11 +79,14 @@ std::vector<std::uint8_t> base64_decode(std::string_view s, const std::string& w
 
 class GltfReader {
  public:
-  explicit GltfReader(const std::filesystem::path& path) : path_(path), where_(where_prefix(path)) {
-    file_ = read_file(path, where_);
+  explicit GltfReader(const std::filesystem::path& path)
+      : GltfReader(read_file(path, where_prefix(path)), path, true) {}
+  // From memory: `name` appears in messages; buffers must be in the GLB or data: URIs.
+  GltfReader(std::vector<std::uint8_t> bytes, const std::filesystem::path& name, bool on_disk)
+      : path_(name), where_(where_prefix(name)), file_(std::move(bytes)), on_disk_(on_disk) {
     if (file_.size() >= 4 && u32(file_.data()) == kGlbMagic)
       parse_glb();
-    else if (path.extension() == ".glb")
+    else if (name.extension() == ".glb")
       throw InputError(where_ + "bad magic: not a binary glTF (.glb) file");
     else
       parse_json(std::string_view(reinterpret_cast<const char*>(file_.data()), file_.size()));
@@ -182,6 +189,7 @@ class GltfReader {
         if (comma == std::string::npos) throw InputError(where_ + "data: URI is not base64");
         buffers_[index] = base64_decode(std::string_view(uri).substr(comma + 8), where_);
       } else {
+        if (!on_disk_) throw InputError(where_ + "buffer '" + uri + "' is a separate file");
         buffers_[index] = read_file(path_.parent_path() / uri, where_prefix(path_.parent_path() / uri));
       }
       data = buffers_[index];
@@ -281,6 +289,13 @@ class GltfReader {
     std::vector<std::uint32_t> indices;
   };
 
+#ifdef ARLIGHT_NO_DRACO
+  Primitive decode_draco(const json&) {
+    throw InputError(where_ +
+                     "KHR_draco_mesh_compression: this build has no Draco decoder "
+                     "(re-encode the model with `arlight-model convert`)");
+  }
+#else
   Primitive decode_draco(const json& ext) {
     const View v = buffer_view(ext.at("bufferView").get<std::size_t>());
     draco::DecoderBuffer buf;
@@ -312,6 +327,7 @@ class GltfReader {
       for (int k = 0; k < 3; ++k) p.indices.push_back(dm->face(f)[k].value());
     return p;
   }
+#endif  // ARLIGHT_NO_DRACO
 
   template <typename V>
   std::vector<V> as_vec(const std::vector<float>& f) {
@@ -439,6 +455,7 @@ class GltfReader {
   std::span<const std::uint8_t> bin_;
   bool have_bin_ = false;
   std::vector<std::vector<std::uint8_t>> buffers_;
+  bool on_disk_ = true;  // separate buffer files resolve next to path_
   Mesh mesh_;
   bool has_uvs_ = false;
 };
@@ -452,6 +469,73 @@ Mesh load_gltf(const std::filesystem::path& path) {
     // Wrong types or missing required keys in otherwise valid JSON.
     throw InputError(where_prefix(path) + "malformed glTF: " + e.what());
   }
+}
+
+Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name) {
+  try {
+    return GltfReader(std::vector<std::uint8_t>(bytes.begin(), bytes.end()), name, false).load();
+  } catch (const json::exception& e) {
+    throw InputError(where_prefix(name) + "malformed glTF: " + e.what());
+  }
+}
+
+std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
+  const std::size_t n = mesh.positions.size();
+  if (n == 0 || mesh.normals.size() != n || (!mesh.uvs.empty() && mesh.uvs.size() != n) ||
+      mesh.indices.size() % 3 != 0)
+    throw std::invalid_argument("encode_glb: positions, normals (and uvs) must match, whole triangles");
+  for (const std::uint32_t i : mesh.indices)
+    if (i >= n) throw std::invalid_argument("encode_glb: an index beyond the vertices");
+  // The binary chunk: positions, normals, uvs, indices, each 4-byte aligned (they are).
+  std::vector<std::uint8_t> bin;
+  json views = json::array(), accessors = json::array();
+  auto append = [&](const void* data, std::size_t bytes, int target, int component, std::size_t count,
+                    const char* type) {
+    views.push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}, {"target", target}});
+    accessors.push_back({{"bufferView", views.size() - 1}, {"componentType", component},
+                         {"count", count}, {"type", type}});
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    bin.insert(bin.end(), p, p + bytes);
+    return accessors.size() - 1;
+  };
+  constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963, kFloat = 5126, kUint = 5125;
+  json attributes;
+  attributes["POSITION"] = append(mesh.positions.data(), n * sizeof(glm::vec3), kArrayBuffer, kFloat, n, "VEC3");
+  Bounds b;
+  b.min = b.max = mesh.positions[0];
+  for (const glm::vec3& p : mesh.positions) b.min = glm::min(b.min, p), b.max = glm::max(b.max, p);
+  accessors[attributes["POSITION"].get<std::size_t>()]["min"] = {b.min.x, b.min.y, b.min.z};
+  accessors[attributes["POSITION"].get<std::size_t>()]["max"] = {b.max.x, b.max.y, b.max.z};
+  attributes["NORMAL"] = append(mesh.normals.data(), n * sizeof(glm::vec3), kArrayBuffer, kFloat, n, "VEC3");
+  if (!mesh.uvs.empty())
+    attributes["TEXCOORD_0"] = append(mesh.uvs.data(), n * sizeof(glm::vec2), kArrayBuffer, kFloat, n, "VEC2");
+  const std::size_t indices = append(mesh.indices.data(), mesh.indices.size() * 4, kElementArrayBuffer,
+                                     kUint, mesh.indices.size(), "SCALAR");
+  const json doc = {
+      {"asset", {{"version", "2.0"}, {"generator", "arlight"}}},
+      {"scene", 0},
+      {"scenes", json::array({{{"nodes", {0}}}})},
+      {"nodes", json::array({{{"mesh", 0}}})},
+      {"meshes", json::array({{{"primitives",
+                                json::array({{{"attributes", attributes},
+                                              {"indices", indices},
+                                              {"mode", 4}}})}}})},
+      {"buffers", json::array({{{"byteLength", bin.size()}}})},
+      {"bufferViews", views},
+      {"accessors", accessors}};
+  std::string text = doc.dump();
+  text.resize((text.size() + 3) / 4 * 4, ' ');  // chunks are 4-byte aligned
+  bin.resize((bin.size() + 3) / 4 * 4, 0);
+  std::vector<std::uint8_t> out;
+  auto put32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
+  };
+  put32(kGlbMagic), put32(2), put32(std::uint32_t(12 + 8 + text.size() + 8 + bin.size()));
+  put32(std::uint32_t(text.size())), put32(kChunkJson);
+  out.insert(out.end(), text.begin(), text.end());
+  put32(std::uint32_t(bin.size())), put32(kChunkBin);
+  out.insert(out.end(), bin.begin(), bin.end());
+  return out;
 }
 
 }  // namespace arlight::render

@@ -8,6 +8,7 @@
 // The URL's fragment (never sent to the server in an HTTP request) carries the session:
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
+//   [&model=sphere|bunny|suzanne]
 //   [&upload=video|canvas|imagedata]  (how the camera frame reaches WebGL; for measurements)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
@@ -28,6 +29,7 @@ const kJpegQuality = 0.85;
 const kReconnectMs = 1000;
 
 const state = {
+  client: null,      // the WebAssembly WebClient, once the page runs
   connected: false,
   sessionId: '',
   framesSent: 0,
@@ -80,6 +82,7 @@ window.arlight = {
   status() {
     const sorted = [...state.latencies].sort((a, b) => a - b);
     const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
+    const object = state.client ? state.client.status() : null;
     return {
       connected: state.connected,
       session_id: state.sessionId,
@@ -93,6 +96,8 @@ window.arlight = {
       intrinsics: state.intrinsics,
       intrinsics_refined_media_time: state.refinedMediaTime,
       focal_px: state.focalPx,
+      model: object ? object.model : 'sphere',
+      model_vertices: object ? object.model_vertices : 0,
       focal_error: state.focalError,
       tracker: state.tracker,
       tracker_ready_media_time: state.trackerReadyMediaTime,
@@ -316,6 +321,7 @@ async function start() {
   canvas.width = w;
   canvas.height = h;
   const client = new module.WebClient('#view', w, h);
+  state.client = client;
   state.readyMs = performance.now();  // since the page's navigation started: its first load
   const fov = Number(params.get('fov') || localStorage.getItem('arlight.fov') || 63);
   $('fov').value = String(fov);
@@ -329,6 +335,24 @@ async function start() {
   camera.lockExposure().catch(() => {});
 
   $('material').addEventListener('change', (e) => client.setMaterial(e.target.value));
+  // Models other than the sphere are files beside the page (models/NAME.glb).
+  const setModel = async (name) => {
+    try {
+      let bytes = new Uint8Array(0);
+      if (name !== 'sphere') {
+        const response = await fetch(`models/${encodeURIComponent(name)}.glb`);
+        if (!response.ok) throw new Error(`model ${name}: ${response.status} ${response.statusText}`);
+        bytes = new Uint8Array(await response.arrayBuffer());
+      }
+      const why = client.setModel(name, bytes);
+      if (why) throw new Error(why);
+      $('model').value = name;
+    } catch (e) {
+      showError(String(e.message || e));
+    }
+  };
+  $('model').addEventListener('change', (e) => setModel(e.target.value));
+  if (params.get('model')) setModel(params.get('model'));
   const sendIntrinsics = () => {
     if (ws && ws.readyState === WebSocket.OPEN) ws.send(client.intrinsics());
   };

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "arlight/error.hpp"
 #include "arlight/map_assembly.hpp"
 #include "arlight/pose.hpp"
 #include "arlight/render.hpp"
@@ -87,17 +88,7 @@ render::Material material_named(const std::string& name) {
 class WebClient {
  public:
   WebClient(const std::string& canvas, int width, int height)
-      : context_(render::GlContext::canvas(canvas)),
-        renderer_(width, height, "/shaders"),
-        mesh_bounds_(render::make_sphere(0.5f, 48, 96).bounds),
-        mesh_(render::make_sphere(0.5f, 48, 96)),
-        material_(material_named("plastic")),
-        width_(width),
-        height_(height) {
-    camera_.width = width, camera_.height = height;
-    set_fov(63.0);
-    set_marker_size(kDefaultMarkerSize);
-  }
+      : WebClient(canvas, width, height, render::make_sphere(0.5f, 48, 96)) {}
 
   // ---- messages to send ----
   val hello(const std::string& device, const std::string& token, const std::string& resume) {
@@ -269,6 +260,26 @@ class WebClient {
 
   void set_material(const std::string& name) { material_ = material_named(name); }
 
+  // The object: "sphere", or a model's .glb bytes (the page fetches models/NAME.glb; no Draco in
+  // this build). Returns why a file is unusable (naming it; the object stays what it was), or "".
+  std::string set_model(const std::string& name, const val& glb) {
+    render::Mesh mesh;
+    try {
+      mesh = name == "sphere"
+                 ? render::make_sphere(0.5f, 48, 96)
+                 : render::load_gltf(emscripten::convertJSArrayToNumberVector<std::uint8_t>(glb),
+                                     name + ".glb");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    mesh_ = render::GpuMesh(mesh);
+    mesh_bounds_ = mesh.bounds;
+    model_name_ = name;
+    model_vertices_ = mesh.vertex_count();
+    model_ = render::standing_on_marker(mesh_bounds_, float(object_height_));
+    return {};
+  }
+
   // Where the object's centre is in the last composite (pixels, row 0 at the top), or null when
   // it is behind the camera or nothing was drawn yet.
   val object_pixel() const {
@@ -309,14 +320,32 @@ class WebClient {
     s.set("tracked_frames", double(tracked_frames_));
     s.set("tracking", std::string(track_ ? "marker" : "preview"));
     s.set("focal_px", camera_.fx);
+    s.set("model", model_name_);
+    s.set("model_vertices", double(model_vertices_));
     return s;
   }
 
  private:
+  WebClient(const std::string& canvas, int width, int height, const render::Mesh& sphere)
+      : context_(render::GlContext::canvas(canvas)),
+        renderer_(width, height, "/shaders"),
+        mesh_bounds_(sphere.bounds),
+        mesh_(sphere),
+        model_vertices_(sphere.vertex_count()),
+        material_(material_named("plastic")),
+        width_(width),
+        height_(height) {
+    camera_.width = width, camera_.height = height;
+    set_fov(63.0);
+    set_marker_size(kDefaultMarkerSize);
+  }
+
   render::GlContext context_;
   render::Renderer renderer_;
   render::Bounds mesh_bounds_;
   render::GpuMesh mesh_;
+  std::string model_name_ = "sphere";
+  std::size_t model_vertices_ = 0;
   render::Material material_;
   glm::mat4 model_{1.0f};
   double object_height_ = 0;
@@ -360,6 +389,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("cameraTexture", &WebClient::camera_texture)
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
+      .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
       .function("objectPixel", &WebClient::object_pixel);
 }

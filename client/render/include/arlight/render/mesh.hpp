@@ -9,6 +9,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
+#include <span>
+#include <string>
 #include <vector>
 
 namespace arlight::render {
@@ -54,6 +56,12 @@ Mesh make_sphere(float radius, int rings, int segments);
 // decoded with libdraco. Every problem (bad magic, chunk beyond the file, accessor out of range,
 // Draco decode failure, ...) throws arlight::InputError naming the file and what is wrong.
 Mesh load_gltf(const std::filesystem::path& path);
+// The same from a file's bytes (`name` for messages); buffers must be inside (GLB or data: URIs).
+Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name);
+// A binary glTF (.glb) of the mesh: positions, normals, uvs when present, uint32 indices, one
+// node, no compression (what the browser client loads: its build has no Draco). Throws
+// std::invalid_argument for a mesh whose arrays disagree.
+std::vector<std::uint8_t> encode_glb(const Mesh& mesh);
 
 // The model matrix that stands a +Y-up model (glTF's convention) on a tracked marker, whose
 // frame has +Z out of the floor (OpenCV aruco): rotated +Y -> +Z, scaled to `height` metres,
