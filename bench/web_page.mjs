@@ -2,7 +2,8 @@
 // composited per second and the C++ frame time (render + tone map + composite into the canvas),
 // JPEG encoding, frame -> LightingUpdate latency over wss, first load; at 640x480 and 1280x720
 // from Chromium's built-in fake camera, against a real arlightd on loopback. Also the size of
-// the page's code (gzip). Prints a Markdown table.
+// the page's code (gzip). Each size with the camera frame uploaded as the <video> and as its YUV
+// planes, and 640x480 with the page's own choice (upload=auto). Prints a Markdown table.
 //   node bench/web_page.mjs [BUILD_BIN] [SECONDS]
 import fs from 'node:fs';
 import os from 'node:os';
@@ -25,12 +26,13 @@ const median = (v) => {
 };
 const rows = [];
 try {
-  for (const size of ['640x480', '1280x720']) {
+  for (const [size, upload] of [['640x480', 'video'], ['640x480', 'yuv'], ['640x480', 'auto'],
+    ['1280x720', 'video'], ['1280x720', 'yuv']]) {
     const { browser, page } = await launchChromium();
     try {
       await enableOrientationOverride(page);
       await overrideOrientation(page, { x: 0.5, y: 0, z: 0, w: Math.sqrt(0.75) });
-      await page.goto(`${daemon.url}&autostart=1&size=${size}`);
+      await page.goto(`${daemon.url}&autostart=1&size=${size}&upload=${upload}`);
       await page.waitForFunction(() => window.arlight.status().lighting !== 'none', null, { timeout: 60000 });
       const samples = [];
       const t0 = Date.now();
@@ -42,6 +44,8 @@ try {
       const last = samples[samples.length - 1];
       rows.push({
         size,
+        upload: `${upload}${upload === 'auto' ? ` (${last.upload})` : ''}`,
+        track: median(samples.map((s) => s.track_ms)),
         fps: median(samples.map((s) => s.fps)),
         render: median(samples.map((s) => s.render_ms)),
         grab: median(samples.map((s) => s.grab_ms)),
@@ -61,14 +65,15 @@ try {
 }
 
 console.log(`headless Chromium ${seconds} s per size, Chromium's fake camera at 30 fps, arlightd on loopback (wss)\n`);
-console.log('| camera | composited fps | camera frame in | frame time (C++) | JPEG (worker) | frames sent/s | latency p50 / p99 | first load |');
-console.log('|---|---|---|---|---|---|---|---|');
+console.log('| camera | upload | composited fps | camera frame in | frame time (C++) | JPEG (worker) | tracking (worker) | frames sent/s | latency p50 / p99 | first load |');
+console.log('|---|---|---|---|---|---|---|---|---|---|');
 for (const r of rows)
-  console.log(`| ${r.size} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ` +
+  console.log(`| ${r.size} | ${r.upload} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ${r.track.toFixed(0)} ms | ` +
     `${(r.sent / seconds).toFixed(1)} | ${r.p50.toFixed(0)} / ${r.p99.toFixed(0)} ms | ${r.ready.toFixed(0)} ms |`);
 
-// The page's code as a phone downloads it (opencv.js apart: not used yet).
-const files = fs.readdirSync(web).filter((f) => !f.endsWith('.png'));
+// The page's code as a phone downloads it; opencv.js (the tracking worker's) and the models apart.
+const files = fs.readdirSync(web, { withFileTypes: true })
+  .filter((f) => f.isFile() && !/^opencv\.js/.test(f.name)).map((f) => f.name);
 let raw = 0;
 let gz = 0;
 for (const f of files) {
@@ -79,3 +84,6 @@ for (const f of files) {
 const wasm = fs.readFileSync(path.join(web, 'arlight_web.wasm'));
 console.log(`\npage code: ${files.length} files, ${(raw / 1024).toFixed(0)} KiB, ${(gz / 1024).toFixed(0)} KiB gzip ` +
   `(arlight_web.wasm ${(wasm.length / 1024).toFixed(0)} KiB, ${(zlib.gzipSync(wasm, { level: 9 }).length / 1024).toFixed(0)} KiB gzip)`);
+const opencv = fs.readFileSync(path.join(web, 'opencv.js'));
+console.log(`opencv.js (the tracking worker's, loaded after the page starts): ${(opencv.length / 1024).toFixed(0)} KiB, ` +
+  `${(zlib.gzipSync(opencv, { level: 9 }).length / 1024).toFixed(0)} KiB gzip`);

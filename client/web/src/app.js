@@ -9,16 +9,17 @@
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne]
-//   [&upload=video|canvas|imagedata]  (how the camera frame reaches WebGL; for measurements)
+//   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
-import { openCamera, FrameGrabber } from './camera.js';
+import { openCamera, FrameGrabber, snapshotFrame } from './camera.js';
 import {
   cameraQuatFromDeviceOrientation,
   cameraQuatFromSensorQuaternion,
   quatRotateVector,
 } from './orientation.js';
 import { focalEstimate } from './intrinsics.js';
+import { FrameUpload } from './frame_upload.js';
 
 const params = new URLSearchParams(location.hash.slice(1));
 const $ = (id) => document.getElementById(id);
@@ -30,6 +31,7 @@ const kReconnectMs = 1000;
 
 const state = {
   client: null,      // the WebAssembly WebClient, once the page runs
+  upload: null,      // its FrameUpload
   connected: false,
   sessionId: '',
   framesSent: 0,
@@ -108,6 +110,7 @@ window.arlight = {
       coverage: state.coverage,
       render_ms: state.renderMs,
       grab_ms: state.grabMs,
+      upload: state.upload ? state.upload.method : 'none',
       ready_ms: state.readyMs,
       jpeg_ms: state.jpegMs,
       latency_p50_ms: pick(0.5),
@@ -200,14 +203,20 @@ class CoverageView {
   }
 }
 
-// Marker tracking in its worker (marker_worker.js): one frame at a time, the newest offered wins.
-// Started first thing on Start: opencv.js takes seconds to load, while the camera opens.
+// Marker tracking in its worker (marker_worker.js): one frame at a time, the newest offered wins;
+// every frame while the marker is tracked, a few a second while it is not (a search costs as much
+// as a frame's tracking, and the rest of the page needs the cores). Started first thing on Start:
+// opencv.js takes seconds to load, while the camera opens.
+const kSearchIntervalMs = 250;
+
 class MarkerTracking {
   constructor(marker, onError) {
     this.ready = false;
     this.busy = false;
     this.next = 0;
     this.frames = new Map();  // what the page knew of each frame in the worker
+    this.found = false;       // in the last result
+    this.lastOffer = -Infinity;
     this.onReady = () => {};
     this.onResult = () => {};  // (found, frame, ms): marker.js's detect() result
     this.worker = new Worker('marker_worker.js');
@@ -220,22 +229,26 @@ class MarkerTracking {
       const frame = this.frames.get(data.id);
       this.frames.delete(data.id);
       this.busy = false;
+      if (data.type === 'result') this.found = Boolean(data.found && !data.found.refused);
       if (data.type === 'result' && frame) this.onResult(data.found, frame, data.ms);
       else if (data.type === 'error') onError(data.message, this.ready);
     };
     this.worker.onerror = (e) => onError(e.message || 'the tracking worker failed', this.ready);
     this.worker.postMessage({ type: 'marker', ...marker });
   }
-  // The frame the page shows now, with what it knows of it ({t, q, mediaTime}); skipped while
-  // the worker is busy or still loading opencv.js.
-  async offer(video, k, frame) {
+  // The frame the page shows now (`take` gives a transferable copy of it), with what it knows of
+  // it ({t, q, mediaTime}); skipped while the worker is busy or still loading opencv.js.
+  async offer(take, k, frame) {
     if (!this.ready || this.busy) return;
+    const now = performance.now();
+    if (!this.found && now - this.lastOffer < kSearchIntervalMs) return;
+    this.lastOffer = now;
     this.busy = true;
     const id = ++this.next;
     this.frames.set(id, frame);
     try {
-      const bitmap = await createImageBitmap(video);
-      this.worker.postMessage({ type: 'frame', id, bitmap, k }, [bitmap]);
+      const image = await take();
+      this.worker.postMessage({ type: 'frame', id, image, k }, [image]);
     } catch {
       this.frames.delete(id);
       this.busy = false;
@@ -265,11 +278,11 @@ class JpegEncoder {
       else p.resolve(new Uint8Array(data.jpeg));
     };
   }
-  encode(bitmap, quality) {
+  encode(image, quality) {
     const id = ++this.next;
     return new Promise((resolve, reject) => {
       this.pending.set(id, { resolve, reject });
-      this.worker.postMessage({ id, bitmap, quality }, [bitmap]);
+      this.worker.postMessage({ id, image, quality }, [image]);
     });
   }
 }
@@ -472,12 +485,12 @@ async function start() {
   let frames = 0;
   let since = performance.now();
   const encoder = new JpegEncoder();
-  const sendFrame = async (q) => {
+  const sendFrame = async (q, take) => {
     encoding = true;
     try {
       const t0 = performance.now();
       // The frame drawn for the composite, encoded off the main thread.
-      const jpeg = await encoder.encode(await createImageBitmap(camera.video), kJpegQuality);
+      const jpeg = await encoder.encode(await take(), kJpegQuality);
       state.jpegMs = performance.now() - t0;
       const seq = ++sequence;
       ws.send(client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
@@ -499,44 +512,47 @@ async function start() {
     const p = window.arlight.status();
     $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
   };
-  // The video frame straight into the renderer's texture, in the module's WebGL2 context.
-  const gl = module.GL.currentContext.GLctx;
-  const cameraTexture = module.GL.textures[client.cameraTexture()];
-  const upload = params.get('upload') || 'video';
-  const uploadFrame = (how = upload) => {
-    gl.bindTexture(gl.TEXTURE_2D, cameraTexture);
-    gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-    let source = camera.video;
-    if (how === 'drawn') {
-      source = grabber.canvas;  // the frame grabber.draw() drew last
-    } else if (how === 'canvas') {
-      grabber.draw();
-      source = grabber.canvas;
-    } else if (upload === 'imagedata') {
-      grabber.draw();
-      source = grabber.ctx.getImageData(0, 0, w, h);
+  // The camera frame into the renderer's texture (frame_upload.js: the <video> or its planes,
+  // whichever is faster here), then the composite; one at a time, the newest frame wins.
+  let upload;
+  try {
+    upload = new FrameUpload(module, client, camera.video, grabber,
+      { width: w, height: h, mode: params.get('upload') || 'auto' });
+  } catch (e) {
+    showError(String(e.message || e));
+    return;
+  }
+  state.upload = upload;
+  let compositing = null;
+  const composite = async (q, image = null, measure = true) => {
+    while (compositing) await compositing;
+    compositing = (async () => {
+      state.grabMs = await upload.upload(image, { measure });
+      state.renderMs = client.render(q[0], q[1], q[2], q[3]);
+    })();
+    try {
+      await compositing;
+    } finally {
+      compositing = null;
     }
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, w, h, gl.RGB, gl.UNSIGNED_BYTE, source);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
-    gl.bindTexture(gl.TEXTURE_2D, null);
-  };
-  const composite = (q, how) => {
-    const tg = performance.now();
-    uploadFrame(how);
-    state.grabMs = performance.now() - tg;
-    state.renderMs = client.render(q[0], q[1], q[2], q[3]);
   };
   const readBack = document.createElement('canvas');
   readBack.width = w;
   readBack.height = h;
   const readCtx = readBack.getContext('2d', { willReadFrequently: true });
-  // The video's current frame drawn for reference, composited from that same drawing with the
-  // orientation the frame came with, and the canvas read back.
+  // One snapshot of the video's current frame drawn for reference and composited the page's way
+  // with the orientation the frame came with, and the canvas read back.
   let shown = { q: [1, 0, 0, 0], mediaTime: undefined };
-  probeComposite = () => {
-    const frame = grabber.rgba();
-    composite(shown.q, 'drawn');
+  probeComposite = async () => {
+    const image = await snapshotFrame(camera.video);
+    let frame;
+    try {
+      grabber.ctx.drawImage(image, 0, 0, w, h);
+      frame = grabber.ctx.getImageData(0, 0, w, h).data;
+      await composite(shown.q, image, false);
+    } finally {
+      image.close();
+    }
     const centre = client.objectPixel();
     if (!centre) return null;
     readCtx.drawImage(canvas, 0, 0);
@@ -552,20 +568,35 @@ async function start() {
     return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h,
       media_time: shown.mediaTime, tracked_media_time: last ? last.media_time : null };
   };
-  grabber.onFrame((info) => {
+  grabber.onFrame(async (info) => {
     state.frameMediaTime = info.mediaTime;
     const q = orientation();
     shown = { q, mediaTime: info.mediaTime };
-    tracking.offer(camera.video, client.camera(), { t: performance.now() / 1000, q, mediaTime: info.mediaTime });
+    // One VideoFrame of what shows now, for the composite, the tracker and arlightd alike (each
+    // paired with the orientation read with it); a fresh bitmap each where there are none.
+    let video = null;
     try {
-      composite(q);
-      ++frames;
-    } catch (e) {
-      if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);
-      return;
+      if (typeof VideoFrame === 'function') video = new VideoFrame(camera.video);
+    } catch {
+      video = null;  // this browser cannot wrap the video: bitmaps
     }
-    if (state.connected && !encoding && ws.readyState === WebSocket.OPEN &&
-        ws.bufferedAmount <= kMaxBuffered) sendFrame(q);
+    const take = () => (video ? Promise.resolve(video.clone()) : createImageBitmap(camera.video));
+    try {
+      tracking.offer(take, client.camera(), { t: performance.now() / 1000, q, mediaTime: info.mediaTime });
+      if (compositing) return;  // still on the previous frame: this one is skipped
+      try {
+        await composite(q, video);
+        ++frames;
+      } catch (e) {
+        if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);
+        return;
+      }
+      if (state.connected && !encoding && ws.readyState === WebSocket.OPEN &&
+          ws.bufferedAmount <= kMaxBuffered) sendFrame(q, take);
+    } finally {
+      // The clones handed out stay valid; this one is done once the composite has it.
+      if (video) video.close();
+    }
     const now = performance.now();
     if (now - since >= 1000) {
       state.fps = (frames * 1000) / (now - since);

@@ -345,6 +345,25 @@ export async function openCamera({ width = 640, height = 480, timeoutMs = 10000 
  * Each `rgba()` / `jpeg()` call draws the video's current frame first (pass `{redraw: false}` to
  * reuse the last drawn one, e.g. for the RGBA and the JPEG of the same frame).
  */
+/**
+ * The video's current frame as something a worker can take (transferable, drawable with
+ * drawImage, closed with close()): a WebCodecs VideoFrame where the browser has them — for a
+ * camera in CPU memory that wraps the frame without a copy or a colour conversion, which the
+ * page's workers then do themselves — else an ImageBitmap (a copy through the GPU process).
+ * @param {HTMLVideoElement} video
+ * @returns {Promise<VideoFrame|ImageBitmap>}
+ */
+export async function snapshotFrame(video) {
+  if (typeof VideoFrame === 'function') {
+    try {
+      return new VideoFrame(video);
+    } catch {
+      // e.g. no frame yet, or a browser that cannot wrap this video: the bitmap below
+    }
+  }
+  return createImageBitmap(video);
+}
+
 export class FrameGrabber {
   /**
    * @param {HTMLVideoElement} video a playing video (e.g. `openCamera()`'s)

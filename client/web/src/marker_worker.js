@@ -4,7 +4,7 @@
 // (WebClient.markerSeen). A classic worker: opencv.js is a UMD script that importScripts loads;
 // marker.js, a module, comes by dynamic import.
 //   in:  {type: 'marker', id, size, dictionary}     once, first
-//        {type: 'frame', id, bitmap: ImageBitmap (transferred), k: {fx, fy, cx, cy}}
+//        {type: 'frame', id, image: VideoFrame or ImageBitmap (transferred), k: {fx, fy, cx, cy}}
 //   out: {type: 'ready'}                              opencv.js is initialised
 //        {type: 'result', id, found, ms}              found: marker.js's detect() result
 //        {type: 'error', id?, message}
@@ -12,6 +12,9 @@ let tracker = null;
 let canvas = null;
 let ctx = null;
 let gray = null;
+let planes = null;
+// Limited-range luma codes (16-235) to full range.
+const kFullRange = Uint8Array.from({ length: 256 }, (_, v) => Math.max(0, Math.min(255, Math.round(((v - 16) * 255) / 219))));
 
 function fail(message, id) {
   self.postMessage({ type: 'error', id, message: String(message) });
@@ -39,30 +42,46 @@ function openCv() {
   });
 }
 
-// The frame's luma (BT.601 weights, as OpenCV's RGB2GRAY and the native tracker's cvtColor).
-function lumaOf(bitmap) {
-  const { width, height } = bitmap;
+// The frame's luma: a VideoFrame's own luma plane where it has one (no colour conversion), else
+// drawn and weighted as OpenCV's RGB2GRAY and the native tracker's cvtColor (BT.601).
+async function lumaOf(image) {
+  const width = image.displayWidth || image.width;
+  const height = image.displayHeight || image.height;
+  if (!gray || gray.length !== width * height) gray = new Uint8Array(width * height);
+  const isVideoFrame = typeof VideoFrame === 'function' && image instanceof VideoFrame;
+  if (isVideoFrame && ['NV12', 'I420', 'I420A'].includes(image.format)) {
+    const size = image.allocationSize();
+    if (!planes || planes.length < size) planes = new Uint8Array(size);
+    const [{ offset, stride }] = await image.copyTo(planes);
+    const map = image.colorSpace && image.colorSpace.fullRange ? null : kFullRange;
+    for (let y = 0; y < height; ++y) {
+      const row = planes.subarray(offset + y * stride, offset + y * stride + width);
+      if (map) for (let x = 0; x < width; ++x) gray[y * width + x] = map[row[x]];
+      else gray.set(row, y * width);
+    }
+    return { gray, width, height };
+  }
   if (!canvas || canvas.width !== width || canvas.height !== height) {
     canvas = new OffscreenCanvas(width, height);
     ctx = canvas.getContext('2d', { alpha: false, willReadFrequently: true });
-    gray = new Uint8Array(width * height);
   }
-  ctx.drawImage(bitmap, 0, 0);
-  bitmap.close();
+  ctx.drawImage(image, 0, 0);
   const rgba = ctx.getImageData(0, 0, width, height).data;
   for (let i = 0, p = 0; i < gray.length; ++i, p += 4)
     gray[i] = (rgba[p] * 4899 + rgba[p + 1] * 9617 + rgba[p + 2] * 1868 + 8192) >> 14;
-  return gray;
+  return { gray, width, height };
 }
 
-function track({ id, bitmap, k }) {
+async function track({ id, image, k }) {
   const t0 = performance.now();
   try {
-    const { width, height } = bitmap;
-    const found = tracker.detect(lumaOf(bitmap), width, height, k);
+    const { gray: luma, width, height } = await lumaOf(image);
+    const found = tracker.detect(luma, width, height, k);
     self.postMessage({ type: 'result', id, found, ms: performance.now() - t0 });
   } catch (e) {
     fail(`tracking: ${e.message || e}`, id);
+  } finally {
+    image.close();
   }
 }
 
@@ -79,7 +98,7 @@ self.onmessage = async ({ data }) => {
     if (tracker) {
       track(data);
     } else {  // the page waits for 'ready'; a frame before it is a mistake
-      data.bitmap.close();
+      data.image.close();
       fail('a frame before the tracker was ready', data.id);
     }
   }

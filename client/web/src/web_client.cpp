@@ -25,6 +25,7 @@
 #include "arlight/track/pose_math.hpp"
 #include "arlight/track/world_from_marker.hpp"
 #include "arlight/wire.hpp"
+#include "yuv_frame.hpp"
 
 namespace arlight::web {
 
@@ -212,6 +213,15 @@ class WebClient {
   // copy through JavaScript), R, G, B, the renderer's size, top row first.
   unsigned camera_texture() const { return renderer_.camera_texture(); }
 
+  // Or the frame's planes (WebCodecs VideoFrame.copyTo, layout "NV12" or "I420"): the page
+  // uploads them into these textures, then convert_yuv() fills camera_texture() from them.
+  unsigned yuv_plane_texture(const std::string& layout, int plane) {
+    return yuv().plane_texture(yuv_layout(layout), plane);
+  }
+  void convert_yuv(const std::string& layout, const std::string& matrix, bool full_range) {
+    yuv().convert(yuv_layout(layout), matrix, full_range, renderer_.camera_texture());
+  }
+
   // Composites the object, lit by the newest lighting, over the frame in camera_texture() and
   // shows it in the canvas; the camera's orientation (camera -> world, as sent) places it.
   // Milliseconds of this call.
@@ -326,6 +336,16 @@ class WebClient {
   }
 
  private:
+  static YuvLayout yuv_layout(const std::string& name) {
+    if (name == "NV12") return YuvLayout::Nv12;
+    if (name == "I420") return YuvLayout::I420;
+    throw std::invalid_argument("frame layout '" + name + "': NV12 or I420");
+  }
+  YuvFrame& yuv() {
+    if (!yuv_) yuv_.emplace(width_, height_, "/shaders");
+    return *yuv_;
+  }
+
   WebClient(const std::string& canvas, int width, int height, const render::Mesh& sphere)
       : context_(render::GlContext::canvas(canvas)),
         renderer_(width, height, "/shaders"),
@@ -362,6 +382,7 @@ class WebClient {
   track::WorldFromMarker world_from_marker_{track::WorldFromMarkerOptions{.min_samples = 1}};
   std::uint64_t tracked_frames_ = 0;
   std::optional<glm::dmat4> last_camera_from_scene_;
+  std::optional<YuvFrame> yuv_;
   std::optional<ShCoeffs> sh_;
   client::MapSetAssembler assembler_;
   std::optional<wire::Welcome> welcome_;
@@ -387,6 +408,8 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("requestMaps", &WebClient::request_maps)
       .function("receive", &WebClient::receive)
       .function("cameraTexture", &WebClient::camera_texture)
+      .function("yuvPlaneTexture", &WebClient::yuv_plane_texture)
+      .function("convertYuv", &WebClient::convert_yuv)
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
       .function("setModel", &WebClient::set_model)
