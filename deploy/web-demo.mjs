@@ -1,8 +1,9 @@
 // The browser part of `make demo`: a simulated phone opens the page arlightd serves in headless
 // Chromium, sweeps the room (arlight-sim's video as its camera, the true orientation as its
-// sensor) and the page composites a sphere lit by what arlightd captured. Saves screenshots along
-// the way, a contact sheet of them and web.json (the page's own figures), then prints how to
-// connect a real phone.
+// sensor) and the page composites a sphere lit by what arlightd captured; then it walks around the
+// marker on the floor, continuing the same session, and the page stands the bunny on it. Saves
+// screenshots along the way, a contact sheet of them and web.json (the page's own figures), then
+// prints how to connect a real phone.
 //   node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE
 import { randomBytes } from 'node:crypto';
 import fs from 'node:fs';
@@ -23,7 +24,7 @@ const token = randomBytes(16).toString('hex');
 
 const room = simulateRoom({ bin, probe, dir: out, frames: 96, fps: 4, width: 640, height: 480, seed: 3 });
 const daemon = await startDaemon({ bin, dir: path.join(out, 'daemon'), webRoot: path.join(bin, 'web'), token });
-const { browser, page } = await launchChromium({ y4m: room.y4m });
+let { browser, page } = await launchChromium({ y4m: room.y4m });
 const shots = [];
 try {
   await page.setViewportSize({ width: 960, height: 600 });  // landscape: camera view beside the panel
@@ -39,14 +40,44 @@ try {
   });
   await page.waitForFunction(() => window.arlight.status().map_sets >= 1, null, { timeout: 60000 });
   await page.waitForTimeout(1500);
-  await page.screenshot({ path: path.join(out, 'page.png') });
-  await page.screenshot({ path: path.join(out, 'page.jpg'), type: 'jpeg', quality: 80 });
-  shots.push(path.join(out, 'page.png'));
+  await page.screenshot({ path: path.join(out, 'page_sweep.png') });
+  shots.push(path.join(out, 'page_sweep.png'));
   const status = await page.evaluate(() => window.arlight.status());
-  fs.writeFileSync(path.join(out, 'web.json'), JSON.stringify({ ...status, sh: undefined }, null, 2));
+  const sweepShots = shots.length;
+  await browser.close();
+
+  // Around the marker (a second video: a new browser, so its fake camera starts at the start),
+  // in the same session: the maps of the whole sweep light the bunny.
+  const orbit = simulateRoom({
+    bin, probe, dir: path.join(out, 'marker'), frames: 48, fps: 4, width: 640, height: 480, seed: 3,
+    extraArgs: ['--trajectory', 'orbit', '--marker', '7,0.2'],
+  });
+  ({ browser, page } = await launchChromium({ y4m: orbit.y4m }));
+  await page.setViewportSize({ width: 960, height: 600 });
+  nextShot = 0;
+  await playRoom(page, daemon.url, orbit, {
+    fragment: `&marker=7,0.2&model=bunny&session=${status.session_id}`,
+    lastFrame: 40,  // mid-orbit (the video starts again after its last frame)
+    onTick: async (s) => {
+      if (!s.tracked_frames || Date.now() < nextShot) return;
+      // The shown frame composited again once its own pose is in (live, the page draws each
+      // frame with the newest pose the worker has, from the frame before, turned by the sensor).
+      const p = await page.evaluate(() => window.arlight.probe());
+      if (!p || p.media_time !== p.tracked_media_time) return;
+      nextShot = Date.now() + 2000;
+      const file = path.join(out, `page_${String(shots.length).padStart(2, '0')}.png`);
+      await page.screenshot({ path: file });
+      await page.screenshot({ path: path.join(out, 'page.jpg'), type: 'jpeg', quality: 80 });
+      fs.copyFileSync(file, path.join(out, 'page.png'));
+      shots.push(file);
+    },
+  });
+  const marker = await page.evaluate(() => window.arlight.status());
+  fs.writeFileSync(path.join(out, 'web.json'),
+    JSON.stringify({ sweep: { ...status, sh: undefined }, marker: { ...marker, sh: undefined } }, null, 2));
 
   // The contact sheet, drawn by the browser itself (no image library needed).
-  const images = shots.slice(-12).map((f) => `data:image/png;base64,${fs.readFileSync(f).toString('base64')}`);
+  const images = [...shots.slice(0, sweepShots).slice(-6), ...shots.slice(sweepShots).slice(-6)].map((f) => `data:image/png;base64,${fs.readFileSync(f).toString('base64')}`);
   await page.setViewportSize({ width: 1440, height: 900 });
   await page.setContent('<body style="margin:0;background:#000"><canvas id="sheet"></canvas></body>');
   await page.evaluate(async (urls) => {
@@ -74,7 +105,9 @@ try {
   console.log(`web demo: ${status.frames_processed} frames captured by arlightd from the page, ` +
     `${status.map_sets} map sets, coverage ${(status.coverage * 100).toFixed(0)} %, ` +
     `${status.fps.toFixed(1)} fps in headless Chromium (SwiftShader), ` +
-    `latency p50 ${status.latency_p50_ms.toFixed(0)} ms`);
+    `latency p50 ${status.latency_p50_ms.toFixed(0)} ms; then the marker tracked in ${marker.tracked_frames} frames ` +
+    `(${marker.session_id === status.session_id ? 'the same session' : 'a new session'}), ` +
+    `the ${marker.model} on it`);
 } finally {
   await browser.close();
   await daemon.stop();

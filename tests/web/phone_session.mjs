@@ -89,10 +89,13 @@ export function sensorReadingFor(pose) {
  * latency: one run in three put every frame's orientation one frame off. Before the page shows
  * its first frame, the pose follows the time since the camera opened. `onTick(status)` runs
  * between polls (every ~20 ms). `fragment` is added to the page's URL fragment; `fov` is the
- * page's starting field of view (default the simulator's).
+ * page's starting field of view (default the simulator's). It returns once frame `lastFrame` (by
+ * default the last) shows: the fake camera then starts the video again, with the sensor still
+ * at the last pose.
  */
 export async function playRoom(page, url, room, {
   onTick = async () => {}, timeoutMs = 150000, fragment = '', fov = room.vfovDeg,
+  lastFrame = room.frames - 1,
 } = {}) {
   await enableOrientationOverride(page);
   await overrideOrientation(page, sensorReadingFor(room.poses[0]));
@@ -104,7 +107,7 @@ export async function playRoom(page, url, room, {
     let next = null;
     if (typeof status.frame_media_time === 'number') {
       const shown = Math.round(status.frame_media_time * room.fps);
-      if (shown >= room.frames - 1) return;
+      if (shown >= lastFrame) return;
       next = shown + 1;
     } else if (status.camera_opened_at) {
       next = Math.floor(((Date.now() - status.camera_opened_at) / 1000) * room.fps) + 1;

@@ -8,7 +8,7 @@
 // The URL's fragment (never sent to the server in an HTTP request) carries the session:
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
-//   [&model=sphere|bunny|suzanne]
+//   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
@@ -33,7 +33,7 @@ const state = {
   client: null,      // the WebAssembly WebClient, once the page runs
   upload: null,      // its FrameUpload
   connected: false,
-  sessionId: '',
+  sessionId: params.get('session') || '',  // sent as the Hello's resume_session
   framesSent: 0,
   updates: 0,
   framesProcessed: 0,
@@ -77,7 +77,7 @@ window.arlight = {
   },
   // The recent marker poses: {media_time (the frame's, as the camera stamped it), raw, smoothed
   // (the camera's pose in the marker frame: position in metres, orientation [w, x, y, z]),
-  // reprojection_px}.
+  // velocity (the pose filter's, m/s in the marker frame), reprojection_px}.
   tracks() {
     return state.tracks.slice();
   },
@@ -475,7 +475,7 @@ async function start() {
     ++state.trackedFrames;
     state.trackStatus = 'tracked';
     state.tracking = 'marker';
-    state.tracks.push({ media_time: frame.mediaTime, raw: pose.raw, smoothed: pose.smoothed,
+    state.tracks.push({ media_time: frame.mediaTime, raw: pose.raw, smoothed: pose.smoothed, velocity: pose.velocity,
       reprojection_px: found.reprojectionPx });
     if (state.tracks.length > 1000) state.tracks.shift();
     refineFocal(found.corners);
@@ -524,11 +524,11 @@ async function start() {
   }
   state.upload = upload;
   let compositing = null;
-  const composite = async (q, image = null, measure = true) => {
+  const composite = async (t, q, image = null, measure = true) => {
     while (compositing) await compositing;
     compositing = (async () => {
       state.grabMs = await upload.upload(image, { measure });
-      state.renderMs = client.render(q[0], q[1], q[2], q[3]);
+      state.renderMs = client.render(t, q[0], q[1], q[2], q[3]);
     })();
     try {
       await compositing;
@@ -541,15 +541,28 @@ async function start() {
   readBack.height = h;
   const readCtx = readBack.getContext('2d', { willReadFrequently: true });
   // One snapshot of the video's current frame drawn for reference and composited the page's way
-  // with the orientation the frame came with, and the canvas read back.
-  let shown = { q: [1, 0, 0, 0], mediaTime: undefined };
+  // with the orientation that frame came with, and the canvas read back. (The video may be a
+  // frame ahead of the page's last frame callback: then its orientation is waited for.)
+  let shown = { t: 0, q: [1, 0, 0, 0], mediaTime: undefined };
+  const recent = new Map();  // media time -> orientation, of the last frames shown
   probeComposite = async () => {
-    const image = await snapshotFrame(camera.video);
+    let image;
+    let mediaTime = shown.mediaTime;
+    for (let attempt = 0; ; ++attempt) {
+      image = await snapshotFrame(camera.video);
+      // VideoFrame timestamps are the media times in microseconds; a bitmap has none.
+      if (image.timestamp === undefined) break;
+      mediaTime = image.timestamp / 1e6;
+      if (recent.has(mediaTime) || attempt === 10) break;
+      image.close();
+      await new Promise((r) => setTimeout(r, 20));
+    }
+    const { t, q } = recent.get(mediaTime) || shown;
     let frame;
     try {
       grabber.ctx.drawImage(image, 0, 0, w, h);
       frame = grabber.ctx.getImageData(0, 0, w, h).data;
-      await composite(shown.q, image, false);
+      await composite(t, q, image, false);
     } finally {
       image.close();
     }
@@ -566,12 +579,15 @@ async function start() {
     const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
     const last = state.tracks[state.tracks.length - 1];
     return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h,
-      media_time: shown.mediaTime, tracked_media_time: last ? last.media_time : null };
+      media_time: mediaTime, tracked_media_time: last ? last.media_time : null };
   };
   grabber.onFrame(async (info) => {
     state.frameMediaTime = info.mediaTime;
     const q = orientation();
-    shown = { q, mediaTime: info.mediaTime };
+    const t = performance.now() / 1000;  // the frame's time, as the tracker's results carry it
+    shown = { t, q, mediaTime: info.mediaTime };
+    recent.set(info.mediaTime, shown);
+    if (recent.size > 8) recent.delete(recent.keys().next().value);
     // One VideoFrame of what shows now, for the composite, the tracker and arlightd alike (each
     // paired with the orientation read with it); a fresh bitmap each where there are none.
     let video = null;
@@ -582,10 +598,10 @@ async function start() {
     }
     const take = () => (video ? Promise.resolve(video.clone()) : createImageBitmap(camera.video));
     try {
-      tracking.offer(take, client.camera(), { t: performance.now() / 1000, q, mediaTime: info.mediaTime });
+      tracking.offer(take, client.camera(), { t, q, mediaTime: info.mediaTime });
       if (compositing) return;  // still on the previous frame: this one is skipped
       try {
-        await composite(q, video);
+        await composite(t, q, video);
         ++frames;
       } catch (e) {
         if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);

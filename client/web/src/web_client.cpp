@@ -44,6 +44,9 @@ constexpr double kPreviewDistance = 4.0, kPreviewDrop = 0.5;
 // The object stands this many marker sides tall, as in the native client (client_app.hpp).
 constexpr double kObjectHeightPerMarker = 1.5;
 constexpr double kDefaultMarkerSize = 0.2;  // metres: the native client's default marker
+// How far ahead of the newest tracked frame the camera's position is extrapolated (the pose
+// filter's reset time: beyond it the marker counts as lost).
+constexpr double kExtrapolateSeconds = 0.5;
 // The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
 // virtual object goes through the same exposure, so it matches the map's scale.
 constexpr double kLockedExposure = 1.0 / 60.0;
@@ -200,11 +203,14 @@ class WebClient {
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
     const Pose smoothed = filter_.update(raw, timestamp);
     world_from_marker_.add(timestamp, world_from_camera, raw.orientation);
-    track_ = Track{smoothed, world_from_camera};
+    track_ = Track{smoothed, world_from_camera, timestamp, filter_.velocity()};
     ++tracked_frames_;
     val out = val::object();
     out.set("raw", pose_to_js(raw));
     out.set("smoothed", pose_to_js(smoothed));
+    val velocity = val::array();
+    for (int i = 0; i < 3; ++i) velocity.call<void>("push", track_->velocity[i]);
+    out.set("velocity", velocity);
     return out;
   }
 
@@ -223,21 +229,24 @@ class WebClient {
   }
 
   // Composites the object, lit by the newest lighting, over the frame in camera_texture() and
-  // shows it in the canvas; the camera's orientation (camera -> world, as sent) places it.
-  // Milliseconds of this call.
-  double render(double qw, double qx, double qy, double qz) {
+  // shows it in the canvas; the frame's time (seconds, the clock markerSeen's timestamps use) and
+  // the camera's orientation then (camera -> world, as sent) place it. Milliseconds of this call.
+  double render(double timestamp, double qw, double qx, double qy, double qz) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
     Pose camera_in_scene;
     glm::dquat world_from_scene;
     if (track_) {
-      // On the marker: the newest tracked pose, turned by the rotation the orientation sensor
-      // measured since its frame (the worker's result trails the shown frame; a rotation about
-      // the camera's centre moves no position). After the marker is lost the object stays there
-      // the same way, until it is seen again.
+      // On the marker: the newest tracked pose (the worker's result trails the shown frame),
+      // turned by the rotation the orientation sensor measured since its frame and moved on by
+      // the pose filter's velocity. After the marker is lost the object stays there, turned by
+      // the sensor alone, until it is seen again.
       const glm::dquat since = glm::conjugate(track_->world_from_camera) * world_from_camera;
+      const double ahead = timestamp - track_->timestamp;
+      const bool extrapolate = ahead > 0 && ahead <= kExtrapolateSeconds;
       camera_in_scene = {glm::normalize(track_->camera_in_marker.orientation * since),
-                         track_->camera_in_marker.position};
+                         track_->camera_in_marker.position +
+                             (extrapolate ? ahead : 0.0) * track_->velocity};
       world_from_scene = world_from_marker_.world_from_marker().value_or(
           track_->world_from_camera * glm::conjugate(track_->camera_in_marker.orientation));
     } else {
@@ -371,10 +380,12 @@ class WebClient {
   double object_height_ = 0;
   int width_, height_;
   CameraIntrinsics camera_;
-  // The newest tracked pose (smoothed, camera -> marker) and the orientation its frame had.
+  // The newest tracked pose (smoothed, camera -> marker), the orientation and time of its frame.
   struct Track {
     Pose camera_in_marker;
     glm::dquat world_from_camera;
+    double timestamp;
+    glm::dvec3 velocity;  // of the camera in the marker frame, m/s
   };
   std::optional<Track> track_;
   track::PoseFilter filter_;

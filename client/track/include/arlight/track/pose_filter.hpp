@@ -41,6 +41,10 @@ class PoseFilter {
   Pose update(const Pose& raw, double t);
   void reset() { state_.reset(); }
   bool primed() const { return state_.has_value(); }
+  // The filtered velocity of the position (parent-frame units per second) at the last update;
+  // zero before two poses. A renderer extrapolates the position with it to the time of a frame
+  // whose own pose is not measured yet.
+  glm::dvec3 velocity() const { return state_ && state_->moving ? state_->velocity : glm::dvec3(0.0); }
 
  private:
   struct State {
