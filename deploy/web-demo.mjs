@@ -22,7 +22,8 @@ fs.rmSync(out, { recursive: true, force: true });
 fs.mkdirSync(out, { recursive: true });
 const token = randomBytes(16).toString('hex');
 
-const room = simulateRoom({ bin, probe, dir: out, frames: 96, fps: 4, width: 640, height: 480, seed: 3 });
+// The phone holds still for 3 s while the page connects, so every view of the sweep is sent.
+const room = simulateRoom({ bin, probe, dir: out, frames: 96, fps: 4, width: 640, height: 480, seed: 3, leadIn: 12 });
 const daemon = await startDaemon({ bin, dir: path.join(out, 'daemon'), webRoot: path.join(bin, 'web'), token });
 let { browser, page } = await launchChromium({ y4m: room.y4m });
 const shots = [];

@@ -11,13 +11,15 @@ import { sensorQuaternionFromCameraQuat } from '../../client/web/src/orientation
 
 /**
  * Renders the room: REC (recording + truth/) and camera.y4m in `dir`.
- * `extraArgs` go to arlight-sim (e.g. an orbit around a marker).
+ * `extraArgs` go to arlight-sim (e.g. an orbit around a marker); `leadIn` frames of the first
+ * view come first (the phone held still while the page connects).
  * @returns {{rec: string, y4m: string, poses: Array<{orientation: number[]}>, truth: object,
  *   camera: object, exposure: number, fps: number, frames: number, width: number,
  *   height: number, vfovDeg: number}}
  */
 export function simulateRoom({
   bin, probe, dir, frames = 96, fps = 4, width = 320, height = 240, seed = 11, extraArgs = [],
+  leadIn = 0,
 }) {
   const rec = path.join(dir, 'rec');
   const y4m = path.join(dir, 'camera.y4m');
@@ -27,14 +29,30 @@ export function simulateRoom({
     ...extraArgs,
   ], { stdio: 'pipe' });
   const truth = JSON.parse(fs.readFileSync(path.join(rec, 'truth', 'truth.json')));
+  if (leadIn > 0) holdFirstFrame(y4m, truth, leadIn, width, height);
   const { poses } = truth;
   const recording = JSON.parse(fs.readFileSync(path.join(rec, 'recording.json')));
   const k = recording.camera;
   return {
-    rec, y4m, poses, truth, camera: k, fps, frames, width, height,
+    rec, y4m, poses, truth, camera: k, fps, frames: frames + leadIn, width, height,
     exposure: recording.frames[0].exposure * recording.frames[0].gain,
     vfovDeg: (2 * Math.atan((0.5 * k.height) / k.fy) * 180) / Math.PI,
   };
+}
+
+// The phone held still on its first view for `count` frames before the recording starts: the
+// video's first frame repeated, and the truth's first pose (and marker visibility) with it, so
+// the page has connected before the room starts to move and every frame of it reaches arlightd.
+function holdFirstFrame(y4m, truth, count, width, height) {
+  const bytes = fs.readFileSync(y4m);
+  const headerEnd = bytes.indexOf(0x0a) + 1;
+  const frameBytes = 6 + (width * height * 3) / 2;  // "FRAME\n", Y, U, V
+  const first = bytes.subarray(headerEnd, headerEnd + frameBytes);
+  fs.writeFileSync(y4m, Buffer.concat([bytes.subarray(0, headerEnd), ...Array(count).fill(first),
+    bytes.subarray(headerEnd)]));
+  truth.poses = [...Array(count).fill(truth.poses[0]), ...truth.poses];
+  if (truth.marker_visible)
+    truth.marker_visible = [...Array(count).fill(truth.marker_visible[0]), ...truth.marker_visible];
 }
 
 /**

@@ -42,6 +42,7 @@ const state = {
   trackStatus: 'starting',  // 'tracked', or why not ('no marker in view', a refusal, ...)
   trackMs: 0,        // the worker's time for the last frame
   tracks: [],        // the recent tracking results (window.arlight.tracks())
+  sent: [],          // the recent frames sent (window.arlight.sent())
   intrinsics: 'default',  // or 'refined' (from the marker's views)
   refinedMediaTime: null,  // the frame shown when the focal length was last refined
   focalPx: 0,
@@ -80,6 +81,11 @@ window.arlight = {
   // velocity (the pose filter's, m/s in the marker frame), reprojection_px}.
   tracks() {
     return state.tracks.slice();
+  },
+  // The recent frames sent to arlightd: {media_time (the frame's), orientation (camera -> world,
+  // [w, x, y, z], as sent with it)}.
+  sent() {
+    return state.sent.slice();
   },
   status() {
     const sorted = [...state.latencies].sort((a, b) => a - b);
@@ -485,7 +491,7 @@ async function start() {
   let frames = 0;
   let since = performance.now();
   const encoder = new JpegEncoder();
-  const sendFrame = async (q, take) => {
+  const sendFrame = async (q, take, mediaTime) => {
     encoding = true;
     try {
       const t0 = performance.now();
@@ -496,6 +502,8 @@ async function start() {
       ws.send(client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
       sentAt.set(seq, performance.now());
       state.framesSent = seq;
+      state.sent.push({ media_time: mediaTime, orientation: q });
+      if (state.sent.length > 1000) state.sent.shift();
       coverage.add(q);
     } catch (e) {
       showError(`frame: ${e.message || e}`);
@@ -608,7 +616,7 @@ async function start() {
         return;
       }
       if (state.connected && !encoding && ws.readyState === WebSocket.OPEN &&
-          ws.bufferedAmount <= kMaxBuffered) sendFrame(q, take);
+          ws.bufferedAmount <= kMaxBuffered) sendFrame(q, take, info.mediaTime);
     } finally {
       // The clones handed out stay valid; this one is done once the composite has it.
       if (video) video.close();
