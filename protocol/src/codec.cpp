@@ -363,7 +363,7 @@ Progress read(const fb::Progress& m, const WireLimits&) {
 
 Error read(const fb::Error& m, const WireLimits&) {
   const int code = int(m.code());
-  if (code > int(ErrorCode::Internal))
+  if (code > int(ErrorCode::Timeout))
     refuse(Fault::OutOfRange, "Error", "code", "unknown error code " + std::to_string(code));
   return {ErrorCode(code), text(m.message(), "Error", "message")};
 }

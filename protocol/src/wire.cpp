@@ -16,7 +16,8 @@ namespace arlight::wire {
 const char* error_code_name(ErrorCode code) {
   static constexpr const char* kNames[] = {"Unknown",  "Unauthorized",    "BadMessage",
                                            "TooLarge", "OutOfOrder",      "Unsupported",
-                                           "Busy",     "SessionNotFound", "Internal"};
+                                           "Busy",     "SessionNotFound", "Internal",
+                                           "Timeout"};
   const auto i = std::size_t(code);
   return i < std::size(kNames) ? kNames[i] : "Unknown";
 }

@@ -7,6 +7,7 @@
 #include <openssl/x509v3.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <boost/asio/connect.hpp>
@@ -15,10 +16,13 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 #include <string>
 #include <thread>
@@ -233,6 +237,167 @@ TEST(Arlightd, RefinedIntrinsicsKeepTheMapAndAnotherSizeIsRefused) {
   EXPECT_EQ(c.server_error()->first, "BadMessage");
   EXPECT_NE(c.server_error()->second.find("another size"), std::string::npos)
       << c.server_error()->second;
+}
+
+namespace {
+
+// What a raw TCP connection from `local` (a loopback address) gets before the daemon closes it:
+// the bytes, and the seconds until it did (a 10 s receive timeout ends the wait otherwise).
+struct RawOutcome {
+  std::vector<std::uint8_t> bytes;
+  double seconds = 0;
+  bool closed = false;
+};
+
+class RawConnection {
+ public:
+  RawConnection(std::uint16_t port, const char* local = "127.0.0.1")
+      : socket_(io_), opened_(std::chrono::steady_clock::now()) {
+    namespace ip = boost::asio::ip;
+    socket_.open(ip::tcp::v4());
+    socket_.bind({ip::make_address(local), 0});
+    socket_.connect({ip::make_address("127.0.0.1"), port});
+    const timeval tv{10, 0};
+    setsockopt(socket_.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  }
+  RawOutcome wait_for_close() {
+    RawOutcome r;
+    std::uint8_t buf[4096];
+    for (;;) {
+      const ssize_t n = ::recv(socket_.native_handle(), buf, sizeof buf, 0);
+      if (n <= 0) {
+        r.closed = n == 0 || errno == ECONNRESET;
+        break;
+      }
+      r.bytes.insert(r.bytes.end(), buf, buf + n);
+    }
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_).count();
+    return r;
+  }
+
+ private:
+  boost::asio::io_context io_;
+  boost::asio::ip::tcp::socket socket_;
+  std::chrono::steady_clock::time_point opened_;
+};
+
+// The framed message in a raw connection's bytes, as an Error.
+std::optional<wire::Error> error_in(const std::vector<std::uint8_t>& bytes) {
+  if (bytes.size() < 4) return std::nullopt;
+  std::uint32_t n;
+  std::memcpy(&n, bytes.data(), 4);
+  if (bytes.size() < 4 + std::size_t(n)) return std::nullopt;
+  const wire::Message m = wire::decode({bytes.begin() + 4, bytes.begin() + 4 + n});
+  if (const auto* e = std::get_if<wire::Error>(&m)) return *e;
+  return std::nullopt;
+}
+
+double metric(std::uint16_t admin, const std::string& name) {
+  const auto [status, body] = test::http_get(admin, "/metrics");
+  const std::regex line("\n" + name + " ([0-9.e+]+)");
+  std::smatch m;
+  return status == 200 && std::regex_search(body, m, line) ? std::stod(m[1]) : -1.0;
+}
+
+}  // namespace
+
+// In the open: a connection that never says Hello is closed by the deadline with Error{Timeout};
+// over each connection limit the next connection is closed before anything is read (0 bytes),
+// while an authenticated session keeps getting updates; /metrics counts each.
+TEST(Arlightd, HelloDeadlineAndConnectionLimitsRefuseOthersWhileASessionCarriesOn) {
+  const fs::path dir = test::fresh_temp_dir("daemon_limits");
+  DaemonProcess d(dir / "daemon", {"--hello-timeout", "1", "--max-unauthenticated", "2",
+                                   "--max-per-address", "3", "--max-connections", "4"});
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  client::Client good;
+  good.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  good.send_intrinsics(rec.camera);
+  std::uint64_t seq = 0;
+  const auto still_served = [&] {
+    ++seq;
+    const std::size_t i = std::size_t(seq) % rec.frames.size();
+    good.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
+                         recording::read_frame_bytes(rec, i));
+    return good.wait_for(
+        [&] {
+          const auto u = good.last_update();
+          return u && u->frame_sequence >= seq;
+        },
+        20s);
+  };
+  ASSERT_TRUE(still_served());
+
+  // 1. The Hello deadline, and the limit of connections before their Hello (2).
+  {
+    RawConnection a(d.port()), b(d.port());
+    std::this_thread::sleep_for(200ms);  // both adopted
+    const RawOutcome c = RawConnection(d.port()).wait_for_close();
+    EXPECT_TRUE(c.closed);
+    EXPECT_TRUE(c.bytes.empty()) << "a refused connection is closed before anything is sent";
+    EXPECT_LT(c.seconds, 0.9);
+    EXPECT_TRUE(still_served());
+    const RawOutcome ra = a.wait_for_close();
+    EXPECT_TRUE(ra.closed);
+    EXPECT_GT(ra.seconds, 0.8);
+    EXPECT_LT(ra.seconds, 5.0);
+    const auto e = error_in(ra.bytes);
+    ASSERT_TRUE(e.has_value());
+    EXPECT_EQ(e->code, wire::ErrorCode::Timeout);
+    EXPECT_NE(e->message.find("no Hello"), std::string::npos) << e->message;
+    EXPECT_TRUE(b.wait_for_close().closed);
+  }
+  std::this_thread::sleep_for(300ms);  // the timed-out connections are gone
+
+  // 2. Per address (3): `good` and two more sessions from 127.0.0.1; a fourth from there is
+  // refused, one from 127.0.0.2 is not (it is then closed by the Hello deadline).
+  client::Client second, third;
+  second.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  third.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  {
+    const RawOutcome refused = RawConnection(d.port()).wait_for_close();
+    EXPECT_TRUE(refused.bytes.empty());
+    EXPECT_LT(refused.seconds, 0.9);
+    RawConnection other(d.port(), "127.0.0.2");
+    std::this_thread::sleep_for(200ms);
+
+    // 3. All connections (4): one from yet another address is refused.
+    const RawOutcome over = RawConnection(d.port(), "127.0.0.3").wait_for_close();
+    EXPECT_TRUE(over.bytes.empty());
+    EXPECT_LT(over.seconds, 0.9);
+    EXPECT_TRUE(still_served());
+    const RawOutcome accepted = other.wait_for_close();
+    ASSERT_TRUE(error_in(accepted.bytes).has_value()) << "127.0.0.2 was refused";
+    EXPECT_EQ(error_in(accepted.bytes)->code, wire::ErrorCode::Timeout);
+  }
+  EXPECT_TRUE(good.connected() && second.connected() && third.connected());
+  EXPECT_FALSE(good.server_error().has_value());
+
+  EXPECT_EQ(metric(d.admin(), "arlight_hello_timeouts_total"), 3.0);
+  EXPECT_EQ(metric(d.admin(), "arlight_connections_refused_unauthenticated_total"), 1.0);
+  EXPECT_EQ(metric(d.admin(), "arlight_connections_refused_per_address_total"), 1.0);
+  EXPECT_EQ(metric(d.admin(), "arlight_connections_refused_limit_total"), 1.0);
+}
+
+// An authenticated connection that sends nothing for the idle timeout is closed with
+// Error{Timeout}; its session stays and resumes.
+TEST(Arlightd, ASilentSessionIsClosedAfterTheIdleTimeoutAndResumes) {
+  const fs::path dir = test::fresh_temp_dir("daemon_idle");
+  DaemonProcess d(dir / "daemon", {"--idle-timeout", "2"});
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  client::Client c;
+  const wire::Welcome w = c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  c.send_intrinsics(rec.camera);
+  const auto opened = std::chrono::steady_clock::now();
+  ASSERT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
+  const double after = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+  EXPECT_GT(after, 1.5);
+  ASSERT_TRUE(c.server_error().has_value());
+  EXPECT_EQ(c.server_error()->first, "Timeout");
+  client::Client again;
+  const wire::Welcome resumed =
+      again.connect("127.0.0.1", d.port(), "arlight-sim", kToken, "arlight-test", w.session_id);
+  EXPECT_EQ(resumed.session_id, w.session_id);
+  EXPECT_TRUE(resumed.resumed);
 }
 
 TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {

@@ -11,6 +11,7 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -50,9 +51,10 @@ class DaemonProcess {
                                        "--data-dir",
                                        (dir / "data").string(),
                                        "--tokens",
-                                       (dir / "tokens").string(),
-                                       "--idle-timeout",
-                                       "600"};
+                                       (dir / "tokens").string()};
+      // Sessions outlive slow tests, unless the test sets its own idle timeout.
+      if (std::find(extra_args.begin(), extra_args.end(), "--idle-timeout") == extra_args.end())
+        args.insert(args.end(), {"--idle-timeout", "600"});
       args.insert(args.end(), extra_args.begin(), extra_args.end());
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());

@@ -51,7 +51,8 @@ enum class ErrorCode : std::uint16_t {
   Unsupported,      // protocol version, pixel format, projection or method not offered
   Busy,             // session limit reached, or a client that does not read
   SessionNotFound,  // resume of an unknown session id
-  Internal
+  Internal,
+  Timeout  // no Hello in time after connecting, or no message for the idle timeout
 };
 const char* error_code_name(ErrorCode code);  // "Unauthorized", ...
 

@@ -37,6 +37,14 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.max_sessions = value.get<int>();
       else if (key == "idle_timeout_s")
         c.idle_timeout_s = value.get<double>();
+      else if (key == "hello_timeout_s")
+        c.hello_timeout_s = value.get<double>();
+      else if (key == "max_connections")
+        c.max_connections = value.get<int>();
+      else if (key == "max_unauthenticated")
+        c.max_unauthenticated = value.get<int>();
+      else if (key == "max_connections_per_address")
+        c.max_connections_per_address = value.get<int>();
       else if (key == "checkpoint_interval_s")
         c.checkpoint_interval_s = value.get<double>();
       else if (key == "map_size")

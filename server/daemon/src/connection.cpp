@@ -7,11 +7,28 @@ namespace arlight::daemon {
 
 namespace asio = boost::asio;
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Clock::duration to_clock(std::chrono::duration<double> d) {
+  return std::chrono::duration_cast<Clock::duration>(d);
+}
+
+}  // namespace
+
+std::string peer_address(const std::string& peer) {
+  const auto colon = peer.rfind(':');
+  return colon == std::string::npos ? peer : peer.substr(0, colon);
+}
+
 Connection::Connection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env)
     : stream_(std::make_shared<wire::MessageStream>(
           std::move(transport),
           wire::MessageStream::Options{env.limits, env.max_send_queue_bytes})),
-      env_(env) {}
+      env_(env),
+      address_(peer_address(stream_->peer())),
+      deadline_(stream_->executor()) {}
 
 // The stream's handlers hold this connection until the stream ends (MessageStream lets go of
 // them then); the session only holds it weakly, through its sink.
@@ -24,12 +41,39 @@ void Connection::start() {
     // e.g. a plain-TCP client talking to a TLS port
     if (self->env_.log) self->env_.log(self->stream_->peer() + ": TLS handshake failed: " + why);
   };
-  h.on_closed = [self](const std::string&) { self->detach(); };
+  h.on_closed = [self](const std::string&) {
+    self->deadline_.cancel();
+    self->detach();
+  };
   h.on_overflow = [self] {
     // A client that does not read would make us hold everything we send it.
     self->fail(wire::ErrorCode::Busy, "client reads too slowly; closing");
   };
   stream_->start(std::move(h));
+  asio::post(stream_->executor(), [self] { self->arm_deadline(to_clock(self->env_.hello_timeout)); });
+}
+
+void Connection::arm_deadline(Clock::duration after) {
+  deadline_.expires_after(after);
+  deadline_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
+    if (!ec) self->deadline_passed();
+  });
+}
+
+void Connection::deadline_passed() {
+  if (closing_) return;
+  if (!session_) {
+    if (env_.hello_timeouts) env_.hello_timeouts->inc();
+    return fail(wire::ErrorCode::Timeout, "no Hello within " +
+                                              std::to_string(int(env_.hello_timeout.count())) +
+                                              " s of connecting");
+  }
+  const Clock::time_point due = last_message_ + to_clock(env_.idle_timeout);
+  if (Clock::now() < due) return arm_deadline(due - Clock::now());
+  if (env_.idle_timeouts) env_.idle_timeouts->inc();
+  fail(wire::ErrorCode::Timeout, "no message for " +
+                                     std::to_string(int(env_.idle_timeout.count())) +
+                                     " s; closing (the session stays for a resume)");
 }
 
 void Connection::close() {
@@ -54,6 +98,7 @@ void Connection::fail(wire::ErrorCode code, const std::string& message) {
 
 void Connection::handle(wire::Message&& message) {
   if (closing_) return;
+  last_message_ = Clock::now();
   const char* name = wire::message_name(message);
   const bool hello = std::holds_alternative<wire::Hello>(message);
   if (!session_ && !hello && !std::holds_alternative<wire::Ping>(message))
@@ -111,6 +156,8 @@ void Connection::handle_hello(const wire::Hello& m) {
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
                               session_->frames_processed(), env_.limits});
+  authenticated_ = true;
+  arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
 }
 
 void Connection::handle_intrinsics(const CameraIntrinsics& c) {

@@ -4,11 +4,15 @@
 // the connection closes, nothing else.
 #pragma once
 
+#include <atomic>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
 
 #include "arlight/message_stream.hpp"
+#include "arlight/metrics.hpp"
 #include "session.hpp"
 
 namespace arlight::daemon {
@@ -26,13 +30,24 @@ struct ConnectionEnv {
   std::function<std::shared_ptr<Session>(const wire::Hello&, wire::ErrorCode&, std::string&)>
       open_session;
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
+  // A connection must send its Hello within hello_timeout; an authenticated one that sends
+  // nothing for idle_timeout is closed (Error{Timeout}; its session stays for a resume).
+  std::chrono::duration<double> hello_timeout{5.0}, idle_timeout{300.0};
+  admin::Counter* hello_timeouts = nullptr;
+  admin::Counter* idle_timeouts = nullptr;
 };
+
+// "address" of an "address:port" peer ("[v6]:port" keeps the brackets).
+std::string peer_address(const std::string& peer);
 
 class Connection : public std::enable_shared_from_this<Connection> {
  public:
   Connection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env);
   void start();
   void close();  // from any thread
+  // From any thread: where it comes from, and whether its Hello was accepted.
+  const std::string& address() const { return address_; }
+  bool authenticated() const { return authenticated_.load(); }
 
  private:
   void handle(wire::Message&& m);
@@ -42,10 +57,17 @@ class Connection : public std::enable_shared_from_this<Connection> {
   void handle_frame(wire::CameraFrame&& m);
   void fail(wire::ErrorCode code, const std::string& message);  // Error, then close
   void detach();
+  // The Hello deadline, then the idle deadline, on the stream's strand.
+  void arm_deadline(std::chrono::steady_clock::duration after);
+  void deadline_passed();
 
   std::shared_ptr<wire::MessageStream> stream_;
   ConnectionEnv env_;
   std::shared_ptr<Session> session_;
+  std::string address_;
+  std::atomic<bool> authenticated_{false};
+  boost::asio::steady_timer deadline_;
+  std::chrono::steady_clock::time_point last_message_ = std::chrono::steady_clock::now();
   bool closing_ = false;
   bool exposure_unknown_ = false;  // the Hello said exposure:unknown
 };

@@ -127,6 +127,9 @@ struct Daemon::Impl {
   int log_lines = 0, log_suppressed = 0;
 
   admin::Gauge& sessions_gauge;
+  admin::Counter* refused_total = nullptr;
+  admin::Counter* refused_unauthenticated = nullptr;
+  admin::Counter* refused_per_address = nullptr;
 
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
@@ -167,6 +170,20 @@ struct Daemon::Impl {
     connection_env.open_session = [this](const wire::Hello& h, wire::ErrorCode& code,
                                          std::string& why) { return open_session(h, code, why); };
     connection_env.log = [this](const std::string& line) { log(line); };
+    connection_env.hello_timeout = std::chrono::duration<double>(config.hello_timeout_s);
+    connection_env.idle_timeout = std::chrono::duration<double>(config.idle_timeout_s);
+    connection_env.hello_timeouts = &metrics.counter(
+        "arlight_hello_timeouts_total", "connections closed for sending no Hello in time");
+    connection_env.idle_timeouts = &metrics.counter(
+        "arlight_idle_timeouts_total", "authenticated connections closed for sending nothing");
+    refused_total = &metrics.counter("arlight_connections_refused_limit_total",
+                                     "connections refused: the limit of all connections");
+    refused_unauthenticated =
+        &metrics.counter("arlight_connections_refused_unauthenticated_total",
+                         "connections refused: the limit of connections before their Hello");
+    refused_per_address =
+        &metrics.counter("arlight_connections_refused_per_address_total",
+                         "connections refused: the limit of connections from one address");
 
     const tcp::endpoint ep(asio::ip::make_address(config.listen_host), config.listen_port);
     acceptor.open(ep.protocol());
@@ -354,12 +371,41 @@ struct Daemon::Impl {
   }
 
   // A client connection from any transport (TCP, TLS, WebSocket): one code path from here on.
+  // Over a connection limit it is closed before anything is read from it.
   void adopt(std::unique_ptr<wire::Transport> transport) {
-    auto c = std::make_shared<Connection>(std::move(transport), connection_env);
+    const std::string address = peer_address(transport->peer());
+    std::shared_ptr<Connection> c;
+    std::string refused;
     {
       std::lock_guard lock(connections_mutex);
       std::erase_if(connections, [](const auto& w) { return w.expired(); });
-      connections.push_back(c);
+      int all = 0, unauthenticated = 0, from_address = 0;
+      for (const auto& w : connections)
+        if (const auto other = w.lock()) {
+          ++all;
+          unauthenticated += !other->authenticated();
+          from_address += other->address() == address;
+        }
+      if (all >= config.max_connections) {
+        refused_total->inc();
+        refused = "the limit of " + std::to_string(config.max_connections) + " connections";
+      } else if (unauthenticated >= config.max_unauthenticated) {
+        refused_unauthenticated->inc();
+        refused = "the limit of " + std::to_string(config.max_unauthenticated) +
+                  " connections before their Hello";
+      } else if (from_address >= config.max_connections_per_address) {
+        refused_per_address->inc();
+        refused = "the limit of " + std::to_string(config.max_connections_per_address) +
+                  " connections from one address";
+      } else {
+        c = std::make_shared<Connection>(std::move(transport), connection_env);
+        connections.push_back(c);
+      }
+    }
+    if (!c) {
+      log(address + ": connection refused: " + refused);
+      transport->close();
+      return;
     }
     c->start();
   }

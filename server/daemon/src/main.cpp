@@ -35,7 +35,16 @@ int main(int argc, char** argv) {
   app.add_option("--workers", c.workers, "frame-processing threads (0: one per core)");
   app.add_option("--max-sessions", c.max_sessions, "live sessions at once");
   app.add_option("--idle-timeout", c.idle_timeout_s,
-                 "seconds before a disconnected session closes");
+                 "seconds before a session with no connection, or no traffic, closes (kept on "
+                 "disk for a resume)");
+  app.add_option("--hello-timeout", c.hello_timeout_s,
+                 "seconds a new connection has to send its Hello (default 5)");
+  app.add_option("--max-connections", c.max_connections,
+                 "client connections at once, TCP and WebSocket (default 256)");
+  app.add_option("--max-unauthenticated", c.max_unauthenticated,
+                 "connections that have not sent their Hello yet (default 64)");
+  app.add_option("--max-per-address", c.max_connections_per_address,
+                 "connections from one address (default 64)");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 4)");
   app.add_option("--queue-depth", c.queue_depth,
@@ -70,6 +79,11 @@ int main(int argc, char** argv) {
       if (app.count("--workers")) c.workers = flags.workers;
       if (app.count("--max-sessions")) c.max_sessions = flags.max_sessions;
       if (app.count("--idle-timeout")) c.idle_timeout_s = flags.idle_timeout_s;
+      if (app.count("--hello-timeout")) c.hello_timeout_s = flags.hello_timeout_s;
+      if (app.count("--max-connections")) c.max_connections = flags.max_connections;
+      if (app.count("--max-unauthenticated")) c.max_unauthenticated = flags.max_unauthenticated;
+      if (app.count("--max-per-address"))
+        c.max_connections_per_address = flags.max_connections_per_address;
       if (app.count("--align-every")) c.align_every = flags.align_every;
       if (app.count("--queue-depth")) c.queue_depth = flags.queue_depth;
     }
@@ -92,6 +106,11 @@ int main(int argc, char** argv) {
     if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
     if (c.queue_depth < 1 || c.queue_depth > 64)
       throw InputError("queue depth " + std::to_string(c.queue_depth) + " is not in [1, 64]");
+    if (!(c.hello_timeout_s > 0) || !(c.idle_timeout_s > 0))
+      throw InputError("the Hello and idle timeouts must be positive seconds");
+    if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)
+      throw InputError("the connection limits (--max-connections, --max-unauthenticated, "
+                       "--max-per-address) must be at least 1");
 
     // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
     sigset_t set;

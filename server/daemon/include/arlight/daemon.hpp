@@ -36,7 +36,16 @@ struct DaemonConfig {
   int threads = 0;                    // network threads; 0: hardware concurrency
   int workers = 0;                    // frame-processing threads; 0: hardware concurrency
   int max_sessions = 32;              // live sessions at once
-  double idle_timeout_s = 300;        // a session without a connection is closed (kept on disk)
+  // A session without a connection, or a connected one that sent nothing, for this long is
+  // closed (kept on disk for a resume).
+  double idle_timeout_s = 300;
+  // Connections (client port and web port's /ws together): a Hello within hello_timeout_s of
+  // connecting, and at most this many at once in all, before their Hello, and from one address.
+  // Over a limit a new connection is closed at once (counted on /metrics, logged).
+  double hello_timeout_s = 5;
+  int max_connections = 256;
+  int max_unauthenticated = 64;
+  int max_connections_per_address = 64;
   double checkpoint_interval_s = 2;
   int map_size = 512;  // capture map: angle map N x N
   // Feature alignment on every n-th frame of a session, on the frame reduced to at most
@@ -54,9 +63,10 @@ struct DaemonConfig {
 };
 
 // Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, checkpoint_interval_s, map_size, align_every, workers, queue_depth,
-// tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`. InputError
-// names the file and key.
+// idle_timeout_s, hello_timeout_s, max_connections, max_unauthenticated,
+// max_connections_per_address, checkpoint_interval_s, map_size, align_every, workers,
+// queue_depth, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
+// InputError names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
 
