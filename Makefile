@@ -61,8 +61,9 @@ demo: deps
 	@echo "  ar/client/frames/          every composited frame (arlight-client, camera-matched"
 	@echo "                            tone mapping); client.json: timings and pose error vs truth"
 	@echo "  web/contact_sheet.png     the phone page arlightd serves, in headless Chromium: a simulated"
-	@echo "                            phone sweeps the room, the sphere takes on its light; page_*.png"
-	@echo "                            screenshots, web.json the page's own figures (fps, latency)"
+	@echo "                            phone sweeps the room, the sphere takes on its light, then"
+	@echo "                            the page tracks the marker and stands the bunny on it;"
+	@echo "                            page.png, page_*.png, web.json the page's own figures"
 	@echo "  Connect your phone: README.md, \"Connect your phone\" (arlightd --web 0.0.0.0:8443)"
 
 bench: deps
