@@ -48,6 +48,20 @@ const fs::path& sample_recording() { return test::daemon_sample_recording(); }
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 
+// Sends frame `seq` (the recording's frames in turn) and waits up to 20 s for the LightingUpdate
+// that answers it: whether it came.
+bool frame_gets_update(client::Client& c, const recording::Recording& rec, std::uint64_t seq) {
+  const std::size_t i = std::size_t(seq % rec.frames.size());
+  c.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
+                    recording::read_frame_bytes(rec, i));
+  return c.wait_for(
+      [&] {
+        const auto u = c.last_update();
+        return u && u->frame_sequence >= seq;
+      },
+      20s);
+}
+
 // A self-signed P-256 certificate for `names` (subjectAltName), valid for an hour, written as
 // PEM to `cert` and its key to `key` (made with OpenSSL here: no openssl program needed).
 void write_self_signed_certificate(const fs::path& cert, const fs::path& key,
@@ -140,20 +154,7 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
   client::Client good;
   good.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
   good.send_intrinsics(rec.camera);
-  const auto send_frame = [&](std::uint64_t seq) {
-    const auto& f = rec.frames[seq % rec.frames.size()];
-    good.send_jpeg_frame(seq, f, rec.camera.width,
-                         rec.camera.height,
-                         recording::read_frame_bytes(rec, seq % rec.frames.size()));
-    ASSERT_TRUE(good.wait_for(
-        [&] {
-          const auto u = good.last_update();
-          return u && u->frame_sequence >= seq;
-        },
-        20s))
-        << "no update for frame " << seq;
-  };
-  send_frame(1);
+  ASSERT_TRUE(frame_gets_update(good, rec, 1)) << "no update for frame 1";
 
   // Each misbehaving client handshakes properly first, then sends `bytes`.
   const auto expect_error = [&](const std::vector<std::uint8_t>& bytes, const std::string& code) {
@@ -188,8 +189,8 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
     EXPECT_EQ(early.server_error()->first, "OutOfOrder");
   }
   // The good session carried on through all of it.
-  send_frame(2);
-  send_frame(3);
+  for (std::uint64_t seq = 2; seq <= 3; ++seq)
+    ASSERT_TRUE(frame_gets_update(good, rec, seq)) << "no update for frame " << seq;
   EXPECT_TRUE(good.connected());
   EXPECT_FALSE(good.server_error().has_value());
 }
@@ -201,20 +202,8 @@ TEST(Arlightd, RefinedIntrinsicsKeepTheMapAndAnotherSizeIsRefused) {
   client::Client c;
   c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
   c.send_intrinsics(rec.camera);
-  const auto send_frame = [&](std::uint64_t seq) {
-    const std::size_t i = std::size_t(seq) % rec.frames.size();
-    c.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
-                      recording::read_frame_bytes(rec, i));
-    EXPECT_TRUE(c.wait_for(
-        [&] {
-          const auto u = c.last_update();
-          return u && u->frame_sequence >= seq;
-        },
-        20s))
-        << "no update for frame " << seq;
-    return *c.last_update();
-  };
-  for (std::uint64_t seq = 1; seq <= 3; ++seq) send_frame(seq);
+  for (std::uint64_t seq = 1; seq <= 3; ++seq)
+    ASSERT_TRUE(frame_gets_update(c, rec, seq)) << "no update for frame " << seq;
   const float coverage = c.last_update()->coverage;
   ASSERT_GT(coverage, 0.0f);
 
@@ -222,7 +211,8 @@ TEST(Arlightd, RefinedIntrinsicsKeepTheMapAndAnotherSizeIsRefused) {
   CameraIntrinsics refined = rec.camera;
   refined.fx *= 1.04, refined.fy *= 1.04;
   c.send_intrinsics(refined);
-  const wire::LightingUpdate u = send_frame(4);
+  ASSERT_TRUE(frame_gets_update(c, rec, 4)) << "no update for frame 4";
+  const wire::LightingUpdate u = *c.last_update();
   EXPECT_TRUE(c.connected());
   EXPECT_FALSE(c.server_error().has_value());
   EXPECT_EQ(u.frames_processed, 4u);
@@ -313,18 +303,7 @@ TEST(Arlightd, HelloDeadlineAndConnectionLimitsRefuseOthersWhileASessionCarriesO
   good.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
   good.send_intrinsics(rec.camera);
   std::uint64_t seq = 0;
-  const auto still_served = [&] {
-    ++seq;
-    const std::size_t i = std::size_t(seq) % rec.frames.size();
-    good.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
-                         recording::read_frame_bytes(rec, i));
-    return good.wait_for(
-        [&] {
-          const auto u = good.last_update();
-          return u && u->frame_sequence >= seq;
-        },
-        20s);
-  };
+  const auto still_served = [&] { return frame_gets_update(good, rec, ++seq); };
   ASSERT_TRUE(still_served());
 
   // 1. The Hello deadline, and the limit of connections before their Hello (2).

@@ -7,7 +7,6 @@
 #include <string>
 
 #include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
 #include "arlight/render/mesh.hpp"
 
 using namespace arlight;
@@ -42,10 +41,7 @@ int main(int argc, char** argv) {
       write_file_atomically(output, std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
     }
     std::printf("%s\n", describe(mesh).dump().c_str());
-  } catch (const InputError& e) {
-    std::fprintf(stderr, "arlight-model: %s\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {
+  } catch (const std::exception& e) {  // InputError (a bad model), or a file that cannot be written
     std::fprintf(stderr, "arlight-model: %s\n", e.what());
     return 1;
   }

@@ -28,12 +28,10 @@ export class FrameUpload {
     this.height = height;
     this.gl = module.GL.currentContext.GLctx;
     this.cameraTexture = module.GL.textures[client.cameraTexture()];
-    this.yuvSupported = typeof VideoFrame === 'function';
     this.buffer = null;
     // 'auto' tries; the trials' milliseconds per method.
-    this.mode = mode === 'auto' ? (this.yuvSupported ? 'trial' : 'video') : mode;
+    this.mode = mode === 'auto' ? (typeof VideoFrame === 'function' ? 'trial' : 'video') : mode;
     this.trials = { video: [], yuv: [] };
-    this.lastMs = 0;
   }
 
   /** The method in use: 'video', 'yuv', ... or 'trial' while 'auto' still measures. */
@@ -54,10 +52,9 @@ export class FrameUpload {
     if (method === 'yuv') {
       try {
         await this.uploadYuv(image);
-      } catch (e) {
+      } catch {
         // A frame the conversion cannot take (another pixel format): the <video> from now on.
         this.mode = 'video';
-        this.yuvError = String(e.message || e);
         this.uploadSource(image || this.video);
         method = 'video';
       }
@@ -70,9 +67,9 @@ export class FrameUpload {
     } else {
       this.uploadSource(image || this.video);
     }
-    this.lastMs = performance.now() - t0;
-    if (this.mode === 'trial' && measure) this.decide(method, this.lastMs);
-    return this.lastMs;
+    const ms = performance.now() - t0;
+    if (this.mode === 'trial' && measure) this.decide(method, ms);
+    return ms;
   }
 
   decide(method, ms) {

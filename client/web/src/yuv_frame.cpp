@@ -46,7 +46,7 @@ YuvFrame::~YuvFrame() {
 }
 
 void YuvFrame::make_planes(YuvLayout layout) {
-  if (have_planes_ && planes_layout_ == layout) return;
+  if (planes_layout_ == layout) return;
   const int cw = width_ / 2, ch = height_ / 2;
   const struct {
     GLenum internal;
@@ -65,7 +65,6 @@ void YuvFrame::make_planes(YuvLayout layout) {
   }
   glBindTexture(GL_TEXTURE_2D, 0);
   planes_layout_ = layout;
-  have_planes_ = true;
 }
 
 unsigned YuvFrame::plane_texture(YuvLayout layout, int plane) {

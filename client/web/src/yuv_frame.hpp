@@ -8,6 +8,7 @@
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "arlight/render/shader.hpp"
@@ -40,8 +41,7 @@ class YuvFrame {
   int width_, height_;
   render::Program nv12_, i420_;
   std::array<render::gl::Texture, 3> planes_;
-  YuvLayout planes_layout_ = YuvLayout::Nv12;
-  bool have_planes_ = false;
+  std::optional<YuvLayout> planes_layout_;  // what planes_ were made for
   render::gl::Framebuffer framebuffer_;
   unsigned attached_ = 0;  // the target texture framebuffer_ draws into
   GLuint vertex_array_ = 0;
