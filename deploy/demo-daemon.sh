@@ -26,10 +26,13 @@ admin=$(sed -n 's/.*admin on \([0-9]*\).*/\1/p' "$out/arlightd.out")
 echo "arlightd on 127.0.0.1:$port (admin $admin)"
 "$build/bin/arlight-replay" --server "127.0.0.1:$port" --token "$token" --recording "$rec" \
   --out "$out/replay"
-# The admin endpoints, with bash's /dev/tcp (no curl needed).
+# The admin endpoints, with bash's /dev/tcp (no curl needed) and the admin token arlightd made
+# in its data folder (/sessions and a session's map need it).
+admin_token=$(grep -v '^#' "$out/data/admin.token" | tail -1)
 http_get() {
   exec 3<>"/dev/tcp/127.0.0.1/$admin"
-  printf 'GET %s HTTP/1.0\r\nHost: localhost\r\n\r\n' "$1" >&3
+  printf 'GET %s HTTP/1.0\r\nHost: localhost\r\nAuthorization: Bearer %s\r\n\r\n' "$1" \
+    "$admin_token" >&3
   sed '1,/^\r$/d' <&3
   exec 3<&-
 }

@@ -11,6 +11,7 @@
 #include <boost/asio/write.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -193,19 +194,24 @@ TEST(Metrics, ConcurrentUpdatesAreExact) {
 
 // ---- admin HTTP ----------------------------------------------------------------------------
 
+constexpr const char* kToken = "a-test-admin-token-0123456789";
+
 struct Reply {
   int status = 0;
   std::string content_type;
   std::string body;
   std::string allow;
+  std::string www_authenticate;
   bool keep_alive = false;
 };
 
 // A tiny HTTP client on its own io_context; every exchange is bounded by a 5 s deadline so
-// a misbehaving server fails the test instead of hanging it.
+// a misbehaving server fails the test instead of hanging it. Its requests carry
+// `authorization` (by default the fixture's bearer token; "" for none).
 class Client {
  public:
-  explicit Client(std::uint16_t port) : stream_(ioc_) {
+  explicit Client(std::uint16_t port, std::string authorization = std::string("Bearer ") + kToken)
+      : stream_(ioc_), authorization_(std::move(authorization)) {
     stream_.expires_after(std::chrono::seconds(5));
     stream_.connect(tcp::endpoint(net::ip::address_v4::loopback(), port));
   }
@@ -213,6 +219,7 @@ class Client {
   Reply request(http::verb verb, const std::string& target, const std::string& body = "") {
     http::request<http::string_body> req{verb, target, 11};
     req.set(http::field::host, "127.0.0.1");
+    if (!authorization_.empty()) req.set(http::field::authorization, authorization_);
     req.body() = body;
     req.prepare_payload();
     beast::error_code ec;
@@ -276,6 +283,7 @@ class Client {
     r.status = res.result_int();
     r.content_type = std::string(res[http::field::content_type]);
     r.allow = std::string(res[http::field::allow]);
+    r.www_authenticate = std::string(res[http::field::www_authenticate]);
     r.body = res.body();
     r.keep_alive = res.keep_alive();
     return r;
@@ -283,6 +291,7 @@ class Client {
 
   net::io_context ioc_;
   beast::tcp_stream stream_;
+  std::string authorization_;
   beast::flat_buffer buffer_;
 };
 
@@ -308,7 +317,8 @@ class AdminServerTest : public ::testing::Test {
       return std::nullopt;
     };
     h.healthy = [this] { return healthy.load(); };
-    server = std::make_unique<AdminServer>(io, "127.0.0.1", 0, std::move(h));
+    server = std::make_unique<AdminServer>(io, "127.0.0.1", 0, std::move(h),
+                                           AdminAccess{kToken, protect_all});
     port = server->port();
     server->start();
     for (int i = 0; i < 2; ++i) threads.emplace_back([this] { io.run(); });
@@ -321,6 +331,7 @@ class AdminServerTest : public ::testing::Test {
     for (auto& t : threads) t.join();
   }
 
+  bool protect_all = false;  // set by a derived fixture before SetUp
   Registry registry;
   std::atomic<bool> healthy{true};
   std::atomic<bool> sessions_throw{false};
@@ -387,6 +398,58 @@ TEST_F(AdminServerTest, BadSessionIdsAre400AndNeverReachTheHandler) {
   EXPECT_EQ(c.get("/sessions/" + std::string(128, 'a') + "/envmap.png").status, 404);
   std::lock_guard lock(ids_mutex);
   EXPECT_EQ(requested_ids, std::vector<std::string>{std::string(128, 'a')});
+}
+
+TEST_F(AdminServerTest, WithoutTheRightTokenARoomIs401AndNothingElse) {
+  const std::string id_ok = "/sessions/abc-123/envmap.png";
+  const std::string wrong_same_length(std::string(kToken).size(), 'x');
+  for (const std::string& auth :
+       {std::string(), "Bearer " + wrong_same_length, std::string("Bearer ") + kToken + "x",
+        std::string("Bearer ") + std::string(kToken).substr(1), std::string("Basic ") + kToken,
+        std::string("Bearer"), std::string("Bearer  "), std::string(kToken)}) {
+    Client c(port, auth);
+    for (const std::string& target : {std::string("/sessions"), id_ok,
+                                      std::string("/sessions/../envmap.png")}) {
+      const Reply r = c.get(target);
+      EXPECT_EQ(r.status, 401) << "'" << auth << "' " << target;
+      EXPECT_EQ(r.body, "unauthorized\n");
+      EXPECT_EQ(r.www_authenticate.rfind(R"(Bearer realm="arlightd-admin")", 0), 0u)
+          << r.www_authenticate;
+      EXPECT_TRUE(r.keep_alive);  // the same connection may try again
+    }
+    // The health and metrics routes stay open by default (Prometheus and probes scrape them).
+    EXPECT_EQ(c.get("/healthz").status, 200);
+    EXPECT_EQ(c.get("/metrics").status, 200);
+  }
+  // A wrong token is told it was invalid (RFC 6750); a missing one only gets the challenge.
+  EXPECT_NE(Client(port, "Bearer " + wrong_same_length).get("/sessions").www_authenticate.find(
+                "invalid_token"),
+            std::string::npos);
+  EXPECT_EQ(Client(port, "").get("/sessions").www_authenticate.find("error"), std::string::npos);
+  EXPECT_EQ(calls.load(), 0);  // no handler ever ran
+  // The scheme is case-insensitive; the token is not.
+  EXPECT_EQ(Client(port, std::string("bearer ") + kToken).get(id_ok).status, 200);
+  std::string upper = kToken;
+  for (char& ch : upper) ch = char(std::toupper(static_cast<unsigned char>(ch)));
+  EXPECT_EQ(Client(port, "Bearer " + upper).get(id_ok).status, 401);
+}
+
+class AdminServerProtectAllTest : public AdminServerTest {
+ protected:
+  void SetUp() override {
+    protect_all = true;
+    AdminServerTest::SetUp();
+  }
+};
+
+TEST_F(AdminServerProtectAllTest, HealthAndMetricsNeedTheTokenToo) {
+  Client none(port, "");
+  EXPECT_EQ(none.get("/healthz").status, 401);
+  EXPECT_EQ(none.get("/metrics").status, 401);
+  Client with(port);
+  EXPECT_EQ(with.get("/healthz").status, 200);
+  EXPECT_EQ(with.get("/metrics").status, 200);
+  EXPECT_EQ(with.get("/sessions").status, 200);
 }
 
 TEST_F(AdminServerTest, UnknownPathsAndMethods) {
@@ -514,9 +577,26 @@ TEST_F(AdminServerTest, NoHandlerRunsAfterDestruction) {
   EXPECT_EQ(calls.load(), before);
 }
 
-TEST(AdminServer, EmptyHandlersAre501AndHealthy) {
+TEST(AdminServer, WithoutAConfiguredTokenRoomsAre403) {
   net::io_context io;
   AdminServer server(io, "127.0.0.1", 0, {});
+  server.start();
+  std::thread t([&] { io.run_for(std::chrono::seconds(3)); });
+  {
+    Client c(server.port());
+    EXPECT_EQ(c.get("/healthz").status, 200);
+    EXPECT_EQ(c.get("/sessions").status, 403);
+    EXPECT_EQ(c.get("/sessions/x/envmap.png").status, 403);
+    EXPECT_EQ(Client(server.port(), "Bearer ").get("/sessions").status, 403);
+  }
+  server.stop();
+  io.stop();
+  t.join();
+}
+
+TEST(AdminServer, EmptyHandlersAre501AndHealthy) {
+  net::io_context io;
+  AdminServer server(io, "127.0.0.1", 0, {}, {kToken});
   server.start();
   std::thread t([&] { io.run_for(std::chrono::seconds(3)); });
   {

@@ -111,7 +111,7 @@ TEST(ArlightClient, KeepsRenderingWhenTheServerDiesAndResumesTheSession) {
                               session + " --json " + (dir / "c.json").string());
   });
   const auto streaming = [&] {
-    const auto [status, body] = test::http_get(d->admin(), "/sessions");
+    const auto [status, body] = d->admin_get("/sessions");
     if (status != 200) return false;
     for (const json& s : json::parse(body))
       if (s.at("id") == session && s.at("connected") == true &&

@@ -391,21 +391,21 @@ TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
     ASSERT_EQ(r.status, 0) << r.output;
     session = read_json(dir / "replay" / "replay.json")["session_id"];
     std::this_thread::sleep_for(3s);  // past the 2 s checkpoint interval
-    const auto [status, png] = http_get(d.admin(), "/sessions/" + session + "/envmap.png");
+    const auto [status, png] = d.admin_get("/sessions/" + session + "/envmap.png");
     ASSERT_EQ(status, 200);
     before_png = png;
     d.kill9();
   }
   DaemonProcess again(dir / "daemon");
   // Not in memory any more: /sessions is empty until the client resumes.
-  EXPECT_EQ(http_get(again.admin(), "/sessions/" + session + "/envmap.png").first, 404);
+  EXPECT_EQ(again.admin_get("/sessions/" + session + "/envmap.png").first, 404);
   client::Client c;
   const client::Welcome w =
       c.connect("127.0.0.1", again.port(), "arlight-sim", kToken, "test", session);
   EXPECT_TRUE(w.resumed);
   EXPECT_EQ(w.session_id, session);
   EXPECT_EQ(w.frames_processed, 60u);
-  const auto [status, png] = http_get(again.admin(), "/sessions/" + session + "/envmap.png");
+  const auto [status, png] = again.admin_get("/sessions/" + session + "/envmap.png");
   ASSERT_EQ(status, 200);
   EXPECT_TRUE(png == before_png) << "the resumed map differs from the checkpointed one";
   // Someone else's device cannot take it over; an unknown id is refused.
@@ -458,12 +458,51 @@ TEST(Arlightd, AdminEndpointsAnswer) {
         "arlight_frames_dropped_total", "arlight_frame_processing_seconds_bucket",
         "arlight_update_latency_seconds_count", "arlight_map_sets_total"})
     EXPECT_NE(metrics.find(name), std::string::npos) << name;
-  const auto [ss, sessions] = http_get(d.admin(), "/sessions");
+  const auto [ss, sessions] = d.admin_get("/sessions");
   EXPECT_EQ(ss, 200);
   const json j = json::parse(sessions);
   ASSERT_EQ(j.size(), 1u);
   EXPECT_EQ(j[0]["id"], w.session_id);
-  EXPECT_EQ(http_get(d.admin(), "/sessions/nope/envmap.png").first, 404);
+  EXPECT_EQ(d.admin_get("/sessions/nope/envmap.png").first, 404);
+  // A room's picture and the session list need the token the daemon made in its data folder
+  // (mode 0600); without it, or with another, 401 and nothing else.
+  const fs::path token_file = dir / "daemon" / "data" / "admin.token";
+  EXPECT_EQ(fs::status(token_file).permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+  EXPECT_EQ(d.admin_token().size(), 64u);
+  for (const std::string& token : {std::string(), std::string(64, '0'), std::string(kToken)}) {
+    const auto [status, body] = http_get(d.admin(), "/sessions", token);
+    EXPECT_EQ(status, 401) << token;
+    EXPECT_EQ(body, "unauthorized\n");
+    EXPECT_EQ(http_get(d.admin(), "/sessions/" + w.session_id + "/envmap.png", token).first, 401);
+  }
+  EXPECT_EQ(d.admin_get("/sessions/" + w.session_id + "/envmap.png").first, 200);
+}
+
+TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {
+  const fs::path dir = test::fresh_temp_dir("daemon_admin_token");
+  fs::create_directories(dir);
+  const std::string token = "operator-token-from-a-secret-0123";
+  std::ofstream(dir / "admin-token") << "# mounted secret\n" << token << "\n";
+  DaemonProcess d(dir / "daemon",
+                  {"--admin-token-file", (dir / "admin-token").string(), "--admin-protect-all"});
+  EXPECT_FALSE(fs::exists(dir / "daemon" / "data" / "admin.token"));  // none made
+  EXPECT_EQ(http_get(d.admin(), "/healthz").first, 401);
+  EXPECT_EQ(http_get(d.admin(), "/metrics").first, 401);
+  EXPECT_EQ(http_get(d.admin(), "/healthz", token).first, 200);
+  EXPECT_EQ(http_get(d.admin(), "/sessions", token).first, 200);
+  // A named token file that is missing, short or empty stops the daemon with its name.
+  std::ofstream(dir / "short") << "tooshort\n";
+  std::ofstream(dir / "empty") << "# nothing\n";
+  for (const char* bad : {"missing", "short", "empty"}) {
+    const auto r = test::run_tool(ARLIGHTD_EXE, "--listen 127.0.0.1:0 --admin 127.0.0.1:0 "
+                                                "--data-dir " + (dir / "data").string() +
+                                                    " --tokens " + (dir / "daemon" / "tokens").string() +
+                                                    " --admin-token-file " + (dir / bad).string());
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find("admin token file '" + (dir / bad).string() + "'"), std::string::npos)
+        << r.output;
+  }
 }
 
 TEST(Arlightd, TlsSessionsWorkAndPlainOrUntrustedClientsAreRefused) {

@@ -29,6 +29,9 @@ namespace fs = std::filesystem;
 
 inline const std::string kToken = "test-token-0123456789";
 
+std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path,
+                                     const std::string& bearer_token = "");
+
 // arlightd as a child process on ephemeral ports; killed (SIGKILL) when destroyed.
 class DaemonProcess {
  public:
@@ -36,6 +39,7 @@ class DaemonProcess {
   explicit DaemonProcess(const fs::path& dir, const std::vector<std::string>& extra_args = {},
                          std::uint16_t listen_port = 0) {
     fs::create_directories(dir);
+    data_ = dir / "data";
     std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
     int out[2];
     if (pipe(out) != 0) throw std::runtime_error("pipe");
@@ -100,8 +104,21 @@ class DaemonProcess {
   std::uint16_t web() const { return web_; }  // 0 without --web
   const std::string& banner() const { return banner_; }
   std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
+  // The admin token the daemon made in its data folder (its last line).
+  std::string admin_token() const {
+    std::ifstream in(data_ / "admin.token");
+    std::string line, last;
+    while (std::getline(in, line))
+      if (!line.empty() && line[0] != '#') last = line;
+    return last;
+  }
+  // A GET on the admin port with the admin token.
+  std::pair<int, std::string> admin_get(const std::string& path) const {
+    return http_get(admin_, path, admin_token());
+  }
 
  private:
+  fs::path data_;
   pid_t pid_ = -1;
   std::uint16_t port_ = 0, admin_ = 0, web_ = 0;
   std::string banner_;
@@ -122,12 +139,16 @@ inline const fs::path& daemon_sample_recording() {
   return rec;
 }
 
-// A minimal HTTP/1.0 GET: status code and body.
-inline std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path) {
+// A minimal HTTP/1.0 GET, with "Authorization: Bearer" when a token is given: status code and
+// body.
+inline std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path,
+                                            const std::string& bearer_token) {
   boost::asio::io_context io;
   boost::asio::ip::tcp::socket s(io);
   s.connect({boost::asio::ip::make_address("127.0.0.1"), port});
-  const std::string req = "GET " + path + " HTTP/1.0\r\nHost: localhost\r\n\r\n";
+  const std::string auth =
+      bearer_token.empty() ? "" : "Authorization: Bearer " + bearer_token + "\r\n";
+  const std::string req = "GET " + path + " HTTP/1.0\r\nHost: localhost\r\n" + auth + "\r\n";
   boost::asio::write(s, boost::asio::buffer(req));
   std::string all;
   boost::system::error_code ec;

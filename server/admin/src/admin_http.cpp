@@ -1,5 +1,9 @@
 #include "arlight/admin_http.hpp"
 
+#include <openssl/crypto.h>
+#include <openssl/sha.h>
+
+#include <array>
 #include <atomic>
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -43,6 +47,36 @@ struct HandlerState {
   bool attached = true;
 };
 
+using Digest = std::array<unsigned char, SHA256_DIGEST_LENGTH>;
+
+Digest sha256(std::string_view bytes) {
+  Digest d;
+  SHA256(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), d.data());
+  return d;
+}
+
+// What a connection needs to check a request's token: the configured token's digest.
+struct AccessCheck {
+  std::optional<Digest> token_digest;  // nullopt: no token configured
+  bool protect_all = false;
+};
+
+// The token of an "Authorization: Bearer <token>" field (scheme case-insensitive, RFC 6750
+// §2.1), or nullopt for any other form.
+std::optional<std::string_view> bearer_token(std::string_view field) {
+  constexpr std::string_view kScheme = "bearer";
+  if (field.size() <= kScheme.size() || field[kScheme.size()] != ' ') return std::nullopt;
+  for (std::size_t i = 0; i < kScheme.size(); ++i) {
+    const char c = field[i];
+    if ((c >= 'A' && c <= 'Z' ? char(c - 'A' + 'a') : c) != kScheme[i]) return std::nullopt;
+  }
+  std::string_view token = field.substr(kScheme.size());
+  while (!token.empty() && token.front() == ' ') token.remove_prefix(1);
+  while (!token.empty() && token.back() == ' ') token.remove_suffix(1);
+  if (token.empty()) return std::nullopt;
+  return token;
+}
+
 Response text_response(http::status status, std::string body,
                        const char* content_type = kTextType) {
   Response res{status, 11};
@@ -84,10 +118,12 @@ Resolved resolve(std::string_view target) {
 class Connection : public std::enable_shared_from_this<Connection> {
  public:
   Connection(tcp::socket&& socket, std::shared_ptr<HandlerState> handlers,
+             std::shared_ptr<const AccessCheck> access,
              std::shared_ptr<const std::atomic<bool>> stopping)
       : stream_(std::move(socket)),
         buffer_(kBufferLimit),
         handlers_(std::move(handlers)),
+        access_(std::move(access)),
         stopping_(std::move(stopping)) {}
 
   void run() {
@@ -157,6 +193,28 @@ class Connection : public std::enable_shared_from_this<Connection> {
                              "and /sessions/<id>/envmap.png\n");
       default:
         break;
+    }
+    const bool protected_route = r.route == Route::kSessions || r.route == Route::kEnvmap ||
+                                 access_->protect_all;
+    if (protected_route) {
+      if (!access_->token_digest) {
+        return text_response(http::status::forbidden,
+                             "forbidden: this admin server has no token configured\n");
+      }
+      const auto field = req.find(http::field::authorization);
+      const std::optional<std::string_view> token =
+          field == req.end() ? std::nullopt
+                             : bearer_token(std::string_view(field->value().data(),
+                                                             field->value().size()));
+      const bool ok = token && CRYPTO_memcmp(sha256(*token).data(), access_->token_digest->data(),
+                                             SHA256_DIGEST_LENGTH) == 0;
+      if (!ok) {
+        Response res = text_response(http::status::unauthorized, "unauthorized\n");
+        res.set(http::field::www_authenticate,
+                token ? R"(Bearer realm="arlightd-admin", error="invalid_token")"
+                      : R"(Bearer realm="arlightd-admin")");
+        return res;
+      }
     }
     if (req.method() != http::verb::get) return method_not_allowed();
     if (r.route == Route::kEnvmap && !valid_session_id(r.session_id)) {
@@ -240,6 +298,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
   std::optional<http::request_parser<http::empty_body>> parser_;
   std::shared_ptr<Response> response_;
   std::shared_ptr<HandlerState> handlers_;
+  std::shared_ptr<const AccessCheck> access_;
   std::shared_ptr<const std::atomic<bool>> stopping_;
 };
 
@@ -271,7 +330,7 @@ struct AdminServer::Impl : std::enable_shared_from_this<Impl> {
   }
 
   void on_accept(beast::error_code ec, tcp::socket socket) {
-    if (!ec) std::make_shared<Connection>(std::move(socket), handlers, stopping)->run();
+    if (!ec) std::make_shared<Connection>(std::move(socket), handlers, access, stopping)->run();
     std::lock_guard lock(mutex);
     if (stopped || ec == net::error::operation_aborted) return;
     if (ec) {
@@ -294,13 +353,18 @@ struct AdminServer::Impl : std::enable_shared_from_this<Impl> {
   bool stopped = false;
   std::uint16_t port = 0;
   std::shared_ptr<HandlerState> handlers = std::make_shared<HandlerState>();
+  std::shared_ptr<const AccessCheck> access;
   std::shared_ptr<std::atomic<bool>> stopping = std::make_shared<std::atomic<bool>>(false);
 };
 
 AdminServer::AdminServer(net::io_context& io, const std::string& host, std::uint16_t port,
-                         AdminHandlers handlers)
+                         AdminHandlers handlers, AdminAccess access)
     : impl_(std::make_shared<Impl>(io)) {
   impl_->handlers->handlers = std::move(handlers);
+  AccessCheck check;
+  if (!access.token.empty()) check.token_digest = sha256(access.token);
+  check.protect_all = access.protect_all;
+  impl_->access = std::make_shared<const AccessCheck>(check);
   const std::string where = display_address(host, port);
   std::string h = host;
   if (h.size() >= 2 && h.front() == '[' && h.back() == ']') h = h.substr(1, h.size() - 2);

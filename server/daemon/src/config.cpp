@@ -25,7 +25,11 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         const std::string a = value.get<std::string>();
         c.admin_enabled = !a.empty();
         if (c.admin_enabled) wire::parse_endpoint(a, c.admin_host, c.admin_port);
-      } else if (key == "data_dir")
+      } else if (key == "admin_token_file")
+        c.admin_token_file = value.get<std::string>();
+      else if (key == "admin_protect_all")
+        c.admin_protect_all = value.get<bool>();
+      else if (key == "data_dir")
         c.data_dir = value.get<std::string>();
       else if (key == "tokens")
         c.tokens_file = value.get<std::string>();

@@ -107,6 +107,7 @@ struct Daemon::Impl {
   SessionEnv session_env;
   ConnectionEnv connection_env;
   std::unique_ptr<admin::AdminServer> admin_server;
+  std::filesystem::path admin_token_file;
   asio::steady_timer housekeeping{io};
   std::vector<std::thread> threads;
   std::uint16_t bound_port = 0;
@@ -209,8 +210,15 @@ struct Daemon::Impl {
         return it->second->envmap_png();
       };
       h.healthy = [this] { return accepting.load(); };
-      admin_server =
-          std::make_unique<admin::AdminServer>(io, config.admin_host, config.admin_port, h);
+      const bool default_file = config.admin_token_file.empty();
+      admin_token_file = default_file ? config.data_dir / "admin.token" : config.admin_token_file;
+      bool created = false;
+      admin::AdminAccess access;
+      access.token = load_admin_token(admin_token_file, default_file, &created);
+      access.protect_all = config.admin_protect_all;
+      if (created) spdlog::info("made an admin token: {}", admin_token_file.string());
+      admin_server = std::make_unique<admin::AdminServer>(io, config.admin_host,
+                                                          config.admin_port, h, access);
     }
   }
 
@@ -516,6 +524,7 @@ std::uint16_t Daemon::web_port() const { return impl_->web_server ? impl_->web_s
 std::string Daemon::phone_url() const { return impl_->phone_url; }
 
 std::filesystem::path Daemon::web_certificate() const { return impl_->web_certificate; }
+std::filesystem::path Daemon::admin_token_file() const { return impl_->admin_token_file; }
 
 std::uint16_t Daemon::admin_port() const {
   return impl_->admin_server ? impl_->admin_server->port() : 0;

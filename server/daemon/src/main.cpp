@@ -24,11 +24,16 @@ int main(int argc, char** argv) {
       "streams lighting back"};
   daemon::DaemonConfig c;
   std::string listen, admin, config, tls_cert, tls_key, web, web_root, web_device, web_url_host;
-  std::string data_dir, tokens;
+  std::string data_dir, tokens, admin_token_file;
   app.add_option("--config", config, "JSON config file (flags given here override it)");
   app.add_option("--listen", listen, "HOST:PORT for clients (default 127.0.0.1:7878)");
   app.add_option("--admin", admin,
                  "HOST:PORT of the admin HTTP server (default 127.0.0.1:7879; '' off)");
+  app.add_option("--admin-token-file", admin_token_file,
+                 "the admin port's bearer token for /sessions (default DATA/admin.token, made "
+                 "when missing)");
+  app.add_flag("--admin-protect-all", c.admin_protect_all,
+               "/healthz and /metrics need the admin token too");
   app.add_option("--data-dir", data_dir, "where sessions and response curves are kept");
   app.add_option("--tokens", tokens, "file of '<device-id> <token>' lines");
   app.add_option("--threads", c.threads, "network threads (0: one per core)");
@@ -86,6 +91,7 @@ int main(int argc, char** argv) {
         c.max_connections_per_address = flags.max_connections_per_address;
       if (app.count("--align-every")) c.align_every = flags.align_every;
       if (app.count("--queue-depth")) c.queue_depth = flags.queue_depth;
+      if (app.count("--admin-protect-all")) c.admin_protect_all = flags.admin_protect_all;
     }
     if (!listen.empty()) wire::parse_endpoint(listen, c.listen_host, c.listen_port);
     if (app.count("--admin")) {
@@ -93,6 +99,7 @@ int main(int argc, char** argv) {
       if (c.admin_enabled) wire::parse_endpoint(admin, c.admin_host, c.admin_port);
     }
     if (!data_dir.empty()) c.data_dir = data_dir;
+    if (!admin_token_file.empty()) c.admin_token_file = admin_token_file;
     if (!tokens.empty()) c.tokens_file = tokens;
     if (!tls_cert.empty()) c.tls_cert = tls_cert;
     if (!tls_key.empty()) c.tls_key = tls_key;
@@ -135,6 +142,9 @@ int main(int argc, char** argv) {
     std::printf("arlightd: listening on %s:%u, admin on %u, web on %u%s\n", c.listen_host.c_str(),
                 unsigned(d.port()), unsigned(d.admin_port()), unsigned(d.web_port()),
                 c.tls_cert.empty() ? "" : ", TLS");
+    if (d.admin_port())
+      std::printf("arlightd: admin token in %s (/sessions needs 'Authorization: Bearer TOKEN')\n",
+                  d.admin_token_file().c_str());
     std::fflush(stdout);
     std::thread signals([&] {
       int sig = 0;

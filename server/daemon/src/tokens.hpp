@@ -26,4 +26,12 @@ class TokenStore {
   std::map<std::string, std::string> tokens_;
 };
 
+// The admin port's bearer token: the first line of `path` that is not blank or a '#' comment,
+// at least 16 characters of visible ASCII and nothing else on the line. When the file does not
+// exist and `create_if_missing` is set, a fresh token (32 bytes from OpenSSL's RAND_bytes, as
+// hex) is written there with mode 0600 and returned; `created` says so. InputError naming the
+// file otherwise.
+std::string load_admin_token(const std::filesystem::path& path, bool create_if_missing,
+                             bool* created = nullptr);
+
 }  // namespace arlight::daemon

@@ -7,6 +7,14 @@
 //   GET /sessions/<id>/envmap.png   the session's live environment map (image/png); 404 for an
 //                                   unknown session, 400 for an id outside [A-Za-z0-9-]{1,128}
 //
+// Access (AdminAccess): the routes that show a room, /sessions and /sessions/<id>/..., need
+// "Authorization: Bearer <token>"; /healthz and /metrics are open (Prometheus and probes scrape
+// them) unless protect_all is set. A missing or wrong token is 401 with a WWW-Authenticate
+// challenge (RFC 6750) and nothing else, checked before anything about the request is looked at.
+// Tokens are compared as SHA-256 digests with CRYPTO_memcmp, so neither the time nor the length
+// tells an attacker how close a guess was. With no token configured the protected routes are
+// 403: they are never open by accident.
+//
 // Any other path is 404, any method but GET on a known path 405. The content comes from
 // callbacks (AdminHandlers), which run on the io_context's threads, possibly concurrently, so
 // they must be thread-safe. A callback that throws gives a 500 with the exception's message;
@@ -37,6 +45,11 @@ struct AdminHandlers {
   std::function<bool()> healthy;  // /healthz: 200 "ok\n" when true, 503 otherwise
 };
 
+struct AdminAccess {
+  std::string token;         // the bearer token; empty: protected routes are refused (403)
+  bool protect_all = false;  // /healthz and /metrics need the token too
+};
+
 // True for a session id the admin routes accept: 1 to 128 characters of [A-Za-z0-9-].
 bool valid_session_id(const std::string& id);
 
@@ -46,7 +59,7 @@ class AdminServer {
   // host is an IP address ("127.0.0.1", "::1", "[::1]", "0.0.0.0") or a name to resolve
   // ("localhost"); port 0 picks an ephemeral port (see port()).
   AdminServer(boost::asio::io_context& io, const std::string& host, std::uint16_t port,
-              AdminHandlers handlers);
+              AdminHandlers handlers, AdminAccess access = {});
   // Stops accepting and detaches the handlers: once the destructor returns, no callback is
   // running or will run again (a request still arriving on an open connection gets 503 and
   // the connection is closed). Destroy the server before its io_context.

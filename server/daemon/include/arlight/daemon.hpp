@@ -20,6 +20,11 @@ struct DaemonConfig {
   std::string admin_host = "127.0.0.1";
   std::uint16_t admin_port = 7879;  // 0: ephemeral
   bool admin_enabled = true;
+  // The admin port's bearer token for /sessions and /sessions/<id>/... (a room's picture): read
+  // from this file; empty: DATA/admin.token, made with a fresh random token (mode 0600) when
+  // missing. admin_protect_all: /healthz and /metrics need it too.
+  std::filesystem::path admin_token_file;
+  bool admin_protect_all = false;
   std::filesystem::path data_dir = "arlight-data";
   std::filesystem::path tokens_file;  // required: "<device-id> <token>" lines
   // TLS on the client port (both PEM files, or neither for plain TCP): the certificate chain
@@ -62,7 +67,7 @@ struct DaemonConfig {
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
 
-// Reads a JSON config file (keys: listen, admin, data_dir, tokens, threads, max_sessions,
+// Reads a JSON config file (keys: listen, admin, admin_token_file, admin_protect_all, data_dir, tokens, threads, max_sessions,
 // idle_timeout_s, hello_timeout_s, max_connections, max_unauthenticated,
 // max_connections_per_address, checkpoint_interval_s, map_size, align_every, workers,
 // queue_depth, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
@@ -83,6 +88,8 @@ class Daemon {
   void wait();   // until stop() (e.g. from a signal handler thread)
   std::uint16_t port() const;
   std::uint16_t admin_port() const;  // 0 when disabled
+  // The file the admin token was read from (or written to); empty when the admin port is off.
+  std::filesystem::path admin_token_file() const;
   std::uint16_t web_port() const;    // 0 when disabled
   // The phone page's URL with the device id and token in its fragment; empty when no web port.
   std::string phone_url() const;
