@@ -5,7 +5,7 @@ CMAKE_FLAGS ?=
 DEMO_PROBE ?= data/probes/venice.exr
 DEMO_OUT ?= out/demo
 
-.PHONY: all build deps configure test demo bench clean
+.PHONY: all build deps configure test demo bench clean test-sanitize fuzz
 
 all: build
 
@@ -66,9 +66,33 @@ demo: deps
 	@echo "                            page.png, page_*.png, web.json the page's own figures"
 	@echo "  Connect your phone: README.md, \"Connect your phone\" (arlightd --web 0.0.0.0:8443)"
 
+# The hardening builds share a second build folder, compiled by clang with AddressSanitizer and
+# UndefinedBehaviorSanitizer and libFuzzer's coverage (no browser client, no benchmarks).
+SANITIZE_BUILD ?= build-sanitize
+FUZZ_SECONDS ?= 60
+FUZZ_OUT ?= out/fuzz
+SANITIZER_ENV = ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp:print_suppressions=0
+
+$(SANITIZE_BUILD)/build.ninja:
+	CC=clang-14 CXX=clang++-14 cmake -S . -B $(SANITIZE_BUILD) -G Ninja \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARLIGHT_SANITIZE=address,undefined -DARLIGHT_FUZZ=ON \
+	  -DARLIGHT_WEB=OFF -DARLIGHT_BENCH=OFF $(CMAKE_FLAGS)
+
+# The whole test suite (but the browser's) built with ASan + UBSan: any report fails its test.
+test-sanitize: deps $(SANITIZE_BUILD)/build.ninja
+	cmake --build $(SANITIZE_BUILD) -j $(JOBS)
+	$(SANITIZER_ENV) ctest --test-dir $(SANITIZE_BUILD) --output-on-failure -j $(JOBS)
+
+# Every fuzz target for FUZZ_SECONDS from its committed corpus; findings and stats in FUZZ_OUT.
+fuzz: deps $(SANITIZE_BUILD)/build.ninja
+	cmake --build $(SANITIZE_BUILD) -j $(JOBS) --target fuzz_targets
+	$(SANITIZER_ENV) ./tests/fuzz/run-fuzzers.sh $(SANITIZE_BUILD)/tests $(FUZZ_SECONDS) $(FUZZ_OUT)
+
 bench: deps
 	@$(MAKE) --no-print-directory build
 	$(BUILD)/bin/arlight-bench --benchmark_min_time=1 $(BENCH_ARGS)
 
 clean:
-	rm -rf $(BUILD) out
+	rm -rf $(BUILD) $(SANITIZE_BUILD) out

@@ -500,9 +500,9 @@ MapSet run_auto(const Job& job) {
           for (int x0 = tile.x; x0 < tile.x + tile.width; x0 += kBlock) {
             const Tile block{x0, y0, std::min(kBlock, tile.x + tile.width - x0),
                              std::min(kBlock, tile.y + tile.height - y0)};
-            const auto [dirs, pixels] = job.output.collect(block);
-            integrate_block(dirs, [&](std::size_t q, glm::vec3 v) {
-              float* out = map.image.data() + 3 * pixels[q];
+            const TileTexels texels = job.output.collect(block);
+            integrate_block(texels.dirs, [&](std::size_t q, glm::vec3 v) {
+              float* out = map.image.data() + 3 * texels.pixels[q];
               out[0] = v.x, out[1] = v.y, out[2] = v.z;
             });
           }

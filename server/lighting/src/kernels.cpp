@@ -8,7 +8,13 @@
 #include <cmath>
 #include <stdexcept>
 
+#if defined(__clang__)
+// clang refuses a 64-byte vector passed between a target clone and a helper built for another
+// target (GCC only warns, -Wpsabi): the clang builds (sanitizers, fuzzing) keep one version.
+#define ARLIGHT_SIMD_CLONES
+#else
 #define ARLIGHT_SIMD_CLONES __attribute__((target_clones("avx512f", "fma", "default")))
+#endif
 
 namespace arlight::lighting::detail {
 
