@@ -7,7 +7,8 @@ add_executable(e2e_tests
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_capture.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlightd.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlightd_web.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_failover.cpp)
 target_include_directories(e2e_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..)
 target_link_libraries(e2e_tests PRIVATE arlight_client_net arlight_message_stream arlight_wire arlight_capture
   arlight_truth arlight_recording arlight_common arlight_warnings GTest::gtest_main nlohmann_json::nlohmann_json

@@ -35,11 +35,12 @@ std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path
 // arlightd as a child process on ephemeral ports; killed (SIGKILL) when destroyed.
 class DaemonProcess {
  public:
-  // `listen_port` 0: an ephemeral port (a restart can pass the previous one).
+  // `listen_port` 0: an ephemeral port (a restart can pass the previous one). `data_dir`:
+  // the data folder (default dir/data; daemons behind a balancer share one).
   explicit DaemonProcess(const fs::path& dir, const std::vector<std::string>& extra_args = {},
-                         std::uint16_t listen_port = 0) {
+                         std::uint16_t listen_port = 0, const fs::path& data_dir = {}) {
     fs::create_directories(dir);
-    data_ = dir / "data";
+    data_ = data_dir.empty() ? dir / "data" : data_dir;
     std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
     int out[2];
     if (pipe(out) != 0) throw std::runtime_error("pipe");
@@ -53,7 +54,7 @@ class DaemonProcess {
                                        "--admin",
                                        "127.0.0.1:0",
                                        "--data-dir",
-                                       (dir / "data").string(),
+                                       data_.string(),
                                        "--tokens",
                                        (dir / "tokens").string()};
       // Sessions outlive slow tests, unless the test sets its own idle timeout.
@@ -102,6 +103,7 @@ class DaemonProcess {
   std::uint16_t port() const { return port_; }
   std::uint16_t admin() const { return admin_; }
   std::uint16_t web() const { return web_; }  // 0 without --web
+  pid_t pid() const { return pid_; }
   const std::string& banner() const { return banner_; }
   std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
   // The admin token the daemon made in its data folder (its last line).

@@ -58,7 +58,12 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                   {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
                   {"updates", ls.updates},         {"map_sets", ls.map_sets},
-                  {"refused", ls.refused},         {"last_error", ls.last_error}};
+                  {"refused", ls.refused},         {"last_error", ls.last_error},
+                  {"resumes", nlohmann::json::array()}};
+  for (const Resume& r : ls.resumes)
+    j["session"]["resumes"].push_back({{"frames_sent_before", r.frames_sent_before},
+                                       {"frames_processed", r.frames_processed},
+                                       {"first_coverage", r.first_coverage}});
   return j;
 }
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "arlight/atomic_file.hpp"
@@ -20,6 +21,15 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+// One time a session lost its daemon and resumed (--reconnect).
+struct Outage {
+  double at_s = 0, seconds = 0;  // when it was noticed (since the start) and how long it lasted
+  std::uint64_t not_sent = 0;    // frames due while there was no daemon
+  // Frames the lost daemon had been sent but not checkpointed: sent until the loss, minus what
+  // the resumed session holds (the Welcome's frames_processed) and had dropped.
+  std::uint64_t lost_after_checkpoint = 0;
+};
+
 struct SessionReport {
   bool failed = false;
   std::string error;
@@ -29,6 +39,7 @@ struct SessionReport {
   // Per frame (index = sequence - 1): when it was sent (ms since the run started) and its
   // latency (NaN: no update reflects it, i.e. it was dropped or never answered).
   std::vector<double> sent_ms, frame_latency_ms;
+  std::vector<Outage> outages;
 };
 
 double percentile(std::vector<double> v, double p) {
@@ -40,70 +51,137 @@ double percentile(std::vector<double> v, double p) {
   return v[i] + (v[j] - v[i]) * (k - double(i));
 }
 
-void run_session(const std::string& host, std::uint16_t port, const std::string& device,
-                 const std::string& token, const recording::Recording& rec,
+struct SessionPlan {
+  std::string host, device, token;
+  std::uint16_t port = 0;
+  double rate = 30, duration = 10;
+  bool maps = false;
+  double phase = 0;
+  std::size_t first_frame = 0;
+  client::TlsOptions tls;
+  bool websocket = false;
+  // How long a session may be without its daemon before it counts as failed (0: any loss
+  // fails it); while it is, it reconnects (at once, then every 100 ms) and resumes.
+  double reconnect_s = 0;
+};
+
+// A loss the session may survive: the network went, or the daemon is momentarily full (a
+// restarted daemon that has not reloaded everyone yet, or a hand-over in progress).
+bool retryable(const client::ClientError& e) { return e.code() == "Network" || e.code() == "Busy"; }
+
+void run_session(const SessionPlan& plan, const recording::Recording& rec,
                  const std::vector<std::vector<std::uint8_t>>& jpegs,
-                 const std::vector<std::size_t>& usable, double rate, double duration, bool maps,
-                 double phase, std::size_t first_frame, const client::TlsOptions& tls,
-                 bool websocket, Clock::time_point start, SessionReport& report) {
+                 const std::vector<std::size_t>& usable, Clock::time_point start,
+                 SessionReport& report) {
   try {
-    client::Client c;
-    c.use_tls(tls);
-    c.use_websocket(websocket);
     std::mutex m;
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
     Clock::time_point first;
-    c.on_update = [&](const client::LightingUpdate& u) {
-      std::lock_guard lock(m);
-      // Updates come in sequence order; the frames skipped over were dropped.
-      if (u.frame_sequence > answered && u.frame_sequence <= report.sent_ms.size()) {
-        answered = u.frame_sequence;
-        const double ms = std::chrono::duration<double, std::milli>(u.received - start).count() -
-                          report.sent_ms[u.frame_sequence - 1];
-        report.latency_ms.push_back(ms);
-        report.frame_latency_ms[u.frame_sequence - 1] = ms;
-      }
-      report.processed = u.frames_processed;
-      report.dropped = u.frames_dropped;
+    const auto open = [&](const std::string& resume) {
+      auto c = std::make_unique<client::Client>();
+      c->use_tls(plan.tls);
+      c->use_websocket(plan.websocket);
+      c->on_update = [&](const client::LightingUpdate& u) {
+        std::lock_guard lock(m);
+        // Updates come in sequence order; the frames skipped over were dropped.
+        if (u.frame_sequence > answered && u.frame_sequence <= report.sent_ms.size()) {
+          answered = u.frame_sequence;
+          const double ms = std::chrono::duration<double, std::milli>(u.received - start).count() -
+                            report.sent_ms[u.frame_sequence - 1];
+          report.latency_ms.push_back(ms);
+          report.frame_latency_ms[u.frame_sequence - 1] = ms;
+        }
+        report.processed = u.frames_processed;
+        report.dropped = u.frames_dropped;
+      };
+      c->on_map_set_complete = [&](const client::MapSet&) {
+        std::lock_guard lock(m);
+        report.map_set_ms.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - first).count());
+      };
+      const client::Welcome w =
+          c->connect(plan.host, plan.port, plan.device, plan.token, "arlight-load", resume);
+      if (!resume.empty() && !w.resumed)
+        throw client::ClientError("SessionNotFound", "the daemon did not resume " + resume);
+      c->send_intrinsics(rec.camera);
+      if (plan.maps) c->request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
+      return std::pair{std::move(c), w};
     };
-    c.on_map_set_complete = [&](const client::MapSet&) {
-      std::lock_guard lock(m);
-      report.map_set_ms.push_back(
-          std::chrono::duration<double, std::milli>(Clock::now() - first).count());
-    };
-    c.connect(host, port, device, token, "arlight-load");
-    c.send_intrinsics(rec.camera);
-    if (maps) c.request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
-    const auto period = std::chrono::duration<double>(1.0 / rate);
+    auto [c, welcome] = open("");
+    const std::string session_id = welcome.session_id;
+    std::uint64_t map_sets_before = 0;  // of the connections before this one
+    const auto period = std::chrono::duration<double>(1.0 / plan.rate);
     // This session's frames start `phase` of a frame period late (see --phases).
-    first = Clock::now() + std::chrono::duration_cast<Clock::duration>(period * phase);
+    first = Clock::now() + std::chrono::duration_cast<Clock::duration>(period * plan.phase);
+    std::optional<Clock::time_point> lost_since;
+    Outage outage;
+    Clock::time_point next_attempt;
     for (std::uint64_t k = 0;; ++k) {
       const auto due = first + std::chrono::duration_cast<Clock::duration>(period * double(k));
-      if (due - first > std::chrono::duration<double>(duration)) break;
+      if (due - first > std::chrono::duration<double>(plan.duration)) break;
       std::this_thread::sleep_until(due);
-      if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
-      const std::size_t i = usable[(k + first_frame) % usable.size()];
+      if (!lost_since) {
+        const auto e = c->server_error();
+        if (e || !c->connected()) {
+          const client::ClientError err(e ? e->first : "Network",
+                                        e ? e->second : "connection lost");
+          if (plan.reconnect_s <= 0 || !retryable(err)) throw err;
+          lost_since = Clock::now(), next_attempt = Clock::now();
+          outage = {std::chrono::duration<double>(*lost_since - start).count(), 0, 0, 0};
+          map_sets_before += c->map_sets_completed();
+        }
+      }
+      if (lost_since && Clock::now() >= next_attempt) {
+        try {
+          auto [fresh, w] = open(session_id);
+          std::lock_guard lock(m);
+          const std::uint64_t kept = w.frames_processed + report.dropped;
+          outage.lost_after_checkpoint = report.sent > kept ? report.sent - kept : 0;
+          outage.seconds = std::chrono::duration<double>(Clock::now() - *lost_since).count();
+          report.outages.push_back(outage);
+          c = std::move(fresh);
+          lost_since.reset();
+        } catch (const client::ClientError& e) {
+          if (!retryable(e)) throw;
+          if (Clock::now() - *lost_since > std::chrono::duration<double>(plan.reconnect_s))
+            throw client::ClientError(e.code(), "no daemon resumed the session within " +
+                                                    std::to_string(plan.reconnect_s) +
+                                                    " s: " + e.what());
+          next_attempt = Clock::now() + std::chrono::milliseconds(100);
+        }
+      }
+      if (lost_since) {
+        ++outage.not_sent;
+        continue;
+      }
+      const std::size_t i = usable[(k + plan.first_frame) % usable.size()];
       const auto& f = rec.frames[i];
       {
         std::lock_guard lock(m);
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
+        ++report.sent;
       }
-      c.send_jpeg_frame(k + 1, {double(k) / rate, f.exposure, f.gain, f.orientation},
-                        rec.camera.width, rec.camera.height, jpegs[i]);
-      ++report.sent;
+      try {
+        c->send_jpeg_frame(report.sent, {double(k) / plan.rate, f.exposure, f.gain, f.orientation},
+                           rec.camera.width, rec.camera.height, jpegs[i]);
+      } catch (const client::ClientError&) {  // noticed before the next frame
+      }
     }
+    if (lost_since) throw client::ClientError("Network", "the session ended without a daemon");
     // Let the last updates arrive.
-    c.wait_for(
+    c->wait_for(
         [&] {
           std::lock_guard lock(m);
-          return report.processed + report.dropped >= report.sent;
+          std::uint64_t lost = 0;  // in outages: never to be answered
+          for (const Outage& o : report.outages) lost += o.lost_after_checkpoint;
+          return report.processed + report.dropped + lost >= report.sent;
         },
         std::chrono::seconds(5));
-    if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
-    report.map_sets = c.map_sets_completed();
-    c.bye();
+    if (const auto e = c->server_error()) throw client::ClientError(e->first, e->second);
+    report.map_sets = map_sets_before + c->map_sets_completed();
+    c->bye();
   } catch (const std::exception& e) {
     report.failed = true;
     report.error = e.what();
@@ -139,6 +217,11 @@ int main(int argc, char** argv) {
   app.add_option("--trace", trace_path,
                  "write every frame as CSV: session,sequence,sent_ms,latency_ms (empty when no "
                  "update reflects it)");
+  double reconnect_s = 0;
+  app.add_option("--reconnect", reconnect_s,
+                 "seconds a session may be without its daemon (killed, restarted, behind a "
+                 "balancer) while it reconnects and resumes; 0: a lost connection fails it")
+      ->capture_default_str();
   client::TlsOptions tls;
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
@@ -174,10 +257,14 @@ int main(int argc, char** argv) {
     const auto start = Clock::now();
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
-        run_session(host, port, device.empty() ? rec.device_id : device, token, rec, jpegs, usable,
-                    rate, duration, maps, spread ? double(s) / sessions : 0.0,
-                    spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0, tls, websocket, start,
-                    reports[std::size_t(s)]);
+        SessionPlan plan;
+        plan.host = host, plan.port = port, plan.token = token;
+        plan.device = device.empty() ? rec.device_id : device;
+        plan.rate = rate, plan.duration = duration, plan.maps = maps;
+        plan.phase = spread ? double(s) / sessions : 0.0;
+        plan.first_frame = spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0;
+        plan.tls = tls, plan.websocket = websocket, plan.reconnect_s = reconnect_s;
+        run_session(plan, rec, jpegs, usable, start, reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
 
@@ -187,6 +274,8 @@ int main(int argc, char** argv) {
     int failed = 0;
     j["errors"] = nlohmann::json::array();
     j["per_session"] = nlohmann::json::array();
+    nlohmann::json outages = nlohmann::json::array();
+    double worst_lost_s = 0;  // frames lost in one outage of one session, in seconds of frames
     for (std::size_t s = 0; s < reports.size(); ++s) {
       const SessionReport& r = reports[s];
       sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
@@ -203,7 +292,17 @@ int main(int argc, char** argv) {
                                   {"latency_ms_p50", percentile(r.latency_ms, 50)},
                                   {"latency_ms_p99", percentile(r.latency_ms, 99)},
                                   {"failed", r.failed}});
+      for (const Outage& o : r.outages) {
+        outages.push_back({{"session", s},
+                           {"at_s", o.at_s},
+                           {"seconds", o.seconds},
+                           {"frames_not_sent", o.not_sent},
+                           {"frames_lost_after_checkpoint", o.lost_after_checkpoint}});
+        worst_lost_s = std::max(worst_lost_s, double(o.not_sent + o.lost_after_checkpoint) / rate);
+      }
     }
+    j["outages"] = outages;
+    j["worst_outage_frames_lost_s"] = worst_lost_s;
     j["sessions"] = sessions;
     j["phases"] = phases;
     j["failed"] = failed;
@@ -236,6 +335,9 @@ int main(int argc, char** argv) {
         static_cast<unsigned long long>(processed), static_cast<unsigned long long>(dropped),
         percentile(all, 50), percentile(all, 95), percentile(all, 99),
         static_cast<unsigned long long>(map_sets));
+    if (!outages.empty())
+      std::printf("%zu outages survived; the worst lost %.2f s of frames\n", outages.size(),
+                  worst_lost_s);
     for (const auto& e : j["errors"]) std::fprintf(stderr, "%s\n", e.get<std::string>().c_str());
     return failed ? 1 : 0;
   } catch (const InputError& e) {

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 namespace arlight::client_app {
 
 using namespace std::chrono_literals;
@@ -55,6 +57,8 @@ bool LightingLink::connect_once() {
     lighting_.dominant_colour = u.dominant_colour;
     lighting_.coverage = u.coverage;
     ++stats_.updates;
+    if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
+      stats_.resumes.back().first_coverage = u.coverage;
   };
   c->on_map_set_complete = [this](const client::MapSet& m) {
     std::lock_guard lock(mutex_);
@@ -78,6 +82,8 @@ bool LightingLink::connect_once() {
     std::lock_guard lock(mutex_);
     if (!stats_.session_id.empty() && w.session_id != stats_.session_id)
       spdlog::warn("arlightd started a new session {} (the old one is gone)", w.session_id);
+    if (w.resumed && w.session_id == resume)
+      stats_.resumes.push_back({stats_.frames_sent, w.frames_processed, -1.0});
     client_ = std::move(c);
     stats_.connected = true;
     stats_.session_id = w.session_id;
@@ -99,6 +105,7 @@ bool LightingLink::connect_once() {
 
 void LightingLink::run() {
   bool warned = false;
+  int failures = 0;  // attempts since the last connection: the backoff
   while (!stop_) {
     std::shared_ptr<client::Client> c;
     {
@@ -129,9 +136,19 @@ void LightingLink::run() {
         warned = true;
       }
     }
-    if (!refused_ && !c && connect_once()) continue;  // after a loss, wait first
+    // Right after a loss, at once: a daemon behind a balancer that died is replaced by another
+    // in well under a second (deploy/haproxy). Then 0.1, 0.2, 0.4 ... s up to the interval.
+    if (!refused_) {
+      if (connect_once()) {
+        failures = 0;
+        continue;
+      }
+      ++failures;
+    }
+    const double wait =
+        std::min(options_.reconnect_interval_s, 0.1 * double(1 << std::clamp(failures - 1, 0, 10)));
     std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, std::chrono::duration<double>(options_.reconnect_interval_s),
+    changed_.wait_for(lock, std::chrono::duration<double>(std::max(wait, 0.01)),
                       [&] { return stop_.load(); });
   }
 }

@@ -2,6 +2,8 @@
 
 #include <xxhash.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -87,7 +89,9 @@ void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int gener
                {"frames_processed", c.frames_processed},
                {"frames_dropped", c.frames_dropped},
                {"frames_skipped", c.frames_skipped},
-               {"last_sequence", c.last_sequence}};
+               {"last_sequence", c.last_sequence},
+               {"coverage", c.coverage},
+               {"generation", generation}};
   if (c.request)
     meta["request"] = {{"shininess", c.request->shininess},
                        {"size", c.request->size},
@@ -126,6 +130,7 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     c.frames_dropped = meta.at("frames_dropped");
     c.frames_skipped = meta.at("frames_skipped");
     c.last_sequence = meta.at("last_sequence");
+    c.coverage = meta.value("coverage", 0.0);
     if (meta.contains("request")) {
       const json& r = meta["request"];
       MapRequest req;
@@ -140,6 +145,10 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     const std::string file = meta.at("accumulators").get<std::string>();
     if (file.find('/') != std::string::npos || file.find("..") != std::string::npos)
       throw InputError(where + ": the accumulator file name '" + file + "' leaves the folder");
+    // Checkpoints before 2026-12 name their generation only in the file name.
+    int named_generation = 0;
+    if (std::sscanf(file.c_str(), "accum-%d.bin", &named_generation) != 1) named_generation = 0;
+    c.generation = std::max(meta.value("generation", 0), named_generation);
     std::ifstream in(dir / file, std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     const bool intact =

@@ -38,6 +38,13 @@ struct SessionCheckpoint {
   int map_size = 0;
   std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0, frames_skipped = 0,
                 last_sequence = 0;
+  // The fraction of the sphere the map had seen (for people and fail-over checks; a resume
+  // recomputes it from the accumulators).
+  double coverage = 0;
+  // The generation it was written as (accum-<generation>.bin): a daemon that resumes the
+  // session continues the count, so its first checkpoint never overwrites the file the
+  // manifest still names.
+  int generation = 0;
   std::optional<MapRequest> request;
   capture::Accumulators accumulators;
 };

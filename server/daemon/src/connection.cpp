@@ -84,7 +84,7 @@ void Connection::close() {
 }
 
 void Connection::detach() {
-  if (session_) session_->detach();  // the session stays for a resume
+  if (session_) session_->detach(attachment_);  // the session stays for a resume
 }
 
 void Connection::fail(wire::ErrorCode code, const std::string& message) {
@@ -148,11 +148,14 @@ void Connection::handle_hello(const wire::Hello& m) {
   session_ = env_.open_session(m, code, why);
   if (!session_) return fail(code, why);
   std::weak_ptr<wire::MessageStream> weak = stream_;
-  session_->attach(
+  std::weak_ptr<Connection> weak_self = shared_from_this();
+  attachment_ = session_->attach(
       [weak](std::vector<std::uint8_t> envelope) {
         if (auto stream = weak.lock()) stream->send(std::move(envelope));
       },
-      wire::choose_tile_coding(m.capabilities));
+      wire::choose_tile_coding(m.capabilities), [weak_self] {
+        if (auto self = weak_self.lock()) self->close();  // handed over to another daemon
+      });
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
                               session_->frames_processed(), env_.limits});

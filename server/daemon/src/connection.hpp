@@ -64,6 +64,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
   std::shared_ptr<wire::MessageStream> stream_;
   ConnectionEnv env_;
   std::shared_ptr<Session> session_;
+  std::uint64_t attachment_ = 0;  // Session::attach's number for this connection
   std::string address_;
   std::atomic<bool> authenticated_{false};
   boost::asio::steady_timer deadline_;

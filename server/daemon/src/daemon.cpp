@@ -22,6 +22,7 @@
 #include "connection.hpp"
 #include "phone_link.hpp"
 #include "priority.hpp"
+#include "session_lease.hpp"
 #include "tokens.hpp"
 #include "web_server.hpp"
 
@@ -131,6 +132,9 @@ struct Daemon::Impl {
   admin::Counter* refused_total = nullptr;
   admin::Counter* refused_unauthenticated = nullptr;
   admin::Counter* refused_per_address = nullptr;
+  admin::Counter* sessions_handed_over = nullptr;
+  admin::Counter* sessions_takeover_waits = nullptr;
+  const std::string lease_owner = lease_owner_name();
 
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
@@ -185,6 +189,13 @@ struct Daemon::Impl {
     refused_per_address =
         &metrics.counter("arlight_connections_refused_per_address_total",
                          "connections refused: the limit of connections from one address");
+
+    sessions_handed_over =
+        &metrics.counter("arlight_sessions_handed_over_total",
+                         "sessions closed here because a client resumed them on another daemon");
+    sessions_takeover_waits = &metrics.counter(
+        "arlight_session_takeover_waits_total",
+        "resumes answered Busy while another daemon still held the session's lease");
 
     const tcp::endpoint ep(asio::ip::make_address(config.listen_host), config.listen_port);
     acceptor.open(ep.protocol());
@@ -282,6 +293,35 @@ struct Daemon::Impl {
     }
   }
 
+  // Closes a session on this daemon for good (kept on disk, its lease let go); a failed last
+  // checkpoint is logged and keeps it open.
+  bool release(Session& s) {
+    try {
+      s.release();
+      return true;
+    } catch (const std::exception& e) {
+      log("checkpoint of session " + s.id() + " failed: " + e.what());
+      return false;
+    }
+  }
+
+  // A session that another daemon was asked for (session_lease.hpp): checkpointed, closed here
+  // and let go, so the client's next attempt resumes it there (or here again).
+  void hand_over(const std::shared_ptr<Session>& s) {
+    if (!s->holds_lease()) return;  // handed over already (housekeeping asks every 250 ms)
+    const auto dir = session_dir(session_env, s->id());
+    if (!release(*s)) return;  // retried at the next housekeeping while the request stands
+    SessionLease::clear_release_request(dir);
+    {
+      std::lock_guard lock(sessions_mutex);
+      if (const auto it = sessions.find(s->id()); it != sessions.end() && it->second == s)
+        sessions.erase(it);
+      sessions_gauge.set(double(sessions.size()));
+    }
+    sessions_handed_over->inc();
+    spdlog::info("session {} handed over to another daemon (checkpointed)", s->id());
+  }
+
   // With `lock` (on sessions_mutex) held and the server full: makes room by closing the session
   // that has waited longest without a connection (checkpointed first, so it stays on disk and
   // can be resumed), as the idle timeout would have. When every session is connected, nothing.
@@ -295,12 +335,11 @@ struct Daemon::Impl {
       if (!idlest) return;
       sessions.erase(idlest->id());
       lock.unlock();
-      if (!save(*idlest)) {  // not on disk: it stays open, and the new session is refused
+      if (!release(*idlest)) {  // not on disk: it stays open, and the new session is refused
         lock.lock();
         sessions.emplace(idlest->id(), idlest);
         return;
       }
-      idlest->shutdown();
       spdlog::info("session {} closed to make room (kept on disk)", idlest->id());
       lock.lock();
     }
@@ -334,20 +373,45 @@ struct Daemon::Impl {
                 " sessions";
           return nullptr;
         }
-        try {
-          s = Session::load(resume, session_env);
-        } catch (const InputError& e) {
-          code = wire::ErrorCode::Internal;
-          why = e.what();
-          return nullptr;
+        const auto dir = session_dir(session_env, resume);
+        std::error_code exists_ec;
+        if (std::filesystem::exists(dir / "session.json", exists_ec)) {
+          // Another daemon on this data folder may have it: its lease says (session_lease.hpp).
+          std::optional<SessionLease> lease;
+          try {
+            lease = SessionLease::try_acquire(dir, lease_owner);
+          } catch (const std::exception& e) {
+            code = wire::ErrorCode::Internal;
+            why = e.what();
+            return nullptr;
+          }
+          if (!lease) {
+            SessionLease::request_release(dir, lease_owner);
+            sessions_takeover_waits->inc();
+            code = wire::ErrorCode::Busy;
+            why = "session " + resume + " is open on another arlightd (" +
+                  SessionLease::owner_of(dir) +
+                  "), which was asked to hand it over: try again in a second";
+            return nullptr;
+          }
+          SessionLease::clear_release_request(dir);
+          try {
+            s = Session::load(resume, session_env, std::move(*lease));
+          } catch (const InputError& e) {
+            code = wire::ErrorCode::Internal;
+            why = e.what();
+            return nullptr;
+          }
+          if (s) sessions.emplace(resume, s);
         }
-        if (s) sessions.emplace(resume, s);
       }
       if (!s || s->device_id() != device) {
         code = wire::ErrorCode::SessionNotFound;
         why = "no session " + resume + " for this device";
         return nullptr;
       }
+      // The client is here now: a hand-over asked for by another daemon is moot.
+      SessionLease::clear_release_request(session_dir(session_env, resume));
       sessions_gauge.set(double(sessions.size()));
       return s;
     }
@@ -358,7 +422,21 @@ struct Daemon::Impl {
           "the server carries its maximum of " + std::to_string(config.max_sessions) + " sessions";
       return nullptr;
     }
-    auto s = std::make_shared<Session>(new_session_id(), device, session_env);
+    const std::string id = new_session_id();
+    std::optional<SessionLease> lease;
+    try {
+      lease = SessionLease::try_acquire(session_dir(session_env, id), lease_owner);
+    } catch (const std::exception& e) {
+      code = wire::ErrorCode::Internal;
+      why = e.what();
+      return nullptr;
+    }
+    if (!lease) {  // 128 random bits taken already: something else is badly wrong
+      code = wire::ErrorCode::Internal;
+      why = "the new session's lease is held by another process";
+      return nullptr;
+    }
+    auto s = std::make_shared<Session>(id, device, session_env, std::move(*lease));
     sessions.emplace(s->id(), s);
     sessions_gauge.set(double(sessions.size()));
     return s;
@@ -439,13 +517,16 @@ struct Daemon::Impl {
       }
       for (const auto& s : all) s->on_idle(now);
       for (const auto& s : all)
-        if (!s->attached() &&
-            now - s->last_activity() > std::chrono::duration<double>(config.idle_timeout_s)) {
+        if (SessionLease::release_requested(session_dir(session_env, s->id()))) {
+          asio::post(disk, [this, s] { hand_over(s); });
+        } else if (!s->attached() &&
+                   now - s->last_activity() >
+                       std::chrono::duration<double>(config.idle_timeout_s)) {
           asio::post(disk, [this, s] {
-            if (!save(*s)) return;  // kept open (and retried) rather than lost
-            s->shutdown();
+            if (!release(*s)) return;  // kept open (and retried) rather than lost
             std::lock_guard lock(sessions_mutex);
-            sessions.erase(s->id());
+            if (const auto it = sessions.find(s->id()); it != sessions.end() && it->second == s)
+              sessions.erase(it);
             sessions_gauge.set(double(sessions.size()));
           });
         }

@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
                  "connections that have not sent their Hello yet (default 64)");
   app.add_option("--max-per-address", c.max_connections_per_address,
                  "connections from one address (default 64)");
+  app.add_option("--checkpoint-interval", c.checkpoint_interval_s,
+                 "seconds between checkpoints of a changing session: at most this much capture "
+                 "is lost when the daemon dies (default 2; 1 behind a balancer)");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 4)");
   app.add_option("--queue-depth", c.queue_depth,

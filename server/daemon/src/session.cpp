@@ -29,10 +29,6 @@ bool same_camera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
          a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
 }
 
-fs::path session_dir(const SessionEnv& env, const std::string& id) {
-  return env.data_dir / "sessions" / id;
-}
-
 CameraResponse device_response(const SessionEnv& env, const std::string& device) {
   try {
     if (auto r = capture::ResponseStore(env.data_dir / "responses").find(device)) return *r;
@@ -43,8 +39,12 @@ CameraResponse device_response(const SessionEnv& env, const std::string& device)
 
 }  // namespace
 
-Session::Session(std::string id, std::string device_id, const SessionEnv& env)
-    : id_(std::move(id)), device_id_(std::move(device_id)), env_(env) {}
+fs::path session_dir(const SessionEnv& env, const std::string& id) {
+  return env.data_dir / "sessions" / id;
+}
+
+Session::Session(std::string id, std::string device_id, const SessionEnv& env, SessionLease lease)
+    : id_(std::move(id)), device_id_(std::move(device_id)), env_(env), lease_(std::move(lease)) {}
 
 Session::~Session() { shutdown(); }
 
@@ -96,16 +96,21 @@ bool Session::has_camera() const {
   return camera_.has_value();
 }
 
-void Session::attach(Sink sink, wire::TileCoding tile_coding) {
+std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
+                              std::function<void()> disconnect) {
   std::lock_guard lock(mutex_);
   sink_ = std::move(sink);
+  disconnect_ = std::move(disconnect);
   tile_coding_ = tile_coding;
   last_activity_ = Clock::now();
+  return ++attachment_;
 }
 
-void Session::detach() {
+void Session::detach(std::uint64_t attachment) {
   std::lock_guard lock(mutex_);
+  if (attachment != attachment_) return;  // a newer connection has the session
   sink_ = nullptr;
+  disconnect_ = nullptr;
   last_activity_ = Clock::now();
 }
 
@@ -341,6 +346,7 @@ void Session::checkpoint() {
   // Two at once would race: one's clean-up deletes the other's files, and manifests could
   // name an older generation after a newer one.
   std::lock_guard serial(checkpoint_mutex_);
+  if (!lease_) return;  // released: another daemon may own the folder now
   SessionCheckpoint c;
   int generation;
   {
@@ -353,19 +359,45 @@ void Session::checkpoint() {
     c.frames_received = received_, c.frames_processed = processed_, c.frames_dropped = dropped_;
     c.frames_skipped = skipped_, c.last_sequence = last_sequence_;
     c.request = request_;
+    c.coverage = capture_->coverage();
     dirty_ = false;
   }
-  write_checkpoint(session_dir(env_, id_), c, generation);
+  try {
+    write_checkpoint(session_dir(env_, id_), c, generation);
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    dirty_ = true;  // the next checkpoint tries again
+    throw;
+  }
 }
 
-std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& env) {
+void Session::release() {
+  std::function<void()> disconnect;
+  {
+    std::lock_guard lock(mutex_);
+    disconnect = disconnect_;
+  }
+  if (disconnect) disconnect();  // the client reconnects, to whichever daemon takes it
+  shutdown();
+  checkpoint();  // throws: the lease is kept and the session stays usable
+  std::lock_guard serial(checkpoint_mutex_);
+  lease_.reset();
+}
+
+bool Session::holds_lease() const {
+  std::lock_guard serial(checkpoint_mutex_);
+  return lease_.has_value();
+}
+
+std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& env,
+                                       SessionLease lease) {
   const std::optional<SessionCheckpoint> c = read_checkpoint(session_dir(env, id));
   if (!c) return nullptr;
   const std::string where = "session checkpoint of " + id;
   if (c->id != id) throw InputError(where + ": it names session " + c->id);
   if (c->map_size != env.map_size)
     throw InputError(where + ": its map size differs from this daemon's");
-  auto s = std::make_shared<Session>(id, c->device_id, env);
+  auto s = std::make_shared<Session>(id, c->device_id, env, std::move(lease));
   const std::string why = s->set_camera(c->camera);
   if (!why.empty()) throw InputError(where + ": " + why);
   try {
@@ -377,6 +409,7 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   s->dropped_ = c->frames_dropped, s->skipped_ = c->frames_skipped;
   s->last_sequence_ = c->last_sequence;
   s->request_ = c->request;
+  s->checkpoint_generation_ = c->generation;
   s->dirty_ = false;
   return s;
 }

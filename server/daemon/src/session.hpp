@@ -23,6 +23,7 @@
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
+#include "session_lease.hpp"
 
 namespace arlight::daemon {
 
@@ -57,14 +58,20 @@ struct FrameJob {
 // detached.
 using Sink = std::function<void(std::vector<std::uint8_t>)>;
 
+// Where a session lives on disk: DATA/sessions/<id>/ (checkpoint, lease).
+std::filesystem::path session_dir(const SessionEnv& env, const std::string& id);
+
 class Session : public std::enable_shared_from_this<Session> {
  public:
-  Session(std::string id, std::string device_id, const SessionEnv& env);
+  // `lease`: this daemon's hold on DATA/sessions/<id>/ (session_lease.hpp); the session writes
+  // checkpoints only while it has it.
+  Session(std::string id, std::string device_id, const SessionEnv& env, SessionLease lease);
   ~Session();
 
   // A checkpointed session from DATA/sessions/<id>/, or nullptr when there is none;
   // InputError when it is damaged.
-  static std::shared_ptr<Session> load(const std::string& id, const SessionEnv& env);
+  static std::shared_ptr<Session> load(const std::string& id, const SessionEnv& env,
+                                       SessionLease lease);
 
   const std::string& id() const { return id_; }
   const std::string& device_id() const { return device_id_; }
@@ -77,9 +84,13 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string set_camera(const CameraIntrinsics& camera);
   bool has_camera() const;
 
-  // The connected client: where messages go, and the tile coding its Hello accepts.
-  void attach(Sink sink, wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf);
-  void detach();
+  // The connected client: where messages go, the tile coding its Hello accepts, and how to
+  // close its connection (when the session moves to another daemon).
+  // Returns the attachment's number: detach(n) lets go only if no newer connection attached
+  // since (a resumed session's old connection closing late must not cut off the new one).
+  std::uint64_t attach(Sink sink, wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf,
+                       std::function<void()> disconnect = {});
+  void detach(std::uint64_t attachment);
   bool attached() const;
   Clock::time_point last_activity() const;
 
@@ -94,7 +105,14 @@ class Session : public std::enable_shared_from_this<Session> {
   // Called periodically: when frames stopped arriving for a moment and the map changed since
   // the last map set, computes one now (the user has paused or finished capturing).
   void on_idle(Clock::time_point now);
-  void checkpoint();  // writes DATA/sessions/<id>/ if anything changed since the last one
+  // Writes DATA/sessions/<id>/ if anything changed since the last one, and only while the
+  // session holds its lease.
+  void checkpoint();
+  // Closes the session for good on this daemon: its connection, its work, a last checkpoint,
+  // then lets go of the lease so another daemon may take it over. Throws (lease kept, session
+  // usable) when the checkpoint fails.
+  void release();
+  bool holds_lease() const;
   void shutdown();    // cancels the map computation and waits for running work
   nlohmann::json summary() const;
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
@@ -116,6 +134,8 @@ class Session : public std::enable_shared_from_this<Session> {
   int camera_changes_ = 0;
   std::string response_name_ = "srgb";
   Sink sink_;
+  std::function<void()> disconnect_;
+  std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
   bool busy_ = false;             // a process() is queued or running
@@ -131,7 +151,8 @@ class Session : public std::enable_shared_from_this<Session> {
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
   std::mutex process_mutex_;     // held while a frame is processed
-  std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, make_room)
+  mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
+  std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
 };
 
 }  // namespace arlight::daemon

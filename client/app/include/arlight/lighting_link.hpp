@@ -27,6 +27,7 @@ struct LinkOptions {
   std::vector<double> shininess;  // the map set to request
   int map_size = 256;
   Projection projection = Projection::AngleMap;
+  // After a loss the link retries at once, then backs off (doubling from 0.1 s) to this.
   double reconnect_interval_s = 1.0;
 };
 
@@ -41,10 +42,19 @@ struct Lighting {
   double coverage = 0;
 };
 
+// A reconnection that resumed the session: what the server's Welcome said it had kept, and
+// the coverage of the first update after it (a fail-over check: never below the checkpoint's).
+struct Resume {
+  std::uint64_t frames_sent_before = 0;  // this client's frames sent until then
+  std::uint64_t frames_processed = 0;    // the Welcome's: what the resumed session holds
+  double first_coverage = -1;            // -1 until an update arrives
+};
+
 struct LinkStats {
   bool connected = false;
   std::string session_id;
   std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
+  std::vector<Resume> resumes;
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts

@@ -1,0 +1,50 @@
+// Who owns a session when several arlightd share one data folder (behind a TCP balancer, a
+// Kubernetes ReadWriteMany volume): DATA/sessions/<id>/lease, held with flock(2) by the one
+// daemon that has the session in memory and writes its checkpoints. The kernel lets go of the
+// lock the moment its owner dies (kill -9, a crash, the node's NFS lease running out), so a
+// resume on another daemon takes over at once and reads the last checkpoint the dead one wrote;
+// while the owner lives, nobody else can take the lock, so two daemons never write one session.
+//
+// A live owner hands a session over when asked: the daemon a client resumed on writes
+// DATA/sessions/<id>/release-request; the owner notices it (its housekeeping), checkpoints the
+// session, closes it and lets go, and the client's next attempt gets it wherever it lands.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace arlight::daemon {
+
+class SessionLease {
+ public:
+  // The lease of the session folder `dir` (created if needed) for `owner` (a line saying who:
+  // host, pid), or std::nullopt while another process holds it. The owner line is written into
+  // the lease file for people and logs. std::runtime_error naming the file when it cannot be
+  // opened at all (permissions, a full disk).
+  static std::optional<SessionLease> try_acquire(const std::filesystem::path& dir,
+                                                 const std::string& owner);
+  // Who holds (or last held) the lease of `dir`, as its file says; empty when unknown.
+  static std::string owner_of(const std::filesystem::path& dir);
+
+  // Asks the owner of `dir` to hand the session over (`who` says who asks); whether a request
+  // is pending; withdraws it (the owner does once it has let go, and so does a new owner).
+  static void request_release(const std::filesystem::path& dir, const std::string& who);
+  static bool release_requested(const std::filesystem::path& dir);
+  static void clear_release_request(const std::filesystem::path& dir);
+
+  SessionLease(SessionLease&& other) noexcept;
+  SessionLease& operator=(SessionLease&& other) noexcept;
+  SessionLease(const SessionLease&) = delete;
+  SessionLease& operator=(const SessionLease&) = delete;
+  ~SessionLease();  // lets go
+
+ private:
+  explicit SessionLease(int fd) : fd_(fd) {}
+  int fd_ = -1;
+};
+
+// This process as a lease owner: "host pid=N".
+std::string lease_owner_name();
+
+}  // namespace arlight::daemon

@@ -1,0 +1,266 @@
+// More than one arlightd on one data folder (deploy/haproxy): a session is owned by one daemon
+// at a time (its lease), a resume on another daemon takes it over, from a live owner by a
+// hand-over and from a killed one at once; and the whole thing behind the real HAProxy with
+// deploy/haproxy/haproxy.cfg, a client replaying in real time and the serving daemon killed
+// with SIGKILL mid-session.
+#include <gtest/gtest.h>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "arlight/client_net.hpp"
+#include "arlight/recording.hpp"
+#include "support/child_process.hpp"
+#include "support/daemon_process.hpp"
+#include "support/run_tool.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+using nlohmann::json;
+using test::ChildProcess;
+using test::DaemonProcess;
+using test::kToken;
+using namespace std::chrono_literals;
+
+namespace {
+
+json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
+
+// The session `id` in a daemon's /sessions, if it has it.
+std::optional<json> session_on(const DaemonProcess& d, const std::string& id) {
+  const auto [status, body] = d.admin_get("/sessions");
+  if (status != 200) return std::nullopt;
+  for (const json& s : json::parse(body))
+    if (s["id"] == id) return s;
+  return std::nullopt;
+}
+
+// A port nothing listens on right now (for HAProxy's frontend and stats).
+std::uint16_t free_port() {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::acceptor a(io, {boost::asio::ip::make_address("127.0.0.1"), 0});
+  return a.local_endpoint().port();
+}
+
+std::string haproxy_exe() {
+  for (const char* p : {"/usr/sbin/haproxy", "/usr/bin/haproxy"})
+    if (fs::exists(p)) return p;
+  return "haproxy";
+}
+
+template <class Pred>
+bool eventually(Pred pred, std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(50ms);
+  }
+  return pred();
+}
+
+}  // namespace
+
+// A client resumes on daemon B a session that daemon A still holds (a balancer moved it): B
+// answers Busy and asks A, A checkpoints, closes its connection and lets go, and the retry
+// resumes the session on B with everything A had. A never writes it again.
+TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
+  const fs::path dir = test::fresh_temp_dir("failover_handover");
+  const fs::path data = dir / "data";
+  const std::vector<std::string> args = {"--checkpoint-interval", "0.5"};
+  DaemonProcess a(dir / "a", args, 0, data), b(dir / "b", args, 0, data);
+  const recording::Recording rec = recording::read_recording(test::daemon_sample_recording());
+
+  client::Client on_a;
+  const std::string id = on_a.connect("127.0.0.1", a.port(), "arlight-sim", kToken).session_id;
+  on_a.send_intrinsics(rec.camera);
+  for (std::uint64_t seq = 1; seq <= 12; ++seq)
+    on_a.send_jpeg_frame(seq, rec.frames[seq], rec.camera.width, rec.camera.height,
+                         recording::read_frame_bytes(rec, seq));
+  ASSERT_TRUE(on_a.wait_for(
+      [&] {
+        const auto u = on_a.last_update();
+        return u && u->frame_sequence == 12;
+      },
+      20s));
+  // Frames that came while another waited were dropped (queue depth 2): what was processed.
+  const std::uint64_t processed = on_a.last_update()->frames_processed;
+  const fs::path session = data / "sessions" / id;
+  ASSERT_TRUE(eventually(
+      [&] {
+        return fs::exists(session / "session.json") &&
+               read_json(session / "session.json")["frames_received"] == 12 &&
+               read_json(session / "session.json")["frames_processed"] == processed;
+      },
+      10s))
+      << "A never checkpointed its 12 frames";
+  EXPECT_NE(test::run_tool("cat", (session / "lease").string()).output.find(std::to_string(a.pid())),
+            std::string::npos)
+      << "the lease does not name A";
+
+  // First attempt on B: Busy, naming the owner.
+  client::Client on_b;
+  try {
+    on_b.connect("127.0.0.1", b.port(), "arlight-sim", kToken, "t", id);
+    FAIL() << "B resumed a session A still holds";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "Busy") << e.what();
+    EXPECT_NE(std::string(e.what()).find("another arlightd"), std::string::npos) << e.what();
+  }
+  // A lets go within its housekeeping tick and a checkpoint; its client is disconnected.
+  EXPECT_TRUE(on_a.wait_for([&] { return !on_a.connected(); }, 5s)) << "A kept the connection";
+  std::optional<client::Welcome> w;
+  ASSERT_TRUE(eventually(
+      [&] {
+        try {
+          client::Client c;
+          w = c.connect("127.0.0.1", b.port(), "arlight-sim", kToken, "t", id);
+          c.bye();
+          return true;
+        } catch (const client::ClientError&) {
+          return false;
+        }
+      },
+      5s))
+      << "B never got the session";
+  EXPECT_TRUE(w->resumed);
+  EXPECT_EQ(w->frames_processed, processed);
+  EXPECT_FALSE(session_on(a, id).has_value()) << "A still lists the session";
+  EXPECT_NE(a.admin_get("/metrics").second.find("arlight_sessions_handed_over_total 1"),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(session / "release-request"));
+
+  // B carries on, and its checkpoints continue A's generations.
+  const int generation_a = read_json(session / "session.json")["generation"];
+  client::Client again;
+  again.connect("127.0.0.1", b.port(), "arlight-sim", kToken, "t", id);
+  again.send_intrinsics(rec.camera);
+  again.send_jpeg_frame(13, rec.frames[13], rec.camera.width, rec.camera.height,
+                        recording::read_frame_bytes(rec, 13));
+  ASSERT_TRUE(again.wait_for([&] { return again.updates_received() > 0; }, 20s));
+  ASSERT_TRUE(eventually(
+      [&] { return read_json(session / "session.json")["frames_received"] == 13; }, 10s));
+  EXPECT_GT(read_json(session / "session.json")["generation"].get<int>(), generation_a);
+  EXPECT_NE(test::run_tool("cat", (session / "lease").string()).output.find(std::to_string(b.pid())),
+            std::string::npos)
+      << "the lease does not name B";
+}
+
+// The end-to-end case: two arlightd on one data folder behind HAProxy (the committed
+// deploy/haproxy/haproxy.cfg); arlight-client replays a 10 s recording in real time through
+// HAProxy; the daemon serving it is killed with SIGKILL 3 s in. The client must come back
+// through HAProxy to the other daemon, resume the same session, lose at most 2 s of frames,
+// and its map's coverage must never fall below the last checkpoint's.
+TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
+  const fs::path dir = test::fresh_temp_dir("failover_haproxy");
+  const fs::path data = dir / "data", rec = dir / "rec";
+  constexpr double kFps = 30;
+  const auto sim = test::run_tool(
+      ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr --out " +
+                           rec.string() + " --frames 300 --fps 30 --size 320x240 --seed 11");
+  ASSERT_EQ(sim.status, 0) << sim.output;
+  // One checkpoint a second: the deployment's setting (deploy/haproxy/README.md).
+  const std::vector<std::string> args = {"--checkpoint-interval", "1"};
+  auto a = std::make_unique<DaemonProcess>(dir / "a", args, 0, data);
+  auto b = std::make_unique<DaemonProcess>(dir / "b", args, 0, data);
+  const std::uint16_t front = free_port(), stats = free_port();
+  ChildProcess haproxy(
+      {haproxy_exe(), "-f", std::string(ARLIGHT_SOURCE_DIR) + "/deploy/haproxy/haproxy.cfg", "-db"},
+      dir / "haproxy.log",
+      {{"ARLIGHT_LISTEN", "127.0.0.1:" + std::to_string(front)},
+       {"ARLIGHTD_A", a->server()},
+       {"ARLIGHTD_A_ADMIN", std::to_string(a->admin())},
+       {"ARLIGHTD_B", b->server()},
+       {"ARLIGHTD_B_ADMIN", std::to_string(b->admin())},
+       {"ARLIGHT_STATS", "127.0.0.1:" + std::to_string(stats)}});
+  // Both daemons UP in HAProxy's own view (its stats CSV: "backend,server,...,UP,...").
+  const auto server_up = [&](const std::string& name) {
+    try {
+      std::istringstream csv(test::http_get(stats, "/;csv").second);
+      for (std::string line; std::getline(csv, line);)
+        if (line.starts_with("arlightd," + name + ",")) return line.find(",UP,") != std::string::npos;
+    } catch (const std::exception&) {
+    }
+    return false;
+  };
+  ASSERT_TRUE(eventually([&] { return server_up("arlightd-a") && server_up("arlightd-b"); }, 10s))
+      << "HAProxy never saw both daemons up:\n"
+      << haproxy.output();
+
+  ChildProcess client({ARLIGHT_CLIENT_EXE, "--server", "127.0.0.1:" + std::to_string(front),
+                       "--token", kToken, "--source", "replay:" + rec.string(), "--realtime",
+                       "--maps", "1,80", "--map-size", "64", "--json",
+                       (dir / "client.json").string()},
+                      dir / "client.log");
+
+  // Whichever daemon HAProxy chose: kill it once it has checkpointed ~2 s of frames.
+  DaemonProcess* serving = nullptr;
+  std::string id;
+  ASSERT_TRUE(eventually(
+      [&] {
+        for (DaemonProcess* d : {a.get(), b.get()}) {
+          const auto [status, body] = d->admin_get("/sessions");
+          if (status != 200) continue;
+          for (const json& s : json::parse(body)) {
+            const fs::path manifest = data / "sessions" / s["id"].get<std::string>() / "session.json";
+            if (s["frames_processed"].get<int>() >= 90 && fs::exists(manifest) &&
+                read_json(manifest)["frames_received"].get<int>() >= 60) {
+              serving = d, id = s["id"];
+              return true;
+            }
+          }
+        }
+        return false;
+      },
+      30s))
+      << "no daemon got 3 s of the session:\n"
+      << client.output();
+  const pid_t killed = serving->pid();
+  DaemonProcess* other = serving == a.get() ? b.get() : a.get();
+  serving->kill9();
+  // What the dead daemon left on disk: the checkpoint the other one must continue from.
+  const json checkpoint = read_json(data / "sessions" / id / "session.json");
+
+  const std::optional<int> status = client.wait_for(60s);
+  ASSERT_TRUE(status.has_value()) << "the client hung:\n" << client.output();
+  ASSERT_EQ(*status, 0) << client.output();
+  const json summary = read_json(dir / "client.json");
+  const json& link = summary["session"];
+  EXPECT_EQ(link["id"], id) << "the client ended in another session";
+  EXPECT_EQ(link["connects"], 2);
+  ASSERT_EQ(link["resumes"].size(), 1u) << link.dump();
+  const json& resume = link["resumes"][0];
+  EXPECT_EQ(resume["frames_processed"], checkpoint["frames_processed"]);
+  EXPECT_GE(resume["first_coverage"].get<double>(), checkpoint["coverage"].get<double>())
+      << "coverage went back past the last checkpoint";
+
+  // Frames lost: those sent to the dead daemon after its last checkpoint, and those the client
+  // could not send while it had no daemon.
+  const int sent_before = resume["frames_sent_before"];
+  const int lost_in_flight = sent_before - checkpoint["frames_received"].get<int>();
+  const int not_sent = link["frames_not_sent"];
+  std::printf("fail-over: killed pid %d; lost %d frames after the checkpoint, %d not sent (%.2f s "
+              "at %.0f fps); coverage %.3f at the checkpoint, %.3f on resume\n",
+              int(killed), lost_in_flight, not_sent, (lost_in_flight + not_sent) / kFps, kFps,
+              checkpoint["coverage"].get<double>(), resume["first_coverage"].get<double>());
+  EXPECT_GE(lost_in_flight, 0);
+  EXPECT_LE(lost_in_flight + not_sent, int(2 * kFps)) << "more than 2 s of frames lost";
+
+  // The other daemon has the session, with every frame it was sent after the resume.
+  const std::optional<json> s = session_on(*other, id);
+  ASSERT_TRUE(s.has_value()) << "the surviving daemon does not have the session";
+  EXPECT_EQ(s->at("frames_received").get<int>(),
+            checkpoint["frames_received"].get<int>() + link["frames_sent"].get<int>() - sent_before);
+  EXPECT_GE(s->at("coverage").get<double>(), checkpoint["coverage"].get<double>());
+  EXPECT_NE(test::run_tool("cat", (data / "sessions" / id / "lease").string())
+                .output.find(std::to_string(other->pid())),
+            std::string::npos);
+  EXPECT_GT(link["map_sets"].get<int>(), 0) << "no map set reached the client";
+}
