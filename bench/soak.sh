@@ -34,10 +34,12 @@ start_daemon() {  # the same ports and data folder every time, one checkpoint a 
   exit 1
 }
 rss() { awk '/VmRSS/ {print $2}' "/proc/$(cat "$out/daemon.pid")/status"; }
-sample() { printf '%s\t%s\t%s\n' "$1" "$(( $(date +%s) - t0 ))" "$(rss)" >> "$out/rss.tsv"; }
+# instance (1 = the first arlightd, 2 after the first kill, ...), what, seconds since the start, KiB
+sample() { printf '%s\t%s\t%s\t%s\n' "$instance" "$1" "$(( $(date +%s) - t0 ))" "$(rss)" >> "$out/rss.tsv"; }
 
 start_daemon
 t0=$(date +%s)
+instance=1 born=0 sampled=
 "$build/bin/arlight-load" --server "127.0.0.1:$port" --token soak-token-0123456789 \
   --recording "$out/rec" --device load --sessions "$sessions" --duration "$seconds" --rate 30 \
   --reconnect 30 --json "$out/load.json" > "$out/load.out" 2>&1 &
@@ -47,13 +49,14 @@ next_kill=$every
 while kill -0 $load 2>/dev/null; do
   sleep 1
   now=$(( $(date +%s) - t0 ))
-  if [ "$now" -ge 60 ] && [ -z "${sampled:-}" ]; then sample first-minute; sampled=1; fi
+  if [ $((now - born)) -ge 60 ] && [ -z "$sampled" ]; then sample minute; sampled=1; fi
   if [ "$now" -ge "$next_kill" ] && [ "$now" -lt "$seconds" ]; then
-    sample before-kill
+    sample killed
     kill -9 "$(cat "$out/daemon.pid")"
     wait "$(cat "$out/daemon.pid")" 2>/dev/null || true
     start_daemon
     restarts=$((restarts + 1))
+    instance=$((instance + 1)) born=$now sampled=
     next_kill=$((next_kill + every))
   fi
 done
@@ -65,8 +68,15 @@ import json, sys
 out, restarts, status = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 load = json.load(open(f"{out}/load.json"))
 rss = [line.split("\t") for line in open(f"{out}/rss.tsv").read().split("\n") if line]
-first = next((int(r[2]) for r in rss if r[0] == "first-minute"), int(rss[0][2]))
-end = int(rss[-1][2])
+first = next((int(r[3]) for r in rss if r[1] == "minute"), int(rss[0][3]))
+end = int(rss[-1][3])
+# Each arlightd's own growth: from a minute into its life to its last sample (a leak grows here).
+growth = {}
+for inst in sorted({r[0] for r in rss}, key=int):
+    mine = [r for r in rss if r[0] == inst]
+    minute = next((int(r[3]) for r in mine if r[1] == "minute"), None)
+    if minute is not None and mine[-1][1] != "minute":
+        growth[inst] = int(mine[-1][3]) / minute - 1
 per_restart = {}
 for o in load["outages"]:
     lost = (o["frames_not_sent"] + o["frames_lost_after_checkpoint"]) / load["rate"]
@@ -80,6 +90,7 @@ summary = {
     "worst_frames_lost_s_per_restart": per_restart,
     "rss_kib": {"first_minute": first, "end": end, "samples": rss},
     "rss_end_vs_first_minute": end / first - 1,
+    "rss_growth_per_instance": growth,
     "frames_sent": load["frames_sent"], "frames_dropped": load["frames_dropped"],
     "latency_ms": load["latency_ms"], "load_status": status,
 }
@@ -87,5 +98,7 @@ json.dump(summary, open(f"{out}/soak.json", "w"), indent=2)
 print(f"soak: {summary['seconds']:.0f} s, {summary['sessions']} sessions, {restarts} kill -9 "
       f"restarts: {summary['sessions_failed']} sessions failed, {summary['outages']} outages, "
       f"worst {summary['worst_frames_lost_s']:.2f} s of frames lost; RSS {first} KiB after "
-      f"the first minute, {end} KiB at the end ({100 * summary['rss_end_vs_first_minute']:+.1f} %)")
+      f"the first minute, {end} KiB at the end ({100 * summary['rss_end_vs_first_minute']:+.1f} %); "
+      f"each arlightd from its first minute to its end: "
+      + ", ".join(f"{100 * g:+.1f} %" for g in growth.values()))
 PY

@@ -3,12 +3,12 @@
 // (SIGKILL) when the object goes. Linux only (fork/exec).
 #pragma once
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
-#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <optional>

@@ -135,7 +135,9 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec,
         try {
           auto [fresh, w] = open(session_id);
           std::lock_guard lock(m);
-          const std::uint64_t kept = w.frames_processed + report.dropped;
+          // Frames lost in earlier outages are in neither count: they do not count again.
+          std::uint64_t kept = w.frames_processed + report.dropped;
+          for (const Outage& o : report.outages) kept += o.lost_after_checkpoint;
           outage.lost_after_checkpoint = report.sent > kept ? report.sent - kept : 0;
           outage.seconds = std::chrono::duration<double>(Clock::now() - *lost_since).count();
           report.outages.push_back(outage);

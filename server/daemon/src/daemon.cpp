@@ -228,8 +228,8 @@ struct Daemon::Impl {
       access.token = load_admin_token(admin_token_file, default_file, &created);
       access.protect_all = config.admin_protect_all;
       if (created) spdlog::info("made an admin token: {}", admin_token_file.string());
-      admin_server = std::make_unique<admin::AdminServer>(io, config.admin_host,
-                                                          config.admin_port, h, access);
+      admin_server =
+          std::make_unique<admin::AdminServer>(io, config.admin_host, config.admin_port, h, access);
     }
   }
 
@@ -365,7 +365,10 @@ struct Daemon::Impl {
       std::shared_ptr<Session> s;
       if (const auto it = sessions.find(resume); it != sessions.end()) {
         s = it->second;
-      } else {
+        // Let go a moment ago (handed over, idle) but not yet out of the map: from disk again.
+        if (!s->holds_lease()) sessions.erase(it), s = nullptr;
+      }
+      if (!s) {
         make_room(lock);
         if (int(sessions.size()) >= config.max_sessions) {
           code = wire::ErrorCode::Busy;
@@ -519,9 +522,8 @@ struct Daemon::Impl {
       for (const auto& s : all)
         if (SessionLease::release_requested(session_dir(session_env, s->id()))) {
           asio::post(disk, [this, s] { hand_over(s); });
-        } else if (!s->attached() &&
-                   now - s->last_activity() >
-                       std::chrono::duration<double>(config.idle_timeout_s)) {
+        } else if (!s->attached() && now - s->last_activity() >
+                                         std::chrono::duration<double>(config.idle_timeout_s)) {
           asio::post(disk, [this, s] {
             if (!release(*s)) return;  // kept open (and retried) rather than lost
             std::lock_guard lock(sessions_mutex);

@@ -63,8 +63,8 @@ std::string Session::set_camera(const CameraIntrinsics& camera) {
       return "the session's intrinsics changed " + std::to_string(kMaxCameraChanges) +
              " times already; start a new session";
     try {
-      auto refined =
-          std::make_unique<capture::CaptureSession>(camera, capture_->response(), capture_->options());
+      auto refined = std::make_unique<capture::CaptureSession>(camera, capture_->response(),
+                                                               capture_->options());
       refined->restore(capture_->accumulators());
       capture_ = std::move(refined);
     } catch (const std::invalid_argument& e) {
@@ -380,8 +380,17 @@ void Session::release() {
   if (disconnect) disconnect();  // the client reconnects, to whichever daemon takes it
   shutdown();
   checkpoint();  // throws: the lease is kept and the session stays usable
-  std::lock_guard serial(checkpoint_mutex_);
-  lease_.reset();
+  {
+    std::lock_guard serial(checkpoint_mutex_);
+    lease_.reset();
+  }
+  // A client that resumed here while the last checkpoint was written holds a session that can
+  // no longer be saved: it goes too, and its retry finds the session on disk.
+  {
+    std::lock_guard lock(mutex_);
+    disconnect = disconnect_;
+  }
+  if (disconnect) disconnect();
 }
 
 bool Session::holds_lease() const {
