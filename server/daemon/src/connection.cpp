@@ -124,11 +124,7 @@ void Connection::handle(wire::Message&& message) {
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
   if (std::holds_alternative<wire::Bye>(message)) {
-    try {
-      session_->checkpoint();
-    } catch (const std::exception& ex) {  // still in memory; the next checkpoint retries
-      if (env_.log) env_.log(stream_->peer() + ": checkpoint at Bye failed: " + ex.what());
-    }
+    env_.checkpoint_soon(session_);  // a failure is logged; the next checkpoint retries
     closing_ = true;
     detach();
     stream_->close_after_sending();

@@ -30,6 +30,9 @@ struct ConnectionEnv {
   std::function<std::shared_ptr<Session>(const wire::Hello&, wire::ErrorCode&, std::string&)>
       open_session;
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
+  // Checkpoints a session on the daemon's disk thread (at Bye): a network thread never waits
+  // for a write and its fsync.
+  std::function<void(std::shared_ptr<Session>)> checkpoint_soon;
   // A connection must send its Hello within hello_timeout; an authenticated one that sends
   // nothing for idle_timeout is closed (Error{Timeout}; its session stays for a resume).
   std::chrono::duration<double> hello_timeout{5.0}, idle_timeout{300.0};

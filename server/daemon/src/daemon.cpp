@@ -175,6 +175,9 @@ struct Daemon::Impl {
     connection_env.open_session = [this](const wire::Hello& h, wire::ErrorCode& code,
                                          std::string& why) { return open_session(h, code, why); };
     connection_env.log = [this](const std::string& line) { log(line); };
+    connection_env.checkpoint_soon = [this](std::shared_ptr<Session> s) {
+      asio::post(disk, [this, s = std::move(s)] { save(*s); });
+    };
     connection_env.hello_timeout = std::chrono::duration<double>(config.hello_timeout_s);
     connection_env.idle_timeout = std::chrono::duration<double>(config.idle_timeout_s);
     connection_env.hello_timeouts = &metrics.counter(
