@@ -49,6 +49,7 @@ const state = {
   focalError: null,  // the marker views' relative standard error of the focal length
   tracker: 'loading',  // opencv.js in the worker: 'loading', 'ready' or 'failed'
   trackerReadyMediaTime: null,  // the frame shown when it became ready
+  frameMediaTime: null,  // the media time of the frame shown last (null before the first)
   tracking: 'preview',  // the object floats ahead of the view; 'marker' once it stands on it
   fps: 0,
   lastError: '',
@@ -466,7 +467,8 @@ async function start() {
   };
   tracking.onReady = () => {
     state.tracker = 'ready';
-    state.trackerReadyMediaTime = state.frameMediaTime;
+    // Ready before the first frame was shown (a warm cache): ready for every frame.
+    state.trackerReadyMediaTime = state.frameMediaTime ?? 0;
   };
   if (tracking.ready) tracking.onReady();
   tracking.onResult = (found, frame, ms) => {
