@@ -21,6 +21,7 @@
 #include "support/child_process.hpp"
 #include "support/daemon_process.hpp"
 #include "support/run_tool.hpp"
+#include "support/sanitizer.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
@@ -34,19 +35,9 @@ namespace {
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 
-// Under AddressSanitizer (make test-sanitize) everything runs several times slower: the 2 s
-// bound is the release build's, the sanitizer build checks the same behaviour with more time.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+// Under AddressSanitizer the 2 s bound is the release build's; the sanitizer build checks the
+// same behaviour with more time.
+using test::kSanitized;
 
 // The session `id` in a daemon's /sessions, if it has it.
 std::optional<json> session_on(const DaemonProcess& d, const std::string& id) {
