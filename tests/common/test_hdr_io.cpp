@@ -319,3 +319,25 @@ TEST_F(HdrIo, PngPreviewIsTonemapped8Bit) {
   EXPECT_GE(px[6], 254);
   EXPECT_EQ(px[9], 0);  // NaN shows black
 }
+
+// OpenEXR 3.1 allocates a header attribute at its claimed size before reading it: a tiny file
+// claiming a 1.7 GB string ran the fuzzer out of memory. It is refused first, naming the
+// attribute (the fuzzer's input is kept in tests/fuzz/corpus/hdr_image/ too).
+TEST(ExrHeader, AnAttributeLargerThanTheFileIsRefusedBeforeOpenExrAllocatesIt) {
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "arlight_exr_huge_attribute.exr";
+  std::string bytes = {'\x76', '\x2f', '\x31', '\x01', '\x02', '\x00', '\x00', '\x00'};
+  bytes += std::string("capDate") + '\0' + "string" + '\0';
+  const std::int32_t claimed = 1761607700;
+  bytes.append(reinterpret_cast<const char*>(&claimed), 4);
+  bytes += "2026:12:02 03:27:00";
+  std::ofstream(file, std::ios::binary) << bytes;
+  try {
+    load_envmap(file);
+    FAIL() << "loaded an EXR whose attribute claims 1.7 GB";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'capDate' (string) claims 1761607700 bytes"),
+              std::string::npos)
+        << e.what();
+  }
+}
