@@ -77,7 +77,7 @@ TEST(SessionLease, HandOverRequestsComeAndGo) {
   SessionLease::clear_release_request(dir);  // nothing to withdraw: no error
 }
 
-TEST(SessionLease, AFolderThatCannotHoldALeaseIsAnErrorNamingIt) {
+TEST(SessionLease, AFolderThatCannotHoldALeaseThrows) {
   const fs::path base = fresh_dir("bad");
   fs::create_directories(base);
   std::ofstream(base / "file") << "x";

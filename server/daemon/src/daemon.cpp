@@ -285,27 +285,27 @@ struct Daemon::Impl {
     return j.dump();
   }
 
-  // Checkpoints a session; a failure (disk full, permissions) is logged, rate-limited.
-  bool save(Session& s) {
+  // Runs a step that checkpoints the session (Session::checkpoint, or Session::release: closes
+  // it here for good, kept on disk, its lease let go); a failure (disk full, permissions) is
+  // logged, rate-limited, and leaves the session open.
+  bool to_disk(Session& s, void (Session::*step)()) {
     try {
-      s.checkpoint();
+      (s.*step)();
       return true;
     } catch (const std::exception& e) {
       log("checkpoint of session " + s.id() + " failed: " + e.what());
       return false;
     }
   }
+  bool save(Session& s) { return to_disk(s, &Session::checkpoint); }
+  bool release(Session& s) { return to_disk(s, &Session::release); }
 
-  // Closes a session on this daemon for good (kept on disk, its lease let go); a failed last
-  // checkpoint is logged and keeps it open.
-  bool release(Session& s) {
-    try {
-      s.release();
-      return true;
-    } catch (const std::exception& e) {
-      log("checkpoint of session " + s.id() + " failed: " + e.what());
-      return false;
-    }
+  // Takes a released session out of the map, unless a newer one of that id replaced it there.
+  void forget(const std::shared_ptr<Session>& s) {
+    std::lock_guard lock(sessions_mutex);
+    if (const auto it = sessions.find(s->id()); it != sessions.end() && it->second == s)
+      sessions.erase(it);
+    sessions_gauge.set(double(sessions.size()));
   }
 
   // A session that another daemon was asked for (session_lease.hpp): checkpointed, closed here
@@ -315,12 +315,7 @@ struct Daemon::Impl {
     const auto dir = session_dir(session_env, s->id());
     if (!release(*s)) return;  // retried at the next housekeeping while the request stands
     SessionLease::clear_release_request(dir);
-    {
-      std::lock_guard lock(sessions_mutex);
-      if (const auto it = sessions.find(s->id()); it != sessions.end() && it->second == s)
-        sessions.erase(it);
-      sessions_gauge.set(double(sessions.size()));
-    }
+    forget(s);
     sessions_handed_over->inc();
     spdlog::info("session {} handed over to another daemon (checkpointed)", s->id());
   }
@@ -528,11 +523,7 @@ struct Daemon::Impl {
         } else if (!s->attached() && now - s->last_activity() >
                                          std::chrono::duration<double>(config.idle_timeout_s)) {
           asio::post(disk, [this, s] {
-            if (!release(*s)) return;  // kept open (and retried) rather than lost
-            std::lock_guard lock(sessions_mutex);
-            if (const auto it = sessions.find(s->id()); it != sessions.end() && it->second == s)
-              sessions.erase(it);
-            sessions_gauge.set(double(sessions.size()));
+            if (release(*s)) forget(s);  // else kept open (and retried) rather than lost
           });
         }
       schedule_housekeeping();
