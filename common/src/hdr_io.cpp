@@ -27,6 +27,7 @@ constexpr const char* kAttrShininess = "arlight:shininess";
 constexpr const char* kAttrShOrder = "arlight:sh_order";
 constexpr const char* kAttrShCoefficients = "arlight:sh_coefficients";
 constexpr const char* kAttrDescription = "ImageDescription";
+constexpr const char* kAttrFill = "arlight:fill";
 
 std::string quoted(const fs::path& p) {
   // Built piecewise: `"'" + p.string() + "'"` trips GCC 12's false -Wrestrict (PR 105329).
@@ -53,6 +54,8 @@ ImageMetadata read_metadata(const OIIO::ImageSpec& spec, const fs::path& path) {
       throw InputError(quoted(path) + ": unknown " + kAttrProjection + " '" + proj +
                        "' (expected anglemap, latlong or cube)");
   }
+  if (const std::string fill = spec.get_string_attribute(kAttrFill); !fill.empty())
+    md.fill = fill;
   if (const auto* p = spec.find_attribute(kAttrShininess)) {
     if (p->type() != OIIO::TypeFloat)
       throw InputError(quoted(path) + ": attribute " + kAttrShininess + " is not a float");
@@ -266,6 +269,7 @@ void write_exr(const fs::path& path, ConstImageView img, const ImageMetadata& md
   spec.attribute("compression", "zip");
   if (md.projection) spec.attribute(kAttrProjection, std::string(projection_name(*md.projection)));
   if (md.shininess) spec.attribute(kAttrShininess, float(*md.shininess));
+  if (md.fill) spec.attribute(kAttrFill, *md.fill);
   if (!md.sh_coefficients.empty()) {
     const auto order = int(std::llround(std::sqrt(double(md.sh_coefficients.size()))));
     if (std::size_t(order) * std::size_t(order) != md.sh_coefficients.size())

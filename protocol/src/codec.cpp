@@ -106,7 +106,7 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
   const fb::Vec3 c(m.dominant_colour.x, m.dominant_colour.y, m.dominant_colour.z);
   return fb::CreateLightingUpdate(b, m.frame_sequence, m.frame_used, text(b, m.reason),
                                   std::uint8_t(m.sh.order), b.CreateVector(flat), &d, &c,
-                                  m.coverage, m.frames_processed, m.frames_dropped)
+                                  m.coverage, m.frames_processed, m.frames_dropped, m.estimated)
       .Union();
 }
 
@@ -313,6 +313,12 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.coverage = m.coverage();
   u.frames_processed = m.frames_processed();
   u.frames_dropped = m.frames_dropped();
+  u.estimated = m.estimated();
+  if (!(u.coverage >= 0.0f && u.coverage <= 1.001f) ||
+      !(u.estimated >= 0.0f && u.estimated <= 1.001f))
+    refuse(Fault::OutOfRange, "LightingUpdate", "coverage",
+           "coverage " + std::to_string(u.coverage) + " and estimated " +
+               std::to_string(u.estimated) + " must be fractions in [0, 1]");
   return u;
 }
 
@@ -488,7 +494,8 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
   return frame_sequence == o.frame_sequence && frame_used == o.frame_used && reason == o.reason &&
          sh.order == o.sh.order && sh.c == o.sh.c && dominant_direction == o.dominant_direction &&
          dominant_colour == o.dominant_colour && coverage == o.coverage &&
-         frames_processed == o.frames_processed && frames_dropped == o.frames_dropped;
+         frames_processed == o.frames_processed && frames_dropped == o.frames_dropped &&
+         estimated == o.estimated;
 }
 
 const char* message_name(const Message& m) {

@@ -133,13 +133,14 @@ TEST(CaptureSession, LiveShEqualsAFullProjectionOfTheMap) {
     cv::randu(frame, cv::Scalar(20, 20, 20), cv::Scalar(230, 230, 230));
     ASSERT_TRUE(s.add_image(frame, info(0.01, 1, yaw_pitch(40.0 * k, 25.0 * (k % 3) - 25))).used);
   }
-  const ShCoeffs full = sh_project(s.environment(), 8);
-  ASSERT_EQ(s.sh().order, 8);
+  const ShCoeffs full = sh_project(s.measured_environment(), 8);
+  ASSERT_EQ(s.measured_sh().order, 8);
   double scale = 0;
   for (const auto& c : full.c)
     scale = std::max({scale, std::abs(c.x), std::abs(c.y), std::abs(c.z)});
   for (std::size_t k = 0; k < full.c.size(); ++k)
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.sh().c[k][c], full.c[k][c], 1e-5 * scale) << k;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(s.measured_sh().c[k][c], full.c[k][c], 1e-5 * scale) << k;
 }
 
 TEST(CaptureSession, BadFramesAreSkippedWithAReasonAndChangeNothing) {
@@ -199,7 +200,7 @@ TEST(CaptureSession, JpegFramesDecodeAndAccumulate) {
   ASSERT_TRUE(r.used) << r.skipped_reason;
   EXPECT_GT(r.decode_ms, 0.0);
   // The angle map's centre is -z, where the camera looks; its rim is +z, behind it.
-  const EnvMap env = s.environment();
+  const EnvMap env = s.measured_environment();
   EXPECT_NEAR(env.image.at(64, 64).g, srgb_linear(128) / 0.01, 0.02 * srgb_linear(128) / 0.01);
   EXPECT_EQ(env.image.at(64, 1), glm::vec3(0.0f));
 }

@@ -55,12 +55,13 @@ void check_sweep(const std::string& name, int seed, const std::string& sim_args 
                      std::to_string(seed) + " " + sim_args);
   ASSERT_EQ(s.status, 0) << s.output;
 
-  const auto aligned = capture_tool("--recording " + rec.string() + " --out " +
-                               (dir / "env.exr").string() + " --json " +
-                               (dir / "capture.json").string());
+  const auto aligned =
+      capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
+                   " --json " + (dir / "capture.json").string());
   ASSERT_EQ(aligned.status, 0) << aligned.output;
-  const auto raw = capture_tool("--recording " + rec.string() + " --no-align --out " +
-                           (dir / "raw.exr").string() + " --json " + (dir / "raw.json").string());
+  const auto raw =
+      capture_tool("--recording " + rec.string() + " --no-align --out " +
+                   (dir / "raw.exr").string() + " --json " + (dir / "raw.json").string());
   ASSERT_EQ(raw.status, 0) << raw.output;
   const json j = read_json(dir / "capture.json"), jr = read_json(dir / "raw.json");
 
@@ -80,15 +81,16 @@ void check_sweep(const std::string& name, int seed, const std::string& sim_args 
 
   // Lighting from the captured map against lighting from the truth.
   const fs::path truth = rec / "truth" / "env.exr";
-  const auto d = maps("diff --reference " + truth.string() + " --test " +
-                      (dir / "env.exr").string() + " --method auto --size 128 --json " +
-                      (dir / "diff.json").string());
+  const auto d =
+      maps("diff --reference " + truth.string() + " --test " + (dir / "env.exr").string() +
+           " --method auto --size 128 --json " + (dir / "diff.json").string());
   ASSERT_EQ(d.status, 0) << d.output;
   const json diff = read_json(dir / "diff.json");
-  std::printf("%s: coverage %.2f %%, orientation RMS %.3f deg (%.3f without alignment), "
-              "irradiance mean error %.2f %%, s = 80 %.2f %%\n",
-              name.c_str(), 100 * j["coverage"].get<double>(), rms, rms_raw,
-              100 * mean_error(diff, 1), 100 * mean_error(diff, 80));
+  std::printf(
+      "%s: coverage %.2f %%, orientation RMS %.3f deg (%.3f without alignment), "
+      "irradiance mean error %.2f %%, s = 80 %.2f %%\n",
+      name.c_str(), 100 * j["coverage"].get<double>(), rms, rms_raw, 100 * mean_error(diff, 1),
+      100 * mean_error(diff, 80));
   EXPECT_LE(mean_error(diff, 1), 0.03) << name << ": irradiance";
   EXPECT_LE(mean_error(diff, 80), 0.08) << name << ": s = 80";
 
@@ -115,9 +117,9 @@ TEST(ArlightCapture, CalibrationRecoversTheSimulatorsCurve) {
   const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
                      " --bracket 7 --response filmic --size 320x240 --seed 5");
   ASSERT_EQ(s.status, 0) << s.output;
-  const auto c = capture_tool("--recording " + rec.string() + " --calibrate robertson --response-out " +
-                         (dir / "curve.json").string() + " --response-dir " +
-                         (dir / "curves").string());
+  const auto c =
+      capture_tool("--recording " + rec.string() + " --calibrate robertson --response-out " +
+                   (dir / "curve.json").string() + " --response-dir " + (dir / "curves").string());
   ASSERT_EQ(c.status, 0) << c.output;
   const CameraResponse truth = CameraResponse::load(rec / "truth" / "response.json");
   const CameraResponse found = CameraResponse::load(dir / "curve.json");
@@ -128,19 +130,21 @@ TEST(ArlightCapture, CalibrationRecoversTheSimulatorsCurve) {
   // Filed under the recording's device id as well.
   const json manifest = read_json(rec / "recording.json");
   ASSERT_TRUE(manifest.contains("device_id"));
-  EXPECT_TRUE(
-      fs::exists(dir / "curves" / (manifest["device_id"].get<std::string>() + ".json")));
+  EXPECT_TRUE(fs::exists(dir / "curves" / (manifest["device_id"].get<std::string>() + ".json")));
   // An unknown method, and a sweep (every frame a different view) instead of a bracket.
-  const auto bad = capture_tool("--recording " + rec.string() + " --calibrate sideways --response-out " +
-                           (dir / "x.json").string());
+  const auto bad =
+      capture_tool("--recording " + rec.string() + " --calibrate sideways --response-out " +
+                   (dir / "x.json").string());
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.output.find("robertson or debevec"), std::string::npos) << bad.output;
   const fs::path sweep = dir / "sweep";
-  ASSERT_EQ(sim("--env " + probe("venice") + " --out " + sweep.string() +
-                " --frames 12 --size 160x120").status, 0);
-  const auto not_bracket = capture_tool("--recording " + sweep.string() +
-                                   " --calibrate robertson --response-out " +
-                                   (dir / "y.json").string());
+  ASSERT_EQ(
+      sim("--env " + probe("venice") + " --out " + sweep.string() + " --frames 12 --size 160x120")
+          .status,
+      0);
+  const auto not_bracket =
+      capture_tool("--recording " + sweep.string() + " --calibrate robertson --response-out " +
+                   (dir / "y.json").string());
   EXPECT_EQ(not_bracket.status, 2);
   EXPECT_NE(not_bracket.output.find("bracket"), std::string::npos) << not_bracket.output;
   EXPECT_FALSE(fs::exists(dir / "y.json"));
@@ -167,8 +171,9 @@ TEST(ArlightCapture, DamagedFramesAreSkippedWithReasonsAndTheMapStaysClean) {
   std::ofstream(rec / frames[11]["file"].get<std::string>(), std::ios::binary) << "not a jpeg";
   std::ofstream(rec / "recording.json") << manifest.dump();
 
-  const auto c = capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
-                         " --size 64 --json " + (dir / "c.json").string());
+  const auto c =
+      capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
+                   " --size 64 --json " + (dir / "c.json").string());
   ASSERT_EQ(c.status, 0) << c.output;
   const json j = read_json(dir / "c.json");
   EXPECT_EQ(j["frames"], 24);
@@ -196,4 +201,53 @@ TEST(ArlightCapture, DamagedFramesAreSkippedWithReasonsAndTheMapStaysClean) {
   const auto none = capture_tool("--recording " + (dir / "nowhere").string() + " --out x.exr");
   EXPECT_EQ(none.status, 2);
   EXPECT_NE(none.output.find("nowhere"), std::string::npos) << none.output;
+}
+
+// Issue 16 §1 through the tools: the first ~30 % of a sweep, captured with each fill and
+// judged by arlight-maps diff against the truth. The estimate lights like the room far better
+// than black or the mean of what was seen, and arlight-maps fills a map written with
+// --fill none the same way arlight-capture would have.
+TEST(ArlightCapture, APartSweepIsFilledFromWhatWasSeen) {
+  const fs::path dir = fresh_temp_dir("capture_part_sweep");
+  const fs::path rec = dir / "rec";
+  const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
+                     " --frames 240 --size 320x240 --seed 5");
+  ASSERT_EQ(s.status, 0) << s.output;
+  const auto capture_part = [&](const std::string& fill) {
+    const auto c = capture_tool("--recording " + rec.string() + " --until-coverage 0.3 --fill " +
+                                fill + " --size 256 --out " + (dir / (fill + ".exr")).string() +
+                                " --json " + (dir / (fill + ".json")).string());
+    EXPECT_EQ(c.status, 0) << c.output;
+    return read_json(dir / (fill + ".json"));
+  };
+  const json none = capture_part("none"), estimate = capture_part("estimate");
+  EXPECT_NEAR(none["coverage"].get<double>(), 0.3, 0.03);
+  EXPECT_LT(none["frames_used"].get<int>(), 120);
+  EXPECT_EQ(none["estimated"].get<double>(), 0.0);
+  EXPECT_NEAR(estimate["estimated"].get<double>(), 1.0 - estimate["coverage"].get<double>(), 1e-6);
+  EXPECT_EQ(load_envmap(dir / "none.exr").info.metadata.fill, "none");
+
+  const fs::path truth = rec / "truth" / "env.exr";
+  const auto irradiance_error = [&](const std::string& test, const std::string& fill) {
+    const fs::path out = dir / ("diff_" + fs::path(test).stem().string() + "_" + fill + ".json");
+    const auto d = maps("diff --reference " + truth.string() + " --test " + test +
+                        " --shininess 1 --size 128 --fill " + fill + " --json " + out.string());
+    EXPECT_EQ(d.status, 0) << d.output;
+    return mean_error(read_json(out), 1);
+  };
+  const std::string black = (dir / "none.exr").string();
+  const double e_black = irradiance_error(black, "none");
+  const double e_mean = irradiance_error(black, "mean");
+  const double e_estimate = irradiance_error((dir / "estimate.exr").string(), "estimate");
+  const double e_maps_estimate = irradiance_error(black, "estimate");
+  std::printf(
+      "irradiance at %.0f %% coverage: black %.1f %%, mean %.1f %%, estimate %.1f %% "
+      "(arlight-maps --fill estimate of the black map: %.1f %%)\n",
+      100 * none["coverage"].get<double>(), 100 * e_black, 100 * e_mean, 100 * e_estimate,
+      100 * e_maps_estimate);
+  EXPECT_LT(e_estimate, 0.5 * e_black);
+  EXPECT_LT(e_estimate, 0.5 * e_mean);
+  EXPECT_NEAR(e_maps_estimate, e_estimate, 0.03);
+  // A map that is not a --fill none capture is used as it is, whatever --fill says.
+  EXPECT_EQ(irradiance_error((dir / "estimate.exr").string(), "none"), e_estimate);
 }

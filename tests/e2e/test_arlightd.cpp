@@ -6,8 +6,8 @@
 #include <openssl/pem.h>
 #include <openssl/x509v3.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <sys/socket.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <boost/asio/connect.hpp>
@@ -15,8 +15,8 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
-#include <chrono>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -114,6 +114,7 @@ TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
              offline = read_json(dir / "c.json");
   EXPECT_EQ(replay["frames_processed"], 60);
   EXPECT_EQ(replay["frames_dropped"], 0);
+  EXPECT_NEAR(replay["estimated"].get<double>(), 1.0 - replay["coverage"].get<double>(), 1e-6);
   ASSERT_EQ(replay["sh"].size(), offline["sh"].size());
   const double dc = offline["sh"][0][1].get<double>();
   for (std::size_t k = 0; k < offline["sh"].size(); ++k)
@@ -131,6 +132,36 @@ TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
   }
   const double env_mean = dc / (4 * std::numbers::pi * std::sqrt(1 / (4 * std::numbers::pi)));
   EXPECT_NEAR(sum / area, env_mean, 0.02 * env_mean);
+}
+
+// Issue 16 §1: from the first frame the live SH light the whole sphere, the unseen part
+// estimated from the seen one, and each update says how much is estimated; a daemon started
+// with --fill none leaves it black (and estimates nothing).
+TEST(Arlightd, TheFirstFrameLightsTheWholeSphereAndSaysHowMuchIsEstimated) {
+  const fs::path dir = test::fresh_temp_dir("daemon_fill");
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  const auto first_update = [&](const std::vector<std::string>& args, const char* name) {
+    DaemonProcess d(dir / name, args);
+    client::Client c;
+    c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    c.send_intrinsics(rec.camera);
+    EXPECT_TRUE(frame_gets_update(c, rec, 0)) << name;
+    return c.last_update().value_or(client::LightingUpdate{});
+  };
+  const client::LightingUpdate filled = first_update({}, "estimate");
+  const client::LightingUpdate black = first_update({"--fill", "none"}, "none");
+  ASSERT_GT(filled.coverage, 0.02f);
+  ASSERT_LT(filled.coverage, 0.2f);
+  EXPECT_EQ(black.coverage, filled.coverage);
+  EXPECT_NEAR(filled.estimated, 1.0f - filled.coverage, 1e-5f);
+  EXPECT_EQ(black.estimated, 0.0f);
+  // The DC term is the mean radiance: black counts the unseen 80-98 % as 0.
+  for (int ch = 0; ch < 3; ++ch) EXPECT_GT(filled.sh.c[0][ch], 3.0 * black.sh.c[0][ch]) << ch;
+  // A bad --fill is refused naming it.
+  const auto bad =
+      test::run_tool(ARLIGHTD_EXE, "--fill black --tokens " + (dir / "none" / "tokens").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.output.find("--fill"), std::string::npos) << bad.output;
 }
 
 TEST(Arlightd, WrongTokenGetsUnauthorizedAndNothingElse) {
@@ -182,8 +213,8 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
     client::Client early;
     early.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
     const auto& f = rec.frames[0];
-    early.send_jpeg_frame(1, f, rec.camera.width,
-                          rec.camera.height, recording::read_frame_bytes(rec, 0));
+    early.send_jpeg_frame(1, f, rec.camera.width, rec.camera.height,
+                          recording::read_frame_bytes(rec, 0));
     EXPECT_TRUE(early.wait_for([&] { return !early.connected(); }, 10s));
     ASSERT_TRUE(early.server_error().has_value());
     EXPECT_EQ(early.server_error()->first, "OutOfOrder");
@@ -368,7 +399,8 @@ TEST(Arlightd, ASilentSessionIsClosedAfterTheIdleTimeoutAndResumes) {
   c.send_intrinsics(rec.camera);
   const auto opened = std::chrono::steady_clock::now();
   ASSERT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
-  const double after = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+  const double after =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
   EXPECT_GT(after, 1.5);
   ASSERT_TRUE(c.server_error().has_value());
   EXPECT_EQ(c.server_error()->first, "Timeout");
@@ -426,8 +458,7 @@ TEST(Arlightd, CalibrationSetStoresTheDevicesCurve) {
   std::vector<client::CalibrationFrame> frames;
   for (std::size_t i = 0; i < rec.frames.size(); ++i) {
     const auto& f = rec.frames[i];
-    frames.push_back(
-        {f, recording::read_frame_bytes(rec, i)});
+    frames.push_back({f, recording::read_frame_bytes(rec, i)});
   }
   DaemonProcess d(dir / "daemon");
   client::Client c;
@@ -495,10 +526,12 @@ TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {
   std::ofstream(dir / "short") << "tooshort\n";
   std::ofstream(dir / "empty") << "# nothing\n";
   for (const char* bad : {"missing", "short", "empty"}) {
-    const auto r = test::run_tool(ARLIGHTD_EXE, "--listen 127.0.0.1:0 --admin 127.0.0.1:0 "
-                                                "--data-dir " + (dir / "data").string() +
-                                                    " --tokens " + (dir / "daemon" / "tokens").string() +
-                                                    " --admin-token-file " + (dir / bad).string());
+    const auto r = test::run_tool(ARLIGHTD_EXE,
+                                  "--listen 127.0.0.1:0 --admin 127.0.0.1:0 "
+                                  "--data-dir " +
+                                      (dir / "data").string() + " --tokens " +
+                                      (dir / "daemon" / "tokens").string() +
+                                      " --admin-token-file " + (dir / bad).string());
     EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
     EXPECT_NE(r.output.find("admin token file '" + (dir / bad).string() + "'"), std::string::npos)
         << r.output;
@@ -588,8 +621,8 @@ TEST(Arlightd, AFloodOfFramesIsBoundedNewestFramesWinAndDropsAreCounted) {
   for (std::uint64_t seq = 1; seq <= kFrames; ++seq) {
     const std::size_t i = std::size_t(seq) % rec.frames.size();
     const auto& f = rec.frames[i];
-    c.send_jpeg_frame(seq, f, rec.camera.width,
-                      rec.camera.height, recording::read_frame_bytes(rec, i));
+    c.send_jpeg_frame(seq, f, rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, i));
   }
   // The last frame always survives (newest wins), and every frame is either processed or
   // counted as dropped.
@@ -612,8 +645,8 @@ TEST(Arlightd, AFullDaemonClosesItsIdlestDisconnectedSessionToMakeRoom) {
   const auto one_frame = [&](client::Client& c) {
     c.send_intrinsics(rec.camera);
     const auto& f = rec.frames[0];
-    c.send_jpeg_frame(1, f, rec.camera.width,
-                      rec.camera.height, recording::read_frame_bytes(rec, 0));
+    c.send_jpeg_frame(1, f, rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, 0));
     ASSERT_TRUE(c.wait_for([&] { return c.last_update().has_value(); }, 20s));
   };
   // A: one frame, then goodbye (disconnected, kept in memory until the idle timeout).
@@ -676,9 +709,8 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
           if (k > 12 + 4 * s) continue;
           const std::size_t i = std::size_t(k + 7 * s) % rec.frames.size();
           const auto& f = rec.frames[i];
-          clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k),
-                                                   f,
-                                                   rec.camera.width, rec.camera.height, jpegs[i]);
+          clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k), f, rec.camera.width,
+                                                   rec.camera.height, jpegs[i]);
           if (k == 12 + 4 * s) clients[std::size_t(s)]->bye();
         }
         std::this_thread::sleep_for(33ms);
@@ -694,7 +726,8 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
         if (!fs::exists(manifest)) return false;
         const json m = read_json(manifest);
         if (m["frames_processed"].get<int>() + m["frames_dropped"].get<int>() +
-                m["frames_skipped"].get<int>() != m["frames_received"].get<int>())
+                m["frames_skipped"].get<int>() !=
+            m["frames_received"].get<int>())
           return false;
       }
       return true;

@@ -31,6 +31,8 @@ struct Options {
   std::string response = "";  // srgb | filmic | FILE; empty: the device's curve or srgb
   std::string projection = "anglemap";
   std::string calibrate;  // robertson | debevec
+  std::string fill = "estimate";
+  double until_coverage = 0;  // > 0: stop once the map covers this fraction of the sphere
   int size = 512;
   int sh_order = 8;
   int align_every = 0;  // 0: the library's default
@@ -142,6 +144,9 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   if (o.align_every > 0) options.align_every = o.align_every;
   if (o.align_width > 0) options.align_max_width = o.align_width;
   options.align_async = o.align_async;
+  const auto fill = capture::parse_fill(o.fill);
+  if (!fill) throw InputError("--fill: expected none, mean or estimate, got '" + o.fill + "'");
+  options.fill = *fill;
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
@@ -152,7 +157,10 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   recording::FrameReader reader(rec, false, [&](std::size_t i, const std::string& why) {
     skipped.push_back({{"frame", i}, {"reason", why}});
   });
+  if (o.until_coverage < 0.0 || o.until_coverage > 1.0)
+    throw InputError("--until-coverage must be a fraction in [0, 1]");
   while (const auto item = reader.next()) {
+    if (o.until_coverage > 0.0 && session.coverage() >= o.until_coverage) break;
     const std::size_t i = item->index;
     const recording::Frame& f = *item->frame;
     const capture::FrameResult r = session.add_encoded(item->jpeg, f);
@@ -186,6 +194,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   for (const glm::dvec3& c : session.sh().c)
     meta.sh_coefficients.push_back({float(c.x), float(c.y), float(c.z)});
   meta.description = "captured by arlight-capture from " + rec.folder.string();
+  meta.fill = o.fill;
   if (o.out.has_parent_path()) fs::create_directories(o.out.parent_path());
   write_exr(o.out, env.image.view(), meta);
   fs::path png = o.out, coverage_png = o.out;
@@ -198,6 +207,8 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   j["frames"] = rec.frames.size();
   j["frames_used"] = session.frames_used();
   j["coverage"] = session.coverage();
+  j["fill"] = o.fill;
+  j["estimated"] = session.estimated_fraction();
   j["median_frame_ms"] = median(total_ms);
   j["stages_median_ms"] = {{"decode", median(decode_ms)},
                            {"linearize", median(linearize_ms)},
@@ -218,6 +229,9 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   std::printf("%zu of %zu frames used (%zu aligned), coverage %.1f %%, median %.2f ms per frame\n",
               std::size_t(session.frames_used()), rec.frames.size(), aligned,
               100.0 * session.coverage(), median(total_ms));
+  if (session.estimated_fraction() > 0.0)
+    std::printf("the unseen %.1f %% of the sphere is filled (--fill %s)\n",
+                100.0 * session.estimated_fraction(), o.fill.c_str());
   if (compared)
     std::printf("orientation error vs truth: %.3f deg RMS\n",
                 j["orientation_rms_deg"].get<double>());
@@ -250,6 +264,13 @@ int main(int argc, char** argv) {
                  "largest width of the frame the alignment works on; default 320");
   app.add_option("--align-every", o.align_every,
                  "align every n-th frame (the others extrapolate the drift); default 1");
+  app.add_option("--fill", o.fill,
+                 "what the map holds where no frame looked: estimate (from the seen directions, "
+                 "with a hemisphere prior), mean (of the seen texels) or none (black)")
+      ->capture_default_str();
+  app.add_option("--until-coverage", o.until_coverage,
+                 "stop once the map covers this fraction of the sphere (what a user has that "
+                 "far into a sweep)");
   app.add_option("--json", o.json, "write a JSON report here");
   app.add_option("--response", o.response,
                  "camera response: srgb | filmic | FILE (default: the device's curve from "

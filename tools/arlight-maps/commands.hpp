@@ -15,6 +15,9 @@ Runner add_compare_command(CLI::App& app);
 Runner add_diff_command(CLI::App& app);
 
 // --shininess, --size, --projection, shared by compute, compare and diff.
-void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::string* projection);
+// --shininess, --size, --projection and --fill (what a map's unseen texels become: see
+// load_working_map).
+void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::string* projection,
+                     std::string* fill);
 
 }  // namespace arlight::maps

@@ -21,6 +21,7 @@ struct CompareOptions {
   std::string shininess = kDefaultShininess;
   int size = 256;
   std::string projection = "anglemap";
+  std::string fill = "estimate";
   bool no_cache = false;
   std::string cache_dir;
   std::string out = "out/compare";
@@ -93,7 +94,7 @@ int run_compare(const CompareOptions& o) {
   const std::vector<double> shininess = parse_shininess(o.shininess);
   check_size(o.size, methods);
   const EnvLayout layout = EnvLayout::for_size(parse_projection_arg(o.projection), o.size);
-  const EnvMap input = load_working_map(o.input, layout);
+  const EnvMap input = load_working_map(o.input, layout, o.fill);
 
   const fs::path cache = o.cache_dir.empty() ? default_cache_dir() : fs::path(o.cache_dir);
   const fs::path ref_dir = reference_dir(o, cache);
@@ -199,7 +200,7 @@ Runner add_compare_command(CLI::App& app) {
   sub->add_option("--input", o->input, "HDR environment map")->required();
   sub->add_option("--methods", o->methods, "comma-separated methods, e.g. sh:35,importance:64")
       ->capture_default_str();
-  add_map_options(sub, &o->shininess, &o->size, &o->projection);
+  add_map_options(sub, &o->shininess, &o->size, &o->projection, &o->fill);
   sub->add_flag("--no-cache", o->no_cache,
                 "recompute the accurate reference so all timings come from this run");
   sub->add_option("--cache-dir", o->cache_dir,

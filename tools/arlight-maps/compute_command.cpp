@@ -19,6 +19,7 @@ struct ComputeOptions {
   std::string shininess = kDefaultShininess;
   int size = 512;
   std::string projection = "anglemap";
+  std::string fill = "estimate";
   int sh_order = 35;
   int samples = 64;
   std::string out = "out/maps";
@@ -30,7 +31,7 @@ int run_compute(const ComputeOptions& o) {
   const std::vector<double> shininess = parse_shininess(o.shininess);
   check_size(o.size, {method});
   const EnvLayout layout = EnvLayout::for_size(parse_projection_arg(o.projection), o.size);
-  const EnvMap input = load_working_map(o.input, layout);
+  const EnvMap input = load_working_map(o.input, layout, o.fill);
 
   lighting::MapSet set;
   {
@@ -73,7 +74,8 @@ int run_compute(const ComputeOptions& o) {
 
 }  // namespace
 
-void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::string* projection) {
+void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::string* projection,
+                     std::string* fill) {
   sub->add_option("--shininess", *shininess,
                   "comma-separated shininess list: 1 = irradiance, s > 1 = Phong cos^s")
       ->capture_default_str();
@@ -81,6 +83,12 @@ void add_map_options(CLI::App* sub, std::string* shininess, int* size, std::stri
       ->capture_default_str()
       ->check(CLI::Range(4, 4096));
   sub->add_option("--projection", *projection, "anglemap, latlong or cube")->capture_default_str();
+  sub->add_option("--fill", *fill,
+                  "a capture written with arlight-capture --fill none (unseen texels black): "
+                  "estimate them from the seen ones (estimate), use their mean (mean) or keep "
+                  "them black (none); other maps are used as they are")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "mean", "estimate"}));
 }
 
 Runner add_compute_command(CLI::App& app) {
@@ -92,7 +100,7 @@ Runner add_compute_command(CLI::App& app) {
   sub->add_option("--method", o->method,
                   "accurate, mipmap, sh[:N], bounded, importance[:K] or auto")
       ->capture_default_str();
-  add_map_options(sub, &o->shininess, &o->size, &o->projection);
+  add_map_options(sub, &o->shininess, &o->size, &o->projection, &o->fill);
   sub->add_option("--sh-order", o->sh_order, "SH order of the sh method")
       ->capture_default_str()
       ->check(CLI::Range(1, 128));

@@ -16,6 +16,7 @@ struct DiffOptions {
   std::string shininess = kDefaultShininess;
   int size = 128;
   std::string projection = "anglemap";
+  std::string fill = "estimate";
   std::string json;
 };
 
@@ -24,8 +25,8 @@ int run_diff(const DiffOptions& o) {
   const std::vector<double> shininess = parse_shininess(o.shininess);
   check_size(o.size, {method});
   const EnvLayout layout = EnvLayout::for_size(parse_projection_arg(o.projection), o.size);
-  const EnvMap ref_env = load_working_map(o.reference, layout);
-  const EnvMap test_env = load_working_map(o.test, layout);
+  const EnvMap ref_env = load_working_map(o.reference, layout, o.fill);
+  const EnvMap test_env = load_working_map(o.test, layout, o.fill);
   const lighting::MapSet ref = lighting::compute_maps(ref_env, shininess, layout, method);
   const lighting::MapSet test = lighting::compute_maps(test_env, shininess, layout, method);
   nlohmann::json j;
@@ -57,7 +58,7 @@ Runner add_diff_command(CLI::App& app) {
   sub->add_option("--test", o->test, "the environment map to judge")->required();
   sub->add_option("--method", o->method, "method both map sets are computed with")
       ->capture_default_str();
-  add_map_options(sub, &o->shininess, &o->size, &o->projection);
+  add_map_options(sub, &o->shininess, &o->size, &o->projection, &o->fill);
   sub->add_option("--json", o->json, "write the JSON report here");
   return [o] { return run_diff(*o); };
 }

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "arlight/atomic_file.hpp"
+#include "arlight/capture/fill.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/number_list.hpp"
@@ -39,11 +40,15 @@ Projection parse_projection_arg(const std::string& name) {
   return *p;
 }
 
-EnvMap load_working_map(const std::string& path, const EnvLayout& layout) {
+EnvMap load_working_map(const std::string& path, const EnvLayout& layout, const std::string& fill) {
   LoadedEnvMap probe = load_envmap(path);
   if (!probe.info.sanitized.clean())
     std::fprintf(stderr, "arlight-maps: %s: %s\n", path.c_str(),
                  probe.info.sanitized.summary().c_str());
+  const auto how = capture::parse_fill(fill);
+  if (!how) throw InputError("--fill: expected none, mean or estimate, got '" + fill + "'");
+  if (probe.info.metadata.fill == "none" && *how != capture::Fill::None)
+    probe.env = capture::fill_black_texels(probe.env, *how);
   if (probe.env.layout == layout) return std::move(probe.env);
   return resample(probe.env, layout);
 }

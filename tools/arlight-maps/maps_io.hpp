@@ -20,8 +20,11 @@ std::vector<double> parse_shininess(const std::string& list);
 // "anglemap" | "latlong" | "cube"; InputError otherwise.
 Projection parse_projection_arg(const std::string& name);
 
-// Loads a probe (reporting sanitized values on stderr) and resamples it to `layout`.
-EnvMap load_working_map(const std::string& path, const EnvLayout& layout);
+// Loads a probe (reporting sanitized values on stderr) and resamples it to `layout`. A capture
+// that arlight-capture wrote with --fill none (its arlight:fill attribute) has its black texels
+// filled first, at its own resolution, as `fill` says (none | mean | estimate).
+EnvMap load_working_map(const std::string& path, const EnvLayout& layout,
+                        const std::string& fill = "estimate");
 
 // Checks --size against the methods: mipmap's MIP chain needs a power of two.
 void check_size(int size, const std::vector<lighting::MethodSpec>& methods);

@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
       j["frames_processed"] = u->frames_processed;
       j["frames_dropped"] = u->frames_dropped;
       j["coverage"] = u->coverage;
+      j["estimated"] = u->estimated;
       j["sh_order"] = u->sh.order;
       j["sh"] = nlohmann::json::array();
       for (const auto& s : u->sh.c) j["sh"].push_back({s.x, s.y, s.z});

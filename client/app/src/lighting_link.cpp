@@ -56,6 +56,7 @@ bool LightingLink::connect_once() {
     lighting_.dominant_direction = u.dominant_direction;
     lighting_.dominant_colour = u.dominant_colour;
     lighting_.coverage = u.coverage;
+    lighting_.estimated = u.estimated;
     ++stats_.updates;
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;

@@ -55,6 +55,7 @@ const state = {
   lastError: '',
   lighting: 'none',
   coverage: 0,
+  estimated: 0,
   renderMs: 0,
   grabMs: 0,        // the camera frame into the renderer's texture
   jpegMs: 0,        // encoding the newest frame for arlightd
@@ -115,6 +116,7 @@ window.arlight = {
       last_error: state.lastError,
       lighting: state.lighting,
       coverage: state.coverage,
+      estimated: state.estimated,
       render_ms: state.renderMs,
       grab_ms: state.grabMs,
       upload: state.upload ? state.upload.method : 'none',
@@ -412,6 +414,7 @@ async function start() {
         state.sh = s.sh;
         state.framesProcessed = s.frames_processed;
         state.coverage = s.coverage;
+        state.estimated = s.estimated;
         const t = sentAt.get(s.last_sequence);
         if (t !== undefined) {
           state.latencies.push(performance.now() - t);
@@ -517,7 +520,8 @@ async function start() {
     coverage.draw(quatRotateVector(q, [0, 0, -1]));
     $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
     $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
-    $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen`;
+    $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen` +
+      (state.estimated > 0 ? `, ${(state.estimated * 100).toFixed(0)} % estimated` : '');
     $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
     const p = window.arlight.status();
     $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;

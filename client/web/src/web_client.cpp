@@ -171,6 +171,7 @@ class WebClient {
       ++updates_;
       last_sequence_ = u->frame_sequence;
       coverage_ = u->coverage;
+      estimated_ = u->estimated;
       frames_processed_ = u->frames_processed;
       if (!maps_) renderer_.set_sh(u->sh);
       sh_ = u->sh;
@@ -244,9 +245,9 @@ class WebClient {
       const glm::dquat since = glm::conjugate(track_->world_from_camera) * world_from_camera;
       const double ahead = timestamp - track_->timestamp;
       const bool extrapolate = ahead > 0 && ahead <= kExtrapolateSeconds;
-      camera_in_scene = {glm::normalize(track_->camera_in_marker.orientation * since),
-                         track_->camera_in_marker.position +
-                             (extrapolate ? ahead : 0.0) * track_->velocity};
+      camera_in_scene = {
+          glm::normalize(track_->camera_in_marker.orientation * since),
+          track_->camera_in_marker.position + (extrapolate ? ahead : 0.0) * track_->velocity};
       world_from_scene = world_from_marker_.world_from_marker().value_or(
           track_->world_from_camera * glm::conjugate(track_->camera_in_marker.orientation));
     } else {
@@ -321,6 +322,7 @@ class WebClient {
     s.set("frames_processed", double(frames_processed_));
     s.set("map_sets", double(map_sets_));
     s.set("coverage", coverage_);
+    s.set("estimated", estimated_);
     s.set("frames_encoded", double(frames_sent_));
     s.set("frames_rendered", double(frames_rendered_));
     const auto source = renderer_.lighting_source();
@@ -401,6 +403,7 @@ class WebClient {
   std::uint64_t updates_ = 0, last_sequence_ = 0, frames_processed_ = 0, map_sets_ = 0,
                 frames_sent_ = 0, frames_rendered_ = 0;
   double coverage_ = 0;
+  double estimated_ = 0;  // fraction of the sphere arlightd estimated rather than measured
   bool maps_ = false;
   glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
 };

@@ -40,6 +40,8 @@ struct ImageMetadata {
   std::optional<double> shininess;
   std::vector<std::array<float, 3>> sh_coefficients;  // index l(l+1)+m; order = sqrt(size)
   std::optional<std::string> description;
+  // A captured map's unseen texels: "none" (black), "mean" or "estimate" (arlight-capture --fill).
+  std::optional<std::string> fill;
 };
 
 struct LoadOptions {

@@ -133,8 +133,11 @@ struct LightingUpdate {
   ShCoeffs sh;                         // radiance SH; float precision on the wire
   glm::vec3 dominant_direction{0.0f};  // unit, world frame: where the strongest light comes from
   glm::vec3 dominant_colour{0.0f};     // its radiance
-  float coverage = 0;                  // fraction of the sphere seen
+  float coverage = 0;                  // fraction of the sphere seen (measured)
   std::uint64_t frames_processed = 0, frames_dropped = 0;
+  // Fraction of the sphere whose radiance in `sh` and the maps is estimated from what was seen
+  // (the rest of 1 - coverage is black: the server does not fill).
+  float estimated = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

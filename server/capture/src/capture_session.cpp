@@ -159,6 +159,10 @@ struct CaptureSession::Impl {
   std::vector<glm::dvec3> sh_dirs, sh_values;  // a frame's changed texels (kept: no reallocation)
   ShCoeffs sh;
   double covered_solid_angle = 0.0;
+  // The fill of the unseen part, refitted lazily when the map has changed since.
+  mutable UnseenEstimator unseen;
+  mutable ShCoeffs filled_sh;
+  mutable bool unseen_stale = true;
   std::size_t added = 0, used = 0;
 
   int factor = 1;  // linearised frames are reduced by this
@@ -183,6 +187,7 @@ struct CaptureSession::Impl {
         pinhole(k),
         response(std::move(r)),
         options(std::move(o)),
+        unseen(options.layout, options.fill, options.fill_options),
         drift(options.align_smoothing, options.align_max_drift_deg_per_s) {
     if (k.width < 1 || k.height < 1 || !(k.fx > 0) || !(k.fy > 0) || !std::isfinite(k.cx) ||
         !std::isfinite(k.cy))
@@ -218,6 +223,15 @@ struct CaptureSession::Impl {
       const double t = double(i) / double(gray_code.size() - 1);
       gray_code[i] = std::uint8_t(std::lround(255.0 * response.encode(float(t * t), 1)));
     }
+  }
+
+  void refit_unseen() const {
+    if (!unseen_stale) return;
+    unseen.fit({weighted_radiance, weight});
+    filled_sh = sh;
+    const ShCoeffs rest = unseen.unseen_sh(sh.order);
+    for (std::size_t k = 0; k < rest.c.size(); ++k) filled_sh.c[k] += rest.c[k];
+    unseen_stale = false;
   }
 
   glm::vec3 texel_radiance(std::size_t texel) const {
@@ -459,6 +473,7 @@ struct CaptureSession::Impl {
     // linear in L), so the coefficients equal a full projection of the current map.
     const auto t1 = Clock::now();
     sh_accumulate(sh, changed_dirs, changed_values);
+    unseen_stale = true;
     result.sh_ms = ms_since(t1);
   }
 
@@ -537,6 +552,12 @@ const CameraResponse& CaptureSession::response() const { return impl_->response;
 const CaptureOptions& CaptureSession::options() const { return impl_->options; }
 
 EnvMap CaptureSession::environment() const {
+  if (impl_->options.fill == Fill::None) return measured_environment();
+  impl_->refit_unseen();
+  return impl_->unseen.filled({impl_->weighted_radiance, impl_->weight});
+}
+
+EnvMap CaptureSession::measured_environment() const {
   EnvMap env(impl_->options.layout);
   float* out = env.image.data();
   for (std::size_t t = 0; t < impl_->weight.size(); ++t) {
@@ -552,7 +573,23 @@ double CaptureSession::coverage() const {
   return impl_->covered_solid_angle / (4.0 * std::numbers::pi);
 }
 
-const ShCoeffs& CaptureSession::sh() const { return impl_->sh; }
+double CaptureSession::estimated_fraction() const {
+  impl_->refit_unseen();
+  return impl_->unseen.estimated_fraction();
+}
+
+const ShCoeffs& CaptureSession::sh() const {
+  if (impl_->options.fill == Fill::None) return impl_->sh;
+  impl_->refit_unseen();
+  return impl_->filled_sh;
+}
+
+const ShCoeffs& CaptureSession::measured_sh() const { return impl_->sh; }
+
+const UnseenEstimator& CaptureSession::unseen() const {
+  impl_->refit_unseen();
+  return impl_->unseen;
+}
 std::size_t CaptureSession::frames_added() const { return impl_->added; }
 std::size_t CaptureSession::frames_used() const { return impl_->used; }
 
@@ -580,7 +617,8 @@ void CaptureSession::restore(const Accumulators& acc) {
   s.covered_solid_angle = 0.0;
   for (std::size_t i = 0; i < s.table->size(); ++i)
     if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
-  s.sh = sh_project(environment(), s.options.sh_order);
+  s.sh = sh_project(measured_environment(), s.options.sh_order);
+  s.unseen_stale = true;
 }
 
 }  // namespace arlight::capture

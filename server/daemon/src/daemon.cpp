@@ -145,6 +145,7 @@ struct Daemon::Impl {
     asio::post(disk, [] { lower_thread_priority(kCheckpointNice); });
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
+    session_env.fill = config.fill;
     session_env.align_every = config.align_every;
     session_env.align_max_width = config.align_max_width;
     session_env.queue_depth = config.queue_depth;

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
       "streams lighting back"};
   daemon::DaemonConfig c;
   std::string listen, admin, config, tls_cert, tls_key, web, web_root, web_device, web_url_host;
+  std::string fill;
   std::string data_dir, tokens, admin_token_file;
   app.add_option("--config", config, "JSON config file (flags given here override it)");
   app.add_option("--listen", listen, "HOST:PORT for clients (default 127.0.0.1:7878)");
@@ -53,6 +54,9 @@ int main(int argc, char** argv) {
   app.add_option("--checkpoint-interval", c.checkpoint_interval_s,
                  "seconds between checkpoints of a changing session: at most this much capture "
                  "is lost when the daemon dies (default 2; 1 behind a balancer)");
+  app.add_option("--fill", fill,
+                 "what a session's map holds where no frame has looked yet: estimate (from what "
+                 "was seen, default), mean or none (black)");
   app.add_option("--align-every", c.align_every,
                  "feature alignment on every n-th frame of a session (default 4)");
   app.add_option("--queue-depth", c.queue_depth,
@@ -77,6 +81,11 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
+    if (app.count("--fill")) {
+      const auto f = capture::parse_fill(fill);
+      if (!f) throw InputError("--fill: expected none, mean or estimate, got '" + fill + "'");
+      c.fill = *f;
+    }
     if (!config.empty()) {
       daemon::DaemonConfig from_file;
       daemon::load_config_file(config, from_file);
@@ -93,6 +102,7 @@ int main(int argc, char** argv) {
       if (app.count("--max-per-address"))
         c.max_connections_per_address = flags.max_connections_per_address;
       if (app.count("--align-every")) c.align_every = flags.align_every;
+      if (app.count("--fill")) c.fill = flags.fill;
       if (app.count("--queue-depth")) c.queue_depth = flags.queue_depth;
       if (app.count("--admin-protect-all")) c.admin_protect_all = flags.admin_protect_all;
     }
@@ -119,8 +129,9 @@ int main(int argc, char** argv) {
     if (!(c.hello_timeout_s > 0) || !(c.idle_timeout_s > 0))
       throw InputError("the Hello and idle timeouts must be positive seconds");
     if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)
-      throw InputError("the connection limits (--max-connections, --max-unauthenticated, "
-                       "--max-per-address) must be at least 1");
+      throw InputError(
+          "the connection limits (--max-connections, --max-unauthenticated, "
+          "--max-per-address) must be at least 1");
 
     // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
     sigset_t set;
@@ -138,9 +149,10 @@ int main(int argc, char** argv) {
           "%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()), isatty(fileno(stdout)) != 0)
                     .c_str());
       if (c.tls_cert.empty())
-        std::printf("arlightd: the web port's certificate is %s, self-signed: a phone asks to "
-                    "accept it once\n",
-                    d.web_certificate().c_str());
+        std::printf(
+            "arlightd: the web port's certificate is %s, self-signed: a phone asks to "
+            "accept it once\n",
+            d.web_certificate().c_str());
     }
     std::printf("arlightd: listening on %s:%u, admin on %u, web on %u%s\n", c.listen_host.c_str(),
                 unsigned(d.port()), unsigned(d.admin_port()), unsigned(d.web_port()),

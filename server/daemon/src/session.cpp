@@ -77,6 +77,7 @@ std::string Session::set_camera(const CameraIntrinsics& camera) {
   }
   capture::CaptureOptions o;
   o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
+  o.fill = env_.fill;
   o.align_every = std::max(1, env_.align_every);
   o.align_max_width = std::max(32, env_.align_max_width);
   o.align_async = true;  // a frame never waits for feature matching
@@ -214,7 +215,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .dominant_colour = light.colour,
           .coverage = float(capture_->coverage()),
           .frames_processed = processed_,
-          .frames_dropped = dropped_};
+          .frames_dropped = dropped_,
+          .estimated = float(capture_->estimated_fraction())};
 }
 
 std::string Session::request_maps(MapRequest r) {

@@ -33,6 +33,7 @@ using Clock = std::chrono::steady_clock;
 struct SessionEnv {
   std::filesystem::path data_dir;
   int map_size = 512;
+  capture::Fill fill = capture::Fill::Estimate;
   int align_every = 4;
   int align_max_width = 160;
   int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest

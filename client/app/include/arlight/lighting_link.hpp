@@ -39,7 +39,8 @@ struct Lighting {
   std::shared_ptr<const client::MapSet> maps;
   glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
   glm::vec3 dominant_colour{0.0f};
-  double coverage = 0;
+  double coverage = 0;   // fraction of the sphere measured
+  double estimated = 0;  // fraction estimated by arlightd from what was measured
 };
 
 // A reconnection that resumed the session: what the server's Welcome said it had kept, and

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "arlight/camera.hpp"
+#include "arlight/capture/fill.hpp"
 #include "arlight/frame.hpp"
 #include "arlight/image.hpp"
 #include "arlight/projection.hpp"
@@ -38,7 +39,7 @@ struct CaptureOptions {
   // measured (so one bad match cannot jump).
   double align_smoothing = 0.6;
   double align_max_drift_deg_per_s = 3.0;
-  int align_every = 1;  // try the alignment on every n-th frame; the others extrapolate
+  int align_every = 1;        // try the alignment on every n-th frame; the others extrapolate
   int align_max_width = 320;  // the alignment works on the frame reduced to at most this wide
   // Measure the alignment (features, fit) on another thread and apply it at the next frame,
   // so a frame never waits for it (the daemon's live path). The result does not depend on
@@ -48,6 +49,11 @@ struct CaptureOptions {
   // domain (libjpeg scaling): 2.5x faster decoding; codes are then averaged over 2x2 before
   // linearisation, a bias only at high-contrast edges.
   bool fast_decode = true;
+  // What the map holds where nothing has been seen yet (arlight/capture/fill.hpp):
+  // environment() and sh() are those of the filled map; measured_environment() and
+  // measured_sh() those of what was seen, with black elsewhere.
+  Fill fill = Fill::Estimate;
+  FillOptions fill_options;
 };
 
 // What one frame carries besides its pixels (common/, shared with the client and the wire).
@@ -92,14 +98,24 @@ class CaptureSession {
   const CameraResponse& response() const;
   const CaptureOptions& options() const;
 
-  // The captured environment: sum(w * L) / sum(w); texels never seen are 0.
+  // The captured environment: sum(w * L) / sum(w) where seen, the options' fill elsewhere.
   EnvMap environment() const;
+  // sum(w * L) / sum(w); texels never seen are 0.
+  EnvMap measured_environment() const;
   // sum(w) per texel as a one-channel image in the layout (0 = never seen).
   std::vector<float> weights() const;
   // Fraction of the sphere's solid angle seen by at least one frame.
   double coverage() const;
-  // SH coefficients of environment(), kept current incrementally.
+  // Fraction of the sphere's solid angle whose radiance is estimated rather than measured:
+  // 1 - coverage() while filling, 0 with Fill::None or before the first frame.
+  double estimated_fraction() const;
+  // SH coefficients of environment(): those of measured_environment(), kept current
+  // incrementally, plus the fill's over the unseen part (refitted when the map changed, on
+  // the first call after it: about 1-2 ms at 512x512).
   const ShCoeffs& sh() const;
+  const ShCoeffs& measured_sh() const;
+  // The fill's model as last fitted (fitted on demand like sh()).
+  const UnseenEstimator& unseen() const;
 
   std::size_t frames_added() const;  // frames offered
   std::size_t frames_used() const;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "arlight/capture/fill.hpp"
 #include "arlight/wire.hpp"
 
 namespace arlight::daemon {
@@ -53,6 +54,9 @@ struct DaemonConfig {
   int max_connections_per_address = 64;
   double checkpoint_interval_s = 2;
   int map_size = 512;  // capture map: angle map N x N
+  // What a session's map holds where no frame has looked yet: the estimate from what was seen
+  // (its live SH and map sets light objects right from the first frames) or black (none).
+  capture::Fill fill = capture::Fill::Estimate;
   // Feature alignment on every n-th frame of a session, on the frame reduced to at most
   // align_max_width (the drift model extrapolates in between): at 30 fps, every 4th frame at
   // 160 pixels keeps a 0.5 deg/s drift to ~0.34 deg RMS (0.32 every 3rd, 0.48 every 6th; a
@@ -69,7 +73,7 @@ struct DaemonConfig {
 
 // Reads a JSON config file (keys: listen, admin, admin_token_file, admin_protect_all, data_dir, tokens, threads, max_sessions,
 // idle_timeout_s, hello_timeout_s, max_connections, max_unauthenticated,
-// max_connections_per_address, checkpoint_interval_s, map_size, align_every, workers,
+// max_connections_per_address, checkpoint_interval_s, map_size, fill, align_every, workers,
 // queue_depth, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
 // InputError names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);

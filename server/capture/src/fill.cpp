@@ -1,0 +1,365 @@
+// The estimate of the unseen directions (issue 16 §1); the model is described in
+// arlight/capture/fill.hpp.
+#include "arlight/capture/fill.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+
+namespace arlight::capture {
+
+std::string_view fill_name(Fill fill) {
+  switch (fill) {
+    case Fill::None:
+      return "none";
+    case Fill::Mean:
+      return "mean";
+    case Fill::Estimate:
+      return "estimate";
+  }
+  return "?";
+}
+
+std::optional<Fill> parse_fill(std::string_view name) {
+  for (Fill f : {Fill::None, Fill::Mean, Fill::Estimate})
+    if (name == fill_name(f)) return f;
+  return std::nullopt;
+}
+
+namespace {
+
+// The coarse grid: `zones` equal-area zones of elevation (uniform in y, Archimedes) times
+// 2 * zones sectors of azimuth, so every cell has the same solid angle.
+struct Grid {
+  int zones = 0, sectors = 0;
+  int cell(const glm::dvec3& d) const {
+    const int z = std::clamp(int(std::floor((d.y + 1.0) * 0.5 * zones)), 0, zones - 1);
+    const double phi = std::atan2(d.x, -d.z) + std::numbers::pi;  // [0, 2 pi]
+    const int a =
+        std::clamp(int(std::floor(phi / (2.0 * std::numbers::pi) * sectors)), 0, sectors - 1);
+    return z * sectors + a;
+  }
+  int size() const { return zones * sectors; }
+};
+
+}  // namespace
+
+struct UnseenEstimator::Impl {
+  EnvLayout layout;
+  Fill fill;
+  FillOptions options;
+  std::shared_ptr<const TexelTable> table;
+  Grid grid;
+  std::vector<std::uint32_t> cell_of;  // per valid texel (TexelTable order)
+  std::vector<double> cell_total;      // solid angle of each cell's texels
+  std::vector<glm::dvec3> cell_dir;    // the solid-angle-weighted mean direction, normalised
+
+  // The fit.
+  bool any_seen = false;
+  double measured = 0.0;               // solid angle measured
+  std::vector<double> cell_seen;       // solid angle measured per cell
+  glm::dvec3 mean{0.0};                // mean seen radiance (Fill::Mean, and the last resort)
+  std::vector<glm::dvec3> zone_value;  // the profile Z at zone centres
+  ShCoeffs residual;
+
+  Impl(const EnvLayout& l, Fill f, FillOptions o) : layout(l), fill(f), options(o) {
+    if (o.zones < 2 || o.zones > 256)
+      throw std::invalid_argument("fill: zones must be in [2, 256], got " +
+                                  std::to_string(o.zones));
+    if (o.residual_order < 0 || o.residual_order > 8)
+      throw std::invalid_argument("fill: residual order must be in [0, 8], got " +
+                                  std::to_string(o.residual_order));
+    if (o.residual_order > 0 && !(o.ridge > 0.0 && std::isfinite(o.ridge)))
+      throw std::invalid_argument("fill: ridge must be a positive number");
+    if (!(o.clip_quantile > 0.0 && o.clip_quantile <= 1.0))
+      throw std::invalid_argument("fill: clip quantile must be in (0, 1]");
+    if (!(o.trend_limit >= 1.0 && std::isfinite(o.trend_limit)) || o.trend_zones < 2)
+      throw std::invalid_argument("fill: trend limit must be >= 1 and trend zones >= 2");
+    table = texel_table(layout);
+    grid = {o.zones, 2 * o.zones};
+    const std::size_t n = table->size();
+    cell_of.resize(n);
+    cell_total.assign(std::size_t(grid.size()), 0.0);
+    cell_dir.assign(std::size_t(grid.size()), glm::dvec3(0.0));
+    for (std::size_t i = 0; i < n; ++i) {
+      const glm::dvec3 d(table->x[i], table->y[i], table->z[i]);
+      const auto c = std::size_t(grid.cell(d));
+      cell_of[i] = std::uint32_t(c);
+      cell_total[c] += table->solid_angle[i];
+      cell_dir[c] += table->solid_angle[i] * d;
+    }
+    for (glm::dvec3& d : cell_dir)
+      if (glm::dot(d, d) > 0.0) d = glm::normalize(d);
+    cell_seen.assign(cell_total.size(), 0.0);
+    zone_value.assign(std::size_t(grid.zones), glm::dvec3(0.0));
+  }
+
+  // Z(y): linear between zone centres, constant beyond the outermost.
+  glm::dvec3 profile(double y) const {
+    const double u = (y + 1.0) * 0.5 * grid.zones - 0.5;
+    const int z0 = std::clamp(int(std::floor(u)), 0, grid.zones - 1);
+    const int z1 = std::min(z0 + 1, grid.zones - 1);
+    const double f = std::clamp(u - z0, 0.0, 1.0);
+    return (1.0 - f) * zone_value[std::size_t(z0)] + f * zone_value[std::size_t(z1)];
+  }
+
+  glm::dvec3 model(const glm::dvec3& d) const {
+    if (fill == Fill::None || !any_seen) return glm::dvec3(0.0);
+    if (fill == Fill::Mean) return mean;
+    glm::dvec3 l = profile(d.y);
+    if (residual.order > 0) {
+      double basis[64];
+      sh_basis_all(residual.order, d, std::span<double>(basis, std::size_t(residual.c.size())));
+      for (std::size_t k = 0; k < residual.c.size(); ++k) l += basis[k] * residual.c[k];
+    }
+    return glm::max(l, glm::dvec3(0.0));
+  }
+
+  void fit(const MeasuredTexels& m);
+  void fit_profile(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
+  void fit_residual(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
+};
+
+void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
+  const std::size_t texels = layout.texel_count();
+  if (m.weight.size() != texels || m.weighted_radiance.size() != 3 * texels)
+    throw std::invalid_argument("fill: " + std::to_string(m.weight.size()) + " weights and " +
+                                std::to_string(m.weighted_radiance.size()) +
+                                " radiance values do not fit a map of " + std::to_string(texels) +
+                                " texels");
+  // Per cell: sum of solid angle x confidence (w), of that times radiance (rw), and the solid
+  // angle measured at all.
+  std::vector<double> w(cell_total.size(), 0.0);
+  std::vector<glm::dvec3> rw(cell_total.size(), glm::dvec3(0.0));
+  std::fill(cell_seen.begin(), cell_seen.end(), 0.0);
+  measured = 0.0;
+  const auto texel = [&](std::size_t i, glm::dvec3& l) {
+    const std::size_t t = table->index[i];
+    const float sw = m.weight[t];
+    if (!(sw > 0.0f) || !std::isfinite(sw)) return 0.0f;
+    const float* p = &m.weighted_radiance[3 * t];
+    l = glm::dvec3(p[0], p[1], p[2]) / double(sw);
+    if (!std::isfinite(l.x + l.y + l.z) || l.x < 0.0 || l.y < 0.0 || l.z < 0.0) return 0.0f;
+    return sw;
+  };
+  // Quantiles of the seen luminance, weighted by solid angle, from a histogram of log2
+  // luminance in 1/16 stops over [-32, 32).
+  constexpr int kBins = 64 * 16;
+  std::vector<double> histogram(kBins, 0.0);
+  double seen_total = 0.0;
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    glm::dvec3 l;
+    if (texel(i, l) <= 0.0f) continue;
+    const double y = std::max(luminance(l), 1e-9);
+    const int bin = std::clamp(int(std::floor((std::log2(y) + 32.0) * 16.0)), 0, kBins - 1);
+    histogram[std::size_t(bin)] += table->solid_angle[i];
+    seen_total += table->solid_angle[i];
+  }
+  const auto quantile = [&](double q) {
+    double below = 0.0;
+    for (int b = 0; b < kBins; ++b) {
+      below += histogram[std::size_t(b)];
+      if (below >= q * seen_total) return std::exp2((b + 1.0) / 16.0 - 32.0);
+    }
+    return std::exp2(32.0);
+  };
+  const double cap = options.clip_quantile < 1.0 ? quantile(options.clip_quantile) : 0.0;
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    glm::dvec3 l;
+    const float sw = texel(i, l);
+    if (sw <= 0.0f) continue;
+    if (cap > 0.0 && fill == Fill::Estimate) {
+      const double y = luminance(l);
+      if (y > cap) l *= cap / y;
+    }
+    const double omega = table->solid_angle[i];
+    const double conf = std::min(1.0, double(sw));
+    const std::size_t c = cell_of[i];
+    w[c] += omega * conf;
+    rw[c] += omega * conf * l;
+    cell_seen[c] += omega;
+    measured += omega;
+  }
+  double w_all = 0.0;
+  glm::dvec3 rw_all(0.0);
+  for (std::size_t c = 0; c < w.size(); ++c) w_all += w[c], rw_all += rw[c];
+  any_seen = w_all > 0.0;
+  mean = any_seen ? rw_all / w_all : glm::dvec3(0.0);
+  residual = ShCoeffs();
+  if (fill != Fill::Estimate || !any_seen) return;
+  fit_profile(w, rw);
+  if (options.residual_order > 0) fit_residual(w, rw);
+}
+
+// Z at every zone (the elevation profile; dissertation §5.4.1's sky and ground colours, one per
+// zone instead of one per hemisphere). A zone counts as seen when at least 0.1 % of it was
+// measured, and takes the mean of what was seen of it. Between seen zones Z is linear; beyond
+// the outermost seen zone on either side it continues that zone's value, times the trend of
+// the log luminance over the last `trend_zones` seen zones, limited to a factor `trend_limit`.
+void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
+                                        const std::vector<glm::dvec3>& rw) {
+  const int zones = grid.zones;
+  std::vector<double> zw(std::size_t(zones), 0.0), zt(std::size_t(zones), 0.0);
+  std::vector<glm::dvec3> zrw(std::size_t(zones), glm::dvec3(0.0));
+  for (std::size_t c = 0; c < w.size(); ++c) {
+    const auto z = c / std::size_t(grid.sectors);
+    zw[z] += w[c], zrw[z] += rw[c], zt[z] += cell_total[c];
+  }
+  std::vector<int> seen;
+  for (int z = 0; z < zones; ++z)
+    if (zw[std::size_t(z)] > 1e-3 * zt[std::size_t(z)]) seen.push_back(z);
+  if (seen.empty()) {
+    std::fill(zone_value.begin(), zone_value.end(), mean);
+    return;
+  }
+  const auto value = [&](int z) { return zrw[std::size_t(z)] / zw[std::size_t(z)]; };
+  for (int z : seen) zone_value[std::size_t(z)] = value(z);
+  for (std::size_t k = 0; k + 1 < seen.size(); ++k)
+    for (int z = seen[k] + 1; z < seen[k + 1]; ++z) {
+      const double f = double(z - seen[k]) / double(seen[k + 1] - seen[k]);
+      zone_value[std::size_t(z)] = (1.0 - f) * value(seen[k]) + f * value(seen[k + 1]);
+    }
+  // d(log luminance) per zone going outwards from `edge` (step +1 up, -1 down): a weighted
+  // least-squares line through the last seen zones, 0 when they are too few to tell.
+  const auto trend = [&](int edge, int step) {
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (int k = 0; k < options.trend_zones; ++k) {
+      const int z = edge - step * k;
+      if (z < 0 || z >= zones || !(zw[std::size_t(z)] > 1e-3 * zt[std::size_t(z)])) break;
+      const double wz = zw[std::size_t(z)], x = -double(k);
+      const double y = std::log(std::max(luminance(value(z)), 1e-12));
+      sw += wz, sx += wz * x, sy += wz * y, sxx += wz * x * x, sxy += wz * x * y;
+    }
+    const double det = sw * sxx - sx * sx;
+    return det > 1e-9 * sw * sw ? (sw * sxy - sx * sy) / det : 0.0;
+  };
+  const double limit = std::log(options.trend_limit);
+  const int top = seen.back(), bottom = seen.front();
+  const double up = trend(top, 1), down = trend(bottom, -1);
+  for (int z = top + 1; z < zones; ++z)
+    zone_value[std::size_t(z)] = value(top) * std::exp(std::clamp(up * (z - top), -limit, limit));
+  for (int z = bottom - 1; z >= 0; --z)
+    zone_value[std::size_t(z)] =
+        value(bottom) * std::exp(std::clamp(down * (bottom - z), -limit, limit));
+}
+
+// The residual's least squares on the seen cells: (sum w Y Y^T + ridge D) a = sum w Y r with
+// D = diag(1 + l(l+1)), per channel.
+void UnseenEstimator::Impl::fit_residual(const std::vector<double>& w,
+                                         const std::vector<glm::dvec3>& rw) {
+  const int order = options.residual_order;
+  const int n = sh_count(order);
+  cv::Mat a = cv::Mat::zeros(n, n, CV_64F), b = cv::Mat::zeros(n, 3, CV_64F);
+  auto basis = std::vector<double>(std::size_t(n));
+  for (std::size_t c = 0; c < w.size(); ++c) {
+    if (!(w[c] > 0.0)) continue;
+    sh_basis_all(order, cell_dir[c], basis);
+    const glm::dvec3 r = rw[c] / w[c] - profile(cell_dir[c].y);
+    for (int i = 0; i < n; ++i) {
+      const double wy = w[c] * basis[std::size_t(i)];
+      double* row = a.ptr<double>(i);
+      for (int j = 0; j < n; ++j) row[j] += wy * basis[std::size_t(j)];
+      double* br = b.ptr<double>(i);
+      br[0] += wy * r.x, br[1] += wy * r.y, br[2] += wy * r.z;
+    }
+  }
+  for (int l = 0; l < order; ++l)
+    for (int mm = -l; mm <= l; ++mm)
+      a.at<double>(sh_index(l, mm), sh_index(l, mm)) += options.ridge * (1.0 + l * (l + 1));
+  cv::Mat x;
+  if (!cv::solve(a, b, x, cv::DECOMP_CHOLESKY)) return;  // cannot happen: A is positive definite
+  residual = ShCoeffs(order);
+  for (int i = 0; i < n; ++i)
+    residual.c[std::size_t(i)] = {x.at<double>(i, 0), x.at<double>(i, 1), x.at<double>(i, 2)};
+}
+
+UnseenEstimator::UnseenEstimator(const EnvLayout& layout, Fill fill, FillOptions options)
+    : impl_(std::make_unique<Impl>(layout, fill, options)) {}
+UnseenEstimator::~UnseenEstimator() = default;
+UnseenEstimator::UnseenEstimator(const UnseenEstimator& o)
+    : impl_(std::make_unique<Impl>(*o.impl_)) {}
+UnseenEstimator& UnseenEstimator::operator=(const UnseenEstimator& o) {
+  if (this != &o) impl_ = std::make_unique<Impl>(*o.impl_);
+  return *this;
+}
+UnseenEstimator::UnseenEstimator(UnseenEstimator&&) noexcept = default;
+UnseenEstimator& UnseenEstimator::operator=(UnseenEstimator&&) noexcept = default;
+
+void UnseenEstimator::fit(const MeasuredTexels& measured) { impl_->fit(measured); }
+Fill UnseenEstimator::fill() const { return impl_->fill; }
+const EnvLayout& UnseenEstimator::layout() const { return impl_->layout; }
+glm::dvec3 UnseenEstimator::radiance(glm::dvec3 dir) const { return impl_->model(dir); }
+
+double UnseenEstimator::measured_fraction() const {
+  return impl_->measured / (4.0 * std::numbers::pi);
+}
+
+double UnseenEstimator::estimated_fraction() const {
+  if (impl_->fill == Fill::None || !impl_->any_seen) return 0.0;
+  return std::max(0.0, 1.0 - measured_fraction());
+}
+
+ShCoeffs UnseenEstimator::unseen_sh(int order) const {
+  ShCoeffs out(order);
+  if (impl_->fill == Fill::None || !impl_->any_seen) return out;
+  std::vector<double> basis(std::size_t(sh_count(order)));
+  for (std::size_t c = 0; c < impl_->cell_total.size(); ++c) {
+    const double unseen = impl_->cell_total[c] - impl_->cell_seen[c];
+    if (!(unseen > 1e-12)) continue;
+    const glm::dvec3 l = unseen * impl_->model(impl_->cell_dir[c]);
+    if (l == glm::dvec3(0.0)) continue;
+    sh_basis_all(order, impl_->cell_dir[c], basis);
+    for (std::size_t k = 0; k < basis.size(); ++k) out.c[k] += basis[k] * l;
+  }
+  return out;
+}
+
+EnvMap UnseenEstimator::filled(const MeasuredTexels& m) const {
+  const TexelTable& table = *impl_->table;
+  if (m.weight.size() != impl_->layout.texel_count() ||
+      m.weighted_radiance.size() != 3 * impl_->layout.texel_count())
+    throw std::invalid_argument("fill: the measured texels do not fit the map");
+  EnvMap env(impl_->layout);
+  float* out = env.image.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, table.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      const std::size_t t = table.index[i];
+      const float sw = m.weight[t];
+      glm::dvec3 l;
+      const float* p = &m.weighted_radiance[3 * t];
+      if (sw > 0.0f && std::isfinite(sw))
+        l = glm::dvec3(p[0], p[1], p[2]) / double(sw);
+      else
+        l = impl_->model({table.x[i], table.y[i], table.z[i]});
+      out[3 * t] = float(l.x), out[3 * t + 1] = float(l.y), out[3 * t + 2] = float(l.z);
+    }
+  });
+  return env;
+}
+
+EnvMap fill_black_texels(const EnvMap& env, Fill fill, const FillOptions& options) {
+  const std::size_t texels = env.layout.texel_count();
+  std::vector<float> radiance(texels * 3), weight(texels);
+  const ConstImageView v = env.image.view();
+  for (int y = 0; y < v.height; ++y)
+    for (int x = 0; x < v.width; ++x) {
+      const float* p = v.pixel(x, y);
+      const std::size_t t = std::size_t(y) * std::size_t(v.width) + std::size_t(x);
+      std::copy(p, p + 3, &radiance[3 * t]);
+      weight[t] = p[0] != 0.0f || p[1] != 0.0f || p[2] != 0.0f ? 1.0f : 0.0f;
+    }
+  UnseenEstimator estimator(env.layout, fill, options);
+  const MeasuredTexels measured{radiance, weight};
+  estimator.fit(measured);
+  return estimator.filled(measured);
+}
+
+}  // namespace arlight::capture
