@@ -103,6 +103,8 @@ fuzz: deps $(SANITIZE_BUILD)/build.ninja
 bench: deps
 	@$(MAKE) --no-print-directory build
 	$(BUILD)/bin/arlight-bench --benchmark_min_time=1 $(BENCH_ARGS)
+	$(BUILD)/bin/arlight-bench-fill data/probes/heldout/*.exr --work out/bench/fill \
+	  --json out/bench/fill/heldout.json
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out
