@@ -251,3 +251,43 @@ TEST(ArlightCapture, APartSweepIsFilledFromWhatWasSeen) {
   // A map that is not a --fill none capture is used as it is, whatever --fill says.
   EXPECT_EQ(irradiance_error((dir / "estimate.exr").string(), "none"), e_estimate);
 }
+
+// Issue 16 §4 through the tools: a sweep whose auto-exposure varies over x20 (venice), its
+// exposures withheld from arlight-capture. Estimated from each frame's overlap with the map,
+// the lighting is the truth's after one global scale; locked at the first frame's (what a
+// browser's frames got before), it is not.
+TEST(ArlightCapture, FramesOfUnknownExposureAreMeasuredAgainstTheMap) {
+  const fs::path dir = fresh_temp_dir("capture_exposure");
+  const fs::path rec = dir / "rec";
+  const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
+                     " --frames 240 --size 320x240 --seed 6");
+  ASSERT_EQ(s.status, 0) << s.output;
+  double lowest = 1e9, highest = 0;
+  const json manifest = read_json(rec / "recording.json");
+  for (const auto& f : manifest["frames"]) {
+    const double e = f["exposure"].get<double>() * f.value("gain", 1.0);
+    lowest = std::min(lowest, e), highest = std::max(highest, e);
+  }
+  EXPECT_GT(highest / lowest, 8.0);
+  const auto irradiance_error = [&](const std::string& exposure) {
+    const fs::path env = dir / (exposure + ".exr"), report = dir / (exposure + ".json");
+    const auto c = capture_tool("--recording " + rec.string() + " --exposure " + exposure +
+                                " --size 256 --out " + env.string() + " --json " + report.string());
+    EXPECT_EQ(c.status, 0) << c.output;
+    const fs::path diff = dir / ("diff_" + exposure + ".json");
+    const auto d =
+        maps("diff --reference " + (rec / "truth" / "env.exr").string() + " --test " +
+             env.string() + " --shininess 1 --size 128 --match-scale " + "--json " + diff.string());
+    EXPECT_EQ(d.status, 0) << d.output;
+    return std::pair(mean_error(read_json(diff), 1), read_json(report));
+  };
+  const auto [estimated, report] = irradiance_error("estimate");
+  const auto [locked, locked_report] = irradiance_error("locked");
+  std::printf(
+      "exposure x%.1f over the sweep, withheld: estimated %.3f stops RMS, irradiance "
+      "%.2f %% after one scale (locked at the first frame's: %.1f %%)\n",
+      highest / lowest, report["exposure_rms_stops"].get<double>(), 100 * estimated, 100 * locked);
+  EXPECT_LT(report["exposure_rms_stops"].get<double>(), 0.15);
+  EXPECT_LT(estimated, 0.05);
+  EXPECT_GT(locked, 0.3);
+}

@@ -151,7 +151,8 @@ TEST(ArlightdWeb, ServesTheClientOverHttpsAndPrintsThePhoneLink) {
 }
 
 // The same frames over wss (a browser's capabilities: raw half-float tiles, no exposure) and
-// over TCP (zstd tiles, the locked exposure written into each frame) give the same maps.
+// over TCP (zstd tiles, also exposure:unknown, so the daemon estimates every frame's exposure
+// the same way) give the same maps.
 TEST(ArlightdWeb, BrowserSessionOverWssMatchesTheSameFramesOverTcp) {
   WebDaemon w("web_session");
   const DaemonProcess& d = *w.d;
@@ -164,12 +165,15 @@ TEST(ArlightdWeb, BrowserSessionOverWssMatchesTheSameFramesOverTcp) {
       c.use_tls({.enabled = true, .ca_file = w.certificate().string(), .verify = true});
       c.set_capabilities(
           {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown});
+    } else {
+      c.set_capabilities(
+          {"maps", "jpeg", wire::kCapabilityTilesZstd, wire::kCapabilityExposureUnknown});
     }
     c.connect("127.0.0.1", browser ? d.web() : d.port(), "arlight-sim", kToken);
     c.send_intrinsics(rec.camera);
     for (std::size_t i = 0; i < kFrames; ++i) {
       FrameInfo f = rec.frames[i];
-      f.exposure = browser ? 0.0 : 1.0 / 60.0;  // a browser cannot say; the daemon locks it
+      f.exposure = browser ? 0.0 : 1.0 / 60.0;  // ignored: exposure:unknown
       f.gain = browser ? 0.0 : 1.0;
       c.send_jpeg_frame(i + 1, f, rec.camera.width, rec.camera.height,
                         recording::read_frame_bytes(rec, i));

@@ -32,7 +32,9 @@ struct Options {
   std::string projection = "anglemap";
   std::string calibrate;  // robertson | debevec
   std::string fill = "estimate";
-  double until_coverage = 0;  // > 0: stop once the map covers this fraction of the sphere
+  double until_coverage = 0;
+  std::string exposure = "known";  // known | locked | estimate  // > 0: stop once the map covers
+                                   // this fraction of the sphere
   int size = 512;
   int sh_order = 8;
   int align_every = 0;  // 0: the library's default
@@ -147,11 +149,19 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   const auto fill = capture::parse_fill(o.fill);
   if (!fill) throw InputError("--fill: expected none, mean or estimate, got '" + o.fill + "'");
   options.fill = *fill;
+  if (o.exposure != "known" && o.exposure != "locked" && o.exposure != "estimate")
+    throw InputError("--exposure: expected known, locked or estimate, got '" + o.exposure + "'");
+  options.estimate_exposure = o.exposure == "estimate";
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
   nlohmann::json skipped = nlohmann::json::array(), per_frame = nlohmann::json::array();
-  std::vector<double> total_ms, decode_ms, linearize_ms, align_ms, project_ms, sh_ms;
+  std::vector<double> total_ms, decode_ms, linearize_ms, align_ms, exposure_ms, project_ms, sh_ms;
+  // --exposure locked|estimate: the recorded exposures are withheld, every frame is given the
+  // first one's (as arlightd does for a browser); `estimate` then measures each frame's.
+  std::optional<double> locked_exposure;
+  double exposure_squared_error = 0.0;  // stops, of estimated against recorded (relative)
+  std::size_t exposures_compared = 0;
   double squared_error = 0.0;
   std::size_t compared = 0, aligned = 0;
   recording::FrameReader reader(rec, false, [&](std::size_t i, const std::string& why) {
@@ -162,7 +172,12 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   while (const auto item = reader.next()) {
     if (o.until_coverage > 0.0 && session.coverage() >= o.until_coverage) break;
     const std::size_t i = item->index;
-    const recording::Frame& f = *item->frame;
+    recording::Frame f = *item->frame;
+    const double recorded = f.exposure * f.gain;
+    if (o.exposure != "known") {
+      if (!locked_exposure) locked_exposure = recorded;
+      f.exposure = *locked_exposure, f.gain = 1.0;
+    }
     const capture::FrameResult r = session.add_encoded(item->jpeg, f);
     if (!r.used) {
       reader.skip(i, r.skipped_reason);
@@ -171,6 +186,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
     total_ms.push_back(r.total_ms());
     decode_ms.push_back(r.decode_ms), linearize_ms.push_back(r.linearize_ms);
     align_ms.push_back(r.align_ms), project_ms.push_back(r.project_ms), sh_ms.push_back(r.sh_ms);
+    exposure_ms.push_back(r.exposure_ms);
     aligned += r.aligned ? 1 : 0;
     nlohmann::json row = {{"frame", i},
                           {"ms", r.total_ms()},
@@ -178,7 +194,15 @@ int run_capture(const Options& o, const recording::Recording& rec) {
                           {"inliers", r.align_inliers},
                           {"correction_deg", r.correction_deg},
                           {"align_note", r.align_note},
-                          {"texels_changed", r.texels_changed}};
+                          {"texels_changed", r.texels_changed},
+                          {"exposure_gain", r.exposure_gain}};
+    if (o.exposure == "estimate") {
+      row["exposure_estimated"] = r.exposure_estimated;
+      row["exposure_samples"] = r.exposure_samples;
+      const double stops = std::log2(r.exposure_gain / recorded);
+      exposure_squared_error += stops * stops;
+      ++exposures_compared;
+    }
     if (truth && i < truth->poses.size()) {
       const double e = angle_deg(r.orientation, truth->poses[i].orientation);
       squared_error += e * e;
@@ -208,11 +232,15 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   j["frames_used"] = session.frames_used();
   j["coverage"] = session.coverage();
   j["fill"] = o.fill;
+  j["exposure"] = o.exposure;
+  if (exposures_compared)
+    j["exposure_rms_stops"] = std::sqrt(exposure_squared_error / double(exposures_compared));
   j["estimated"] = session.estimated_fraction();
   j["median_frame_ms"] = median(total_ms);
   j["stages_median_ms"] = {{"decode", median(decode_ms)},
                            {"linearize", median(linearize_ms)},
                            {"align", median(align_ms)},
+                           {"exposure", median(exposure_ms)},
                            {"project", median(project_ms)},
                            {"sh", median(sh_ms)}};
   j["aligned_frames"] = aligned;
@@ -267,6 +295,11 @@ int main(int argc, char** argv) {
   app.add_option("--fill", o.fill,
                  "what the map holds where no frame looked: estimate (from the seen directions, "
                  "with a hemisphere prior), mean (of the seen texels) or none (black)")
+      ->capture_default_str();
+  app.add_option("--exposure", o.exposure,
+                 "the frames' exposure x gain: known (as recorded), locked (withheld: every frame "
+                 "at the first's, as arlightd takes a browser's) or estimate (withheld, each "
+                 "frame's measured against the map)")
       ->capture_default_str();
   app.add_option("--until-coverage", o.until_coverage,
                  "stop once the map covers this fraction of the sphere (what a user has that "

@@ -163,6 +163,8 @@ struct CaptureSession::Impl {
   mutable UnseenEstimator unseen;
   mutable ShCoeffs filled_sh;
   mutable bool unseen_stale = true;
+  double last_exposure_gain = 0.0;   // estimate_exposure: the last frame's exposure x gain
+  std::vector<float> ratio_scratch;  // exposure_ratio()'s samples
   std::size_t added = 0, used = 0;
 
   int factor = 1;  // linearised frames are reduced by this
@@ -404,10 +406,12 @@ struct CaptureSession::Impl {
     result.aligned = true;
   }
 
-  // Projects the linearised frame into the map (thesis ch. 3: every texel's direction meets the
-  // image plane; the reduced frame is sampled bilinearly there) and updates the live SH.
-  void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
-    const auto t0 = Clock::now();
+  // Calls visit(k, sw, r, g, b) for every map texel (tile-index position k) in view of a frame
+  // at `orientation`: the frame sampled bilinearly where the texel's direction meets the image
+  // plane (thesis ch. 3), sw the sampled weight (> 1e-6), r, g, b the sampled w * L.
+  template <class Visit>
+  void for_each_sample(const LinearFrame& frame, const glm::dquat& orientation,
+                       Visit&& visit) const {
     const glm::mat3 to_camera = glm::transpose(glm::mat3(glm::mat3_cast(orientation)));
     const glm::vec3 forward = glm::vec3(glm::mat3_cast(orientation) * glm::dvec3(0, 0, -1));
     const float cos_limit = float(cos_field);
@@ -415,8 +419,6 @@ struct CaptureSession::Impl {
     const CameraIntrinsics& rk = reduced_camera;
     const float fx = float(rk.fx), fy = float(rk.fy), cx = float(rk.cx), cy = float(rk.cy);
     const float max_x = float(frame.width - 1), max_y = float(frame.height - 1);
-    std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
-    changed_dirs.clear(), changed_values.clear();
     const TileIndex& ti = *tile_index;
     const std::vector<float>&dir_x = ti.dir_x, &dir_y = ti.dir_y, &dir_z = ti.dir_z;
     for (const TileIndex::Tile& tile : ti.tiles) {
@@ -447,26 +449,64 @@ struct CaptureSession::Impl {
             std::size_t(y0) * frame.width + x0, std::size_t(y0) * frame.width + x1,
             std::size_t(y1) * frame.width + x0, std::size_t(y1) * frame.width + x1};
         float sw = 0.0f, r = 0.0f, g = 0.0f, b = 0.0f;
-        for (int k = 0; k < 4; ++k) {
-          sw += f[k] * frame.weight[s[k]];
-          const float* q = &frame.weighted_radiance[3 * s[k]];
-          r += f[k] * q[0], g += f[k] * q[1], b += f[k] * q[2];
+        for (int q = 0; q < 4; ++q) {
+          sw += f[q] * frame.weight[s[q]];
+          const float* w = &frame.weighted_radiance[3 * s[q]];
+          r += f[q] * w[0], g += f[q] * w[1], b += f[q] * w[2];
         }
-        if (!(sw > 1e-6f)) continue;
-        const std::size_t texel = ti.texel[k];
-        const glm::vec3 before = texel_radiance(texel);
-        const bool was_covered = weight[texel] > 0.0f;
-        float* acc = &weighted_radiance[3 * texel];
-        acc[0] += r, acc[1] += g, acc[2] += b;
-        weight[texel] += sw;
-        const glm::vec3 change = texel_radiance(texel) - before;
-        if (!was_covered) covered_solid_angle += ti.solid_angle[k];
-        if (change != glm::vec3(0.0f)) {
-          changed_dirs.emplace_back(dir_x[k], dir_y[k], dir_z[k]);
-          changed_values.push_back(glm::dvec3(change) * ti.solid_angle[k]);
-        }
+        if (sw > 1e-6f) visit(k, sw, r, g, b);
       }
     }
+  }
+
+  // The frame's exposure x gain relative to the one it was linearised with, from where it
+  // overlaps what the map holds already (issue 16 §4: frames whose exposure is unknown): the
+  // median over the well-exposed samples (mean weight >= 0.5, so not near clipping or black)
+  // of texels measured with confidence (sum of weights >= 1) of frame luminance / map
+  // luminance. The gain compensation of panorama stitchers, with a median instead of least
+  // squares so that what moved or was misaligned does not bias it. std::nullopt when fewer
+  // than `kMinSamples` samples overlap.
+  std::optional<double> exposure_ratio(const LinearFrame& frame, const glm::dquat& orientation,
+                                       int& samples) {
+    constexpr int kMinSamples = 64;
+    ratio_scratch.clear();
+    const TileIndex& ti = *tile_index;
+    for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
+      const std::size_t texel = ti.texel[k];
+      if (sw < 0.5f || weight[texel] < 1.0f) return;
+      const float* acc = &weighted_radiance[3 * texel];
+      const float map = luminance(acc[0], acc[1], acc[2]) / weight[texel];
+      const float seen = luminance(r, g, b) / sw;
+      if (map > 0.0f && seen > 0.0f) ratio_scratch.push_back(seen / map);
+    });
+    samples = int(ratio_scratch.size());
+    if (samples < kMinSamples) return std::nullopt;
+    const auto mid = ratio_scratch.begin() + std::ptrdiff_t(ratio_scratch.size() / 2);
+    std::nth_element(ratio_scratch.begin(), mid, ratio_scratch.end());
+    return double(*mid);
+  }
+
+  // Projects the linearised frame into the map (thesis ch. 3) and updates the live SH.
+  void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
+    const auto t0 = Clock::now();
+    std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
+    changed_dirs.clear(), changed_values.clear();
+    const TileIndex& ti = *tile_index;
+    const std::vector<float>&dir_x = ti.dir_x, &dir_y = ti.dir_y, &dir_z = ti.dir_z;
+    for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
+      const std::size_t texel = ti.texel[k];
+      const glm::vec3 before = texel_radiance(texel);
+      const bool was_covered = weight[texel] > 0.0f;
+      float* acc = &weighted_radiance[3 * texel];
+      acc[0] += r, acc[1] += g, acc[2] += b;
+      weight[texel] += sw;
+      const glm::vec3 change = texel_radiance(texel) - before;
+      if (!was_covered) covered_solid_angle += ti.solid_angle[k];
+      if (change != glm::vec3(0.0f)) {
+        changed_dirs.emplace_back(dir_x[k], dir_y[k], dir_z[k]);
+        changed_values.push_back(glm::dvec3(change) * ti.solid_angle[k]);
+      }
+    });
     result.texels_changed = changed_dirs.size();
     result.project_ms = ms_since(t0);
     // Live SH: only the change of the texels this frame touched is projected (eq. 2.29 is
@@ -495,15 +535,35 @@ struct CaptureSession::Impl {
                               size_text(camera.width, camera.height);
       return result;
     }
-    const double exposure_gain = info.exposure * info.gain;
+    // Unknown exposure: linearised at the last frame's estimate (auto-exposure moves slowly),
+    // corrected below from the overlap with the map; the first frame's reported value sets the
+    // map's scale.
+    FrameInfo used_info = info;
+    if (options.estimate_exposure && last_exposure_gain > 0.0)
+      used_info.exposure = last_exposure_gain, used_info.gain = 1.0;
+    double exposure_gain = used_info.exposure * used_info.gain;
     auto t0 = Clock::now();
-    const LinearFrame frame = linearize(bgr8, response, exposure_gain, factor / scale);
+    LinearFrame frame = linearize(bgr8, response, exposure_gain, factor / scale);
     result.linearize_ms = ms_since(t0);
     const glm::dquat sensor = glm::normalize(info.orientation);
     t0 = Clock::now();
-    result.orientation = options.align ? align(bgr8, info, sensor, result) : sensor;
+    result.orientation = options.align ? align(bgr8, used_info, sensor, result) : sensor;
     result.align_ms = ms_since(t0);
     result.correction_deg = angle_deg(result.orientation, sensor);
+    if (options.estimate_exposure) {
+      t0 = Clock::now();
+      if (const auto ratio = exposure_ratio(frame, result.orientation, result.exposure_samples)) {
+        // The frame is `ratio` times brighter than the map where they overlap: its exposure
+        // was that much longer than assumed.
+        const auto inverse = float(1.0 / *ratio);
+        for (float& v : frame.weighted_radiance) v *= inverse;
+        exposure_gain *= *ratio;
+        result.exposure_estimated = true;
+      }
+      last_exposure_gain = exposure_gain;
+      result.exposure_ms = ms_since(t0);
+    }
+    result.exposure_gain = exposure_gain;
     project(frame, result.orientation, result);
     result.used = true;
     ++used;

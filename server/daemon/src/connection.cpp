@@ -166,7 +166,7 @@ void Connection::handle_intrinsics(const CameraIntrinsics& c) {
   if (c.width < 1 || c.height < 1 || !finite || !(c.fx > 0) || !(c.fy > 0))
     return fail(wire::ErrorCode::BadMessage,
                 "CameraIntrinsics: size or focal lengths out of range");
-  const std::string why = session_->set_camera(c);
+  const std::string why = session_->set_camera(c, exposure_unknown_);
   if (!why.empty()) return fail(wire::ErrorCode::BadMessage, "CameraIntrinsics: " + why);
 }
 
@@ -194,8 +194,9 @@ void Connection::handle_frame(wire::CameraFrame&& m) {
     return fail(wire::ErrorCode::OutOfOrder, "CameraFrame before CameraIntrinsics");
   // The codec checked the size against the limits and RGB8 data against the size.
   if (exposure_unknown_) {
-    // One locked exposure for every frame (whatever the client wrote there): the map's scale
-    // is then relative to this exposure, and consistent across the session.
+    // Whatever the client wrote there: the first frame is taken at one locked exposure, which
+    // sets the map's scale; the capture estimates every later frame's from its overlap with
+    // the map (CaptureOptions::estimate_exposure).
     m.info.exposure = kLockedExposureSeconds;
     m.info.gain = 1.0;
   }

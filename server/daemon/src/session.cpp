@@ -48,12 +48,22 @@ Session::Session(std::string id, std::string device_id, const SessionEnv& env, S
 
 Session::~Session() { shutdown(); }
 
-std::string Session::set_camera(const CameraIntrinsics& camera) {
+std::string Session::set_camera(const CameraIntrinsics& camera, bool exposure_unknown) {
   const CameraResponse response = device_response(env_, device_id_);
   std::lock_guard serial(process_mutex_);  // no frame is being added while the camera changes
   std::lock_guard lock(mutex_);
+  if (camera_ && same_camera(*camera_, camera)) {
+    if (capture_->options().estimate_exposure == exposure_unknown) return {};
+    // A client that reports exposure resumed a session of one that could not, or the other
+    // way round: the map stays, the frames from now on are taken as this client sends them.
+    capture::CaptureOptions o = capture_->options();
+    o.estimate_exposure = exposure_unknown;
+    auto next = std::make_unique<capture::CaptureSession>(camera, capture_->response(), o);
+    next->restore(capture_->accumulators());
+    capture_ = std::move(next);
+    return {};
+  }
   if (camera_) {
-    if (same_camera(*camera_, camera)) return {};
     if (camera.width != camera_->width || camera.height != camera_->height)
       return "the session's camera is " + std::to_string(camera_->width) + "x" +
              std::to_string(camera_->height) + "; start a new session for another size";
@@ -78,6 +88,7 @@ std::string Session::set_camera(const CameraIntrinsics& camera) {
   capture::CaptureOptions o;
   o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
   o.fill = env_.fill;
+  o.estimate_exposure = exposure_unknown;
   o.align_every = std::max(1, env_.align_every);
   o.align_max_width = std::max(32, env_.align_max_width);
   o.align_async = true;  // a frame never waits for feature matching

@@ -81,8 +81,10 @@ class Session : public std::enable_shared_from_this<Session> {
   // with the device's calibrated curve (DATA/responses/<device>.json) or sRGB. Later calls
   // describe the same camera, or the same size with refined optics (a browser's focal length
   // from the marker's views; at most kMaxCameraChanges a session): the map so far is kept and
-  // later frames use the new intrinsics. Returns why not, or empty.
-  std::string set_camera(const CameraIntrinsics& camera);
+  // later frames use the new intrinsics. `exposure_unknown`: the client cannot report
+  // exposure (Hello's exposure:unknown), so each frame's is estimated from its overlap with
+  // the map (issue 16 §4). Returns why not, or empty.
+  std::string set_camera(const CameraIntrinsics& camera, bool exposure_unknown = false);
   bool has_camera() const;
 
   // The connected client: where messages go, the tile coding its Hello accepts, and how to
@@ -114,7 +116,7 @@ class Session : public std::enable_shared_from_this<Session> {
   // usable) when the checkpoint fails.
   void release();
   bool holds_lease() const;
-  void shutdown();    // cancels the map computation and waits for running work
+  void shutdown();  // cancels the map computation and waits for running work
   nlohmann::json summary() const;
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
 
@@ -151,7 +153,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t maps_frames_ = 0;
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
-  std::mutex process_mutex_;     // held while a frame is processed
+  std::mutex process_mutex_;             // held while a frame is processed
   mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
 };

@@ -54,6 +54,11 @@ struct CaptureOptions {
   // measured_sh() those of what was seen, with black elsewhere.
   Fill fill = Fill::Estimate;
   FillOptions fill_options;
+  // The frames' exposure x gain is unknown (most browsers; issue 16 §4): each frame's is
+  // estimated relative to the map from where it overlaps what was captured already (a median
+  // ratio over well-exposed samples); the first frame's reported value sets the map's scale,
+  // and a frame that overlaps too little keeps the last estimate.
+  bool estimate_exposure = false;
 };
 
 // What one frame carries besides its pixels (common/, shared with the client and the wire).
@@ -68,8 +73,13 @@ struct FrameResult {
   std::string align_note;     // why the alignment was not used, when it was tried
   double correction_deg = 0;  // angle between the sensor and the used orientation
   std::size_t texels_changed = 0;
-  double decode_ms = 0, linearize_ms = 0, align_ms = 0, project_ms = 0, sh_ms = 0;
-  double total_ms() const { return decode_ms + linearize_ms + align_ms + project_ms + sh_ms; }
+  double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
+  bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
+  int exposure_samples = 0;         // the overlapping samples that measurement had
+  double decode_ms = 0, linearize_ms = 0, align_ms = 0, exposure_ms = 0, project_ms = 0, sh_ms = 0;
+  double total_ms() const {
+    return decode_ms + linearize_ms + align_ms + exposure_ms + project_ms + sh_ms;
+  }
 };
 
 // The accumulators of a session (what a checkpoint has to keep), in `layout`'s texel order.
