@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <string>
 #include <tuple>
 
@@ -52,10 +53,10 @@ TEST(ArlightMapsSh, WritesReconstructionPreviewAndJson) {
   ASSERT_EQ(j["coefficients"].size(), 36u);
   ASSERT_EQ(j["coefficients"][0].size(), 3u);
 
-  // The coefficients are those of the library on the same resampled map, in l(l+1)+m order.
+  // The coefficients are those of the library on the probe's own texels, in l(l+1)+m order.
   using namespace arlight;
   const EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 64);
-  const ShCoeffs want = sh_project(resample(load_envmap(kProbe).env, layout), 6);
+  const ShCoeffs want = sh_project(load_envmap(kProbe).env, 6);
   for (int k : {0, 2, 7, 35})
     for (int c = 0; c < 3; ++c)
       EXPECT_NEAR(j["coefficients"][k][c].get<double>(), want.c[std::size_t(k)][c],
@@ -68,6 +69,36 @@ TEST(ArlightMapsSh, WritesReconstructionPreviewAndJson) {
   EXPECT_NEAR(exr.metadata.sh_coefficients[0][1], want.c[0].y, 1e-5 * std::abs(want.c[0].y));
   const glm::dvec3 centre = sh_evaluate(want, layout.texel_dir(32, 32));
   EXPECT_NEAR(exr.image.at(32, 32).x, centre.x, 2e-3 * std::abs(centre.x));
+}
+
+// Issue 16 §2: the projection integrates over the input's own texels with their exact solid
+// angles, so L00 is the exact sum whatever --size (which only sets the reconstruction's size).
+// Before, the probe was resampled to a --size angle map first: 1.05 % off at 512, 0.1 % at 1024.
+TEST(ArlightMapsSh, L00IsTheExactSolidAngleSumAtEverySize) {
+  const fs::path out = temp_dir("sh_exact");
+  // The exact sum over the 512x256 lat-long probe: row j spans polar angles [pi j/H,
+  // pi (j+1)/H], each of its texels 2 pi / W of azimuth, so its solid angle is
+  // (2 pi / W) (cos theta_j - cos theta_j+1).
+  const LoadedEnvMap probe = load_envmap(kProbe);
+  const int w = probe.env.layout.width(), h = probe.env.layout.height();
+  ASSERT_EQ(probe.env.layout.projection(), Projection::LatLong);
+  glm::dvec3 sum(0.0);
+  for (int y = 0; y < h; ++y) {
+    const double omega =
+        2 * std::numbers::pi / w *
+        (std::cos(std::numbers::pi * y / h) - std::cos(std::numbers::pi * (y + 1) / h));
+    for (int x = 0; x < w; ++x) sum += omega * glm::dvec3(probe.env.image.at(x, y));
+  }
+  const glm::dvec3 l00 = sum * (0.5 / std::sqrt(std::numbers::pi));
+  for (int size : {64, 256, 512, 1024}) {
+    const RunResult r = run("sh --input " + kProbe + " --order 2 --size " + std::to_string(size) +
+                            " --out " + out.string() + " --json " + (out / "r.json").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto j = nlohmann::json::parse(std::ifstream(out / "r.json"));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(j["coefficients"][0][c].get<double>(), l00[c], 1e-3 * l00[c])
+          << "size " << size << " channel " << c;
+  }
 }
 
 TEST(ArlightMapsSh, HigherOrdersFitBetter) {

@@ -1,5 +1,6 @@
-// arlight-maps sh: resample a probe to an angle map, project it to SH of order N, reconstruct
-// the map from the coefficients and report how close it is (thesis Alg. 4.4/4.5, eq. 2.30).
+// arlight-maps sh: project a probe to SH of order N over its own texels with their exact solid
+// angles (thesis Alg. 4.4/4.5; no resampling first, so the coefficients do not depend on
+// --size), reconstruct it as an angle map of --size and report how close that is (eq. 2.30).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -43,7 +44,7 @@ int run_sh(const ShOptions& o) {
   const EnvMap angle = resample(probe.env, layout);
 
   auto t0 = std::chrono::steady_clock::now();
-  const ShCoeffs coeffs = sh_project(angle, o.order);
+  const ShCoeffs coeffs = sh_project(probe.env, o.order);
   const double seconds_project = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
   const Image recon = sh_reconstruct(coeffs, layout);
