@@ -106,7 +106,8 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
   const fb::Vec3 c(m.dominant_colour.x, m.dominant_colour.y, m.dominant_colour.z);
   return fb::CreateLightingUpdate(b, m.frame_sequence, m.frame_used, text(b, m.reason),
                                   std::uint8_t(m.sh.order), b.CreateVector(flat), &d, &c,
-                                  m.coverage, m.frames_processed, m.frames_dropped, m.estimated)
+                                  m.coverage, m.frames_processed, m.frames_dropped, m.estimated,
+                                  m.frame_exposure)
       .Union();
 }
 
@@ -314,6 +315,10 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.frames_processed = m.frames_processed();
   u.frames_dropped = m.frames_dropped();
   u.estimated = m.estimated();
+  u.frame_exposure = m.frame_exposure();
+  if (!(u.frame_exposure >= 0.0 && u.frame_exposure < 1e6))
+    refuse(Fault::OutOfRange, "LightingUpdate", "frame_exposure",
+           std::to_string(u.frame_exposure) + " is not an exposure x gain in [0, 1e6)");
   if (!(u.coverage >= 0.0f && u.coverage <= 1.001f) ||
       !(u.estimated >= 0.0f && u.estimated <= 1.001f))
     refuse(Fault::OutOfRange, "LightingUpdate", "coverage",
@@ -495,7 +500,7 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          sh.order == o.sh.order && sh.c == o.sh.c && dominant_direction == o.dominant_direction &&
          dominant_colour == o.dominant_colour && coverage == o.coverage &&
          frames_processed == o.frames_processed && frames_dropped == o.frames_dropped &&
-         estimated == o.estimated;
+         estimated == o.estimated && frame_exposure == o.frame_exposure;
 }
 
 const char* message_name(const Message& m) {

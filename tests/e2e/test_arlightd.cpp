@@ -155,6 +155,9 @@ TEST(Arlightd, TheFirstFrameLightsTheWholeSphereAndSaysHowMuchIsEstimated) {
   EXPECT_EQ(black.coverage, filled.coverage);
   EXPECT_NEAR(filled.estimated, 1.0f - filled.coverage, 1e-5f);
   EXPECT_EQ(black.estimated, 0.0f);
+  // This client reports its exposure: the update echoes it (an exposure:unknown client gets
+  // the daemon's estimate there instead).
+  EXPECT_DOUBLE_EQ(filled.frame_exposure, rec.frames[0].exposure * rec.frames[0].gain);
   // The DC term is the mean radiance: black counts the unseen 80-98 % as 0.
   for (int ch = 0; ch < 3; ++ch) EXPECT_GT(filled.sh.c[0][ch], 3.0 * black.sh.c[0][ch]) << ch;
   // A bad --fill is refused naming it.

@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <limits>
 
 #include "arlight/wire.hpp"
 #include "wire_samples.hpp"
@@ -114,8 +116,11 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   EXPECT_EQ(e.field(), "projection");
   EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
 
-  e = refusal(wire::encode(wire::MapTile{.map_width = 64, .map_height = 64, .width = 1,
-                                         .height = 1, .data = {1},
+  e = refusal(wire::encode(wire::MapTile{.map_width = 64,
+                                         .map_height = 64,
+                                         .width = 1,
+                                         .height = 1,
+                                         .data = {1},
                                          .coding = wire::TileCoding(5)}));
   EXPECT_EQ(e.message(), "MapTile");
   EXPECT_EQ(e.field(), "coding");
@@ -132,6 +137,27 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   e = refusal(
       wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 13, 0, 0, 1, 1, {1}}));
   EXPECT_EQ(e.field(), "level");
+}
+
+// LightingUpdate's fractions and exposure (issue 16): outside their ranges a message is
+// refused, naming the field.
+TEST(WireCodec, LightingUpdateFractionsAndExposureAreChecked) {
+  const auto refused_field = [](float coverage, float estimated, double exposure) {
+    wire::LightingUpdate u;
+    u.coverage = coverage, u.estimated = estimated, u.frame_exposure = exposure;
+    const DecodeError e = refusal(wire::encode(u));
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+    EXPECT_EQ(e.message(), "LightingUpdate");
+    return e.field();
+  };
+  EXPECT_EQ(refused_field(1.5f, 0.0f, 0.0), "coverage");
+  EXPECT_EQ(refused_field(0.5f, -0.25f, 0.0), "coverage");
+  EXPECT_EQ(refused_field(0.0f, std::numeric_limits<float>::quiet_NaN(), 0.0), "coverage");
+  EXPECT_EQ(refused_field(0.5f, 0.5f, -0.01), "frame_exposure");
+  EXPECT_EQ(refused_field(0.5f, 0.5f, std::numeric_limits<double>::infinity()), "frame_exposure");
+  wire::LightingUpdate fine;
+  fine.coverage = 0.25f, fine.estimated = 0.75f, fine.frame_exposure = 0.02;
+  EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
 }
 
 TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {
@@ -228,8 +254,8 @@ TEST(WireCodec, HalfFloatTilesRoundTripAndRefuseDamage) {
   // Each coding refuses the other's bytes: zstd is not 12 raw bytes, raw bytes are not zstd.
   std::string why;
   EXPECT_FALSE(wire::decode_half_rgb(half, 2, wire::TileCoding::ZstdHalf, why));
-  EXPECT_FALSE(wire::decode_half_rgb(wire::encode_half_rgb(rgb.data(), 2), 2,
-                                     wire::TileCoding::Half, why));
+  EXPECT_FALSE(
+      wire::decode_half_rgb(wire::encode_half_rgb(rgb.data(), 2), 2, wire::TileCoding::Half, why));
   // A non-finite texel is refused.
   std::vector<float> inf = {0, 0, 0, 1e9f, 0, 0};
   EXPECT_FALSE(wire::decode_half_rgb(wire::encode_half_rgb(inf.data(), 2, wire::TileCoding::Half),

@@ -172,6 +172,7 @@ class WebClient {
       last_sequence_ = u->frame_sequence;
       coverage_ = u->coverage;
       estimated_ = u->estimated;
+      if (u->frame_exposure > 0.0) frame_exposure_ = u->frame_exposure;
       frames_processed_ = u->frames_processed;
       if (!maps_) renderer_.set_sh(u->sh);
       sh_ = u->sh;
@@ -272,7 +273,9 @@ class WebClient {
       renderer_.set_shadow(shadow);
       renderer_.draw(mesh_, material_, model_);
     }
-    renderer_.composite_in_place({render::ToneMode::CameraMatched, kLockedExposure, 1.0});
+    // The camera's exposure as arlightd estimated it for the newest frame it processed (the
+    // browser cannot say; its auto-exposure moves as the phone turns), in the map's units.
+    renderer_.composite_in_place({render::ToneMode::CameraMatched, frame_exposure_, 1.0});
     renderer_.present();
     ++frames_rendered_;
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -323,6 +326,7 @@ class WebClient {
     s.set("map_sets", double(map_sets_));
     s.set("coverage", coverage_);
     s.set("estimated", estimated_);
+    s.set("frame_exposure", frame_exposure_);
     s.set("frames_encoded", double(frames_sent_));
     s.set("frames_rendered", double(frames_rendered_));
     const auto source = renderer_.lighting_source();
@@ -404,6 +408,7 @@ class WebClient {
                 frames_sent_ = 0, frames_rendered_ = 0;
   double coverage_ = 0;
   double estimated_ = 0;  // fraction of the sphere arlightd estimated rather than measured
+  double frame_exposure_ = kLockedExposure;  // the newest frame's exposure, from arlightd
   bool maps_ = false;
   glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
 };

@@ -138,6 +138,11 @@ struct LightingUpdate {
   // Fraction of the sphere whose radiance in `sh` and the maps is estimated from what was seen
   // (the rest of 1 - coverage is black: the server does not fill).
   float estimated = 0;
+  // The exposure x gain the server took that frame at, in the map's units: as the client
+  // reported it, or as estimated from the frame's overlap with the map when the client said
+  // exposure:unknown (what the client should tone-map the composite with). 0 for a frame
+  // that was not used.
+  double frame_exposure = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

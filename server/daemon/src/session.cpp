@@ -227,7 +227,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .coverage = float(capture_->coverage()),
           .frames_processed = processed_,
           .frames_dropped = dropped_,
-          .estimated = float(capture_->estimated_fraction())};
+          .estimated = float(capture_->estimated_fraction()),
+          .frame_exposure = r.used ? r.exposure_gain : 0.0};
 }
 
 std::string Session::request_maps(MapRequest r) {
