@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <limits>
 
 #include "arlight/wire.hpp"
 #include "wire_samples.hpp"
