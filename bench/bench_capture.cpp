@@ -93,8 +93,89 @@ void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill) {
   state.counters["coverage_pct"] = 100.0 * session.coverage();
 }
 
+// Issue 16 §2: the cost of a frame by where the camera looks, in a capture layout. Eight
+// directions of a sweep (ahead, right, behind, left at the horizon; up; down; behind 45 degrees
+// up and down): the median ms of each, and max / min over the eight (the target is <= 1.5). In
+// an angle map the texels near the back pole cover up to ~17x less solid angle than ahead, so
+// a frame looking behind projects many more of them.
+void BM_CaptureByDirection(benchmark::State& state, Projection projection, int size, bool align) {
+  tbb::global_control one_core(tbb::global_control::max_allowed_parallelism, 1);
+  static const std::vector<std::pair<const char*, glm::dquat>> directions = [] {
+    const auto yp = [](double yaw, double pitch) {
+      return glm::angleAxis(glm::radians(yaw), glm::dvec3(0, 1, 0)) *
+             glm::angleAxis(glm::radians(pitch), glm::dvec3(1, 0, 0));
+    };
+    return std::vector<std::pair<const char*, glm::dquat>>{
+        {"ahead", yp(0, 0)},        {"right", yp(-90, 0)},
+        {"behind", yp(180, 0)},     {"left", yp(90, 0)},
+        {"up", yp(0, 85)},          {"down", yp(0, -85)},
+        {"behind_up", yp(180, 45)}, {"behind_down", yp(180, -45)}};
+  }();
+  // One JPEG of venice a direction (exposure 0.3), rendered once.
+  static std::vector<std::vector<std::uint8_t>> jpegs;
+  if (jpegs.empty()) {
+    const EnvMap env = load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env;
+    const EnvSampler sampler(env);
+    const CameraIntrinsics k = CameraIntrinsics::from_fov(640, 480, 60);
+    const PinholeCamera cam(k);
+    const CameraResponse srgb = CameraResponse::srgb();
+    for (const auto& [name, q] : directions) {
+      cv::Mat im(k.height, k.width, CV_8UC3);
+      for (int y = 0; y < k.height; ++y)
+        for (int x = 0; x < k.width; ++x) {
+          const glm::vec3 l = sampler.sample(q * cam.unproject({x, y}));
+          for (int c = 0; c < 3; ++c)
+            im.at<cv::Vec3b>(y, x)[2 - c] = cv::saturate_cast<uchar>(
+                std::lround(255.0f * srgb.encode(std::min(1.0f, float(l[c] * 0.3)), c)));
+        }
+      jpegs.emplace_back();
+      cv::imencode(".jpg", im, jpegs.back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+    }
+  }
+  capture::CaptureOptions options;
+  options.layout = EnvLayout::for_size(projection, size);
+  options.align = align;  // every frame (8 directions in turn), at 160 px as arlightd
+  options.align_max_width = 160;
+  options.fill = capture::Fill::None;
+  capture::CaptureSession session(CameraIntrinsics::from_fov(640, 480, 60), CameraResponse::srgb(),
+                                  options);
+  std::vector<std::vector<double>> ms(directions.size());
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const std::size_t d = k++ % directions.size();
+    const capture::FrameResult r =
+        session.add_encoded(jpegs[d], {0.0, 0.3, 1.0, directions[d].second});
+    if (!r.used) state.SkipWithError(r.skipped_reason.c_str());
+    ms[d].push_back(r.total_ms());
+  }
+  double lo = 1e30, hi = 0.0;
+  for (std::size_t d = 0; d < directions.size(); ++d) {
+    std::sort(ms[d].begin(), ms[d].end());
+    const double median = ms[d][ms[d].size() / 2];
+    state.counters[std::string(directions[d].first) + "_ms"] = median;
+    lo = std::min(lo, median), hi = std::max(hi, median);
+  }
+  state.counters["max_over_min"] = hi / lo;
+  state.counters["texels"] = double(texel_table(options.layout)->size());
+}
+
 }  // namespace
 
+BENCHMARK_CAPTURE(BM_CaptureByDirection, anglemap_512, Projection::AngleMap, 512, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(8 * 32);
+BENCHMARK_CAPTURE(BM_CaptureByDirection, cube_192, Projection::Cube, 192, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(8 * 32);
+BENCHMARK_CAPTURE(BM_CaptureByDirection, latlong_256, Projection::LatLong, 256, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(8 * 32);
+BENCHMARK_CAPTURE(BM_CaptureByDirection, anglemap_512_aligned, Projection::AngleMap, 512, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(8 * 32);
+BENCHMARK_CAPTURE(BM_CaptureByDirection, cube_192_aligned, Projection::Cube, 192, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(8 * 32);
 BENCHMARK_CAPTURE(BM_CaptureFrame, no_align, false, capture::Fill::Estimate)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(256);

@@ -347,3 +347,43 @@ TEST(DriftModel, FitsAConstantHeadingDriftAndExtrapolatesIt) {
 
 }  // namespace
 }  // namespace arlight::capture
+
+// Issue 16 §2: arlightd's capture layout, and carrying accumulators from one layout to another.
+TEST(CaptureLayout, TheDaemonsLayoutIsACubeMapWithAboutTheAngleMapsTexels) {
+  const EnvLayout l = capture_layout_for(512);
+  EXPECT_EQ(l.projection(), Projection::Cube);
+  EXPECT_EQ(l.face_size(), 192);
+  EXPECT_NEAR(double(texel_table(l)->size()) /
+                  double(texel_table(EnvLayout::for_size(Projection::AngleMap, 512))->size()),
+              1.07, 0.01);
+  EXPECT_EQ(capture_layout_for(8).face_size(), 8);
+  // Its texels' solid angles sum to the sphere and vary at most 5.2x (an angle map's ~17x).
+  const auto t = texel_table(l);
+  double sum = 0, lo = 1e9, hi = 0;
+  for (double w : t->solid_angle) sum += w, lo = std::min(lo, w), hi = std::max(hi, w);
+  EXPECT_NEAR(sum, 4 * kPi, 1e-9);
+  EXPECT_LT(hi / lo, 5.3);
+}
+
+TEST(CaptureLayout, AccumulatorsCarryOverToAnotherLayoutByDirection) {
+  const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 60);
+  CaptureSession a(cam, CameraResponse::srgb(), small_options());  // angle map 128
+  const cv::Mat frame(120, 160, CV_8UC3, cv::Scalar(60, 110, 170));
+  ASSERT_TRUE(a.add_image(frame, info(0.01, 1, yaw_pitch(30, 10))).used);
+  const EnvLayout cube = capture_layout_for(128);
+  const Accumulators c = convert_accumulators(a.accumulators(), a.layout(), cube);
+  CaptureOptions o = small_options();
+  o.layout = cube;
+  CaptureSession b(cam, CameraResponse::srgb(), o);
+  b.restore(c);
+  EXPECT_NEAR(b.coverage(), a.coverage(), 0.02 * a.coverage());
+  // Where a saw the frame, b has its radiance.
+  const EnvMap ea = a.measured_environment(), eb = b.measured_environment();
+  const glm::dvec3 ahead = yaw_pitch(30, 10) * glm::dvec3(0, 0, -1);
+  const glm::ivec2 pa = a.layout().dir_to_texel(ahead), pb = cube.dir_to_texel(ahead);
+  EXPECT_EQ(eb.image.at(pb.x, pb.y), ea.image.at(pa.x, pa.y));
+  EXPECT_GT(eb.image.at(pb.x, pb.y).x, 0.0f);
+  // The same layout: unchanged; a size that does not fit: refused.
+  EXPECT_EQ(convert_accumulators(c, cube, cube).weight, c.weight);
+  EXPECT_THROW(convert_accumulators(c, a.layout(), cube), std::invalid_argument);
+}

@@ -8,10 +8,15 @@
 
 #include <chrono>
 #include <fstream>
+#include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <thread>
 
+#include "arlight/capture.hpp"
+#include "arlight/error.hpp"
 #include "checkpoint.hpp"
+#include "session.hpp"
 #include "session_lease.hpp"
 
 namespace arlight::daemon {
@@ -116,6 +121,69 @@ TEST(SessionCheckpoint, TheGenerationAndCoverageComeBack) {
   ASSERT_TRUE(old);
   EXPECT_EQ(old->generation, 7);
   EXPECT_DOUBLE_EQ(old->coverage, 0.0);
+}
+
+// Issue 16 §2: sessions capture into a cube map now; a checkpoint written by a daemon from
+// before (an angle map of map_size, no "layout" in its manifest) still resumes, converted.
+TEST(SessionCheckpoint, AnAngleMapCheckpointFromBeforeResumesInTheCubeLayout) {
+  SessionEnv env;
+  env.data_dir = fresh_dir("old_layout");
+  env.map_size = 128;
+  const EnvLayout old_layout = EnvLayout::for_size(Projection::AngleMap, 128);
+  // What such a daemon captured: grey frames looking ahead and to the side.
+  const CameraIntrinsics camera = CameraIntrinsics::from_fov(160, 120, 60);
+  capture::CaptureOptions o;
+  o.layout = old_layout;
+  o.align = false;
+  capture::CaptureSession old(camera, CameraResponse::srgb(), o);
+  for (double yaw : {0.0, 50.0})
+    ASSERT_TRUE(
+        old.add_image(cv::Mat(120, 160, CV_8UC3, cv::Scalar(90, 120, 150)),
+                      {0.0, 0.01, 1.0, glm::angleAxis(glm::radians(yaw), glm::dvec3(0, 1, 0))})
+            .used);
+  SessionCheckpoint c;
+  c.id = "0ld5e55101";
+  c.device_id = "phone";
+  c.camera = camera;
+  c.map_size = 128;
+  c.frames_received = c.frames_processed = 2;
+  c.coverage = old.coverage();
+  c.accumulators = old.accumulators();
+  write_checkpoint(session_dir(env, c.id), c, 1);
+  nlohmann::json meta =
+      nlohmann::json::parse(std::ifstream(session_dir(env, c.id) / "session.json"));
+  ASSERT_FALSE(meta.contains("layout"));
+  auto lease = SessionLease::try_acquire(session_dir(env, c.id), "test");
+  ASSERT_TRUE(lease);
+  const auto s = Session::load(c.id, env, std::move(*lease));
+  ASSERT_TRUE(s);
+  const nlohmann::json summary = s->summary();
+  // The same part of the sphere is seen (to within the texels along its edge).
+  EXPECT_NEAR(summary["coverage"].get<double>(), c.coverage, 0.01 * c.coverage + 0.002);
+  EXPECT_EQ(s->frames_processed(), 2u);
+  // Its next checkpoint is in the cube layout and names it.
+  s->checkpoint();
+  const auto back = read_checkpoint(session_dir(env, c.id));
+  ASSERT_TRUE(back);
+  ASSERT_TRUE(back->layout);
+  EXPECT_EQ(*back->layout, capture::capture_layout_for(128));
+  EXPECT_EQ(back->layout->projection(), Projection::Cube);
+  EXPECT_EQ(back->accumulators.weight.size(), back->layout->texel_count());
+  s->shutdown();
+}
+
+// A manifest whose layout does not fit its accumulators is damaged: refused, naming it.
+TEST(SessionCheckpoint, ALayoutThatDoesNotFitTheAccumulatorsIsRefused) {
+  const fs::path dir = fresh_dir("bad_layout");
+  SessionCheckpoint c = small_checkpoint();
+  c.layout = EnvLayout::for_size(Projection::Cube, 8);  // 384 texels, the file has 64
+  write_checkpoint(dir, c, 1);
+  try {
+    read_checkpoint(dir);
+    FAIL() << "read a checkpoint whose layout does not fit";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("8x48"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -103,12 +103,14 @@ TEST(Arlightd, ReplayGetsTheOfflineCapturesShAndACompleteMapSet) {
       ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + kToken + " --recording " +
                               sample_recording().string() + " --out " + (dir / "replay").string());
   ASSERT_EQ(r.status, 0) << r.output;
-  // The offline capture with the daemon's settings (alignment every 4th frame at 160 px,
-  // measured in the background and applied at the next frame).
+  // The offline capture with the daemon's settings (its cube-map layout for --map-size 512,
+  // alignment every 4th frame at 160 px, measured in the background and applied at the next
+  // frame).
   const auto c = test::run_tool(
       ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() + " --out " +
                                (dir / "env.exr").string() + " --json " + (dir / "c.json").string() +
-                               " --align-every 4 --align-width 160 --align-async");
+                               " --projection cube --size 192 --align-every 4 --align-width 160"
+                               " --align-async");
   ASSERT_EQ(c.status, 0) << c.output;
   const json replay = read_json(dir / "replay" / "replay.json"),
              offline = read_json(dir / "c.json");

@@ -252,12 +252,19 @@ struct CaptureSession::Impl {
     const int x0 = int(std::floor(p.x)), y0 = int(std::floor(p.y));
     const float fx = float(p.x - x0), fy = float(p.y - y0);
     const bool wrap = layout.projection() == Projection::LatLong;
+    // A cube map's faces are stacked: the neighbours stay on the face the point is on.
+    int y_lo = 0, y_hi = h - 1;
+    if (layout.projection() == Projection::Cube) {
+      const int n = layout.face_size();
+      y_lo = std::clamp(int(std::floor((p.y + 0.5) / n)), 0, 5) * n;
+      y_hi = y_lo + n - 1;
+    }
     glm::vec3 sum_wl(0.0f);
     float sum_w = 0.0f;
     for (int dy = 0; dy < 2; ++dy)
       for (int dx = 0; dx < 2; ++dx) {
         const int x = wrap ? (x0 + dx + w) % w : std::clamp(x0 + dx, 0, w - 1);
-        const int y = std::clamp(y0 + dy, 0, h - 1);
+        const int y = std::clamp(y0 + dy, y_lo, y_hi);
         const float f = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
         const std::size_t i = std::size_t(y) * w + x;
         const float* q = &weighted_radiance[3 * i];
@@ -679,6 +686,33 @@ void CaptureSession::restore(const Accumulators& acc) {
     if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
   s.sh = sh_project(measured_environment(), s.options.sh_order);
   s.unseen_stale = true;
+}
+
+EnvLayout capture_layout_for(int n) {
+  return EnvLayout::for_size(Projection::Cube, std::max(8, (3 * n / 8 + 4) / 8 * 8));
+}
+
+Accumulators convert_accumulators(const Accumulators& acc, const EnvLayout& from,
+                                  const EnvLayout& to) {
+  if (acc.weight.size() != from.texel_count() ||
+      acc.weighted_radiance.size() != 3 * from.texel_count())
+    throw std::invalid_argument("capture: accumulators of " + std::to_string(acc.weight.size()) +
+                                " texels do not fit a " + std::to_string(from.width()) + "x" +
+                                std::to_string(from.height()) + " map");
+  if (from == to) return acc;
+  Accumulators out;
+  out.weight.assign(to.texel_count(), 0.0f);
+  out.weighted_radiance.assign(3 * to.texel_count(), 0.0f);
+  const TexelTable& table = *texel_table(to);
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const glm::ivec2 p = from.dir_to_texel({table.x[i], table.y[i], table.z[i]});
+    const std::size_t s = std::size_t(std::clamp(p.y, 0, from.height() - 1)) * from.width() +
+                          std::size_t(std::clamp(p.x, 0, from.width() - 1));
+    const std::size_t t = table.index[i];
+    out.weight[t] = acc.weight[s];
+    std::copy_n(&acc.weighted_radiance[3 * s], 3, &out.weighted_radiance[3 * t]);
+  }
+  return out;
 }
 
 }  // namespace arlight::capture

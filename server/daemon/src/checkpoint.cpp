@@ -92,6 +92,10 @@ void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int gener
                {"last_sequence", c.last_sequence},
                {"coverage", c.coverage},
                {"generation", generation}};
+  if (c.layout)
+    meta["layout"] = {{"projection", std::string(projection_name(c.layout->projection()))},
+                      {"width", c.layout->width()},
+                      {"height", c.layout->height()}};
   if (c.request)
     meta["request"] = {{"shininess", c.request->shininess},
                        {"size", c.request->size},
@@ -131,6 +135,16 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     c.frames_skipped = meta.at("frames_skipped");
     c.last_sequence = meta.at("last_sequence");
     c.coverage = meta.value("coverage", 0.0);
+    if (meta.contains("layout")) {
+      const json& l = meta["layout"];
+      const auto projection = parse_projection(l.at("projection").get<std::string>());
+      if (!projection) throw InputError(where + ": unknown layout projection");
+      try {
+        c.layout = EnvLayout(*projection, l.at("width").get<int>(), l.at("height").get<int>());
+      } catch (const std::invalid_argument& e) {
+        throw InputError(where + ": layout: " + e.what());
+      }
+    }
     if (meta.contains("request")) {
       const json& r = meta["request"];
       MapRequest req;
@@ -157,6 +171,11 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     if (!intact)
       throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
     c.accumulators = parse_accumulators(bytes, where);
+    if (c.accumulators.weight.size() != c.capture_layout().texel_count())
+      throw InputError(where + ": " + std::to_string(c.accumulators.weight.size()) +
+                       " accumulated texels do not fit its " +
+                       std::to_string(c.capture_layout().width()) + "x" +
+                       std::to_string(c.capture_layout().height()) + " map");
     return c;
   } catch (const json::exception& e) {
     throw InputError(where + ": " + e.what());

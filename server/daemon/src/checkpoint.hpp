@@ -36,6 +36,12 @@ struct SessionCheckpoint {
   CameraIntrinsics camera;
   std::string response = "srgb";  // the curve's name the frames were linearised with
   int map_size = 0;
+  // The layout of the accumulators; checkpoints before 2026-12-02 have none: theirs is an angle
+  // map of map_size (capture_layout() says which).
+  std::optional<EnvLayout> layout;
+  EnvLayout capture_layout() const {
+    return layout ? *layout : EnvLayout::for_size(Projection::AngleMap, map_size);
+  }
   std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0, frames_skipped = 0,
                 last_sequence = 0;
   // The fraction of the sphere the map had seen (for people and fail-over checks; a resume

@@ -86,7 +86,7 @@ std::string Session::set_camera(const CameraIntrinsics& camera, bool exposure_un
     return {};
   }
   capture::CaptureOptions o;
-  o.layout = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
+  o.layout = capture::capture_layout_for(env_.map_size);
   o.fill = env_.fill;
   o.estimate_exposure = exposure_unknown;
   o.align_every = std::max(1, env_.align_every);
@@ -370,6 +370,7 @@ void Session::checkpoint() {
     generation = ++checkpoint_generation_;
     c.id = id_, c.device_id = device_id_, c.camera = *camera_, c.response = response_name_;
     c.map_size = env_.map_size;
+    c.layout = capture_->layout();
     c.frames_received = received_, c.frames_processed = processed_, c.frames_dropped = dropped_;
     c.frames_skipped = skipped_, c.last_sequence = last_sequence_;
     c.request = request_;
@@ -418,13 +419,14 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   if (!c) return nullptr;
   const std::string where = "session checkpoint of " + id;
   if (c->id != id) throw InputError(where + ": it names session " + c->id);
-  if (c->map_size != env.map_size)
-    throw InputError(where + ": its map size differs from this daemon's");
   auto s = std::make_shared<Session>(id, c->device_id, env, std::move(lease));
   const std::string why = s->set_camera(c->camera);
   if (!why.empty()) throw InputError(where + ": " + why);
   try {
-    s->capture_->restore(c->accumulators);
+    // A checkpoint of another layout (an angle map, before 2026-12-02; another map size) is
+    // carried over into this daemon's.
+    s->capture_->restore(
+        capture::convert_accumulators(c->accumulators, c->capture_layout(), s->capture_->layout()));
   } catch (const std::invalid_argument& e) {
     throw InputError(where + ": " + e.what());
   }
@@ -433,7 +435,8 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   s->last_sequence_ = c->last_sequence;
   s->request_ = c->request;
   s->checkpoint_generation_ = c->generation;
-  s->dirty_ = false;
+  // A checkpoint of another layout is rewritten in this daemon's at the next checkpoint.
+  s->dirty_ = c->capture_layout() != s->capture_->layout();
   return s;
 }
 
@@ -458,6 +461,9 @@ std::vector<std::uint8_t> Session::envmap_png() const {
     std::lock_guard lock(mutex_);
     if (capture_) env = capture_->environment();
   }
+  // Shown as an angle map of the daemon's map size, whatever the capture layout.
+  const EnvLayout shown = EnvLayout::for_size(Projection::AngleMap, env_.map_size);
+  if (env.layout.projection() != Projection::AngleMap) env = resample(env, shown);
   std::vector<std::uint8_t> rgb = preview_pixels(env.image.view());  // as the PNG files
   cv::Mat out;
   cv::cvtColor(cv::Mat(env.image.height(), env.image.width(), CV_8UC3, rgb.data()), out,

@@ -139,6 +139,19 @@ class CaptureSession {
   std::unique_ptr<Impl> impl_;
 };
 
+// The layout arlightd captures into for a map of angle-map resolution N (issue 16 §2): a cube
+// map with about as many texels on the sphere (face 3N/8, at least 8: 221,184 texels for
+// N = 512 against the angle map's 206,880). Its texels' solid angles vary 5.2x where an angle
+// map's vary ~17x (tiny around the back pole), so a frame costs about the same wherever the
+// camera looks (BM_CaptureByDirection: max/min 1.4 against 4.4).
+EnvLayout capture_layout_for(int n);
+
+// Accumulators of one layout carried over to another (an old checkpoint's angle map into the
+// cube map, say): every texel of `to` takes the sums of the texel of `from` its direction falls
+// in. Throws std::invalid_argument when `acc` does not fit `from`.
+Accumulators convert_accumulators(const Accumulators& acc, const EnvLayout& from,
+                                  const EnvLayout& to);
+
 // Why a frame's metadata cannot be used, or empty when it can (exposure and gain positive and
 // finite, orientation a finite unit quaternion within 1e-3).
 std::string check_frame_info(const FrameInfo& info);

@@ -53,7 +53,10 @@ struct DaemonConfig {
   int max_unauthenticated = 64;
   int max_connections_per_address = 64;
   double checkpoint_interval_s = 2;
-  int map_size = 512;  // capture map: angle map N x N
+  // The capture map's resolution as an angle map's N; sessions capture into a cube map with
+  // about as many texels (capture::capture_layout_for: face 3N/8), whose texels cover nearly
+  // the same solid angle wherever the camera looks. Checkpoints of other layouts are converted.
+  int map_size = 512;
   // What a session's map holds where no frame has looked yet: the estimate from what was seen
   // (its live SH and map sets light objects right from the first frames) or black (none).
   capture::Fill fill = capture::Fill::Estimate;
