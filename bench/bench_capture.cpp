@@ -18,6 +18,7 @@
 #include "arlight/capture.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
+#include "arlight/sim/view.hpp"
 
 using namespace arlight;
 
@@ -30,27 +31,24 @@ glm::dquat view(int k) {
          glm::angleAxis(glm::radians(k < 32 ? 0.0 : 20.0), glm::dvec3(1, 0, 0));
 }
 
-// JPEGs of venice through a 60-degree 640x480 camera at exposure `exposure`, sRGB-encoded.
+// A q90 JPEG of what a 60-degree 640x480 sRGB camera at exposure `exposure` sees of venice
+// towards `q`.
+std::vector<std::uint8_t> venice_view(const glm::dquat& q, double exposure) {
+  static const EnvMap env =
+      load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env;
+  static const EnvSampler sampler(env);
+  const cv::Mat im =
+      sim::ideal_view(sampler, CameraIntrinsics::from_fov(640, 480, 60), q, exposure);
+  std::vector<std::uint8_t> jpeg;
+  cv::imencode(".jpg", im, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  return jpeg;
+}
+
+// The turn's views at exposure `exposure`, rendered once.
 const std::vector<std::vector<std::uint8_t>>& frames(double exposure) {
   static std::vector<std::vector<std::uint8_t>> jpegs;
-  if (!jpegs.empty()) return jpegs;
-  const EnvMap env = load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env;
-  const EnvSampler sampler(env);
-  const CameraIntrinsics k = CameraIntrinsics::from_fov(640, 480, 60);
-  const PinholeCamera cam(k);
-  const CameraResponse srgb = CameraResponse::srgb();
-  for (int f = 0; f < kFrames; ++f) {
-    cv::Mat im(k.height, k.width, CV_8UC3);
-    for (int y = 0; y < k.height; ++y)
-      for (int x = 0; x < k.width; ++x) {
-        const glm::vec3 l = sampler.sample(view(f) * cam.unproject({x, y}));
-        for (int c = 0; c < 3; ++c)
-          im.at<cv::Vec3b>(y, x)[2 - c] = cv::saturate_cast<uchar>(
-              std::lround(255.0f * srgb.encode(std::min(1.0f, float(l[c] * exposure)), c)));
-      }
-    jpegs.emplace_back();
-    cv::imencode(".jpg", im, jpegs.back(), {cv::IMWRITE_JPEG_QUALITY, 90});
-  }
+  if (jpegs.empty())
+    for (int f = 0; f < kFrames; ++f) jpegs.push_back(venice_view(view(f), exposure));
   return jpegs;
 }
 
@@ -113,25 +111,8 @@ void BM_CaptureByDirection(benchmark::State& state, Projection projection, int s
   }();
   // One JPEG of venice a direction (exposure 0.3), rendered once.
   static std::vector<std::vector<std::uint8_t>> jpegs;
-  if (jpegs.empty()) {
-    const EnvMap env = load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env;
-    const EnvSampler sampler(env);
-    const CameraIntrinsics k = CameraIntrinsics::from_fov(640, 480, 60);
-    const PinholeCamera cam(k);
-    const CameraResponse srgb = CameraResponse::srgb();
-    for (const auto& [name, q] : directions) {
-      cv::Mat im(k.height, k.width, CV_8UC3);
-      for (int y = 0; y < k.height; ++y)
-        for (int x = 0; x < k.width; ++x) {
-          const glm::vec3 l = sampler.sample(q * cam.unproject({x, y}));
-          for (int c = 0; c < 3; ++c)
-            im.at<cv::Vec3b>(y, x)[2 - c] = cv::saturate_cast<uchar>(
-                std::lround(255.0f * srgb.encode(std::min(1.0f, float(l[c] * 0.3)), c)));
-        }
-      jpegs.emplace_back();
-      cv::imencode(".jpg", im, jpegs.back(), {cv::IMWRITE_JPEG_QUALITY, 90});
-    }
-  }
+  if (jpegs.empty())
+    for (const auto& [name, q] : directions) jpegs.push_back(venice_view(q, 0.3));
   capture::CaptureOptions options;
   options.layout = EnvLayout::for_size(projection, size);
   options.align = align;  // every frame (8 directions in turn), at 160 px as arlightd

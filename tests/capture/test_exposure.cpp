@@ -9,6 +9,7 @@
 #include "arlight/capture.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/resample.hpp"
+#include "arlight/sim/view.hpp"
 
 using namespace arlight;
 using namespace arlight::capture;
@@ -26,17 +27,7 @@ double exposure_of(int k) { return 0.05 * std::exp2(3.0 * std::sin(3.14159265 * 
 
 // What a 160x120 sRGB camera at exposure `exposure` sees of venice towards `q`.
 cv::Mat render(const EnvSampler& sampler, const PinholeCamera& cam, glm::dquat q, double exposure) {
-  const CameraIntrinsics& k = cam.intrinsics();
-  const CameraResponse srgb = CameraResponse::srgb();
-  cv::Mat im(k.height, k.width, CV_8UC3);
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) {
-      const glm::vec3 l = sampler.sample(q * cam.unproject({x, y}));
-      for (int c = 0; c < 3; ++c)
-        im.at<cv::Vec3b>(y, x)[2 - c] = cv::saturate_cast<uchar>(
-            std::lround(255.0f * srgb.encode(std::min(1.0f, float(l[c] * exposure)), c)));
-    }
-  return im;
+  return sim::ideal_view(sampler, cam.intrinsics(), q, exposure);
 }
 
 struct TurnCapture {

@@ -38,6 +38,15 @@ std::string probe(const std::string& name) {
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 
+// DIR/rec: a 240-frame 320x240 auto-exposed sweep of `probe_name` (arlight-sim).
+fs::path sweep_recording(const fs::path& dir, const std::string& probe_name, int seed) {
+  const fs::path rec = dir / "rec";
+  const auto s = sim("--env " + probe(probe_name) + " --out " + rec.string() +
+                     " --frames 240 --size 320x240 --seed " + std::to_string(seed));
+  EXPECT_EQ(s.status, 0) << s.output;
+  return rec;
+}
+
 // Mean error (eq. 6.1) of the map of shininess s in an `arlight-maps diff` report.
 double mean_error(const json& diff, double s) {
   for (const auto& m : diff["maps"])
@@ -209,10 +218,7 @@ TEST(ArlightCapture, DamagedFramesAreSkippedWithReasonsAndTheMapStaysClean) {
 // --fill none the same way arlight-capture would have.
 TEST(ArlightCapture, APartSweepIsFilledFromWhatWasSeen) {
   const fs::path dir = fresh_temp_dir("capture_part_sweep");
-  const fs::path rec = dir / "rec";
-  const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
-                     " --frames 240 --size 320x240 --seed 5");
-  ASSERT_EQ(s.status, 0) << s.output;
+  const fs::path rec = sweep_recording(dir, "venice", 5);
   const auto capture_part = [&](const std::string& fill) {
     const auto c = capture_tool("--recording " + rec.string() + " --until-coverage 0.3 --fill " +
                                 fill + " --size 256 --out " + (dir / (fill + ".exr")).string() +
@@ -258,10 +264,7 @@ TEST(ArlightCapture, APartSweepIsFilledFromWhatWasSeen) {
 // browser's frames got before), it is not.
 TEST(ArlightCapture, FramesOfUnknownExposureAreMeasuredAgainstTheMap) {
   const fs::path dir = fresh_temp_dir("capture_exposure");
-  const fs::path rec = dir / "rec";
-  const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
-                     " --frames 240 --size 320x240 --seed 6");
-  ASSERT_EQ(s.status, 0) << s.output;
+  const fs::path rec = sweep_recording(dir, "venice", 6);
   double lowest = 1e9, highest = 0;
   const json manifest = read_json(rec / "recording.json");
   for (const auto& f : manifest["frames"]) {
