@@ -641,6 +641,7 @@ double CaptureSession::coverage() const {
 }
 
 double CaptureSession::estimated_fraction() const {
+  if (impl_->options.fill == Fill::None) return 0.0;
   impl_->refit_unseen();
   return impl_->unseen.estimated_fraction();
 }
