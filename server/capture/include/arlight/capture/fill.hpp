@@ -74,8 +74,9 @@ struct MeasuredTexels {
 
 class UnseenEstimator {
  public:
-  // Throws std::invalid_argument for options out of range (zones in [2, 256], residual order
-  // in [0, 8], ridge > 0 when residual_order > 0).
+  // Throws std::invalid_argument for options out of range: zones in [2, 256], residual order
+  // in [0, 8], ridge > 0 when residual_order > 0, clip_quantile in (0, 1], trend_limit >= 1,
+  // trend_zones >= 2.
   UnseenEstimator(const EnvLayout& layout, Fill fill, FillOptions options = {});
   ~UnseenEstimator();
   UnseenEstimator(const UnseenEstimator&);
@@ -98,8 +99,9 @@ class UnseenEstimator {
   double estimated_fraction() const;
 
   // SH (of `order`) of the model over the unseen solid angle only, integrated on the coarse
-  // grid: sh of the measured map (unseen = 0) plus this is the SH of the filled map. Exact for
-  // whole cells; a partly seen cell's unseen part is taken at the cell's centre.
+  // grid (each cell's unseen solid angle times the model and the basis at the cell's mean
+  // direction): sh of the measured map (unseen = 0) plus this is the SH of the filled map, to
+  // within 0.5 % of its DC term at order 8 (Fill.TheCaptureSessionsShIsThatOfItsFilledMap).
   ShCoeffs unseen_sh(int order) const;
 
   // The filled map: each measured texel's sum(w L) / sum(w), the model on the others (and 0
