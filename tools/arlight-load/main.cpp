@@ -42,6 +42,10 @@ struct SessionReport {
   std::vector<Outage> outages;
 };
 
+// The median interval between a session's consecutive map sets that completed while it was
+// still sending (the map changing): issue 16 §3's figure. 0 with fewer than two.
+double median_map_set_interval(const std::vector<double>& map_set_ms, double duration_s);
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -49,6 +53,14 @@ double percentile(std::vector<double> v, double p) {
   const std::size_t i = std::size_t(std::floor(k));
   const std::size_t j = std::min(v.size() - 1, i + 1);
   return v[i] + (v[j] - v[i]) * (k - double(i));
+}
+
+double median_map_set_interval(const std::vector<double>& map_set_ms, double duration_s) {
+  std::vector<double> intervals;
+  for (std::size_t k = 1; k < map_set_ms.size(); ++k)
+    if (map_set_ms[k] <= 1000.0 * duration_s)
+      intervals.push_back(map_set_ms[k] - map_set_ms[k - 1]);
+  return percentile(intervals, 50);
 }
 
 struct SessionPlan {
@@ -273,6 +285,7 @@ int main(int argc, char** argv) {
     nlohmann::json j;
     std::vector<double> all;
     std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+    std::vector<double> map_set_intervals;  // each session's median, of those with two or more
     int failed = 0;
     j["errors"] = nlohmann::json::array();
     j["per_session"] = nlohmann::json::array();
@@ -282,18 +295,22 @@ int main(int argc, char** argv) {
       const SessionReport& r = reports[s];
       sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
       all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
+      if (const double i = median_map_set_interval(r.map_set_ms, duration); i > 0.0)
+        map_set_intervals.push_back(i);
       if (r.failed) {
         ++failed;
         j["errors"].push_back("session " + std::to_string(s) + ": " + r.error);
       }
-      j["per_session"].push_back({{"frames_sent", r.sent},
-                                  {"frames_processed", r.processed},
-                                  {"frames_dropped", r.dropped},
-                                  {"map_sets_completed", r.map_sets},
-                                  {"map_set_ms", r.map_set_ms},
-                                  {"latency_ms_p50", percentile(r.latency_ms, 50)},
-                                  {"latency_ms_p99", percentile(r.latency_ms, 99)},
-                                  {"failed", r.failed}});
+      j["per_session"].push_back(
+          {{"frames_sent", r.sent},
+           {"frames_processed", r.processed},
+           {"frames_dropped", r.dropped},
+           {"map_sets_completed", r.map_sets},
+           {"map_set_ms", r.map_set_ms},
+           {"map_set_interval_ms_median", median_map_set_interval(r.map_set_ms, duration)},
+           {"latency_ms_p50", percentile(r.latency_ms, 50)},
+           {"latency_ms_p99", percentile(r.latency_ms, 99)},
+           {"failed", r.failed}});
       for (const Outage& o : r.outages) {
         outages.push_back({{"session", s},
                            {"at_s", o.at_s},
@@ -314,6 +331,13 @@ int main(int argc, char** argv) {
     j["latency_ms"] = {
         {"p50", percentile(all, 50)}, {"p95", percentile(all, 95)}, {"p99", percentile(all, 99)}};
     j["map_sets_completed"] = map_sets;
+    // While the sessions were sending: the median over sessions of each one's median interval
+    // between map sets, and the slowest session's.
+    j["map_set_interval_ms"] = {
+        {"median", percentile(map_set_intervals, 50)},
+        {"worst_session", map_set_intervals.empty() ? 0.0
+                                                    : *std::max_element(map_set_intervals.begin(),
+                                                                        map_set_intervals.end())}};
     j["rate"] = rate;
     j["duration_s"] = duration;
     if (!json_path.empty()) write_file_atomically(json_path, j.dump(2) + "\n");
@@ -337,6 +361,10 @@ int main(int argc, char** argv) {
         static_cast<unsigned long long>(processed), static_cast<unsigned long long>(dropped),
         percentile(all, 50), percentile(all, 95), percentile(all, 99),
         static_cast<unsigned long long>(map_sets));
+    if (!map_set_intervals.empty())
+      std::printf("map sets while sending: every %.0f ms (median session), %.0f ms (slowest)\n",
+                  j["map_set_interval_ms"]["median"].get<double>(),
+                  j["map_set_interval_ms"]["worst_session"].get<double>());
     if (!outages.empty())
       std::printf("%zu outages survived; the worst lost %.2f s of frames\n", outages.size(),
                   worst_lost_s);
