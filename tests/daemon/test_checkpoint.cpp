@@ -173,6 +173,14 @@ TEST(Checkpoint, DamageIsAnErrorNamingWhatIsWrong) {
   meta.erase("map_size");
   write_file_atomically(dir / "session.json", meta.dump());
   expect_error(dir, "map_size");
+  // A map size no layout has (an old checkpoint's angle map), or a layout of another shape.
+  meta["map_size"] = -3;
+  write_file_atomically(dir / "session.json", meta.dump());
+  expect_error(dir, "map_size");
+  meta["map_size"] = 64;
+  meta["layout"] = {{"projection", "cube"}, {"width", 64}, {"height", 65}};
+  write_file_atomically(dir / "session.json", meta.dump());
+  expect_error(dir, "layout");
 }
 
 }  // namespace

@@ -171,11 +171,16 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     if (!intact)
       throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
     c.accumulators = parse_accumulators(bytes, where);
-    if (c.accumulators.weight.size() != c.capture_layout().texel_count())
+    std::optional<EnvLayout> layout;
+    try {
+      layout = c.capture_layout();
+    } catch (const std::invalid_argument& e) {
+      throw InputError(where + ": map_size " + std::to_string(c.map_size) + ": " + e.what());
+    }
+    if (c.accumulators.weight.size() != layout->texel_count())
       throw InputError(where + ": " + std::to_string(c.accumulators.weight.size()) +
-                       " accumulated texels do not fit its " +
-                       std::to_string(c.capture_layout().width()) + "x" +
-                       std::to_string(c.capture_layout().height()) + " map");
+                       " accumulated texels do not fit its " + std::to_string(layout->width()) +
+                       "x" + std::to_string(layout->height()) + " map");
     return c;
   } catch (const json::exception& e) {
     throw InputError(where + ": " + e.what());
