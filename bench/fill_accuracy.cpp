@@ -1,8 +1,8 @@
 // arlight-bench-fill: how right the lighting is before the sweep is done (issue 16 §1).
 //
 // For each probe: arlight-sim's sweep of it (a recording cached under --work), captured frame
-// by frame as arlightd does; when the coverage first reaches each --coverage level (and after
-// the last frame) the captured map is filled three ways, black (--fill none), the mean of the
+// by frame into a --size angle map; when the coverage first reaches each --coverage level (and
+// after the last frame) the captured map is filled three ways, black (--fill none), the mean of the
 // seen texels (--fill mean) and the estimate (--fill estimate), and each filled map's
 // irradiance map (s = 1, auto method, 128x128 angle map) is compared with the true room's
 // (thesis eq. 6.1, mean error), as `arlight-maps diff` does. All three come from the same
@@ -48,7 +48,7 @@ recording::Recording sweep_of(const fs::path& probe, const fs::path& work, int f
   const fs::path key_file = work / (probe.stem().string() + ".key");
   std::string old;
   if (std::ifstream in(key_file); in) old.assign(std::istreambuf_iterator<char>(in), {});
-  if (old != key || !fs::exists(o.out / "manifest.json")) {
+  if (old != key || !fs::exists(o.out / recording::kManifestName)) {
     fs::remove_all(o.out);
     std::printf("simulating %d frames of a sweep of %s...\n", frames, probe.c_str());
     sim::simulate(o);
@@ -58,74 +58,31 @@ recording::Recording sweep_of(const fs::path& probe, const fs::path& work, int f
 }
 
 // The capture's accumulators when the coverage first reached each level, and after the last
-// frame; cached beside the recording (keyed by it, the map size and the levels), so that runs
-// with other fill options skip the capture.
+// frame.
 struct Snapshot {
   double coverage = 0;
   std::size_t frames = 0;
   capture::Accumulators acc;
 };
 
-std::vector<Snapshot> snapshots_of(const fs::path& probe, const fs::path& work, int frames,
-                                   int size, const std::vector<double>& levels) {
-  const recording::Recording rec = sweep_of(probe, work, frames);
-  std::string key;
-  if (std::ifstream in(work / (probe.stem().string() + ".key")); in)
-    key.assign(std::istreambuf_iterator<char>(in), {});
-  key += "size " + std::to_string(size) + " levels";
-  for (double l : levels) key += " " + std::to_string(l);
-  const fs::path cache = work / (probe.stem().string() + ".snapshots");
-  const EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, size);
-  const std::size_t texels = layout.texel_count();
-  std::vector<Snapshot> out;
-  if (std::ifstream in(cache, std::ios::binary); in) {
-    std::uint64_t key_size = 0, count = 0;
-    in.read(reinterpret_cast<char*>(&key_size), sizeof key_size);
-    std::string cached(key_size < (1u << 20) ? key_size : 0, '\0');
-    in.read(cached.data(), std::streamsize(cached.size()));
-    in.read(reinterpret_cast<char*>(&count), sizeof count);
-    if (in && cached == key && count <= levels.size() + 1) {
-      out.resize(count);
-      for (Snapshot& s : out) {
-        s.acc.weighted_radiance.resize(3 * texels), s.acc.weight.resize(texels);
-        in.read(reinterpret_cast<char*>(&s.coverage), sizeof s.coverage);
-        in.read(reinterpret_cast<char*>(&s.frames), sizeof s.frames);
-        in.read(reinterpret_cast<char*>(s.acc.weighted_radiance.data()),
-                std::streamsize(s.acc.weighted_radiance.size() * sizeof(float)));
-        in.read(reinterpret_cast<char*>(s.acc.weight.data()),
-                std::streamsize(s.acc.weight.size() * sizeof(float)));
-      }
-      if (in) return out;
-      out.clear();
-    }
-  }
+std::vector<Snapshot> snapshots_of(const recording::Recording& rec, const EnvLayout& layout,
+                                   const std::vector<double>& levels) {
   capture::CaptureOptions options;
   options.layout = layout;
   options.fill = capture::Fill::None;
   capture::CaptureSession session(rec.camera, CameraResponse::srgb(), options);
-  recording::FrameReader reader(rec);
-  std::size_t next_level = 0;
+  std::vector<Snapshot> out;
   const auto snap = [&] {
     out.push_back({session.coverage(), session.frames_used(), session.accumulators()});
   };
+  recording::FrameReader reader(rec);
+  std::size_t next_level = 0;
   while (const auto item = reader.next()) {
     if (!session.add_encoded(item->jpeg, *item->frame).used) continue;
     for (; next_level < levels.size() && session.coverage() >= levels[next_level]; ++next_level)
       snap();
   }
   snap();
-  std::string bytes;
-  const auto put = [&](const void* p, std::size_t n) {
-    bytes.append(static_cast<const char*>(p), n);
-  };
-  const std::uint64_t key_size = key.size(), count = out.size();
-  put(&key_size, sizeof key_size), put(key.data(), key.size()), put(&count, sizeof count);
-  for (const Snapshot& s : out) {
-    put(&s.coverage, sizeof s.coverage), put(&s.frames, sizeof s.frames);
-    put(s.acc.weighted_radiance.data(), s.acc.weighted_radiance.size() * sizeof(float));
-    put(s.acc.weight.data(), s.acc.weight.size() * sizeof(float));
-  }
-  write_file_atomically(cache, bytes);
   return out;
 }
 
@@ -176,7 +133,8 @@ int main(int argc, char** argv) {
     for (const std::string& probe : probes) {
       const std::string name = fs::path(probe).stem().string();
       const EnvMap truth = resample(load_envmap(probe).env, out_layout);
-      const std::vector<Snapshot> snapshots = snapshots_of(probe, work, frames, size, levels);
+      const std::vector<Snapshot> snapshots =
+          snapshots_of(sweep_of(probe, work, frames), layout, levels);
       const auto irradiance = [&](const EnvMap& env) {
         return lighting::compute_maps(resample(env, out_layout), shininess, out_layout,
                                       lighting::parse_method("auto"))

@@ -64,13 +64,12 @@ void check_sweep(const std::string& name, int seed, const std::string& sim_args 
                      std::to_string(seed) + " " + sim_args);
   ASSERT_EQ(s.status, 0) << s.output;
 
-  const auto aligned =
-      capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
-                   " --json " + (dir / "capture.json").string());
+  const auto aligned = capture_tool("--recording " + rec.string() + " --out " +
+                               (dir / "env.exr").string() + " --json " +
+                               (dir / "capture.json").string());
   ASSERT_EQ(aligned.status, 0) << aligned.output;
-  const auto raw =
-      capture_tool("--recording " + rec.string() + " --no-align --out " +
-                   (dir / "raw.exr").string() + " --json " + (dir / "raw.json").string());
+  const auto raw = capture_tool("--recording " + rec.string() + " --no-align --out " +
+                           (dir / "raw.exr").string() + " --json " + (dir / "raw.json").string());
   ASSERT_EQ(raw.status, 0) << raw.output;
   const json j = read_json(dir / "capture.json"), jr = read_json(dir / "raw.json");
 
@@ -90,16 +89,15 @@ void check_sweep(const std::string& name, int seed, const std::string& sim_args 
 
   // Lighting from the captured map against lighting from the truth.
   const fs::path truth = rec / "truth" / "env.exr";
-  const auto d =
-      maps("diff --reference " + truth.string() + " --test " + (dir / "env.exr").string() +
-           " --method auto --size 128 --json " + (dir / "diff.json").string());
+  const auto d = maps("diff --reference " + truth.string() + " --test " +
+                      (dir / "env.exr").string() + " --method auto --size 128 --json " +
+                      (dir / "diff.json").string());
   ASSERT_EQ(d.status, 0) << d.output;
   const json diff = read_json(dir / "diff.json");
-  std::printf(
-      "%s: coverage %.2f %%, orientation RMS %.3f deg (%.3f without alignment), "
-      "irradiance mean error %.2f %%, s = 80 %.2f %%\n",
-      name.c_str(), 100 * j["coverage"].get<double>(), rms, rms_raw, 100 * mean_error(diff, 1),
-      100 * mean_error(diff, 80));
+  std::printf("%s: coverage %.2f %%, orientation RMS %.3f deg (%.3f without alignment), "
+              "irradiance mean error %.2f %%, s = 80 %.2f %%\n",
+              name.c_str(), 100 * j["coverage"].get<double>(), rms, rms_raw,
+              100 * mean_error(diff, 1), 100 * mean_error(diff, 80));
   EXPECT_LE(mean_error(diff, 1), 0.03) << name << ": irradiance";
   EXPECT_LE(mean_error(diff, 80), 0.08) << name << ": s = 80";
 
@@ -126,9 +124,9 @@ TEST(ArlightCapture, CalibrationRecoversTheSimulatorsCurve) {
   const auto s = sim("--env " + probe("venice") + " --out " + rec.string() +
                      " --bracket 7 --response filmic --size 320x240 --seed 5");
   ASSERT_EQ(s.status, 0) << s.output;
-  const auto c =
-      capture_tool("--recording " + rec.string() + " --calibrate robertson --response-out " +
-                   (dir / "curve.json").string() + " --response-dir " + (dir / "curves").string());
+  const auto c = capture_tool("--recording " + rec.string() + " --calibrate robertson --response-out " +
+                         (dir / "curve.json").string() + " --response-dir " +
+                         (dir / "curves").string());
   ASSERT_EQ(c.status, 0) << c.output;
   const CameraResponse truth = CameraResponse::load(rec / "truth" / "response.json");
   const CameraResponse found = CameraResponse::load(dir / "curve.json");
@@ -139,21 +137,19 @@ TEST(ArlightCapture, CalibrationRecoversTheSimulatorsCurve) {
   // Filed under the recording's device id as well.
   const json manifest = read_json(rec / "recording.json");
   ASSERT_TRUE(manifest.contains("device_id"));
-  EXPECT_TRUE(fs::exists(dir / "curves" / (manifest["device_id"].get<std::string>() + ".json")));
+  EXPECT_TRUE(
+      fs::exists(dir / "curves" / (manifest["device_id"].get<std::string>() + ".json")));
   // An unknown method, and a sweep (every frame a different view) instead of a bracket.
-  const auto bad =
-      capture_tool("--recording " + rec.string() + " --calibrate sideways --response-out " +
-                   (dir / "x.json").string());
+  const auto bad = capture_tool("--recording " + rec.string() + " --calibrate sideways --response-out " +
+                           (dir / "x.json").string());
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.output.find("robertson or debevec"), std::string::npos) << bad.output;
   const fs::path sweep = dir / "sweep";
-  ASSERT_EQ(
-      sim("--env " + probe("venice") + " --out " + sweep.string() + " --frames 12 --size 160x120")
-          .status,
-      0);
-  const auto not_bracket =
-      capture_tool("--recording " + sweep.string() + " --calibrate robertson --response-out " +
-                   (dir / "y.json").string());
+  ASSERT_EQ(sim("--env " + probe("venice") + " --out " + sweep.string() +
+                " --frames 12 --size 160x120").status, 0);
+  const auto not_bracket = capture_tool("--recording " + sweep.string() +
+                                   " --calibrate robertson --response-out " +
+                                   (dir / "y.json").string());
   EXPECT_EQ(not_bracket.status, 2);
   EXPECT_NE(not_bracket.output.find("bracket"), std::string::npos) << not_bracket.output;
   EXPECT_FALSE(fs::exists(dir / "y.json"));
@@ -180,9 +176,8 @@ TEST(ArlightCapture, DamagedFramesAreSkippedWithReasonsAndTheMapStaysClean) {
   std::ofstream(rec / frames[11]["file"].get<std::string>(), std::ios::binary) << "not a jpeg";
   std::ofstream(rec / "recording.json") << manifest.dump();
 
-  const auto c =
-      capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
-                   " --size 64 --json " + (dir / "c.json").string());
+  const auto c = capture_tool("--recording " + rec.string() + " --out " + (dir / "env.exr").string() +
+                         " --size 64 --json " + (dir / "c.json").string());
   ASSERT_EQ(c.status, 0) << c.output;
   const json j = read_json(dir / "c.json");
   EXPECT_EQ(j["frames"], 24);

@@ -6,8 +6,8 @@
 #include <openssl/pem.h>
 #include <openssl/x509v3.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <boost/asio/connect.hpp>
@@ -15,8 +15,8 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
-#include <cerrno>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -218,8 +218,8 @@ TEST(Arlightd, BadMessagesCloseOnlyTheirConnection) {
     client::Client early;
     early.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
     const auto& f = rec.frames[0];
-    early.send_jpeg_frame(1, f, rec.camera.width, rec.camera.height,
-                          recording::read_frame_bytes(rec, 0));
+    early.send_jpeg_frame(1, f, rec.camera.width,
+                          rec.camera.height, recording::read_frame_bytes(rec, 0));
     EXPECT_TRUE(early.wait_for([&] { return !early.connected(); }, 10s));
     ASSERT_TRUE(early.server_error().has_value());
     EXPECT_EQ(early.server_error()->first, "OutOfOrder");
@@ -404,8 +404,7 @@ TEST(Arlightd, ASilentSessionIsClosedAfterTheIdleTimeoutAndResumes) {
   c.send_intrinsics(rec.camera);
   const auto opened = std::chrono::steady_clock::now();
   ASSERT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
-  const double after =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+  const double after = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
   EXPECT_GT(after, 1.5);
   ASSERT_TRUE(c.server_error().has_value());
   EXPECT_EQ(c.server_error()->first, "Timeout");
@@ -463,7 +462,8 @@ TEST(Arlightd, CalibrationSetStoresTheDevicesCurve) {
   std::vector<client::CalibrationFrame> frames;
   for (std::size_t i = 0; i < rec.frames.size(); ++i) {
     const auto& f = rec.frames[i];
-    frames.push_back({f, recording::read_frame_bytes(rec, i)});
+    frames.push_back(
+        {f, recording::read_frame_bytes(rec, i)});
   }
   DaemonProcess d(dir / "daemon");
   client::Client c;
@@ -531,12 +531,10 @@ TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {
   std::ofstream(dir / "short") << "tooshort\n";
   std::ofstream(dir / "empty") << "# nothing\n";
   for (const char* bad : {"missing", "short", "empty"}) {
-    const auto r = test::run_tool(ARLIGHTD_EXE,
-                                  "--listen 127.0.0.1:0 --admin 127.0.0.1:0 "
-                                  "--data-dir " +
-                                      (dir / "data").string() + " --tokens " +
-                                      (dir / "daemon" / "tokens").string() +
-                                      " --admin-token-file " + (dir / bad).string());
+    const auto r = test::run_tool(ARLIGHTD_EXE, "--listen 127.0.0.1:0 --admin 127.0.0.1:0 "
+                                                "--data-dir " + (dir / "data").string() +
+                                                    " --tokens " + (dir / "daemon" / "tokens").string() +
+                                                    " --admin-token-file " + (dir / bad).string());
     EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
     EXPECT_NE(r.output.find("admin token file '" + (dir / bad).string() + "'"), std::string::npos)
         << r.output;
@@ -626,8 +624,8 @@ TEST(Arlightd, AFloodOfFramesIsBoundedNewestFramesWinAndDropsAreCounted) {
   for (std::uint64_t seq = 1; seq <= kFrames; ++seq) {
     const std::size_t i = std::size_t(seq) % rec.frames.size();
     const auto& f = rec.frames[i];
-    c.send_jpeg_frame(seq, f, rec.camera.width, rec.camera.height,
-                      recording::read_frame_bytes(rec, i));
+    c.send_jpeg_frame(seq, f, rec.camera.width,
+                      rec.camera.height, recording::read_frame_bytes(rec, i));
   }
   // The last frame always survives (newest wins), and every frame is either processed or
   // counted as dropped.
@@ -650,8 +648,8 @@ TEST(Arlightd, AFullDaemonClosesItsIdlestDisconnectedSessionToMakeRoom) {
   const auto one_frame = [&](client::Client& c) {
     c.send_intrinsics(rec.camera);
     const auto& f = rec.frames[0];
-    c.send_jpeg_frame(1, f, rec.camera.width, rec.camera.height,
-                      recording::read_frame_bytes(rec, 0));
+    c.send_jpeg_frame(1, f, rec.camera.width,
+                      rec.camera.height, recording::read_frame_bytes(rec, 0));
     ASSERT_TRUE(c.wait_for([&] { return c.last_update().has_value(); }, 20s));
   };
   // A: one frame, then goodbye (disconnected, kept in memory until the idle timeout).
@@ -714,8 +712,9 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
           if (k > 12 + 4 * s) continue;
           const std::size_t i = std::size_t(k + 7 * s) % rec.frames.size();
           const auto& f = rec.frames[i];
-          clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k), f, rec.camera.width,
-                                                   rec.camera.height, jpegs[i]);
+          clients[std::size_t(s)]->send_jpeg_frame(std::uint64_t(k),
+                                                   f,
+                                                   rec.camera.width, rec.camera.height, jpegs[i]);
           if (k == 12 + 4 * s) clients[std::size_t(s)]->bye();
         }
         std::this_thread::sleep_for(33ms);
@@ -731,8 +730,7 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
         if (!fs::exists(manifest)) return false;
         const json m = read_json(manifest);
         if (m["frames_processed"].get<int>() + m["frames_dropped"].get<int>() +
-                m["frames_skipped"].get<int>() !=
-            m["frames_received"].get<int>())
+                m["frames_skipped"].get<int>() != m["frames_received"].get<int>())
           return false;
       }
       return true;

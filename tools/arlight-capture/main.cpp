@@ -146,9 +146,7 @@ int run_capture(const Options& o, const recording::Recording& rec) {
   if (o.align_every > 0) options.align_every = o.align_every;
   if (o.align_width > 0) options.align_max_width = o.align_width;
   options.align_async = o.align_async;
-  const auto fill = capture::parse_fill(o.fill);
-  if (!fill) throw InputError("--fill: expected none, mean or estimate, got '" + o.fill + "'");
-  options.fill = *fill;
+  options.fill = capture::fill_from_name(o.fill, "--fill");
   if (o.exposure != "known" && o.exposure != "locked" && o.exposure != "estimate")
     throw InputError("--exposure: expected known, locked or estimate, got '" + o.exposure + "'");
   options.estimate_exposure = o.exposure == "estimate";

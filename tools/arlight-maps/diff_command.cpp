@@ -27,10 +27,10 @@ struct DiffOptions {
 double mean_luminance(const EnvMap& env) {
   const auto table = texel_table(env.layout);
   double sum = 0.0;
-  for (std::size_t i = 0; i < table->size(); ++i)
-    sum += table->solid_angle[i] * double(luminance(env.image.data()[3 * table->index[i]],
-                                                    env.image.data()[3 * table->index[i] + 1],
-                                                    env.image.data()[3 * table->index[i] + 2]));
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const float* p = env.image.data() + 3 * std::size_t(table->index[i]);
+    sum += table->solid_angle[i] * double(luminance(p[0], p[1], p[2]));
+  }
   return sum / (4.0 * std::numbers::pi);
 }
 

@@ -45,10 +45,9 @@ EnvMap load_working_map(const std::string& path, const EnvLayout& layout, const 
   if (!probe.info.sanitized.clean())
     std::fprintf(stderr, "arlight-maps: %s: %s\n", path.c_str(),
                  probe.info.sanitized.summary().c_str());
-  const auto how = capture::parse_fill(fill);
-  if (!how) throw InputError("--fill: expected none, mean or estimate, got '" + fill + "'");
-  if (probe.info.metadata.fill == "none" && *how != capture::Fill::None)
-    probe.env = capture::fill_black_texels(probe.env, *how);
+  const capture::Fill how = capture::fill_from_name(fill, "--fill");
+  if (probe.info.metadata.fill == "none" && how != capture::Fill::None)
+    probe.env = capture::fill_black_texels(probe.env, how);
   if (probe.env.layout == layout) return std::move(probe.env);
   return resample(probe.env, layout);
 }

@@ -654,10 +654,6 @@ const ShCoeffs& CaptureSession::sh() const {
 
 const ShCoeffs& CaptureSession::measured_sh() const { return impl_->sh; }
 
-const UnseenEstimator& CaptureSession::unseen() const {
-  impl_->refit_unseen();
-  return impl_->unseen;
-}
 std::size_t CaptureSession::frames_added() const { return impl_->added; }
 std::size_t CaptureSession::frames_used() const { return impl_->used; }
 

@@ -7,16 +7,18 @@
 
 #include <algorithm>
 #include <bit>
-#include <limits>
-#include <map>
-#include <mutex>
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
+#include <map>
+#include <mutex>
 #include <numbers>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
+
+#include "arlight/error.hpp"
 
 namespace arlight::capture {
 
@@ -36,6 +38,12 @@ std::optional<Fill> parse_fill(std::string_view name) {
   for (Fill f : {Fill::None, Fill::Mean, Fill::Estimate})
     if (name == fill_name(f)) return f;
   return std::nullopt;
+}
+
+Fill fill_from_name(std::string_view name, std::string_view what) {
+  if (const auto f = parse_fill(name)) return *f;
+  throw InputError((what.empty() ? std::string() : std::string(what) + ": ") +
+                   "expected none, mean or estimate, got '" + std::string(name) + "'");
 }
 
 namespace {
@@ -66,8 +74,8 @@ struct UnseenEstimator::Impl {
   // angle (0 off the sphere).
   std::vector<std::uint32_t> texel_cell;
   std::vector<float> texel_omega;
-  std::vector<double> cell_total;      // solid angle of each cell's texels
-  std::vector<glm::dvec3> cell_dir;    // the solid-angle-weighted mean direction, normalised
+  std::vector<double> cell_total;    // solid angle of each cell's texels
+  std::vector<glm::dvec3> cell_dir;  // the solid-angle-weighted mean direction, normalised
 
   // The fit.
   bool any_seen = false;
@@ -79,27 +87,13 @@ struct UnseenEstimator::Impl {
   std::vector<glm::dvec3> cell_model;  // the model at each cell's direction (unseen_sh)
   std::vector<float> texel_luminance;  // fit()'s scratch, kept to spare the allocation
 
-  // The SH basis at every cell's direction, for unseen_sh(order), made once per order.
-  mutable std::mutex basis_mutex;
-  mutable std::map<int, std::shared_ptr<const std::vector<double>>> cell_basis;
-
-  Impl(const Impl& o)
-      : layout(o.layout),
-        fill(o.fill),
-        options(o.options),
-        table(o.table),
-        grid(o.grid),
-        texel_cell(o.texel_cell),
-        texel_omega(o.texel_omega),
-        cell_total(o.cell_total),
-        cell_dir(o.cell_dir),
-        any_seen(o.any_seen),
-        measured(o.measured),
-        cell_seen(o.cell_seen),
-        mean(o.mean),
-        zone_value(o.zone_value),
-        residual(o.residual),
-        cell_model(o.cell_model) {}
+  // The SH basis at every cell's direction, for unseen_sh(order), made once per order and
+  // shared by copies (it depends on the grid alone).
+  struct BasisCache {
+    std::mutex mutex;
+    std::map<int, std::shared_ptr<const std::vector<double>>> by_order;
+  };
+  std::shared_ptr<BasisCache> cell_basis = std::make_shared<BasisCache>();
 
   Impl(const EnvLayout& l, Fill f, FillOptions o) : layout(l), fill(f), options(o) {
     if (o.zones < 2 || o.zones > 256)
@@ -190,7 +184,8 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
     const float y = std::max(luminance(r, g, b), 1e-30f);
     texel_luminance[t] = y;
     const auto bits = std::bit_cast<std::uint32_t>(y);
-    const int bin = (int((bits >> 23) & 0xFF) - 127 + kOctaves / 2) * kSub + int((bits >> 19) & 0xF);
+    const int bin =
+        (int((bits >> 23) & 0xFF) - 127 + kOctaves / 2) * kSub + int((bits >> 19) & 0xF);
     histogram[std::size_t(std::clamp(bin, 0, kBins - 1))] += omega;
     const std::size_t c = texel_cell[t];
     const float wc = omega * std::min(1.0f, sw);
@@ -349,8 +344,8 @@ ShCoeffs UnseenEstimator::unseen_sh(int order) const {
   if (m.fill == Fill::None || !m.any_seen) return out;
   std::shared_ptr<const std::vector<double>> basis;
   {
-    std::lock_guard lock(m.basis_mutex);
-    auto& slot = m.cell_basis[order];
+    std::lock_guard lock(m.cell_basis->mutex);
+    auto& slot = m.cell_basis->by_order[order];
     if (!slot) {
       const auto n = std::size_t(sh_count(order));
       auto b = std::make_shared<std::vector<double>>(n * m.cell_dir.size());
@@ -396,16 +391,14 @@ EnvMap UnseenEstimator::filled(const MeasuredTexels& m) const {
 }
 
 EnvMap fill_black_texels(const EnvMap& env, Fill fill, const FillOptions& options) {
-  const std::size_t texels = env.layout.texel_count();
-  std::vector<float> radiance(texels * 3), weight(texels);
-  const ConstImageView v = env.image.view();
-  for (int y = 0; y < v.height; ++y)
-    for (int x = 0; x < v.width; ++x) {
-      const float* p = v.pixel(x, y);
-      const std::size_t t = std::size_t(y) * std::size_t(v.width) + std::size_t(x);
-      std::copy(p, p + 3, &radiance[3 * t]);
-      weight[t] = p[0] != 0.0f || p[1] != 0.0f || p[2] != 0.0f ? 1.0f : 0.0f;
-    }
+  // The image is its own sum(w L), with w = 1 where it is not black.
+  const std::vector<float>& radiance = env.image.storage();
+  std::vector<float> weight(env.layout.texel_count());
+  for (std::size_t t = 0; t < weight.size(); ++t)
+    weight[t] =
+        radiance[3 * t] != 0.0f || radiance[3 * t + 1] != 0.0f || radiance[3 * t + 2] != 0.0f
+            ? 1.0f
+            : 0.0f;
   UnseenEstimator estimator(env.layout, fill, options);
   const MeasuredTexels measured{radiance, weight};
   estimator.fit(measured);

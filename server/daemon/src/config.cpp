@@ -53,11 +53,9 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.checkpoint_interval_s = value.get<double>();
       else if (key == "map_size")
         c.map_size = value.get<int>();
-      else if (key == "fill") {
-        const auto f = capture::parse_fill(value.get<std::string>());
-        if (!f) throw InputError("expected none, mean or estimate");
-        c.fill = *f;
-      } else if (key == "align_every")
+      else if (key == "fill")
+        c.fill = capture::fill_from_name(value.get<std::string>(), "");
+      else if (key == "align_every")
         c.align_every = value.get<int>();
       else if (key == "queue_depth")
         c.queue_depth = value.get<int>();

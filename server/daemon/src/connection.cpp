@@ -50,8 +50,7 @@ void Connection::start() {
     self->fail(wire::ErrorCode::Busy, "client reads too slowly; closing");
   };
   stream_->start(std::move(h));
-  asio::post(stream_->executor(),
-             [self] { self->arm_deadline(to_clock(self->env_.hello_timeout)); });
+  asio::post(stream_->executor(), [self] { self->arm_deadline(to_clock(self->env_.hello_timeout)); });
 }
 
 void Connection::arm_deadline(Clock::duration after) {
@@ -65,9 +64,9 @@ void Connection::deadline_passed() {
   if (closing_) return;
   if (!session_) {
     if (env_.hello_timeouts) env_.hello_timeouts->inc();
-    return fail(
-        wire::ErrorCode::Timeout,
-        "no Hello within " + std::to_string(int(env_.hello_timeout.count())) + " s of connecting");
+    return fail(wire::ErrorCode::Timeout, "no Hello within " +
+                                              std::to_string(int(env_.hello_timeout.count())) +
+                                              " s of connecting");
   }
   const Clock::time_point due = last_message_ + to_clock(env_.idle_timeout);
   if (Clock::now() < due) return arm_deadline(due - Clock::now());
@@ -150,8 +149,7 @@ void Connection::handle_hello(const wire::Hello& m) {
       [weak](std::vector<std::uint8_t> envelope) {
         if (auto stream = weak.lock()) stream->send(std::move(envelope));
       },
-      wire::choose_tile_coding(m.capabilities),
-      [weak_self] {
+      wire::choose_tile_coding(m.capabilities), [weak_self] {
         if (auto self = weak_self.lock()) self->close();  // handed over to another daemon
       });
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);

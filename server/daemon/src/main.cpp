@@ -81,11 +81,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    if (app.count("--fill")) {
-      const auto f = capture::parse_fill(fill);
-      if (!f) throw InputError("--fill: expected none, mean or estimate, got '" + fill + "'");
-      c.fill = *f;
-    }
+    if (app.count("--fill")) c.fill = capture::fill_from_name(fill, "--fill");
     if (!config.empty()) {
       daemon::DaemonConfig from_file;
       daemon::load_config_file(config, from_file);
@@ -129,9 +125,8 @@ int main(int argc, char** argv) {
     if (!(c.hello_timeout_s > 0) || !(c.idle_timeout_s > 0))
       throw InputError("the Hello and idle timeouts must be positive seconds");
     if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)
-      throw InputError(
-          "the connection limits (--max-connections, --max-unauthenticated, "
-          "--max-per-address) must be at least 1");
+      throw InputError("the connection limits (--max-connections, --max-unauthenticated, "
+                       "--max-per-address) must be at least 1");
 
     // Signals go to a thread of their own, which stops the daemon cleanly (checkpoints first).
     sigset_t set;
@@ -149,10 +144,9 @@ int main(int argc, char** argv) {
           "%s", daemon::qr_terminal(daemon::qr_modules(d.phone_url()), isatty(fileno(stdout)) != 0)
                     .c_str());
       if (c.tls_cert.empty())
-        std::printf(
-            "arlightd: the web port's certificate is %s, self-signed: a phone asks to "
-            "accept it once\n",
-            d.web_certificate().c_str());
+        std::printf("arlightd: the web port's certificate is %s, self-signed: a phone asks to "
+                    "accept it once\n",
+                    d.web_certificate().c_str());
     }
     std::printf("arlightd: listening on %s:%u, admin on %u, web on %u%s\n", c.listen_host.c_str(),
                 unsigned(d.port()), unsigned(d.admin_port()), unsigned(d.web_port()),

@@ -52,37 +52,34 @@ std::string Session::set_camera(const CameraIntrinsics& camera, bool exposure_un
   const CameraResponse response = device_response(env_, device_id_);
   std::lock_guard serial(process_mutex_);  // no frame is being added while the camera changes
   std::lock_guard lock(mutex_);
-  if (camera_ && same_camera(*camera_, camera)) {
-    if (capture_->options().estimate_exposure == exposure_unknown) return {};
-    // A client that reports exposure resumed a session of one that could not, or the other
-    // way round: the map stays, the frames from now on are taken as this client sends them.
-    capture::CaptureOptions o = capture_->options();
-    o.estimate_exposure = exposure_unknown;
-    auto next = std::make_unique<capture::CaptureSession>(camera, capture_->response(), o);
-    next->restore(capture_->accumulators());
-    capture_ = std::move(next);
-    return {};
-  }
   if (camera_) {
-    if (camera.width != camera_->width || camera.height != camera_->height)
-      return "the session's camera is " + std::to_string(camera_->width) + "x" +
-             std::to_string(camera_->height) + "; start a new session for another size";
-    // Refined optics (a browser's focal length from the marker's views): the map so far stays,
-    // the frames from now on are projected with the new intrinsics.
-    if (camera_changes_ >= kMaxCameraChanges)
-      return "the session's intrinsics changed " + std::to_string(kMaxCameraChanges) +
-             " times already; start a new session";
+    // The same camera, or refined optics (a browser's focal length from the marker's views),
+    // and a client that reports exposure or not (it may have resumed another one's session):
+    // the map so far stays, the frames from now on are taken as this client sends them.
+    const bool same = same_camera(*camera_, camera);
+    capture::CaptureOptions o = capture_->options();
+    if (same && o.estimate_exposure == exposure_unknown) return {};
+    if (!same) {
+      if (camera.width != camera_->width || camera.height != camera_->height)
+        return "the session's camera is " + std::to_string(camera_->width) + "x" +
+               std::to_string(camera_->height) + "; start a new session for another size";
+      if (camera_changes_ >= kMaxCameraChanges)
+        return "the session's intrinsics changed " + std::to_string(kMaxCameraChanges) +
+               " times already; start a new session";
+    }
+    o.estimate_exposure = exposure_unknown;
     try {
-      auto refined = std::make_unique<capture::CaptureSession>(camera, capture_->response(),
-                                                               capture_->options());
-      refined->restore(capture_->accumulators());
-      capture_ = std::move(refined);
+      auto next = std::make_unique<capture::CaptureSession>(camera, capture_->response(), o);
+      next->restore(capture_->accumulators());
+      capture_ = std::move(next);
     } catch (const std::invalid_argument& e) {
       return e.what();
     }
-    camera_ = camera;
-    ++camera_changes_;
-    dirty_ = true;
+    if (!same) {
+      camera_ = camera;
+      ++camera_changes_;
+      dirty_ = true;
+    }
     return {};
   }
   capture::CaptureOptions o;

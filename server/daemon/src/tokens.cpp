@@ -1,17 +1,17 @@
 #include "tokens.hpp"
 
 #include <fcntl.h>
+#include <stdlib.h>
 #include <openssl/crypto.h>
 #include <openssl/rand.h>
-#include <stdlib.h>
 #include <unistd.h>
 
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <stdexcept>
 #include <fstream>
 #include <sstream>
-#include <stdexcept>
 
 #include "arlight/error.hpp"
 
@@ -75,8 +75,8 @@ bool create_private_file(const std::filesystem::path& path, const std::string& t
   std::string tmp = path.string() + ".XXXXXX";
   const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);  // mode 0600, a name of its own
   if (fd < 0) throw InputError(where + ": cannot create it: " + std::strerror(errno));
-  const bool written =
-      ::write(fd, text.data(), text.size()) == ssize_t(text.size()) && ::fsync(fd) == 0;
+  const bool written = ::write(fd, text.data(), text.size()) == ssize_t(text.size()) &&
+                       ::fsync(fd) == 0;
   const bool closed = ::close(fd) == 0;
   const int linked = written && closed ? ::link(tmp.c_str(), path.c_str()) : -1;
   const int link_errno = errno;
@@ -96,8 +96,8 @@ std::string load_admin_token(const std::filesystem::path& path, bool create_if_m
   if (create_if_missing && !std::filesystem::exists(path, ec) && !ec) {
     const std::string token = random_hex_token();
     if (create_private_file(
-            path, "# arlightd's admin token: send it as 'Authorization: Bearer <token>'\n" + token +
-                      "\n")) {
+            path, "# arlightd's admin token: send it as 'Authorization: Bearer <token>'\n" +
+                      token + "\n")) {
       if (created) *created = true;
       return token;
     }  // another daemon on this data folder made one first: read that
@@ -117,8 +117,7 @@ std::string load_admin_token(const std::filesystem::path& path, bool create_if_m
                          ": a token is one word of visible ASCII characters");
     }
     if (token.size() < 16)
-      throw InputError(where + ": line " + std::to_string(n) +
-                       ": token shorter than 16 characters");
+      throw InputError(where + ": line " + std::to_string(n) + ": token shorter than 16 characters");
     return token;
   }
   throw InputError(where + ": no token in it");

@@ -124,8 +124,6 @@ class CaptureSession {
   // the first call after it: about 1-2 ms at 512x512).
   const ShCoeffs& sh() const;
   const ShCoeffs& measured_sh() const;
-  // The fill's model as last fitted (fitted on demand like sh()).
-  const UnseenEstimator& unseen() const;
 
   std::size_t frames_added() const;  // frames offered
   std::size_t frames_used() const;

@@ -51,6 +51,9 @@ namespace arlight::capture {
 enum class Fill { None, Mean, Estimate };
 std::string_view fill_name(Fill fill);                  // "none", "mean", "estimate"
 std::optional<Fill> parse_fill(std::string_view name);  // std::nullopt for anything else
+// The same for a name from a user: InputError "<what>: expected none, mean or estimate, got
+// '<name>'" (without "<what>: " when `what` is empty) for anything else.
+Fill fill_from_name(std::string_view name, std::string_view what);
 
 struct FillOptions {
   int zones = 32;  // equal-area elevation zones of the profile Z (and of the grid)
