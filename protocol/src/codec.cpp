@@ -131,6 +131,10 @@ Offset<void> build(FlatBufferBuilder& b, const Error& m) {
   return fb::CreateError(b, fb::ErrorCode(m.code), text(b, m.message)).Union();
 }
 
+Offset<void> build(FlatBufferBuilder& b, const ExposureAdvice& m) {
+  return fb::CreateExposureAdvice(b, m.frame_sequence, m.exposure, m.clipped).Union();
+}
+
 Offset<void> build(FlatBufferBuilder& b, const CalibrationResult& m) {
   return fb::CreateCalibrationResult(b, m.stored, text(b, m.method), m.frames, text(b, m.message))
       .Union();
@@ -384,6 +388,17 @@ CalibrationResult read(const fb::CalibrationResult& m, const WireLimits&) {
           text(m.message(), "CalibrationResult", "message")};
 }
 
+ExposureAdvice read(const fb::ExposureAdvice& m, const WireLimits&) {
+  const ExposureAdvice a{m.frame_sequence(), m.exposure(), m.clipped()};
+  if (!(a.exposure >= 0.0 && a.exposure < 1e6))
+    refuse(Fault::OutOfRange, "ExposureAdvice", "exposure",
+           std::to_string(a.exposure) + " is not an exposure x gain in [0, 1e6)");
+  if (!(a.clipped >= 0.0f && a.clipped <= 1.0f))
+    refuse(Fault::OutOfRange, "ExposureAdvice", "clipped",
+           std::to_string(a.clipped) + " is not a fraction in [0, 1]");
+  return a;
+}
+
 // The generated table type of each alternative, in the union's order.
 template <class T>
 struct Table;
@@ -446,6 +461,10 @@ struct Table<Pong> {
 template <>
 struct Table<CalibrationResult> {
   using type = fb::CalibrationResult;
+};
+template <>
+struct Table<ExposureAdvice> {
+  using type = fb::ExposureAdvice;
 };
 
 // Each alternative's table must carry the union tag its position in Message implies.

@@ -88,7 +88,7 @@ TEST(WireCodec, UnknownUnionTagIsRefused) {
   for (std::size_t i = 0; i < ping.size(); ++i)
     if (ping[i] != pong[i]) differ.push_back(i);
   ASSERT_EQ(differ.size(), 1u);
-  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(16), std::uint8_t(200)}) {
+  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(17), std::uint8_t(200)}) {
     auto bytes = ping;
     bytes[differ[0]] = tag;
     const DecodeError e = refusal(bytes);
@@ -157,6 +157,22 @@ TEST(WireCodec, LightingUpdateFractionsAndExposureAreChecked) {
   wire::LightingUpdate fine;
   fine.coverage = 0.25f, fine.estimated = 0.75f, fine.frame_exposure = 0.02;
   EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
+}
+
+// ExposureAdvice (issue 16 §4): an exposure that is not one, or a fraction outside [0, 1].
+TEST(WireCodec, ExposureAdviceRangesAreChecked) {
+  const auto refused_field = [](double exposure, float clipped) {
+    const DecodeError e = refusal(wire::encode(wire::ExposureAdvice{3, exposure, clipped}));
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+    EXPECT_EQ(e.message(), "ExposureAdvice");
+    return e.field();
+  };
+  EXPECT_EQ(refused_field(-1e-3, 0.1f), "exposure");
+  EXPECT_EQ(refused_field(std::numeric_limits<double>::quiet_NaN(), 0.1f), "exposure");
+  EXPECT_EQ(refused_field(1e-3, 1.5f), "clipped");
+  EXPECT_EQ(refused_field(1e-3, -0.5f), "clipped");
+  const wire::ExposureAdvice fine{3, 1.0 / 4000, 0.02f};
+  EXPECT_EQ(std::get<wire::ExposureAdvice>(wire::decode(wire::encode(fine))), fine);
 }
 
 TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {

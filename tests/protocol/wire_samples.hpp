@@ -59,6 +59,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::Error{wire::ErrorCode::SessionNotFound, "no session 42 for this device"},
       wire::Pong{42},
       wire::CalibrationResult{true, "robertson", 7, "stored for device phone-1"},
+      wire::ExposureAdvice{41, 0.000625, 0.0125f},
   };
 }
 
@@ -79,6 +80,7 @@ inline std::vector<wire::Message> messages_with_no_optional_field() {
       wire::Error{},
       wire::Pong{},
       wire::CalibrationResult{},
+      wire::ExposureAdvice{},
   };
 }
 

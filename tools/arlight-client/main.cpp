@@ -24,14 +24,17 @@ int main(int argc, char** argv) {
   std::string server, token, source_spec,
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
-      intrinsics_file, normal_map, light_map, shadow = "on";
+      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480";
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
   double object_height = 0, wait_maps_s = 0;
   client::TlsOptions tls;
   app.add_option("--server", server, "arlightd HOST:PORT")->required();
   app.add_option("--token", token, "this device's token")->required();
-  app.add_option("--source", source_spec, "v4l2:/dev/videoN or replay:RECORDING")->required();
+  app.add_option("--source", source_spec,
+                 "v4l2:/dev/videoN, replay:RECORDING or sim:PROBE.exr (a simulated phone "
+                 "sweeping that room, rendered as it goes; follows arlightd's exposure advice)")
+      ->required();
   app.add_option("--model", model, "glTF 2.0 model (.glb/.gltf, Draco ok) or 'sphere'")
       ->capture_default_str();
   app.add_option("--material", material_text, "kd,ks,shininess (Phong)")->capture_default_str();
@@ -62,7 +65,11 @@ int main(int argc, char** argv) {
                  "seconds to wait for a map set before the first frame (0: shade with SH)");
   app.add_flag("--realtime", realtime,
                "replay at the recording's pace (default: as fast as it can)");
-  app.add_option("--frames", frames_limit, "stop after this many frames (0: all)");
+  app.add_option("--frames", frames_limit,
+                 "stop after this many frames (0: all; a sim: source sweeps the room in this "
+                 "many, 300 when 0)");
+  app.add_option("--size", size, "camera size WIDTHxHEIGHT of v4l2: (asked for) and sim: sources")
+      ->capture_default_str();
   app.add_option("--intrinsics", intrinsics_file, "webcam calibration (OpenCV YAML/JSON)");
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
@@ -85,6 +92,9 @@ int main(int argc, char** argv) {
     const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
     source::SourceOptions so;
     so.realtime = realtime, so.intrinsics_file = intrinsics_file;
+    const ImageSize image = parse_image_size(size, "--size");
+    so.width = image.width, so.height = image.height;
+    if (frames_limit > 0) so.frames = frames_limit;
     std::unique_ptr<source::FrameSource> src = source::open_source(source_spec, so);
     po.camera = src->intrinsics();
     spdlog::info("source: {}", src->describe());
@@ -103,6 +113,7 @@ int main(int argc, char** argv) {
                    : !src->device_id().empty() ? src->device_id()
                                                : "webcam";
     lo.camera = po.camera, lo.shininess = shininess, lo.map_size = map_size;
+    lo.exposure_advice = src->request_exposure(0.0);  // (0 asks nothing: can it at all?)
     LightingLink link(lo);
     link.wait_connected(std::chrono::seconds(10));
     if (wait_maps_s > 0 && !shininess.empty())
@@ -115,6 +126,9 @@ int main(int argc, char** argv) {
     cv::Mat composited;
     while (frames_limit <= 0 || int(stats.frames) < frames_limit) {
       const auto t0 = Clock::now();
+      // arlightd asked for a darker frame (its exposure advice): the next one, where the
+      // source can.
+      if (const auto advice = link.take_exposure_advice()) src->request_exposure(*advice);
       std::optional<source::SourceFrame> f = src->next();
       if (!f) break;
       const double decode_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

@@ -55,6 +55,8 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
                        {"frames", s.error_cm.size()}};
   j["lit_by_maps"] = s.lit_by_maps;
   j["lit_by_sh"] = s.lit_by_sh;
+  j["exposure_advice"] = {{"received", ls.exposure_advice},
+                          {"frames_taken", s.exposure_requested}};
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                   {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
                   {"updates", ls.updates},         {"map_sets", ls.map_sets},

@@ -9,27 +9,19 @@
 #include <cstdio>
 #include <exception>
 #include <memory>
-#include <regex>
 #include <sstream>
 
 #include "arlight/error.hpp"
+#include "arlight/number_list.hpp"
 #include "arlight/sim.hpp"
 
 namespace {
 
+using arlight::ImageSize;
 using arlight::InputError;
+using arlight::parse_image_size;
 using namespace arlight::sim;
 
-void parse_size(const std::string& s, SimOptions& o) {
-  const std::regex re(R"(^\s*(\d{1,5})\s*[xX]\s*(\d{1,5})\s*$)");
-  std::smatch m;
-  if (!std::regex_match(s, m, re))
-    throw InputError("--size '" + s + "': expected WIDTHxHEIGHT, e.g. 640x480");
-  o.width = std::stoi(m[1]);
-  o.height = std::stoi(m[2]);
-  if (o.width < 8 || o.height < 8 || o.width > 16384 || o.height > 16384)
-    throw InputError("--size '" + s + "': width and height must be 8..16384");
-}
 
 // ID,SIZE_M[,X,Y,Z]
 MarkerSpec parse_marker(const std::string& s) {
@@ -123,7 +115,8 @@ int main(int argc, char** argv) {
     if (!y4m.empty() && (o.hdr_stops > 0 || o.bracket > 0))
       throw InputError("--y4m: a browser's camera has one locked exposure (no --hdr-stops, "
                        "--bracket)");
-    parse_size(size, o);
+    const ImageSize image = parse_image_size(size, "--size");
+    o.width = image.width, o.height = image.height;
     if (o.frames < 1 || o.frames > 1000000) throw InputError("--frames: must be 1..1000000");
     if (!(o.fps > 0) || o.fps > 10000) throw InputError("--fps: must be > 0 (and <= 10000)");
     if (!(o.hfov_deg > 1 && o.hfov_deg < 179))

@@ -44,6 +44,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
                                    cv::Mat& composited) {
   FrameReport report;
   report.index = f.index;
+  report.exposure_requested = f.exposure_requested;
 
   // Tracking, then the orientation that goes to arlightd and the lighting's rotation.
   const auto t1 = Clock::now();
@@ -157,6 +158,7 @@ render::Mesh load_model(const std::string& name) {
 void RunStats::add(const FrameReport& r, double decode) {
   ++frames;
   if (r.tracked) ++tracked;
+  if (r.exposure_requested) ++exposure_requested;
   if (r.drawn) ++(r.lit_by == render::LightingSource::Maps ? lit_by_maps : lit_by_sh);
   frame_ms.push_back(r.frame_ms);
   track_ms.push_back(r.track_ms);

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <utility>
 
 namespace arlight::client_app {
 
@@ -68,6 +69,11 @@ bool LightingLink::connect_once() {
     ++stats_.map_sets;
     changed_.notify_all();
   };
+  c->on_exposure_advice = [this](const wire::ExposureAdvice& a) {
+    std::lock_guard lock(mutex_);
+    advice_ = a.exposure;
+    if (a.exposure > 0) ++stats_.exposure_advice;
+  };
   std::string resume;
   {
     std::lock_guard lock(mutex_);
@@ -75,6 +81,7 @@ bool LightingLink::connect_once() {
   }
   try {
     c->use_tls(options_.tls);
+    if (options_.exposure_advice) c->add_capability(wire::kCapabilityExposureAdvice);
     const client::Welcome w = c->connect(options_.host, options_.port, options_.device_id,
                                          options_.token, "arlight-client", resume, 5s);
     c->send_intrinsics(options_.camera);
@@ -176,6 +183,11 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
 Lighting LightingLink::lighting() const {
   std::lock_guard lock(mutex_);
   return lighting_;
+}
+
+std::optional<double> LightingLink::take_exposure_advice() {
+  std::lock_guard lock(mutex_);
+  return std::exchange(advice_, std::nullopt);
 }
 
 LinkStats LightingLink::stats() const {

@@ -93,6 +93,8 @@ struct Client::Impl {
   void handle(wire::Message&& message) {
     std::function<void(const LightingUpdate&)> update_cb;
     std::function<void(const MapSet&)> maps_cb;
+    std::function<void(const wire::ExposureAdvice&)> advice_cb;
+    std::optional<wire::ExposureAdvice> advice_copy;
     std::optional<LightingUpdate> update_copy;
     std::optional<MapSet> maps_copy;
     {
@@ -120,9 +122,13 @@ struct Client::Impl {
         }
       } else if (auto* r = std::get_if<wire::CalibrationResult>(&message)) {
         calibration = std::move(*r);
+      } else if (auto* a = std::get_if<wire::ExposureAdvice>(&message)) {
+        advice_cb = owner->on_exposure_advice;
+        advice_copy = *a;
       }  // Progress, Pong: nothing to keep; client-to-server messages are ignored
       changed.notify_all();
     }
+    if (advice_cb && advice_copy) advice_cb(*advice_copy);
     if (update_cb && update_copy) update_cb(*update_copy);
     if (maps_cb && maps_copy) maps_cb(*maps_copy);
   }
@@ -162,6 +168,10 @@ void Client::use_websocket(bool enabled, const std::string& path) {
 
 void Client::set_capabilities(std::vector<std::string> capabilities) {
   impl_->capabilities = std::move(capabilities);
+}
+
+void Client::add_capability(std::string capability) {
+  impl_->capabilities.push_back(std::move(capability));
 }
 
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,

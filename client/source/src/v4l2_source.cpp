@@ -89,6 +89,8 @@ struct V4l2Source::Impl {
   CameraIntrinsics camera;
   bool calibrated = false;
   std::optional<v4l2_queryctrl> exposure_ctrl, gain_ctrl;
+  std::optional<std::int32_t> auto_mode;  // V4L2_CID_EXPOSURE_AUTO as the device started
+  int manual_frames = 0;                  // frames left at a requested exposure
   double fps = 0;
   std::size_t count = 0;
   std::optional<double> first_timestamp;
@@ -207,6 +209,7 @@ void V4l2Source::Impl::set_rate() {
 void V4l2Source::Impl::setup_controls() {
   exposure_ctrl = query_control(fd, V4L2_CID_EXPOSURE_ABSOLUTE);
   gain_ctrl = query_control(fd, V4L2_CID_GAIN);
+  auto_mode = get_control(fd, V4L2_CID_EXPOSURE_AUTO);
   if (!options.exposure) return;
   const double s = *options.exposure;
   if (!(s > 0)) throw InputError(fail("manual exposure must be > 0 seconds"));
@@ -351,8 +354,36 @@ std::optional<SourceFrame> V4l2Source::next() {
       if (const auto v = get_control(m.fd, V4L2_CID_GAIN); v && *v > 0)
         out.gain = double(*v) / m.gain_ctrl->default_value;
     out.index = m.count++;
+    if (m.manual_frames > 0) {
+      out.exposure_requested = true;
+      if (--m.manual_frames == 0 && m.auto_mode &&
+          !set_control(m.fd, V4L2_CID_EXPOSURE_AUTO, *m.auto_mode))
+        spdlog::warn("{}", m.fail("cannot return to auto exposure: " + errno_text(errno)));
+    }
     return out;
   }
+}
+
+bool V4l2Source::request_exposure(double exposure_gain) {
+  Impl& m = *impl_;
+  // A fixed --exposure is the user's; a device without the controls cannot.
+  if (m.options.exposure || !m.exposure_ctrl || !m.auto_mode) return false;
+  if (!(exposure_gain > 0.0)) {
+    if (m.manual_frames > 0) set_control(m.fd, V4L2_CID_EXPOSURE_AUTO, *m.auto_mode);
+    m.manual_frames = 0;
+    return true;
+  }
+  // V4L2_CID_EXPOSURE_ABSOLUTE counts 100 microseconds; the gain stays where it is.
+  const auto units = std::int32_t(std::clamp<long>(std::lround(exposure_gain / 100e-6),
+                                                    m.exposure_ctrl->minimum,
+                                                    m.exposure_ctrl->maximum));
+  if (!set_control(m.fd, V4L2_CID_EXPOSURE_AUTO, V4L2_EXPOSURE_MANUAL) ||
+      !set_control(m.fd, V4L2_CID_EXPOSURE_ABSOLUTE, units)) {
+    spdlog::warn("{}", m.fail("cannot set a requested exposure: " + errno_text(errno)));
+    return false;
+  }
+  m.manual_frames = 1;
+  return true;
 }
 
 CameraIntrinsics V4l2Source::intrinsics() const { return impl_->camera; }

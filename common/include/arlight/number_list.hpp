@@ -1,4 +1,5 @@
-// Comma-separated lists of numbers from command lines ("1,10,80", "0.8,0.2,80").
+// Numbers from command lines: comma-separated lists ("1,10,80", "0.8,0.2,80") and image sizes
+// ("640x480").
 #pragma once
 
 #include <charconv>
@@ -28,6 +29,28 @@ inline std::vector<double> parse_number_list(std::string_view text, std::string_
     if (comma == std::string_view::npos) return out;
     start = comma + 1;
   }
+}
+
+struct ImageSize {
+  int width = 0, height = 0;
+};
+
+// "WIDTHxHEIGHT" (8..16384 each). InputError naming `what` and the text otherwise.
+inline ImageSize parse_image_size(std::string_view text, std::string_view what) {
+  const std::size_t x = text.find_first_of("xX");
+  ImageSize s;
+  const auto number = [&](std::string_view part, int& v) {
+    const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), v);
+    return !part.empty() && ec == std::errc() && end == part.data() + part.size();
+  };
+  if (x == std::string_view::npos || !number(text.substr(0, x), s.width) ||
+      !number(text.substr(x + 1), s.height))
+    throw InputError(std::string(what) + " '" + std::string(text) +
+                     "': expected WIDTHxHEIGHT, e.g. 640x480");
+  if (s.width < 8 || s.height < 8 || s.width > 16384 || s.height > 16384)
+    throw InputError(std::string(what) + " '" + std::string(text) +
+                     "': width and height must be 8..16384");
+  return s;
 }
 
 }  // namespace arlight

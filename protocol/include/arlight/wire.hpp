@@ -155,6 +155,9 @@ inline constexpr const char* kCapabilityTilesHalf = "tiles:half";       // accep
 // The client cannot report exposure or gain (most browsers): the server treats its frames as
 // taken at one locked exposure, whatever CameraFrame.exposure and gain say.
 inline constexpr const char* kCapabilityExposureUnknown = "exposure:unknown";
+// The client can take a frame at an exposure it is told (ExposureAdvice): only such clients
+// are sent the advice.
+inline constexpr const char* kCapabilityExposureAdvice = "exposure:advice";
 
 // The coding the server sends a client with these capabilities: ZstdHalf when it accepts it or
 // names no coding at all (clients from before codings were negotiated), otherwise Half.
@@ -207,10 +210,21 @@ struct CalibrationResult {
   bool operator==(const CalibrationResult&) const = default;
 };
 
+// Take the next frame at `exposure` (exposure x gain, seconds at gain 1): frame
+// `frame_sequence` had lights clipped that no frame has measured unclipped yet (issue 16 §4).
+// exposure 0: no darker frame is needed any more.
+struct ExposureAdvice {
+  std::uint64_t frame_sequence = 0;
+  double exposure = 0;
+  float clipped = 0;  // fraction of that frame's pixels clipped and not yet measured
+  bool operator==(const ExposureAdvice&) const = default;
+};
+
 // In the schema's union order.
 using Message = std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet,
                              RequestMaps, Ping, Bye, Welcome, LightingUpdate, MapTile,
-                             MapSetComplete, Progress, Error, Pong, CalibrationResult>;
+                             MapSetComplete, Progress, Error, Pong, CalibrationResult,
+                             ExposureAdvice>;
 
 const char* message_name(const Message& m);  // "Hello", "CameraFrame", ...
 

@@ -25,8 +25,8 @@ float border_ramp(int width, int height) { return 0.08f * float(std::min(width, 
 
 float code_weight(int max_code) {
   const float low = smoothstep(2.0f, 24.0f, float(max_code));
-  const float high = 1.0f - smoothstep(230.0f, 250.0f, float(max_code));
-  return std::max(low * high, max_code >= 250 ? 1e-3f : 0.0f);
+  const float high = 1.0f - smoothstep(230.0f, float(kClippedCode), float(max_code));
+  return std::max(low * high, max_code >= kClippedCode ? 1e-3f : 0.0f);
 }
 
 float border_weight(int x, int y, int width, int height) {
@@ -44,6 +44,7 @@ LinearFrame linearize(const cv::Mat& bgr8, const CameraResponse& response, doubl
   out.height = (h + factor - 1) / factor;
   out.weighted_radiance.assign(std::size_t(out.width) * out.height * 3, 0.0f);
   out.weight.assign(std::size_t(out.width) * out.height, 0.0f);
+  out.clipped.assign(std::size_t(out.width) * out.height, 0.0f);
 
   // Radiance of each code per RGB channel, and the weight of each code.
   std::array<std::array<float, 256>, 3> radiance{};
@@ -62,26 +63,31 @@ LinearFrame linearize(const cv::Mat& bgr8, const CameraResponse& response, doubl
   const float norm = 1.0f / float(factor * factor);
   for (int y = 0; y < h; ++y) {
     const float row_w = wy[std::size_t(y)] * norm;
-    if (row_w == 0.0f) continue;
     const std::uint8_t* row = bgr8.ptr<std::uint8_t>(y);
     float* acc = out.weighted_radiance.data() + std::size_t(y / factor) * out.width * 3;
     float* acc_w = out.weight.data() + std::size_t(y / factor) * out.width;
+    float* acc_clipped = out.clipped.data() + std::size_t(y / factor) * out.width;
     for (int bx = 0; bx < out.width; ++bx) {
       float sr = 0.0f, sg = 0.0f, sb = 0.0f, sw = 0.0f;  // the block's row, in registers
+      int clipped = 0;
       for (int x = bx * factor, end = std::min(w, x + factor); x < end; ++x) {
         const std::uint8_t b = row[3 * x], g = row[3 * x + 1], r = row[3 * x + 2];
-        const float wt = weight_of_code[std::max({b, g, r})] * wx[std::size_t(x)];
+        const std::uint8_t top = std::max({b, g, r});
+        const float wt = weight_of_code[top] * wx[std::size_t(x)];
         sr += wt * radiance[0][r];
         sg += wt * radiance[1][g];
         sb += wt * radiance[2][b];
         sw += wt;
+        clipped += top >= kClippedCode;
       }
       acc[3 * bx] += row_w * sr;
       acc[3 * bx + 1] += row_w * sg;
       acc[3 * bx + 2] += row_w * sb;
       acc_w[bx] += row_w * sw;
+      acc_clipped[bx] += norm * float(clipped);
     }
   }
+  for (const float c : out.clipped) out.clipped_blocks += c > 0.0f;
   return out;
 }
 

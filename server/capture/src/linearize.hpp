@@ -20,7 +20,13 @@ struct LinearFrame {
   int width = 0, height = 0, factor = 1;
   std::vector<float> weighted_radiance;
   std::vector<float> weight;
+  // Fraction of each block's pixels that are clipped (largest code >= kClippedCode), and how
+  // many blocks have any: what the exposure advice looks at (issue 16 §4).
+  std::vector<float> clipped;
+  int clipped_blocks = 0;
 };
+
+inline constexpr int kClippedCode = 250;  // code_weight's clipping end
 
 // Weight of an 8-bit pixel from the largest of its three codes (Debevec-style hat, one-sided
 // at each end): 0 towards clipping (>= 250) and towards black (<= 2), 1 in between, with a

@@ -149,9 +149,11 @@ void Connection::handle_hello(const wire::Hello& m) {
       [weak](std::vector<std::uint8_t> envelope) {
         if (auto stream = weak.lock()) stream->send(std::move(envelope));
       },
-      wire::choose_tile_coding(m.capabilities), [weak_self] {
+      wire::choose_tile_coding(m.capabilities),
+      [weak_self] {
         if (auto self = weak_self.lock()) self->close();  // handed over to another daemon
-      });
+      },
+      wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice));
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
                               session_->frames_processed(), env_.limits});

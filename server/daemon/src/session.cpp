@@ -106,11 +106,13 @@ bool Session::has_camera() const {
 }
 
 std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
-                              std::function<void()> disconnect) {
+                              std::function<void()> disconnect, bool exposure_advice) {
   std::lock_guard lock(mutex_);
   sink_ = std::move(sink);
   disconnect_ = std::move(disconnect);
   tile_coding_ = tile_coding;
+  advisor_.reset();
+  if (exposure_advice) advisor_.emplace();
   last_activity_ = Clock::now();
   return ++attachment_;
 }
@@ -192,6 +194,7 @@ void Session::process() {
     }
     env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
     wire::LightingUpdate update;
+    std::optional<wire::ExposureAdvice> advice;
     {
       std::lock_guard lock(mutex_);
       if (r.used) {
@@ -204,8 +207,13 @@ void Session::process() {
       }
       last_sequence_ = std::max(last_sequence_, frame.sequence);
       update = lighting_update(r, frame.sequence);
+      // Frames of unknown exposure cannot be told one (the client cannot set it either).
+      if (advisor_ && !capture_->options().estimate_exposure)
+        if (const auto e = advisor_->after_frame(r))
+          advice = wire::ExposureAdvice{frame.sequence, *e, float(r.clipped_unmeasured)};
       maybe_start_maps();
     }
+    if (advice) send(*advice);  // first: the client's next frame should already follow it
     send(update);
     env_.update_latency_seconds->observe(
         std::chrono::duration<double>(Clock::now() - job.received).count());
@@ -448,6 +456,8 @@ json Session::summary() const {
             {"frames_skipped", skipped_},
             {"last_sequence", last_sequence_},
             {"map_sets", map_set_},
+            {"exposure_advice", advisor_ ? advisor_->advised() : 0},
+            {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
             {"coverage", capture_ ? capture_->coverage() : 0.0}};
   return j;
 }

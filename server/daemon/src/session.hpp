@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "arlight/capture.hpp"
+#include "arlight/capture/exposure_advice.hpp"
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
@@ -87,12 +88,14 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string set_camera(const CameraIntrinsics& camera, bool exposure_unknown = false);
   bool has_camera() const;
 
-  // The connected client: where messages go, the tile coding its Hello accepts, and how to
-  // close its connection (when the session moves to another daemon).
+  // The connected client: where messages go, the tile coding its Hello accepts, how to close
+  // its connection (when the session moves to another daemon), and whether it follows exposure
+  // advice (Hello's exposure:advice; each attachment starts a fresh ExposureAdvisor, since
+  // what a client can reach is its own).
   // Returns the attachment's number: detach(n) lets go only if no newer connection attached
   // since (a resumed session's old connection closing late must not cut off the new one).
   std::uint64_t attach(Sink sink, wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf,
-                       std::function<void()> disconnect = {});
+                       std::function<void()> disconnect = {}, bool exposure_advice = false);
   void detach(std::uint64_t attachment);
   bool attached() const;
   Clock::time_point last_activity() const;
@@ -140,6 +143,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::function<void()> disconnect_;
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
+  std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
   std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
   bool busy_ = false;             // a process() is queued or running
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;

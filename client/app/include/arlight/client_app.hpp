@@ -78,6 +78,7 @@ struct FrameReport {
   bool tracked = false;
   std::string track_status;  // "tracked" or why not
   bool sent = false;         // went to the lighting channel (a webcam before the marker: no)
+  bool exposure_requested = false;  // taken at arlightd's exposure advice
   bool drawn = false;
   render::LightingSource lit_by = render::LightingSource::None;
   double track_ms = 0, render_ms = 0, tonemap_ms = 0;
@@ -120,6 +121,7 @@ render::Mesh load_model(const std::string& name);          // --model a glTF fil
 struct RunStats {
   std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg;
   std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0;
+  std::size_t exposure_requested = 0;  // frames taken at arlightd's exposure advice
   void add(const FrameReport& r, double decode_ms);
 };
 double median(std::vector<double> v);

@@ -29,6 +29,9 @@ struct LinkOptions {
   Projection projection = Projection::AngleMap;
   // After a loss the link retries at once, then backs off (doubling from 0.1 s) to this.
   double reconnect_interval_s = 1.0;
+  // The source can take a frame at a given exposure: the Hello names exposure:advice and
+  // arlightd says when it needs a darker frame (take_exposure_advice()).
+  bool exposure_advice = false;
 };
 
 // The newest lighting: live SH (from every LightingUpdate) and the newest complete map set.
@@ -57,6 +60,7 @@ struct LinkStats {
   std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
   std::vector<Resume> resumes;
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
+  std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts
 };
@@ -84,6 +88,11 @@ class LightingLink {
   Lighting lighting() const;
   LinkStats stats() const;
 
+  // The newest exposure advice not taken yet (PROTOCOL.md, exposure advice): the exposure x
+  // gain to take the next frame at, or 0 to drop an advice not used yet; nothing when no new
+  // advice came since the last call.
+  std::optional<double> take_exposure_advice();
+
  private:
   void run();
   bool connect_once();
@@ -94,6 +103,7 @@ class LightingLink {
   std::shared_ptr<client::Client> client_;
   Lighting lighting_;
   LinkStats stats_;
+  std::optional<double> advice_;
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
   std::atomic<bool> stop_{false};
   std::thread thread_;

@@ -77,6 +77,7 @@ class Client {
   // Before connect(): the capabilities the Hello names (wire.hpp; default "maps", "jpeg" and
   // both tile codings, so the server picks zstd).
   void set_capabilities(std::vector<std::string> capabilities);
+  void add_capability(std::string capability);  // to those
 
   // Connects and handshakes; throws ClientError (e.g. code "Unauthorized", "TLS").
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,
@@ -101,6 +102,8 @@ class Client {
   // Called on the reader thread.
   std::function<void(const LightingUpdate&)> on_update;
   std::function<void(const MapSet&)> on_map_set_complete;
+  // arlightd's exposure advice (PROTOCOL.md): take the next frame at advice.exposure.
+  std::function<void(const wire::ExposureAdvice&)> on_exposure_advice;
 
   // Waits until pred() (evaluated under the client's lock) holds, the connection ends or the
   // timeout passes; returns pred().

@@ -34,6 +34,8 @@ struct SourceFrame {
   // The frame's number in its source: the recording's frame index for a replay (so that
   // truth/ lines up, skipped frames leave gaps), a running count for a webcam.
   std::size_t index = 0;
+  // Taken at an exposure asked for with request_exposure(), not the source's own.
+  bool exposure_requested = false;
 };
 
 struct SourceOptions {
@@ -50,6 +52,8 @@ struct SourceOptions {
   std::filesystem::path intrinsics_file;
   std::optional<double> exposure;
   double timeout_s = 2.0;
+  // Sim: how many frames the trajectory lasts (at `fps`, `width` x `height`).
+  int frames = 300;
 };
 
 class FrameSource {
@@ -63,6 +67,11 @@ class FrameSource {
   virtual std::string device_id() const = 0;
   // One line for logs: what this source is and what it negotiated.
   virtual std::string describe() const = 0;
+  // Takes the next frame at this exposure x gain (seconds at gain 1: arlightd's exposure
+  // advice, PROTOCOL.md), then returns to the source's own exposure; <= 0 cancels a request
+  // not taken yet. Whether the source can (a recording cannot; a webcam whose exposure was
+  // fixed with --exposure will not).
+  virtual bool request_exposure(double /*exposure_gain*/) { return false; }
 };
 
 // Replays a recording folder: frames with a `problem`, or whose JPEG does not decode to the
@@ -96,14 +105,37 @@ class V4l2Source : public FrameSource {
   CameraIntrinsics intrinsics() const override;
   std::string device_id() const override;
   std::string describe() const override;
+  // Switches the device to manual exposure (V4L2_CID_EXPOSURE_ABSOLUTE, within its range) for
+  // one frame, then back to the auto mode it had. UVC cameras apply a new exposure a frame or
+  // two late; the frames report the control's value, so arlightd sees what was asked for.
+  bool request_exposure(double exposure_gain) override;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 
-// Opens `v4l2:/dev/videoN` or `replay:REC_FOLDER`; anything else is an InputError that says
-// which forms are accepted.
+// A simulated phone inside a probe (arlight/sim/live_camera.hpp): renders each view along a
+// sweep when asked, with auto-exposure, noise and JPEG, and follows exposure requests, so the
+// whole loop with arlightd runs without hardware. Its orientation is exact (an ideal IMU).
+class SimSource : public FrameSource {
+ public:
+  // InputError for an unreadable probe or unusable options (size, fps, frames).
+  SimSource(const std::filesystem::path& probe, const SourceOptions& options = {});
+  ~SimSource() override;
+  std::optional<SourceFrame> next() override;
+  CameraIntrinsics intrinsics() const override;
+  std::string device_id() const override;
+  std::string describe() const override;
+  bool request_exposure(double exposure_gain) override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Opens `v4l2:/dev/videoN`, `replay:REC_FOLDER` or `sim:PROBE.exr`; anything else is an
+// InputError that says which forms are accepted.
 std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options);
 
 // Reads a calibration (OpenCV FileStorage YAML/XML/JSON: camera_matrix 3x3, optional

@@ -76,6 +76,11 @@ struct FrameResult {
   double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
   bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
   int exposure_samples = 0;         // the overlapping samples that measurement had
+  // Lights this exposure cannot see (issue 16 §4): the fraction of the frame that is clipped
+  // where the map holds no unclipped measurement yet, and the largest radiance clipping has
+  // proved there (at this frame's exposure or an earlier one). 0 when nothing is clipped.
+  double clipped_unmeasured = 0;
+  double clipped_floor = 0;
   double decode_ms = 0, linearize_ms = 0, align_ms = 0, exposure_ms = 0, project_ms = 0, sh_ms = 0;
   double total_ms() const {
     return decode_ms + linearize_ms + align_ms + exposure_ms + project_ms + sh_ms;

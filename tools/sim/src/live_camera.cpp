@@ -1,0 +1,137 @@
+#include "arlight/sim/live_camera.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
+#include "arlight/resample.hpp"
+#include "arlight/response.hpp"
+#include "imaging.hpp"
+
+namespace arlight::sim {
+
+namespace {
+constexpr int kMeterCols = 16, kMeterRows = 12;  // as arlight-sim meters
+}
+
+struct LiveCamera::Impl {
+  LiveCameraOptions options;
+  CameraIntrinsics intrinsics;
+  PinholeCamera camera;
+  EnvMap env;
+  EnvSampler sampler;
+  Trajectory trajectory;
+  Sensor sensor;
+  std::vector<glm::dvec3> pixel_dir;  // camera-space ray of every pixel
+  std::size_t next_index = 0;
+  double log_auto = 0.0;  // the auto-exposure's state: log(exposure x gain)
+  double requested = 0.0;
+
+  Impl(const LiveCameraOptions& o, EnvMap loaded, const CameraResponse& response)
+      : options(o),
+        intrinsics(CameraIntrinsics::from_fov(o.width, o.height, o.hfov_deg)),
+        camera(intrinsics),
+        env(std::move(loaded)),
+        sampler(env),
+        trajectory(trajectory_params(o)),
+        sensor(intrinsics, sensor_params(o), response) {
+    pixel_dir.resize(std::size_t(o.width) * std::size_t(o.height));
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x)
+        pixel_dir[std::size_t(y) * std::size_t(o.width) + std::size_t(x)] =
+            camera.unproject({double(x), double(y)});
+  }
+
+  static TrajectoryParams trajectory_params(const LiveCameraOptions& o) {
+    TrajectoryParams tp;
+    tp.kind = o.trajectory;
+    tp.duration = std::max(1, o.frames - 1) / o.fps;
+    tp.hfov_deg = o.hfov_deg;
+    constexpr double kDeg = std::numbers::pi / 180.0;
+    tp.vfov_deg = 2.0 * std::atan(std::tan(0.5 * o.hfov_deg * kDeg) * o.height / o.width) / kDeg;
+    tp.seed = o.seed;
+    return tp;
+  }
+  static SensorParams sensor_params(const LiveCameraOptions& o) {
+    SensorParams sp;
+    sp.read_noise = o.noise;
+    sp.shot_noise = o.noise > 0 ? 1e-4 : 0.0;
+    sp.vignetting = o.vignetting;
+    sp.seed = o.seed;
+    return sp;
+  }
+
+  double metered_mean(const glm::dquat& orientation) const {
+    double sum = 0;
+    for (int gy = 0; gy < kMeterRows; ++gy)
+      for (int gx = 0; gx < kMeterCols; ++gx) {
+        const glm::dvec2 px((gx + 0.5) * options.width / kMeterCols - 0.5,
+                            (gy + 0.5) * options.height / kMeterRows - 0.5);
+        sum += luminance(glm::dvec3(sampler.sample(orientation * camera.unproject(px), 0.0)));
+      }
+    return sum / (kMeterCols * kMeterRows);
+  }
+};
+
+LiveCamera::LiveCamera(const std::filesystem::path& probe, const LiveCameraOptions& o) {
+  if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
+    throw InputError("sim camera: size " + std::to_string(o.width) + "x" +
+                     std::to_string(o.height) + " is not in 16..8192");
+  if (!(o.fps > 0.0 && o.fps <= 1000.0) || o.frames < 1 || !(o.hfov_deg > 1 && o.hfov_deg < 170))
+    throw InputError("sim camera: fps must be in (0, 1000], frames >= 1, hfov in (1, 170)");
+  LoadedEnvMap probe_map = load_envmap(probe);
+  const CameraResponse response = CameraResponse::named(o.response);
+  impl_ = std::make_unique<Impl>(o, std::move(probe_map.env), response);
+}
+
+LiveCamera::~LiveCamera() = default;
+LiveCamera::LiveCamera(LiveCamera&&) noexcept = default;
+LiveCamera& LiveCamera::operator=(LiveCamera&&) noexcept = default;
+
+CameraIntrinsics LiveCamera::intrinsics() const { return impl_->intrinsics; }
+const LiveCameraOptions& LiveCamera::options() const { return impl_->options; }
+double LiveCamera::min_exposure_gain() { return kMinExposure; }
+
+void LiveCamera::request_exposure(double exposure_gain) {
+  impl_->requested = exposure_gain > 0.0 && std::isfinite(exposure_gain) ? exposure_gain : 0.0;
+}
+
+std::optional<LiveFrame> LiveCamera::next() {
+  Impl& s = *impl_;
+  const LiveCameraOptions& o = s.options;
+  if (s.next_index >= std::size_t(o.frames)) return std::nullopt;
+  LiveFrame f;
+  f.index = s.next_index++;
+  f.time = double(f.index) / o.fps;
+  f.orientation = s.trajectory.at(f.time).orientation;
+  // The auto-exposure as arlight-sim runs it (imaging.hpp): kAeStep of the way to the metered
+  // target each frame; a requested frame leaves its state alone.
+  const double target = std::log(kTargetGrey / std::max(s.metered_mean(f.orientation), 1e-12));
+  s.log_auto = f.index == 0 ? target : s.log_auto + kAeStep * (target - s.log_auto);
+  ExposureSetting setting = split_exposure(std::exp(s.log_auto));
+  if (s.requested > 0.0) {
+    setting = split_exposure(s.requested);
+    f.requested = true;
+    s.requested = 0.0;
+  }
+  f.exposure = setting.exposure, f.gain = setting.gain;
+  f.bgr.create(o.height, o.width, CV_8UC3);
+  tbb::parallel_for(0, o.height, [&](int y) {
+    std::vector<glm::vec3> row(std::size_t(o.width));
+    for (int x = 0; x < o.width; ++x)
+      row[std::size_t(x)] = s.sampler.sample(
+          f.orientation * s.pixel_dir[std::size_t(y) * std::size_t(o.width) + std::size_t(x)],
+          0.0);
+    s.sensor.expose_row(f.index, y, row.data(), setting, f.bgr.ptr<std::uint8_t>(y));
+  });
+  if (o.jpeg_quality > 0 &&
+      !cv::imencode(".jpg", f.bgr, f.jpeg, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
+    throw std::runtime_error("sim camera: JPEG encoding failed");
+  return f;
+}
+
+}  // namespace arlight::sim
