@@ -59,6 +59,8 @@ void load_config_file(const std::filesystem::path& path, DaemonConfig& c) {
         c.align_every = value.get<int>();
       else if (key == "queue_depth")
         c.queue_depth = value.get<int>();
+      else if (key == "map_interval_s")
+        c.map_interval_s = value.get<double>();
       else if (key == "tls_cert")
         c.tls_cert = value.get<std::string>();
       else if (key == "tls_key")

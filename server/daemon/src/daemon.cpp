@@ -149,6 +149,7 @@ struct Daemon::Impl {
     session_env.align_every = config.align_every;
     session_env.align_max_width = config.align_max_width;
     session_env.queue_depth = config.queue_depth;
+    session_env.map_interval_s = config.map_interval_s;
     session_env.limits = config.limits;
     session_env.workers = &workers;
     session_env.frames_received =

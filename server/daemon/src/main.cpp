@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
                  "feature alignment on every n-th frame of a session (default 4)");
   app.add_option("--queue-depth", c.queue_depth,
                  "frames of a session that may wait; a newer one drops the oldest (default 2)");
+  app.add_option("--map-interval", c.map_interval_s,
+                 "seconds between the starts of a session's map sets while its map changes "
+                 "(default 0.1; 0: each as soon as the last is done)");
   app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");
   app.add_option("--tls-key", tls_key, "TLS: private key (PEM) of that certificate");
   app.add_option("--web", web,
@@ -100,6 +103,7 @@ int main(int argc, char** argv) {
       if (app.count("--align-every")) c.align_every = flags.align_every;
       if (app.count("--fill")) c.fill = flags.fill;
       if (app.count("--queue-depth")) c.queue_depth = flags.queue_depth;
+      if (app.count("--map-interval")) c.map_interval_s = flags.map_interval_s;
       if (app.count("--admin-protect-all")) c.admin_protect_all = flags.admin_protect_all;
     }
     if (!listen.empty()) wire::parse_endpoint(listen, c.listen_host, c.listen_port);
@@ -122,6 +126,9 @@ int main(int argc, char** argv) {
     if (c.tokens_file.empty()) throw InputError("--tokens FILE is required");
     if (c.queue_depth < 1 || c.queue_depth > 64)
       throw InputError("queue depth " + std::to_string(c.queue_depth) + " is not in [1, 64]");
+    if (!(c.map_interval_s >= 0 && c.map_interval_s <= 3600))
+      throw InputError("map interval " + std::to_string(c.map_interval_s) +
+                       " s is not in [0, 3600]");
     if (!(c.hello_timeout_s > 0) || !(c.idle_timeout_s > 0))
       throw InputError("the Hello and idle timeouts must be positive seconds");
     if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)

@@ -153,7 +153,7 @@ void Session::submit(FrameJob job) {
   env_.frames_received->inc();
   std::lock_guard lock(mutex_);
   ++received_;
-  last_activity_ = last_frame_ = Clock::now();
+  last_activity_ = Clock::now();
   // A bounded queue where the newest frame wins: when it is full, the oldest waiting frame is
   // stale and dropped (counted). Two frames absorb the jitter of a shared worker pool without
   // letting a session fall more than a frame behind.
@@ -251,28 +251,32 @@ std::string Session::request_maps(MapRequest r) {
   }
   std::lock_guard lock(mutex_);
   request_ = std::move(r);
-  maps_coverage_ = -1.0;  // a new request is computed at once
+  maps_forced_ = true;  // a new request is computed at once
   dirty_ = true;
   maybe_start_maps();
   return {};
 }
 
-// Recompute when the map has changed enough since the last set: 5 % more of the sphere seen,
-// or 150 more frames merged in (content refined). One computation at a time; a trigger while
-// one runs starts another when it ends.
+// Map sets follow the map (issue 16 §3): one starts when a frame has changed the map since the
+// last one started, once that one is done and at least map_interval_s after it started. (They
+// used to wait for 5 % more coverage or 150 frames: a set every ~380 ms for one session.) A
+// change while a set runs starts the next when it ends; one deferred by the interval starts
+// with the next frame, or from on_idle when frames stop.
 void Session::maybe_start_maps() {
   if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
-  const double coverage = capture_->coverage();
-  const bool changed =
-      maps_coverage_ < 0.0 || coverage >= maps_coverage_ + 0.05 || processed_ >= maps_frames_ + 150;
-  if (!changed) return;
+  if (!maps_forced_ && processed_ <= maps_frames_) return;  // nothing new
   if (maps_running_) {
     maps_again_ = true;
     return;
   }
+  const auto now = Clock::now();
+  if (!maps_forced_ && now - maps_started_ < std::chrono::duration<double>(env_.map_interval_s))
+    return;
+  const double coverage = capture_->coverage();
   maps_running_ = true;
   maps_again_ = false;
-  maps_coverage_ = coverage;
+  maps_forced_ = false;
+  maps_started_ = now;
   maps_frames_ = processed_;
   const std::uint32_t set = ++map_set_;
   if (map_thread_.joinable()) map_thread_.join();  // finished already (maps_running_ was false)
@@ -284,13 +288,9 @@ void Session::maybe_start_maps() {
   });
 }
 
-void Session::on_idle(Clock::time_point now) {
+void Session::on_idle(Clock::time_point) {
   std::lock_guard lock(mutex_);
-  if (processed_ > maps_frames_ && pending_.empty() && !busy_ &&
-      now - last_frame_ > std::chrono::milliseconds(500)) {
-    maps_coverage_ = -1.0;  // force: the map changed and nothing newer is coming right now
-    maybe_start_maps();
-  }
+  maybe_start_maps();  // one the interval deferred, when no frame came since to start it
 }
 
 void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
@@ -312,7 +312,6 @@ void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvM
     // Start the next set from a fresh thread: this one cannot join itself.
     boost::asio::post(*env_.workers, [self = shared_from_this()] {
       std::lock_guard l(self->mutex_);
-      self->maps_coverage_ = -1.0;
       self->maybe_start_maps();
     });
   }

@@ -38,6 +38,7 @@ struct SessionEnv {
   int align_every = 4;
   int align_max_width = 160;
   int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest
+  double map_interval_s = 0.1;  // the least time between the starts of a session's map sets
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   admin::Counter* frames_received = nullptr;
@@ -108,8 +109,8 @@ class Session : public std::enable_shared_from_this<Session> {
                  std::string method);
   std::uint64_t frames_processed() const;
 
-  // Called periodically: when frames stopped arriving for a moment and the map changed since
-  // the last map set, computes one now (the user has paused or finished capturing).
+  // Called periodically: starts the map set of a change that came while the last set was
+  // younger than the map interval, when no later frame has started it (frames stopped).
   void on_idle(Clock::time_point now);
   // Writes DATA/sessions/<id>/ if anything changed since the last one, and only while the
   // session holds its lease.
@@ -150,11 +151,11 @@ class Session : public std::enable_shared_from_this<Session> {
   bool dirty_ = false;
   int checkpoint_generation_ = 0;
   Clock::time_point last_activity_ = Clock::now();
-  Clock::time_point last_frame_ = Clock::now();
   std::optional<MapRequest> request_;
   std::uint32_t map_set_ = 0;
-  double maps_coverage_ = -1.0;  // coverage the last started map set saw
-  std::uint64_t maps_frames_ = 0;
+  std::uint64_t maps_frames_ = 0;     // frames merged when the last map set started
+  bool maps_forced_ = true;           // a new request: the next set starts whatever changed
+  Clock::time_point maps_started_{};  // when the last map set started
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
   std::mutex process_mutex_;             // held while a frame is processed

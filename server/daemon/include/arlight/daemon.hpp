@@ -70,6 +70,10 @@ struct DaemonConfig {
   // Frames of one session that may wait for a worker; when full, a new frame drops the oldest
   // waiting one (counted and reported). 1: only the newest frame ever waits.
   int queue_depth = 2;
+  // A session's map sets follow its map: a new one starts as soon as a frame has changed the
+  // map and the last one is done, but no sooner than this after the last one started (issue 16
+  // §3; 0: back to back).
+  double map_interval_s = 0.1;
   wire::WireLimits limits;
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
@@ -77,7 +81,7 @@ struct DaemonConfig {
 // Reads a JSON config file (keys: listen, admin, admin_token_file, admin_protect_all, data_dir, tokens, threads, max_sessions,
 // idle_timeout_s, hello_timeout_s, max_connections, max_unauthenticated,
 // max_connections_per_address, checkpoint_interval_s, map_size, fill, align_every, workers,
-// queue_depth, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
+// queue_depth, map_interval_s, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
 // InputError names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
 
