@@ -74,3 +74,19 @@ const bool registered = [] {
 }();
 
 }  // namespace
+
+namespace {
+
+// What arlightd computes for a session (issue 16 §3): the 8 maps of a map set at 128² (or the
+// given size), from the capture's own layout (a cube map of face 192 for --map-size 512), with
+// the auto method on all cores.
+void BM_SessionMapSet(benchmark::State& state) {
+  static const EnvMap input = resample(probe("venice"), EnvLayout::for_size(Projection::Cube, 192));
+  const EnvLayout out = EnvLayout::for_size(Projection::AngleMap, int(state.range(0)));
+  const lighting::MethodSpec spec = lighting::parse_method("auto");
+  (void)texel_table(input.layout), (void)texel_table(out);
+  for (auto _ : state) benchmark::DoNotOptimize(lighting::compute_maps(input, kShininess, out, spec));
+}
+BENCHMARK(BM_SessionMapSet)->Arg(32)->Arg(128)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace

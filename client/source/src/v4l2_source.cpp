@@ -259,6 +259,8 @@ void V4l2Source::Impl::start_streaming() {
 
 void V4l2Source::Impl::close_device() {
   if (fd == -1) return;
+  // UVC cameras keep their controls after close: never leave one in a requested exposure.
+  if (manual_frames > 0 && auto_mode) set_control(fd, V4L2_CID_EXPOSURE_AUTO, *auto_mode);
   if (streaming) {
     v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     xioctl(fd, VIDIOC_STREAMOFF, &type);

@@ -19,7 +19,7 @@ std::optional<double> ExposureAdvisor::after_frame(const FrameResult& frame) {
   ++frames_since_;
   if (outstanding_ > 0.0) {
     darkest_since_ = darkest_since_ > 0.0 ? std::min(darkest_since_, exposure) : exposure;
-    if (exposure <= 1.25 * outstanding_) {
+    if (is_advised(exposure)) {
       ++followed_;
       outstanding_ = 0.0;
     } else if (frames_since_ > options_.follow_frames) {

@@ -158,7 +158,17 @@ void Session::submit(FrameJob job) {
   // stale and dropped (counted). Two frames absorb the jitter of a shared worker pool without
   // letting a session fall more than a frame behind.
   while (pending_.size() >= std::size_t(std::max(1, env_.queue_depth))) {
-    pending_.pop_front();
+    // The oldest waiting frame goes, unless it is the darker frame the exposure advice asked
+    // for (there is one such frame per advice; dropping it would read as a client that cannot
+    // go that dark): then the oldest other one.
+    auto victim = pending_.begin();
+    if (advisor_)
+      for (auto it = pending_.begin(); it != pending_.end(); ++it)
+        if (!advisor_->is_advised(it->frame.info.exposure * it->frame.info.gain)) {
+          victim = it;
+          break;
+        }
+    pending_.erase(victim);
     ++dropped_;
     env_.frames_dropped->inc();
   }

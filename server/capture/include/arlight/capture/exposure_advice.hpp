@@ -44,6 +44,10 @@ class ExposureAdvisor {
   // nothing when there is nothing new to say.
   std::optional<double> after_frame(const FrameResult& frame);
 
+  // Whether a frame at this exposure x gain is the one the outstanding advice asked for.
+  bool is_advised(double exposure_gain) const {
+    return outstanding_ > 0.0 && exposure_gain <= 1.25 * outstanding_;
+  }
   std::size_t advised() const { return advised_; }    // advices given (not counting the 0s)
   std::size_t followed() const { return followed_; }  // frames taken at an advice
   double darkest_reachable() const { return limit_; }  // 0 until a client missed an advice
