@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 
 #include "arlight/lighting.hpp"
@@ -27,6 +28,12 @@ class BackgroundPriority : public tbb::task_scheduler_observer {
 };
 
 }  // namespace
+
+EnvLayout preview_input_layout(const EnvLayout& output) {
+  const double texels = double(texel_table(output)->size());
+  const int face = std::max(8, int(std::lround(std::sqrt(2.0 * texels / 6.0) / 8.0)) * 8);
+  return EnvLayout::for_size(Projection::Cube, face);
+}
 
 double stream_map_set(const MapSetJob& job, std::stop_token stop,
                       const std::function<void(const wire::Message&)>& send) {
@@ -51,8 +58,13 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     arena.initialize();
     const BackgroundPriority background(arena);
     arena.execute([&] {
-      maps = lighting::compute_maps(job.input, request.shininess, layout,
-                                    lighting::parse_method(request.method), hooks);
+      const EnvLayout reduced = preview_input_layout(layout);
+      if (job.preview && reduced.texel_count() < job.input.layout.texel_count())
+        maps = lighting::compute_maps(resample(job.input, reduced), request.shininess, layout,
+                                      lighting::parse_method(request.method), hooks);
+      else
+        maps = lighting::compute_maps(job.input, request.shininess, layout,
+                                      lighting::parse_method(request.method), hooks);
     });
     const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
                                   int h) {

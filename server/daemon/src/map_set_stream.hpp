@@ -22,10 +22,20 @@ struct MapSetJob {
   std::uint32_t id = 0;      // the set's number in its session
   double coverage = 0;       // of `input`
   std::uint64_t frames = 0;  // merged into `input`
+  // A set while frames still arrive: computed from `input` reduced to preview_input_layout()
+  // (issue 16 §3: ~3.7x faster at 128², mean error 0.5 %, up to 23 % beside lights, venice);
+  // the session follows it with a full one once frames pause.
+  bool preview = false;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };
 };
+
+// The input layout of a preview set for maps in `output`: a cube map with about twice the
+// output's texels on the sphere (face sqrt(2T/6), a multiple of 8: 64 for a 128² angle map),
+// so its texels are about 0.7 of the output's apart, fine enough for every lobe the output
+// can show but the narrowest next to a light.
+EnvLayout preview_input_layout(const EnvLayout& output);
 
 // Computes and sends the set; returns its seconds when it completed, or a negative number when
 // it was stopped. A failure of the computation is sent as Error{Internal}.

@@ -153,7 +153,7 @@ void Session::submit(FrameJob job) {
   env_.frames_received->inc();
   std::lock_guard lock(mutex_);
   ++received_;
-  last_activity_ = Clock::now();
+  last_activity_ = last_frame_ = Clock::now();
   // A bounded queue where the newest frame wins: when it is full, the oldest waiting frame is
   // stale and dropped (counted). Two frames absorb the jitter of a shared worker pool without
   // letting a session fall more than a frame behind.
@@ -267,51 +267,63 @@ std::string Session::request_maps(MapRequest r) {
   return {};
 }
 
+// Frames that stopped this long ago have stopped: the next map set is a full one.
+constexpr auto kPreviewPause = std::chrono::milliseconds(500);
+
 // Map sets follow the map (issue 16 §3): one starts when a frame has changed the map since the
 // last one started, once that one is done and at least map_interval_s after it started. (They
 // used to wait for 5 % more coverage or 150 frames: a set every ~380 ms for one session.) A
 // change while a set runs starts the next when it ends; one deferred by the interval starts
-// with the next frame, or from on_idle when frames stop.
+// with the next frame, or from on_idle when frames stop. While frames arrive, sets are previews
+// (MapSetJob::preview: from the map reduced to about the output's resolution); once they pause
+// for kPreviewPause, on_idle computes a full one.
 void Session::maybe_start_maps() {
   if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
-  if (!maps_forced_ && processed_ <= maps_frames_) return;  // nothing new
+  const auto now = Clock::now();
+  // Frames paused after a preview: the full set of the map as it is now is due.
+  const bool full_due =
+      maps_preview_ && pending_.empty() && !busy_ && now - last_frame_ >= kPreviewPause;
+  if (!maps_forced_ && processed_ <= maps_frames_ && !full_due) return;  // nothing new
   if (maps_running_) {
     maps_again_ = true;
     return;
   }
-  const auto now = Clock::now();
   if (!maps_forced_ && now - maps_started_ < std::chrono::duration<double>(env_.map_interval_s))
     return;
-  const double coverage = capture_->coverage();
+  MapSetJob job{.request = *request_,
+                .input = capture_->environment(),
+                .id = ++map_set_,
+                .coverage = capture_->coverage(),
+                .frames = processed_,
+                .preview = now - last_frame_ < kPreviewPause,
+                .tile_coding = [this] {
+                  std::lock_guard lock(mutex_);
+                  return tile_coding_;
+                }};
   maps_running_ = true;
   maps_again_ = false;
   maps_forced_ = false;
   maps_started_ = now;
   maps_frames_ = processed_;
-  const std::uint32_t set = ++map_set_;
+  maps_preview_ = job.preview;
   if (map_thread_.joinable()) map_thread_.join();  // finished already (maps_running_ was false)
   // `this`, not a shared_ptr: the thread must never hold the last reference (~Session joins
   // it); ~Session stops and joins it before any member goes away.
-  map_thread_ = std::jthread([this, request = *request_, input = capture_->environment(), set,
-                              coverage, frames = processed_](std::stop_token stop) mutable {
-    compute_maps_thread(stop, std::move(request), std::move(input), set, coverage, frames);
+  map_thread_ = std::jthread([this, job = std::move(job)](std::stop_token stop) mutable {
+    compute_maps_thread(stop, std::move(job));
   });
 }
 
 void Session::on_idle(Clock::time_point) {
   std::lock_guard lock(mutex_);
-  maybe_start_maps();  // one the interval deferred, when no frame came since to start it
+  // A set the interval deferred, or the full one after a preview, when no frame came since
+  // to start it.
+  maybe_start_maps();
 }
 
-void Session::compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
-                                  std::uint32_t set, double coverage, std::uint64_t frames) {
+void Session::compute_maps_thread(std::stop_token stop, MapSetJob job) {
   const double seconds =
-      stream_map_set({std::move(request), std::move(input), set, coverage, frames,
-                      [this] {
-                        std::lock_guard lock(mutex_);
-                        return tile_coding_;
-                      }},
-                     stop, [this](const wire::Message& m) { send(m); });
+      stream_map_set(job, stop, [this](const wire::Message& m) { send(m); });
   if (seconds >= 0.0) {
     env_.map_sets->inc();
     env_.map_set_seconds->observe(seconds);

@@ -24,6 +24,7 @@
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
+#include "map_set_stream.hpp"
 #include "session_lease.hpp"
 
 namespace arlight::daemon {
@@ -110,7 +111,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t frames_processed() const;
 
   // Called periodically: starts the map set of a change that came while the last set was
-  // younger than the map interval, when no later frame has started it (frames stopped).
+  // younger than the map interval, or the full set after previews once frames pause, when no
+  // frame has started it.
   void on_idle(Clock::time_point now);
   // Writes DATA/sessions/<id>/ if anything changed since the last one, and only while the
   // session holds its lease.
@@ -128,8 +130,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void process();  // on the worker pool
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   void maybe_start_maps();  // with mutex_ held
-  void compute_maps_thread(std::stop_token stop, MapRequest request, EnvMap input,
-                           std::uint32_t map_set, double coverage, std::uint64_t frames);
+  void compute_maps_thread(std::stop_token stop, MapSetJob job);
   void send(const wire::Message& message);
 
   std::string id_, device_id_;
@@ -156,6 +157,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t maps_frames_ = 0;     // frames merged when the last map set started
   bool maps_forced_ = true;           // a new request: the next set starts whatever changed
   Clock::time_point maps_started_{};  // when the last map set started
+  bool maps_preview_ = false;         // the last set was a preview (frames were arriving)
+  Clock::time_point last_frame_ = Clock::now();
   bool maps_running_ = false, maps_again_ = false;
   std::jthread map_thread_;
   std::mutex process_mutex_;             // held while a frame is processed

@@ -1,0 +1,75 @@
+// The map sets arlightd streams (issue 16 §3): a preview while frames arrive is computed from
+// the map reduced to about twice the output's texels, close to the full set and cheaper.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "arlight/hdr_io.hpp"
+#include "arlight/lighting.hpp"
+#include "arlight/resample.hpp"
+#include "map_set_stream.hpp"
+
+using namespace arlight;
+using namespace arlight::daemon;
+
+TEST(MapSetStream, APreviewsInputHasAboutTwiceTheOutputsTexels) {
+  for (const EnvLayout out : {EnvLayout::for_size(Projection::AngleMap, 128),
+                              EnvLayout::for_size(Projection::AngleMap, 512),
+                              EnvLayout::for_size(Projection::LatLong, 64),
+                              EnvLayout::for_size(Projection::Cube, 32)}) {
+    const EnvLayout in = preview_input_layout(out);
+    EXPECT_EQ(in.projection(), Projection::Cube);
+    EXPECT_EQ(in.face_size() % 8, 0);
+    const double ratio = double(in.texel_count()) / double(texel_table(out)->size());
+    EXPECT_GT(ratio, 1.5) << out.width();
+    EXPECT_LT(ratio, 2.7) << out.width();
+  }
+  EXPECT_EQ(preview_input_layout(EnvLayout::for_size(Projection::AngleMap, 128)).face_size(), 64);
+}
+
+namespace {
+
+// The maps a streamed set carries, from its full-resolution tiles (Half coding).
+std::vector<EnvMap> stream(const EnvMap& input, const MapRequest& request, bool preview,
+                           double& seconds) {
+  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
+  std::vector<EnvMap> maps(request.shininess.size(), EnvMap(layout));
+  MapSetJob job{.request = request, .input = input, .id = 1, .preview = preview,
+                .tile_coding = [] { return wire::TileCoding::Half; }};
+  seconds = stream_map_set(job, {}, [&](const wire::Message& m) {
+    const auto* t = std::get_if<wire::MapTile>(&m);
+    if (!t || t->level != 0) return;
+    std::string why;
+    const auto px =
+        wire::decode_half_rgb(t->data, std::size_t(t->width) * t->height, t->coding, why);
+    ASSERT_TRUE(px) << why;
+    for (std::uint32_t y = 0; y < t->height; ++y)
+      for (std::uint32_t x = 0; x < t->width; ++x)
+        for (int c = 0; c < 3; ++c)
+          maps[t->map_index]
+              .image.data()[3 * ((t->y + y) * std::size_t(layout.width()) + t->x + x) + c] =
+              (*px)[3 * (std::size_t(y) * t->width + x) + std::size_t(c)];
+  });
+  return maps;
+}
+
+}  // namespace
+
+TEST(MapSetStream, APreviewSetIsCloseToTheFullOne) {
+  const EnvMap venice = resample(
+      load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
+      EnvLayout::for_size(Projection::Cube, 192));  // arlightd's capture layout
+  const MapRequest request{.shininess = {1, 80}, .size = 64};
+  double full_s = 0, preview_s = 0;
+  const auto full = stream(venice, request, false, full_s);
+  const auto preview = stream(venice, request, true, preview_s);
+  ASSERT_GT(full_s, 0.0);
+  ASSERT_GT(preview_s, 0.0);
+  for (std::size_t k = 0; k < full.size(); ++k) {
+    const lighting::MapError e = lighting::map_error(full[k], preview[k]);
+    std::printf("s = %g: preview against full: mean %.3f %%, max %.2f %%\n",
+                request.shininess[k], 100 * e.mean, 100 * e.max);
+    EXPECT_LT(e.mean, 0.01) << request.shininess[k];
+    EXPECT_GT(e.mean, 0.0) << "the preview is the full set: was the input reduced?";
+  }
+}
