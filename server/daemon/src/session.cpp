@@ -275,8 +275,8 @@ constexpr auto kPreviewPause = std::chrono::milliseconds(500);
 // used to wait for 5 % more coverage or 150 frames: a set every ~380 ms for one session.) A
 // change while a set runs starts the next when it ends; one deferred by the interval starts
 // with the next frame, or from on_idle when frames stop. While frames arrive, sets are previews
-// (MapSetJob::preview: from the map reduced to about the output's resolution); once they pause
-// for kPreviewPause, on_idle computes a full one.
+// (MapSetJob::preview: from the map reduced to about twice the output's texels); once they
+// pause for kPreviewPause, a full one follows (from on_idle, or when the running set ends).
 void Session::maybe_start_maps() {
   if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
   const auto now = Clock::now();
