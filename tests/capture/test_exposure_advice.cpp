@@ -32,6 +32,20 @@ std::string probe(const std::string& name) {
   return std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/" + name + ".exr";
 }
 
+// A capture of the simulated camera's frames as arlightd makes it (its cube layout, here for
+// 256), with the camera's exact orientations: no alignment, no fill.
+CaptureSession capture_of(const sim::LiveCamera& camera) {
+  CaptureOptions o;
+  o.layout = capture_layout_for(256);
+  o.align = false;
+  o.fill = Fill::None;
+  return CaptureSession(camera.intrinsics(), CameraResponse::srgb(), o);
+}
+
+FrameResult add(CaptureSession& s, const sim::LiveFrame& f) {
+  return s.add_image(f.bgr, {f.time, f.exposure, f.gain, f.orientation});
+}
+
 }  // namespace
 
 TEST(ExposureAdvice, AsksForTheFloorFiveStopsUnderClippingAndCountsTheFollower) {
@@ -105,18 +119,14 @@ TEST(ExposureAdvice, TheCaptureReportsClippedLightsUntilAFrameMeasuresThem) {
   sim::LiveCameraOptions co;
   co.width = 160, co.height = 120, co.frames = 240, co.noise = 0.0, co.jpeg_quality = 0;
   sim::LiveCamera camera(probe("lab"), co);
-  CaptureOptions o;
-  o.layout = capture_layout_for(256);
-  o.align = false;
-  o.fill = Fill::None;
-  CaptureSession s(camera.intrinsics(), CameraResponse::srgb(), o);
+  CaptureSession s = capture_of(camera);
   // The first view of the sweep with a lamp clipped in it.
   std::optional<sim::LiveFrame> f;
   FrameResult r;
   for (;;) {
     f = camera.next();
     ASSERT_TRUE(f) << "no frame of the sweep clips";
-    r = s.add_image(f->bgr, {f->time, f->exposure, f->gain, f->orientation});
+    r = add(s, *f);
     ASSERT_TRUE(r.used) << r.skipped_reason;
     if (r.clipped_unmeasured > 0.001) break;
   }
@@ -127,11 +137,10 @@ TEST(ExposureAdvice, TheCaptureReportsClippedLightsUntilAFrameMeasuresThem) {
   camera.request_exposure(exposure / 64);
   const auto dark = camera.next();
   ASSERT_TRUE(dark && dark->requested);
-  const FrameResult rd =
-      s.add_image(dark->bgr, {dark->time, dark->exposure, dark->gain, dark->orientation});
+  const FrameResult rd = add(s, *dark);
   EXPECT_LT(rd.clipped_unmeasured, 0.2 * r.clipped_unmeasured) << "64x darker still clips";
   // The first view again at its auto exposure: its lamps are measured now.
-  const FrameResult again = s.add_image(f->bgr, {f->time, f->exposure, f->gain, f->orientation});
+  const FrameResult again = add(s, *f);
   EXPECT_LT(again.clipped_unmeasured, 0.2 * r.clipped_unmeasured)
       << "the lamps the dark frame measured are still reported";
   // The auto-exposure resumed where it was after the requested frame.
@@ -153,15 +162,11 @@ LoopResult sweep_lab(bool advice) {
   sim::LiveCameraOptions co;
   co.width = 320, co.height = 240, co.frames = 240, co.jpeg_quality = 0, co.seed = 3;
   sim::LiveCamera camera(probe("lab"), co);
-  CaptureOptions o;
-  o.layout = capture_layout_for(256);
-  o.align = false;
-  o.fill = Fill::None;
-  CaptureSession s(camera.intrinsics(), CameraResponse::srgb(), o);
+  CaptureSession s = capture_of(camera);
   ExposureAdvisor advisor;
   LoopResult out;
   while (const auto f = camera.next()) {
-    const FrameResult r = s.add_image(f->bgr, {f->time, f->exposure, f->gain, f->orientation});
+    const FrameResult r = add(s, *f);
     EXPECT_TRUE(r.used) << r.skipped_reason;
     ++out.frames;
     if (const auto e = advisor.after_frame(r); e && advice) camera.request_exposure(*e);

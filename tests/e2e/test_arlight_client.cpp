@@ -174,16 +174,13 @@ TEST(ArlightClient, FollowsTheDaemonsExposureAdviceAndCapturesTheLampsOfLab) {
     std::this_thread::sleep_for(50ms);
   const auto checkpoint = daemon::read_checkpoint(data / "sessions" / id);
   ASSERT_TRUE(checkpoint);
-  const EnvLayout layout = checkpoint->capture_layout();
-  EnvMap env(layout);
-  const capture::Accumulators& acc = checkpoint->accumulators;
-  for (std::size_t t = 0; t < layout.texel_count(); ++t)
-    for (int c = 0; c < 3; ++c)
-      env.image.data()[3 * t + c] =
-          acc.weight[t] > 0 ? acc.weighted_radiance[3 * t + c] / acc.weight[t] : 0.0f;
+  capture::CaptureOptions options;
+  options.layout = checkpoint->capture_layout();
+  capture::CaptureSession session(checkpoint->camera, CameraResponse::srgb(), options);
+  session.restore(checkpoint->accumulators);
   ImageMetadata meta;
-  meta.projection = layout.projection();
-  write_exr(dir / "env.exr", env.image.view(), meta);
+  meta.projection = options.layout.projection();
+  write_exr(dir / "env.exr", session.measured_environment().image.view(), meta);
   const auto diff = test::run_tool(ARLIGHT_MAPS_EXE, "diff --reference " + lab + " --test " +
                                                          (dir / "env.exr").string() +
                                                          " --method auto --size 128 --json " +

@@ -15,16 +15,17 @@ ExposureSetting split_exposure(double product) {
   return s;
 }
 
+double auto_exposure_step(double log_product, double metered_mean, bool first) {
+  // A black view would ask for infinite exposure; split_exposure's clamps stop it anyway.
+  const double target = std::log(kTargetGrey / std::max(metered_mean, 1e-12));
+  return first ? target : log_product + kAeStep * (target - log_product);
+}
+
 std::vector<ExposureSetting> auto_exposure(const std::vector<double>& metered_mean, bool enabled) {
   std::vector<ExposureSetting> out;
   double log_product = 0;
   for (std::size_t i = 0; i < metered_mean.size(); ++i) {
-    // A black view would ask for infinite exposure; the clamps below stop it anyway.
-    const double target = std::log(kTargetGrey / std::max(metered_mean[i], 1e-12));
-    if (i == 0)
-      log_product = target;
-    else if (enabled)
-      log_product += kAeStep * (target - log_product);
+    if (i == 0 || enabled) log_product = auto_exposure_step(log_product, metered_mean[i], i == 0);
     out.push_back(split_exposure(std::exp(log_product)));
   }
   return out;

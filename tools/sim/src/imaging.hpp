@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "arlight/camera.hpp"
+#include "arlight/image.hpp"
 #include "arlight/response.hpp"
 
 namespace arlight::sim {
@@ -27,6 +28,27 @@ inline constexpr double kMaxExposure = 1.0 / 30;    // a 30 fps video stream's l
 inline constexpr double kMaxGain = 64;
 inline constexpr double kTargetGrey = 0.18;  // metering puts the mean luminance here
 inline constexpr double kAeStep = 0.3;       // each frame moves 30% of the way (log space)
+
+// One step of the auto-exposure: log(exposure × gain) for a frame whose view meters
+// `metered_mean`, moving kAeStep of the way from the last frame's `log_product` to the target
+// kTargetGrey / mean (the first frame starts at its target).
+double auto_exposure_step(double log_product, double metered_mean, bool first);
+
+// The mean luminance a phone meters in a view: `radiance(dir)` (dir a camera-space ray) on a
+// kMeterCols x kMeterRows grid of pixel centres.
+inline constexpr int kMeterCols = 16, kMeterRows = 12;
+template <class Radiance>
+double metered_mean(const PinholeCamera& camera, Radiance&& radiance) {
+  const CameraIntrinsics& k = camera.intrinsics();
+  double sum = 0;
+  for (int gy = 0; gy < kMeterRows; ++gy)
+    for (int gx = 0; gx < kMeterCols; ++gx) {
+      const glm::dvec2 px((gx + 0.5) * k.width / kMeterCols - 0.5,
+                          (gy + 0.5) * k.height / kMeterRows - 0.5);
+      sum += luminance(glm::dvec3(radiance(camera.unproject(px))));
+    }
+  return sum / (kMeterCols * kMeterRows);
+}
 
 // Splits exposure × gain like a phone: exposure time first (within its range), gain for the
 // rest (1..64); beyond that the frame is simply under- or over-exposed.
@@ -68,6 +90,10 @@ struct SensorParams {
   double shot_noise = 1e-4;   // shot-noise variance per unit of gain × linear value
   double vignetting = 0.05;   // 1 - V r² (residual after the phone's lens-shading correction)
   std::uint64_t seed = 0;
+  // A sensor of this read noise (0: no shot noise either) and vignetting.
+  static SensorParams with(double read_noise, double vignetting, std::uint64_t seed) {
+    return {read_noise, read_noise > 0 ? 1e-4 : 0.0, vignetting, seed};
+  }
 };
 
 class Sensor {

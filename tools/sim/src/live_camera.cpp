@@ -3,7 +3,6 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
-#include <numbers>
 #include <opencv2/imgcodecs.hpp>
 
 #include "arlight/error.hpp"
@@ -14,15 +13,10 @@
 
 namespace arlight::sim {
 
-namespace {
-constexpr int kMeterCols = 16, kMeterRows = 12;  // as arlight-sim meters
-}
-
 struct LiveCamera::Impl {
   LiveCameraOptions options;
   CameraIntrinsics intrinsics;
   PinholeCamera camera;
-  EnvMap env;
   EnvSampler sampler;
   Trajectory trajectory;
   Sensor sensor;
@@ -31,14 +25,13 @@ struct LiveCamera::Impl {
   double log_auto = 0.0;  // the auto-exposure's state: log(exposure x gain)
   double requested = 0.0;
 
-  Impl(const LiveCameraOptions& o, EnvMap loaded, const CameraResponse& response)
+  Impl(const LiveCameraOptions& o, const EnvMap& probe, const CameraResponse& response)
       : options(o),
         intrinsics(CameraIntrinsics::from_fov(o.width, o.height, o.hfov_deg)),
         camera(intrinsics),
-        env(std::move(loaded)),
-        sampler(env),
+        sampler(probe),
         trajectory(trajectory_params(o)),
-        sensor(intrinsics, sensor_params(o), response) {
+        sensor(intrinsics, SensorParams::with(o.noise, o.vignetting, o.seed), response) {
     pixel_dir.resize(std::size_t(o.width) * std::size_t(o.height));
     for (int y = 0; y < o.height; ++y)
       for (int x = 0; x < o.width; ++x)
@@ -51,29 +44,9 @@ struct LiveCamera::Impl {
     tp.kind = o.trajectory;
     tp.duration = std::max(1, o.frames - 1) / o.fps;
     tp.hfov_deg = o.hfov_deg;
-    constexpr double kDeg = std::numbers::pi / 180.0;
-    tp.vfov_deg = 2.0 * std::atan(std::tan(0.5 * o.hfov_deg * kDeg) * o.height / o.width) / kDeg;
+    tp.vfov_deg = vertical_fov_deg(o.hfov_deg, o.width, o.height);
     tp.seed = o.seed;
     return tp;
-  }
-  static SensorParams sensor_params(const LiveCameraOptions& o) {
-    SensorParams sp;
-    sp.read_noise = o.noise;
-    sp.shot_noise = o.noise > 0 ? 1e-4 : 0.0;
-    sp.vignetting = o.vignetting;
-    sp.seed = o.seed;
-    return sp;
-  }
-
-  double metered_mean(const glm::dquat& orientation) const {
-    double sum = 0;
-    for (int gy = 0; gy < kMeterRows; ++gy)
-      for (int gx = 0; gx < kMeterCols; ++gx) {
-        const glm::dvec2 px((gx + 0.5) * options.width / kMeterCols - 0.5,
-                            (gy + 0.5) * options.height / kMeterRows - 0.5);
-        sum += luminance(glm::dvec3(sampler.sample(orientation * camera.unproject(px), 0.0)));
-      }
-    return sum / (kMeterCols * kMeterRows);
   }
 };
 
@@ -85,7 +58,7 @@ LiveCamera::LiveCamera(const std::filesystem::path& probe, const LiveCameraOptio
     throw InputError("sim camera: fps must be in (0, 1000], frames >= 1, hfov in (1, 170)");
   LoadedEnvMap probe_map = load_envmap(probe);
   const CameraResponse response = CameraResponse::named(o.response);
-  impl_ = std::make_unique<Impl>(o, std::move(probe_map.env), response);
+  impl_ = std::make_unique<Impl>(o, probe_map.env, response);
 }
 
 LiveCamera::~LiveCamera() = default;
@@ -94,7 +67,6 @@ LiveCamera& LiveCamera::operator=(LiveCamera&&) noexcept = default;
 
 CameraIntrinsics LiveCamera::intrinsics() const { return impl_->intrinsics; }
 const LiveCameraOptions& LiveCamera::options() const { return impl_->options; }
-double LiveCamera::min_exposure_gain() { return kMinExposure; }
 
 void LiveCamera::request_exposure(double exposure_gain) {
   impl_->requested = exposure_gain > 0.0 && std::isfinite(exposure_gain) ? exposure_gain : 0.0;
@@ -108,10 +80,10 @@ std::optional<LiveFrame> LiveCamera::next() {
   f.index = s.next_index++;
   f.time = double(f.index) / o.fps;
   f.orientation = s.trajectory.at(f.time).orientation;
-  // The auto-exposure as arlight-sim runs it (imaging.hpp): kAeStep of the way to the metered
-  // target each frame; a requested frame leaves its state alone.
-  const double target = std::log(kTargetGrey / std::max(s.metered_mean(f.orientation), 1e-12));
-  s.log_auto = f.index == 0 ? target : s.log_auto + kAeStep * (target - s.log_auto);
+  // The auto-exposure as arlight-sim runs it; a requested frame leaves its state alone.
+  const double metered = metered_mean(
+      s.camera, [&](const glm::dvec3& ray) { return s.sampler.sample(f.orientation * ray, 0.0); });
+  s.log_auto = auto_exposure_step(s.log_auto, metered, f.index == 0);
   ExposureSetting setting = split_exposure(std::exp(s.log_auto));
   if (s.requested > 0.0) {
     setting = split_exposure(s.requested);

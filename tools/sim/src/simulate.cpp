@@ -33,7 +33,6 @@ constexpr double kOrientationNoiseDeg = 0.02;  // per axis, white, per frame
 constexpr double kGyroNoise = 0.002;           // rad/s per axis and sample
 constexpr double kAccelNoise = 0.02;           // m/s^2 per axis and sample
 constexpr double kGravity = 9.81;
-constexpr int kMeterCols = 16, kMeterRows = 12;  // the auto-exposure's metering grid
 constexpr int kSuper = 4;                        // supersampling where the marker is
 
 // An --out folder is either absent, empty, or an earlier recording (which is replaced).
@@ -105,8 +104,6 @@ int simulate(const SimOptions& o) {
 
   const CameraIntrinsics intrinsics = CameraIntrinsics::from_fov(o.width, o.height, o.hfov_deg);
   const PinholeCamera camera(intrinsics);
-  const double vfov_deg =
-      2.0 * std::atan(std::tan(0.5 * o.hfov_deg * kDeg) * o.height / o.width) / kDeg;
   const bool bracket = o.bracket > 0;
   const int n = bracket ? o.bracket : o.frames;
   const double duration = (n - 1) / o.fps;
@@ -116,7 +113,7 @@ int simulate(const SimOptions& o) {
   tp.kind = o.trajectory;
   tp.duration = duration;
   tp.hfov_deg = o.hfov_deg;
-  tp.vfov_deg = vfov_deg;
+  tp.vfov_deg = vertical_fov_deg(o.hfov_deg, o.width, o.height);
   if (o.marker) tp.target = o.marker->centre;
   tp.seed = o.seed;
   const Trajectory trajectory(tp);
@@ -145,16 +142,9 @@ int simulate(const SimOptions& o) {
   // Exposure: meter each view's mean luminance on a coarse grid, then run the auto-exposure.
   std::vector<double> metered(std::size_t(n), 0.0);
   tbb::parallel_for(0, n, [&](int i) {
-    double sum = 0;
-    for (int gy = 0; gy < kMeterRows; ++gy)
-      for (int gx = 0; gx < kMeterCols; ++gx) {
-        const glm::dvec2 px((gx + 0.5) * o.width / kMeterCols - 0.5,
-                            (gy + 0.5) * o.height / kMeterRows - 0.5);
-        const Pose& p = poses[std::size_t(i)];
-        sum +=
-            luminance(glm::dvec3(scene.radiance(p.position, p.orientation * camera.unproject(px))));
-      }
-    metered[std::size_t(i)] = sum / (kMeterCols * kMeterRows);
+    const Pose& p = poses[std::size_t(i)];
+    metered[std::size_t(i)] = metered_mean(
+        camera, [&](const glm::dvec3& ray) { return scene.radiance(p.position, p.orientation * ray); });
   });
   std::vector<ExposureSetting> settings =
       bracket ? bracket_exposures(metered[0], n)
@@ -163,12 +153,7 @@ int simulate(const SimOptions& o) {
     for (std::size_t i = 1; i < settings.size(); i += 2)
       settings[i] = split_exposure(settings[i].product() * std::exp2(-o.hdr_stops));
 
-  SensorParams sp;
-  sp.read_noise = o.noise;
-  sp.shot_noise = o.noise > 0 ? 1e-4 : 0.0;
-  sp.vignetting = o.vignetting;
-  sp.seed = o.seed;
-  const Sensor sensor(intrinsics, sp, response);
+  const Sensor sensor(intrinsics, SensorParams::with(o.noise, o.vignetting, o.seed), response);
 
   // One frame: scene radiance per pixel (4x4 supersampled where the marker sheet may be, so
   // its edges are anti-aliased), then the sensor, then JPEG.

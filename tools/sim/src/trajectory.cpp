@@ -31,6 +31,10 @@ double angle_between(const glm::dquat& a, const glm::dquat& b) {
 
 }  // namespace
 
+double vertical_fov_deg(double hfov_deg, int width, int height) {
+  return 2.0 * std::atan(std::tan(0.5 * hfov_deg * kDeg) * height / width) / kDeg;
+}
+
 glm::dquat yaw_pitch_roll(double yaw, double pitch, double roll) {
   return glm::angleAxis(yaw, glm::dvec3(0, 1, 0)) * glm::angleAxis(pitch, glm::dvec3(1, 0, 0)) *
          glm::angleAxis(roll, glm::dvec3(0, 0, 1));

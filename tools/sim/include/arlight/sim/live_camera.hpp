@@ -58,8 +58,6 @@ class LiveCamera {
   // gain for the rest, within the sensor's range); the auto-exposure resumes after it, where it
   // was. A value <= 0 cancels a request not taken yet.
   void request_exposure(double exposure_gain);
-  // The darkest exposure x gain the sensor reaches (1/8000 s at gain 1).
-  static double min_exposure_gain();
 
  private:
   struct Impl;

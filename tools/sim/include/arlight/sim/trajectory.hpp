@@ -26,6 +26,9 @@ struct TrajectoryParams {
   std::uint64_t seed = 0;              // hand jitter and orbit wander
 };
 
+// The vertical field of view (degrees) of a pinhole camera of this horizontal one and size.
+double vertical_fov_deg(double hfov_deg, int width, int height);
+
 // Camera -> world rotation of a camera turned by yaw (about world +Y, positive turns -Z
 // towards -X), then pitch (positive looks up), then roll about the view axis; radians.
 glm::dquat yaw_pitch_roll(double yaw, double pitch, double roll = 0.0);
