@@ -186,6 +186,15 @@ TEST(ClientApp, FlagValuesAreCheckedWithTheFlagNamed) {
   }
   EXPECT_THROW(client_app::parse_material("0.5,0.5,0.5"), InputError);  // s < 1
   EXPECT_THROW(client_app::parse_tone("aces"), InputError);
+  EXPECT_EQ(client_app::parse_shading("hemisphere-occlusion"),
+            render::Shading::HemisphereOcclusion);
+  EXPECT_STREQ(render::shading_name(client_app::parse_shading("maps")), "maps");
+  try {
+    client_app::parse_shading("phong");
+    ADD_FAILURE() << "phong accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--shading"), std::string::npos) << e.what();
+  }
   EXPECT_THROW(client_app::load_model("/nonexistent.glb"), InputError);
 }
 

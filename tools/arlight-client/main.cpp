@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   std::string server, token, source_spec,
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
-      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480";
+      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps";
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
   double object_height = 0, wait_maps_s = 0;
@@ -48,6 +48,12 @@ int main(int argc, char** argv) {
                  "on: the object casts shadows on the real floor (the marker's plane): the "
                  "dominant light's shadow map plus a contact shadow, darkening the frame there")
       ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  app.add_option("--shading", shading,
+                 "maps (irradiance and reflection maps), hemisphere (two colours from the "
+                 "room's upper and lower half, blended by the normal: the fallback for weak "
+                 "devices) or hemisphere-occlusion (that, darker towards the ground by the "
+                 "room's dark side over its lit side)")
       ->capture_default_str();
   app.add_option("--out", out, "folder for composited frames (PNG), contact sheet, MP4");
   app.add_flag("--window", window, "show the frames in a window (needs $DISPLAY)");
@@ -88,6 +94,7 @@ int main(int argc, char** argv) {
     po.object_height = object_height;
     po.shadow = shadow == "on";
     po.tone = parse_tone(tone);
+    po.shading = parse_shading(shading);
     po.response = CameraResponse::named(response);
     const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
     source::SourceOptions so;
@@ -140,7 +147,9 @@ int main(int argc, char** argv) {
 
     // ---- report ----
     output.finish(stats, link.stats(),
-                  {{"renderer", gl.renderer()}, {"size", {po.camera.width, po.camera.height}}});
+                  {{"renderer", gl.renderer()},
+                   {"size", {po.camera.width, po.camera.height}},
+                   {"shading", render::shading_name(po.shading)}});
     return stats.frames > 0 ? 0 : 1;
   } catch (const InputError& e) {
     std::fprintf(stderr, "arlight-client: bad input: %s\n", e.what());

@@ -38,6 +38,7 @@ FramePipeline::FramePipeline(PipelineOptions options, const render::Mesh& mesh)
       tracker_(options_.camera, options_.marker),
       webcam_orientation_(options_.camera) {
   renderer_.set_response(options_.response);
+  renderer_.set_shading(options_.shading);
 }
 
 FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel& channel,
@@ -146,6 +147,11 @@ render::ToneMode parse_tone(const std::string& name) {
   if (name == "reinhard") return render::ToneMode::Reinhard;
   if (name == "linear") return render::ToneMode::Linear;
   throw InputError("--tone: '" + name + "' is not camera, reinhard or linear");
+}
+
+render::Shading parse_shading(const std::string& name) {
+  if (const auto s = render::shading_named(name)) return *s;
+  throw InputError("--shading: '" + name + "' is not maps, hemisphere or hemisphere-occlusion");
 }
 
 render::Mesh load_model(const std::string& name) {

@@ -5,6 +5,7 @@
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -90,16 +91,35 @@ enum Feature : unsigned {
   kNormalMap = 4,
   kLightMap = 8,
   kSpecular = 16,
-  kMix = 32
+  kMix = 32,
+  kHemisphere = 64,  // eq. 6 instead of the maps (Shading::Hemisphere*)
 };
+
+constexpr int kHorizontalNormals = 16;  // HemispherePriors' light and shadow
 
 struct IblProgram {
   Program program;
   GLint model = -1, normal_matrix = -1, view_proj = -1, reflection_mix = -1, camera_position = -1,
-        world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1;
+        world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1, sky = -1, ground = -1,
+        occlusion = -1;
 };
 
 }  // namespace
+
+const char* shading_name(Shading shading) {
+  switch (shading) {
+    case Shading::ImageBased: return "maps";
+    case Shading::Hemisphere: return "hemisphere";
+    case Shading::HemisphereOcclusion: return "hemisphere-occlusion";
+  }
+  return "?";
+}
+
+std::optional<Shading> shading_named(std::string_view name) {
+  for (Shading s : {Shading::ImageBased, Shading::Hemisphere, Shading::HemisphereOcclusion})
+    if (name == shading_name(s)) return s;
+  return std::nullopt;
+}
 
 glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int height, float n,
                                      float f) {
@@ -200,6 +220,21 @@ struct Renderer::Impl {
     return std::clamp(f, 0.0f, std::clamp(shadow.max_fraction, 0.0f, 1.0f));
   }
 
+  Shading shading = Shading::ImageBased;
+
+  HemispherePriors hemisphere_priors() const {
+    HemispherePriors h;
+    h.upper = irradiance_over_pi({0.0f, 1.0f, 0.0f});
+    h.lower = irradiance_over_pi({0.0f, -1.0f, 0.0f});
+    h.light = 0.0f, h.shadow = std::numeric_limits<float>::max();
+    for (int i = 0; i < kHorizontalNormals; ++i) {
+      const float phi = 2.0f * std::numbers::pi_v<float> * float(i) / kHorizontalNormals;
+      const float l = luminance(irradiance_over_pi({std::cos(phi), 0.0f, std::sin(phi)}));
+      h.light = std::max(h.light, l), h.shadow = std::min(h.shadow, l);
+    }
+    return h;
+  }
+
   void ensure_shadow_resources() {
     if (!shadow_depth.id()) {
       shadow_depth = Program(shader_dir, "shadow_depth.vert", "shadow_depth.frag");
@@ -275,7 +310,8 @@ struct Renderer::Impl {
         {"ENV_PROJECTION", std::to_string(int(projection))}};
     const std::pair<Feature, const char*> names[] = {
         {kDiffuse, "USE_DIFFUSE"},    {kAlbedoMap, "USE_ALBEDO"},  {kNormalMap, "USE_NORMAL_MAP"},
-        {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"}};
+        {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"},
+        {kHemisphere, "HEMISPHERE"}};
     for (auto [bit, name] : names)
       if (features & bit) defines.emplace_back(name, "1");
     IblProgram ip;
@@ -287,6 +323,8 @@ struct Renderer::Impl {
     ip.world_from_scene = pr.uniform("u_world_from_scene");
     ip.kd = pr.uniform("u_kd"), ip.ks = pr.uniform("u_ks");
     ip.normal_strength = pr.uniform("u_normal_strength");
+    ip.sky = pr.uniform("u_sky"), ip.ground = pr.uniform("u_ground");
+    ip.occlusion = pr.uniform("u_occlusion");
     glUseProgram(pr.id());
     glUniform1i(pr.uniform("u_irradiance"), kIrr);
     glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -486,6 +524,12 @@ LightingSource Renderer::lighting_source() const {
 
 void Renderer::set_reflection_lookup(ReflectionLookup lookup) { p_->lookup = lookup; }
 
+void Renderer::set_shading(Shading shading) { p_->shading = shading; }
+
+Shading Renderer::shading() const { return p_->shading; }
+
+HemispherePriors Renderer::hemisphere_priors() const { return p_->hemisphere_priors(); }
+
 void Renderer::set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
                           float near_plane, float far_plane) {
   const glm::mat4 proj = projection_from_intrinsics(k, p_->w, p_->h, near_plane, far_plane);
@@ -522,11 +566,14 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   const bool use_normal = m.normal_map && mesh.has_tangents();
   const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
   const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f);
+  const bool hemisphere = p.shading != Shading::ImageBased;
   const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
                             (use_normal ? kNormalMap : 0u) |
                             (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
-                            (specular && a != b ? kMix : 0u);
-  const IblProgram& u = p.ibl_program(env.projection, features);
+                            (specular && a != b && !hemisphere ? kMix : 0u) |
+                            (hemisphere ? kHemisphere : 0u);
+  const IblProgram& u =
+      p.ibl_program(hemisphere ? Projection::LatLong : env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   glEnable(GL_DEPTH_TEST);
@@ -550,6 +597,14 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   glUniformMatrix3fv(u.world_from_scene, 1, GL_FALSE, glm::value_ptr(p.world_from_scene));
   glUniform3fv(u.kd, 1, glm::value_ptr(m.kd));
   glUniform3fv(u.ks, 1, glm::value_ptr(m.ks));
+  if (hemisphere) {
+    const HemispherePriors h = p.hemisphere_priors();
+    glUniform3fv(u.sky, 1, glm::value_ptr(h.upper));
+    glUniform3fv(u.ground, 1, glm::value_ptr(h.lower));
+    // The occlusion factor's range, down to up: (shadow / light, 1), or none.
+    const bool occlude = p.shading == Shading::HemisphereOcclusion && h.light > 0.0f;
+    glUniform2f(u.occlusion, occlude ? h.shadow / h.light : 1.0f, 1.0f);
+  }
 
   // Environment maps: irradiance = the smallest shininess; reflection = around m.shininess.
   const GLenum target = env_target(env.projection);

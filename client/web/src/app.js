@@ -9,6 +9,7 @@
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
+//   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
@@ -108,6 +109,7 @@ window.arlight = {
       focal_px: state.focalPx,
       model: object ? object.model : 'sphere',
       model_vertices: object ? object.model_vertices : 0,
+      shading: object ? object.shading : 'maps',
       focal_error: state.focalError,
       tracker: state.tracker,
       tracker_ready_media_time: state.trackerReadyMediaTime,
@@ -351,12 +353,20 @@ async function start() {
   state.focalPx = client.camera().fx;
   client.setMarkerSize(marker.size);
   client.setMaterial(params.get('material') || $('material').value);
+  const shading = params.get('shading') || $('shading').value;
+  if ([...$('shading').options].some((o) => o.value === shading)) {
+    $('shading').value = shading;
+    client.setShading(shading);
+  } else {
+    showError(`shading '${shading}': maps, hemisphere or hemisphere-occlusion`);
+  }
   const coverage = new CoverageView($('coverage'), fov, w / h);
   const orientation = startOrientation();
   const grabber = new FrameGrabber(camera.video, { width: w, height: h });
   camera.lockExposure().catch(() => {});
 
   $('material').addEventListener('change', (e) => client.setMaterial(e.target.value));
+  $('shading').addEventListener('change', (e) => client.setShading(e.target.value));
   // Models other than the sphere are files beside the page (models/NAME.glb).
   const setModel = async (name) => {
     try {

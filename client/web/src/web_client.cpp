@@ -283,6 +283,15 @@ class WebClient {
 
   void set_material(const std::string& name) { material_ = material_named(name); }
 
+  // "maps", "hemisphere" or "hemisphere-occlusion" (render::Shading, arlight-client --shading).
+  void set_shading(const std::string& name) {
+    const auto shading = render::shading_named(name);
+    if (!shading)
+      throw std::invalid_argument("shading '" + name +
+                                  "': maps, hemisphere or hemisphere-occlusion");
+    renderer_.set_shading(*shading);
+  }
+
   // The object: "sphere", or a model's .glb bytes (the page fetches models/NAME.glb; no Draco in
   // this build). Returns why a file is unusable (naming it; the object stays what it was), or "".
   std::string set_model(const std::string& name, const val& glb) {
@@ -333,6 +342,7 @@ class WebClient {
     s.set("lighting", std::string(source == render::LightingSource::Maps ? "maps"
                                   : source == render::LightingSource::Sh ? "sh"
                                                                          : "none"));
+    s.set("shading", std::string(render::shading_name(renderer_.shading())));
     s.set("last_error", last_error_);
     // Bands 0-2 of the live SH (RGB triples, index l(l+1)+m): the room's irradiance.
     val sh = val::array();
@@ -431,6 +441,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("convertYuv", &WebClient::convert_yuv)
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
+      .function("setShading", &WebClient::set_shading)
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
       .function("objectPixel", &WebClient::object_pixel);

@@ -66,6 +66,7 @@ struct PipelineOptions {
   render::Material material;
   bool shadow = true;  // shadows on the real floor (the marker's plane)
   render::ToneMode tone = render::ToneMode::CameraMatched;
+  render::Shading shading = render::Shading::ImageBased;
   CameraResponse response = CameraResponse::srgb();
   // The camera's true pose in the marker frame for a frame index, where known (a simulated
   // recording's ground truth) and the marker in view: pose errors are measured against it.
@@ -115,6 +116,8 @@ class FramePipeline {
 track::MarkerSpec parse_marker(const std::string& text);   // --marker ID,SIZE_M (DICT_4X4_50)
 render::Material parse_material(const std::string& text);  // --material kd,ks,shininess
 render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
+// --shading maps|hemisphere|hemisphere-occlusion (render::Shading)
+render::Shading parse_shading(const std::string& name);
 render::Mesh load_model(const std::string& name);          // --model a glTF file, or "sphere"
 
 // Median, 95th percentile and maximum of a run's figures (what arlight-client reports).

@@ -25,7 +25,9 @@
 #include <glm/mat3x3.hpp>
 #include <glm/mat4x4.hpp>
 #include <memory>
+#include <optional>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "arlight/camera.hpp"
@@ -85,6 +87,40 @@ struct ToneMapping {
 };
 
 enum class LightingSource { None, Sh, Maps };
+
+// How draw() turns the lighting into the object's radiance.
+enum class Shading {
+  // Thesis Alg. 5.1: the irradiance map at the normal, the reflection maps at the reflected
+  // direction (the map set, or the live SH's maps until it arrives).
+  ImageBased,
+  // Dissertation §5.4.1, eq. 6: two colours blended by the normal's elevation,
+  //   L(n) = a c_u + (1 - a) c_l,  a = 0.5 + 0.5 n.up,
+  // for the diffuse term at the normal and the specular term at the reflected direction. Exact
+  // for an environment of two uniform hemispheres; the fallback for devices too weak for maps.
+  Hemisphere,
+  // Eq. 6 times hemisphere occlusion (§5.4.2): a grey factor blended the same way from 1 (up)
+  // to shadow / light (down), the darkest over the lightest side of the room.
+  HemisphereOcclusion,
+};
+
+// The clients' names of the modes (arlight-client --shading, the page's control): "maps",
+// "hemisphere", "hemisphere-occlusion".
+const char* shading_name(Shading shading);
+std::optional<Shading> shading_named(std::string_view name);
+
+// The colour priors of hemisphere shading (dissertation §5.4), from the current lighting (the
+// irradiance map, or the live SH's irradiance until it arrives), world frame.
+struct HemispherePriors {
+  // c_u, c_l: the cosine-weighted mean radiance of the upper / lower hemisphere (the
+  // irradiance map at +Y / -Y). The dissertation took the plain mean of the top / bottom cube
+  // face (a 55-degree cone); the cosine-weighted mean makes eq. 6 exact at the poles.
+  glm::vec3 upper{0.0f}, lower{0.0f};
+  // Occlusion's light and shadow: the largest and smallest luminance of the irradiance map over
+  // 16 horizontal normals (the lit and the dark side of the room). The dissertation took the
+  // lightest and darkest single pixel of the four side faces: one lamp or one dark corner
+  // decided it.
+  float light = 0.0f, shadow = 0.0f;
+};
 enum class ReflectionLookup { Interpolate, Nearest };
 
 struct FrameTimings {
@@ -161,6 +197,11 @@ class Renderer {
   // Reflection map for a material's shininess: interpolated in log shininess between the two
   // neighbouring maps (default) or the nearest one.
   void set_reflection_lookup(ReflectionLookup lookup);
+  // Image-based (default) or hemisphere shading (see Shading).
+  void set_shading(Shading shading);
+  Shading shading() const;
+  // What hemisphere shading uses now (zero without lighting).
+  HemispherePriors hemisphere_priors() const;
 
   // ---- camera and frames ----
   void set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
