@@ -6,6 +6,8 @@
 #include <cmath>
 #include <utility>
 
+#include <glm/geometric.hpp>
+
 #include "arlight/wire.hpp"
 #include "arlight_generated.h"
 
@@ -93,8 +95,10 @@ Offset<void> build(FlatBufferBuilder& b, const Welcome& m) {
   if (m.limits)
     limits = fb::CreateLimits(b, m.limits->max_message_bytes, m.limits->max_frame_pixels,
                               m.limits->max_map_size, m.limits->max_maps);
+  Offset<flatbuffers::Vector<Offset<flatbuffers::String>>> caps = 0;
+  if (!m.capabilities.empty()) caps = b.CreateVectorOfStrings(m.capabilities);
   return fb::CreateWelcome(b, text(b, m.session_id), text(b, m.server_version), m.resumed,
-                           m.frames_processed, limits)
+                           m.frames_processed, limits, caps)
       .Union();
 }
 
@@ -104,10 +108,12 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
   for (const glm::dvec3& c : m.sh.c) flat.insert(flat.end(), {float(c.x), float(c.y), float(c.z)});
   const fb::Vec3 d(m.dominant_direction.x, m.dominant_direction.y, m.dominant_direction.z);
   const fb::Vec3 c(m.dominant_colour.x, m.dominant_colour.y, m.dominant_colour.z);
+  const fb::Vec3 sun(m.sun_direction.x, m.sun_direction.y, m.sun_direction.z);
   return fb::CreateLightingUpdate(b, m.frame_sequence, m.frame_used, text(b, m.reason),
                                   std::uint8_t(m.sh.order), b.CreateVector(flat), &d, &c,
                                   m.coverage, m.frames_processed, m.frames_dropped, m.estimated,
-                                  m.frame_exposure)
+                                  m.frame_exposure, std::uint8_t(m.sun_state),
+                                  m.sun_state == SunState::Unknown ? nullptr : &sun)
       .Union();
 }
 
@@ -133,6 +139,12 @@ Offset<void> build(FlatBufferBuilder& b, const Error& m) {
 
 Offset<void> build(FlatBufferBuilder& b, const ExposureAdvice& m) {
   return fb::CreateExposureAdvice(b, m.frame_sequence, m.exposure, m.clipped).Union();
+}
+
+Offset<void> build(FlatBufferBuilder& b, const Location& m) {
+  return fb::CreateLocation(b, m.where.latitude_deg, m.where.longitude_deg, m.where.altitude_m,
+                            m.utc_seconds, m.north_referenced, m.north_offset_deg)
+      .Union();
 }
 
 Offset<void> build(FlatBufferBuilder& b, const CalibrationResult& m) {
@@ -290,6 +302,13 @@ Welcome read(const fb::Welcome& m, const WireLimits&) {
   if (const fb::Limits* l = m.limits())
     w.limits =
         WireLimits{l->max_message_bytes(), l->max_frame_pixels(), l->max_map_size(), l->max_maps()};
+  if (const auto* caps = m.capabilities()) {
+    if (caps->size() > kMaxCapabilities)
+      refuse(Fault::OverLimit, "Welcome", "capabilities",
+             std::to_string(caps->size()) + " entries, over the limit of " +
+                 std::to_string(kMaxCapabilities));
+    for (const auto* c : *caps) w.capabilities.push_back(text(c, "Welcome", "capabilities"));
+  }
   return w;
 }
 
@@ -320,6 +339,21 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.frames_dropped = m.frames_dropped();
   u.estimated = m.estimated();
   u.frame_exposure = m.frame_exposure();
+  if (m.sun_state() > std::uint8_t(SunState::Confirmed))
+    refuse(Fault::OutOfRange, "LightingUpdate", "sun_state",
+           std::to_string(m.sun_state()) + " is not a sun state (0..3)");
+  u.sun_state = SunState(m.sun_state());
+  if (u.sun_state != SunState::Unknown) {
+    const fb::Vec3* sun = m.sun_direction();
+    if (!sun)
+      refuse(Fault::OutOfRange, "LightingUpdate", "sun_direction",
+             "missing for a known sun state");
+    u.sun_direction = {sun->x(), sun->y(), sun->z()};
+    const float len = glm::length(u.sun_direction);
+    if (!(std::abs(len - 1.0f) < 1e-3f))
+      refuse(Fault::OutOfRange, "LightingUpdate", "sun_direction",
+             "length " + std::to_string(len) + " is not a unit vector's");
+  }
   if (!(u.frame_exposure >= 0.0 && u.frame_exposure < 1e6))
     refuse(Fault::OutOfRange, "LightingUpdate", "frame_exposure",
            std::to_string(u.frame_exposure) + " is not an exposure x gain in [0, 1e6)");
@@ -399,6 +433,24 @@ ExposureAdvice read(const fb::ExposureAdvice& m, const WireLimits&) {
   return a;
 }
 
+Location read(const fb::Location& m, const WireLimits&) {
+  Location l;
+  l.where = {m.latitude(), m.longitude(), m.altitude()};
+  l.utc_seconds = m.utc_seconds();
+  l.north_referenced = m.north_referenced();
+  l.north_offset_deg = m.north_offset();
+  if (const std::string e = geo_location_error(l.where); !e.empty())
+    refuse(Fault::OutOfRange, "Location", "latitude", e);
+  // Years 1000..3000 (what the sun's ephemeris is good for).
+  if (!(l.utc_seconds > -30610224000.0 && l.utc_seconds < 32503680000.0))
+    refuse(Fault::OutOfRange, "Location", "utc_seconds",
+           std::to_string(l.utc_seconds) + " is not a time between the years 1000 and 3000");
+  if (!(std::abs(l.north_offset_deg) <= 180.0))
+    refuse(Fault::OutOfRange, "Location", "north_offset",
+           std::to_string(l.north_offset_deg) + " is not an azimuth in [-180, 180]");
+  return l;
+}
+
 // The generated table type of each alternative, in the union's order.
 template <class T>
 struct Table;
@@ -466,6 +518,10 @@ template <>
 struct Table<ExposureAdvice> {
   using type = fb::ExposureAdvice;
 };
+template <>
+struct Table<Location> {
+  using type = fb::Location;
+};
 
 // Each alternative's table must carry the union tag its position in Message implies.
 template <std::size_t... I>
@@ -511,7 +567,8 @@ bool CameraFrame::operator==(const CameraFrame& o) const {
 
 bool Welcome::operator==(const Welcome& o) const {
   return session_id == o.session_id && server_version == o.server_version && resumed == o.resumed &&
-         frames_processed == o.frames_processed && limits == o.limits;
+         frames_processed == o.frames_processed && limits == o.limits &&
+         capabilities == o.capabilities;
 }
 
 bool LightingUpdate::operator==(const LightingUpdate& o) const {
@@ -519,7 +576,8 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          sh.order == o.sh.order && sh.c == o.sh.c && dominant_direction == o.dominant_direction &&
          dominant_colour == o.dominant_colour && coverage == o.coverage &&
          frames_processed == o.frames_processed && frames_dropped == o.frames_dropped &&
-         estimated == o.estimated && frame_exposure == o.frame_exposure;
+         estimated == o.estimated && frame_exposure == o.frame_exposure &&
+         sun_state == o.sun_state && sun_direction == o.sun_direction;
 }
 
 const char* message_name(const Message& m) {

@@ -88,7 +88,7 @@ TEST(WireCodec, UnknownUnionTagIsRefused) {
   for (std::size_t i = 0; i < ping.size(); ++i)
     if (ping[i] != pong[i]) differ.push_back(i);
   ASSERT_EQ(differ.size(), 1u);
-  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(17), std::uint8_t(200)}) {
+  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(18), std::uint8_t(200)}) {
     auto bytes = ping;
     bytes[differ[0]] = tag;
     const DecodeError e = refusal(bytes);
@@ -173,6 +173,37 @@ TEST(WireCodec, ExposureAdviceRangesAreChecked) {
   EXPECT_EQ(refused_field(1e-3, -0.5f), "clipped");
   const wire::ExposureAdvice fine{3, 1.0 / 4000, 0.02f};
   EXPECT_EQ(std::get<wire::ExposureAdvice>(wire::decode(wire::encode(fine))), fine);
+}
+
+// Location (issue 17): a place off the Earth, a time the ephemeris does not cover, a north
+// that is not an azimuth; and a LightingUpdate's sun that is not a direction or a state.
+TEST(WireCodec, LocationAndTheSunAreChecked) {
+  const auto refused_field = [](const wire::Message& m) {
+    const DecodeError e = refusal(wire::encode(m));
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+    return e.message() + "." + e.field();
+  };
+  const wire::Location fine{{-33.86, 151.21, 58.0}, 1.7e9, false, 0.0};
+  EXPECT_EQ(std::get<wire::Location>(wire::decode(wire::encode(fine))), fine);
+  wire::Location bad = fine;
+  bad.where.latitude_deg = 95.0;
+  EXPECT_EQ(refused_field(bad), "Location.latitude");
+  bad = fine, bad.where.longitude_deg = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(refused_field(bad), "Location.latitude");
+  bad = fine, bad.utc_seconds = 1e15;
+  EXPECT_EQ(refused_field(bad), "Location.utc_seconds");
+  bad = fine, bad.north_offset_deg = 270.0;
+  EXPECT_EQ(refused_field(bad), "Location.north_offset");
+  wire::LightingUpdate u;
+  u.sh = ShCoeffs(1);
+  u.sun_state = SunState::Predicted, u.sun_direction = {0.0f, 2.0f, 0.0f};
+  EXPECT_EQ(refused_field(u), "LightingUpdate.sun_direction");
+  u.sun_direction = {0.0f, 0.0f, 0.0f};
+  EXPECT_EQ(refused_field(u), "LightingUpdate.sun_direction");
+  u.sun_state = SunState(7), u.sun_direction = {0.0f, 1.0f, 0.0f};
+  EXPECT_EQ(refused_field(u), "LightingUpdate.sun_state");
+  u.sun_state = SunState::BelowHorizon;
+  EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(u))), u);
 }
 
 TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {

@@ -41,7 +41,8 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::RequestMaps{{1.0f, 10.0f, 1280.0f}, 256, Projection::Cube, "sh:12"},
       wire::Ping{0xfeedfacecafebeefull},
       wire::Bye{},
-      wire::Welcome{"0123456789abcdef", "arlightd 0.1", true, 60, wire::WireLimits{1, 2, 3, 4}},
+      wire::Welcome{"0123456789abcdef", "arlightd 0.1", true, 60, wire::WireLimits{1, 2, 3, 4},
+                    {"location"}},
       wire::LightingUpdate{.frame_sequence = 9,
                            .frame_used = false,
                            .reason = "motion blur",
@@ -52,7 +53,9 @@ inline std::vector<wire::Message> messages_with_every_field() {
                            .frames_processed = 8,
                            .frames_dropped = 1,
                            .estimated = 0.625f,
-                           .frame_exposure = 0.0125},
+                           .frame_exposure = 0.0125,
+                           .sun_state = SunState::Confirmed,
+                           .sun_direction = {0.0f, 0.6f, -0.8f}},
       wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3}, wire::TileCoding::Half},
       wire::MapSetComplete{3, 8, 0.25f, 0.5f, 120},
       wire::Progress{3, 5, 10},
@@ -60,6 +63,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::Pong{42},
       wire::CalibrationResult{true, "robertson", 7, "stored for device phone-1"},
       wire::ExposureAdvice{41, 0.000625, 0.0125f},
+      wire::Location{{51.4545, -2.5879, 11.0}, 1.7e9, true, 1.5},
   };
 }
 
@@ -81,6 +85,7 @@ inline std::vector<wire::Message> messages_with_no_optional_field() {
       wire::Pong{},
       wire::CalibrationResult{},
       wire::ExposureAdvice{},
+      wire::Location{},
   };
 }
 

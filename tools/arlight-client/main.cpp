@@ -9,12 +9,25 @@
 
 #include "arlight/client_app.hpp"
 #include "arlight/error.hpp"
+#include "arlight/geo.hpp"
 #include "arlight/number_list.hpp"
 #include "report.hpp"
 
 using namespace arlight;
 using namespace arlight::client_app;
 using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// What arlightd said of the sun last (with --location).
+nlohmann::json sun_json(const Lighting& l) {
+  nlohmann::json j = {{"state", sun_state_name(l.sun_state)}};
+  if (l.sun_state != SunState::Unknown)
+    j["direction"] = {l.sun_direction.x, l.sun_direction.y, l.sun_direction.z};
+  return j;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("arlight-client"));
@@ -24,7 +37,9 @@ int main(int argc, char** argv) {
   std::string server, token, source_spec,
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
-      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps";
+      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps",
+      location, time_text;
+  std::optional<double> north_offset;
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
   double object_height = 0, wait_maps_s = 0;
@@ -55,6 +70,17 @@ int main(int argc, char** argv) {
                  "devices) or hemisphere-occlusion (that, darker towards the ground by the "
                  "room's dark side over its lit side)")
       ->capture_default_str();
+  app.add_option("--location", location,
+                 "LAT,LON[,ALT]: where the camera is (degrees, degrees, metres), so arlightd "
+                 "knows where the sun is (it reports it, and uses it for the dominant light "
+                 "and the shadows once the captured map shows it there)");
+  app.add_option("--time", time_text,
+                 "UTC time of the frames, YYYY-MM-DDTHH:MM[:SS]Z, with --location (default: "
+                 "now)");
+  app.add_option("--north-offset", north_offset,
+                 "the frames' world -Z is north, this many degrees east of true north (a "
+                 "compass: its magnetic declination); without it the heading is taken as "
+                 "arbitrary and arlightd measures it from the sun");
   app.add_option("--out", out, "folder for composited frames (PNG), contact sheet, MP4");
   app.add_flag("--window", window, "show the frames in a window (needs $DISPLAY)");
   app.add_option("--json", json_path, "write the summary (frames, timings, pose error) here");
@@ -121,6 +147,22 @@ int main(int argc, char** argv) {
                                                : "webcam";
     lo.camera = po.camera, lo.shininess = shininess, lo.map_size = map_size;
     lo.exposure_advice = src->request_exposure(0.0);  // (0 asks nothing: can it at all?)
+    if (!location.empty()) {
+      wire::Location l;
+      l.where = parse_geo_location(location, "--location");
+      l.utc_seconds =
+          !time_text.empty()
+              ? parse_utc_time(time_text, "--time")
+              : std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                    .count();
+      l.north_referenced = north_offset.has_value();
+      l.north_offset_deg = north_offset.value_or(0.0);
+      if (!(std::abs(l.north_offset_deg) <= 180.0))
+        throw InputError("--north-offset: must be in [-180, 180] degrees");
+      lo.location = l;
+    } else if (!time_text.empty() || north_offset) {
+      throw InputError("--time and --north-offset need --location");
+    }
     LightingLink link(lo);
     link.wait_connected(std::chrono::seconds(10));
     if (wait_maps_s > 0 && !shininess.empty())
@@ -149,7 +191,8 @@ int main(int argc, char** argv) {
     output.finish(stats, link.stats(),
                   {{"renderer", gl.renderer()},
                    {"size", {po.camera.width, po.camera.height}},
-                   {"shading", render::shading_name(po.shading)}});
+                   {"shading", render::shading_name(po.shading)},
+                   {"sun", sun_json(channel.lighting())}});
     return stats.frames > 0 ? 0 : 1;
   } catch (const InputError& e) {
     std::fprintf(stderr, "arlight-client: bad input: %s\n", e.what());

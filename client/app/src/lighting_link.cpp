@@ -58,6 +58,8 @@ bool LightingLink::connect_once() {
     lighting_.dominant_colour = u.dominant_colour;
     lighting_.coverage = u.coverage;
     lighting_.estimated = u.estimated;
+    lighting_.sun_state = u.sun_state;
+    lighting_.sun_direction = u.sun_direction;
     ++stats_.updates;
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;
@@ -85,6 +87,11 @@ bool LightingLink::connect_once() {
     const client::Welcome w = c->connect(options_.host, options_.port, options_.device_id,
                                          options_.token, "arlight-client", resume, 5s);
     c->send_intrinsics(options_.camera);
+    if (options_.location && wire::has_capability(w.capabilities, wire::kServerCapabilityLocation)) {
+      wire::Location l = *options_.location;
+      l.utc_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+      c->send_location(l);
+    }
     if (!options_.shininess.empty())
       c->request_maps(options_.shininess, options_.map_size, options_.projection);
     std::lock_guard lock(mutex_);

@@ -277,6 +277,7 @@ void Client::send_calibration_set(const std::string& method, int width, int heig
   impl_->send(set);
 }
 
+void Client::send_location(const wire::Location& location) { impl_->send(location); }
 void Client::ping(std::uint64_t nonce) { impl_->send(wire::Ping{nonce}); }
 void Client::bye() { impl_->send(wire::Bye{}); }
 void Client::send_raw(std::span<const std::uint8_t> bytes) {

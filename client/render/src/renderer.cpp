@@ -194,14 +194,13 @@ struct Renderer::Impl {
                                       // map holds (light, casters); empty: nothing
   Program shadow_depth, shadow_catcher;
   ShCoeffs irradiance_sh;
-  std::optional<EnvMap> irradiance_map;
+  // The irradiance map's bands 0-2 (irradiance is smooth: they hold nearly all of it), so a
+  // value at any direction is smooth too, not the nearest texel's.
+  std::optional<ShCoeffs> irradiance_map_sh;
 
   // Lbar(n) = irradiance / pi at world direction n from the current lighting (0 without).
   glm::vec3 irradiance_over_pi(glm::vec3 n) const {
-    if (irradiance_map) {
-      const glm::ivec2 t = irradiance_map->layout.dir_to_texel(glm::dvec3(n));
-      return irradiance_map->image.at(t.x, t.y);
-    }
+    if (irradiance_map_sh) return glm::vec3(sh_evaluate(*irradiance_map_sh, glm::dvec3(n)));
     if (!sh_maps.empty() && irradiance_sh.order > 0)
       return glm::vec3(sh_evaluate(irradiance_sh, glm::dvec3(n)));
     return glm::vec3(0.0f);
@@ -498,12 +497,13 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
   p_->maps.upload(shininess, maps);
   const std::size_t smallest =
       std::size_t(std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
-  p_->irradiance_map = maps[smallest];  // for the shadow's f (ShadowSettings)
+  // For the shadow's f (ShadowSettings) and the hemisphere priors.
+  p_->irradiance_map_sh = sh_project(maps[smallest], 2);
 }
 
 void Renderer::clear_maps() {
   p_->maps = EnvSet();
-  p_->irradiance_map.reset();
+  p_->irradiance_map_sh.reset();
 }
 
 void Renderer::set_shadow(const ShadowSettings& settings) {

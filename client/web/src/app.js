@@ -10,6 +10,7 @@
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
+//   [&location=1]  (tick "the sun from my location": the browser still asks its user)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
@@ -64,6 +65,7 @@ const state = {
   refused: false,
   started: false,
   orientation: 'none',
+  geolocation: 'off', // off, asked, granted, refused or unavailable (the sun from the location)
   cameraOpenedAt: 0, // Date.now() when the camera opened (its first frame; tests pace sensors)
   sh: [],            // bands 0-2 of the live SH, RGB triples
   readyMs: 0,        // navigation start to the renderer ready (WASM loaded, shaders compiled)
@@ -110,6 +112,9 @@ window.arlight = {
       model: object ? object.model : 'sphere',
       model_vertices: object ? object.model_vertices : 0,
       shading: object ? object.shading : 'maps',
+      sun: object ? object.sun : 'unknown',
+      sun_direction: object ? object.sun_direction : [0, 0, 0],
+      geolocation: state.geolocation,
       focal_error: state.focalError,
       tracker: state.tracker,
       tracker_ready_media_time: state.trackerReadyMediaTime,
@@ -400,8 +405,42 @@ async function start() {
     }
   });
 
-  // ---- the connection: Hello, intrinsics, a map request; resumed after a drop ----
+  // ---- where the phone is, for the sun: only when its user ticks the box (and the browser's
+  // own prompt agrees); sent after every Welcome of a server that takes it ----
   let ws = null;
+  let place = null;  // {latitude, longitude, altitude, utc (s), at (performance.now(), ms)}
+  const sendLocation = () => {
+    if (!place || !ws || ws.readyState !== WebSocket.OPEN) return;
+    const utc = place.utc + (performance.now() - place.at) / 1000;
+    const bytes = client.location(place.latitude, place.longitude, place.altitude, utc,
+      state.orientation === 'absolute-orientation-sensor');
+    if (bytes) ws.send(bytes);
+  };
+  const askLocation = () => {
+    if (!navigator.geolocation) {
+      state.geolocation = 'unavailable';
+      showError('location: this browser has no geolocation');
+      return;
+    }
+    state.geolocation = 'asked';
+    navigator.geolocation.getCurrentPosition((p) => {
+      place = { latitude: p.coords.latitude, longitude: p.coords.longitude,
+        altitude: p.coords.altitude ?? 0, utc: Date.now() / 1000, at: performance.now() };
+      state.geolocation = 'granted';
+      sendLocation();
+    }, (e) => {
+      state.geolocation = 'refused';
+      showError(`location: ${e.message || e.code}`);
+    }, { maximumAge: 600000, timeout: 30000 });
+  };
+  if (params.get('location') === '1') $('use-location').checked = true;
+  if ($('use-location').checked) askLocation();
+  $('use-location').addEventListener('change', (e) => {
+    if (e.target.checked) askLocation();
+    else place = null;  // sent no more (arlightd keeps what it had for this session)
+  });
+
+  // ---- the connection: Hello, intrinsics, a map request; resumed after a drop ----
   let sequence = 0;
   const sentAt = new Map();
   let encoding = false;
@@ -419,6 +458,7 @@ async function start() {
       if (name === 'Welcome') {
         state.connected = true;
         state.sessionId = s.session_id;
+        sendLocation();
       } else if (name === 'LightingUpdate') {
         state.updates = s.updates;
         state.sh = s.sh;

@@ -152,6 +152,22 @@ class WebClient {
         wire::encode(wire::RequestMaps{kShininess, kMapSize, Projection::LatLong, "auto"}));
   }
 
+  // Where and when the phone is (the browser's geolocation, with its user's consent: the sun),
+  // as a Location message to send, or null when the server does not take one. The orientation
+  // is north-referenced when it comes from the absolute orientation sensor (a compass).
+  val location(double latitude, double longitude, double altitude, double utc_seconds,
+               bool north_referenced) {
+    if (!welcome_ || !wire::has_capability(welcome_->capabilities, wire::kServerCapabilityLocation))
+      return val::null();
+    wire::Location l;
+    l.where = {latitude, longitude, std::isfinite(altitude) ? altitude : 0.0};
+    if (const std::string e = geo_location_error(l.where); !e.empty())
+      throw std::invalid_argument("location: " + e);
+    l.utc_seconds = utc_seconds;
+    l.north_referenced = north_referenced;
+    return bytes_to_js(wire::encode(l));
+  }
+
   // ---- messages received: the message's name, or "refused: why" (the page then closes) ----
   std::string receive(const val& bytes) {
     const std::vector<std::uint8_t> envelope =
@@ -178,6 +194,8 @@ class WebClient {
       sh_ = u->sh;
       light_direction_ = u->dominant_direction;
       light_colour_ = u->dominant_colour;
+      sun_state_ = u->sun_state;
+      sun_direction_ = u->sun_direction;
     } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
       assembler_.add_tile(*t);
     } else if (auto* c = std::get_if<wire::MapSetComplete>(&m)) {
@@ -343,6 +361,10 @@ class WebClient {
                                   : source == render::LightingSource::Sh ? "sh"
                                                                          : "none"));
     s.set("shading", std::string(render::shading_name(renderer_.shading())));
+    s.set("sun", std::string(sun_state_name(sun_state_)));
+    val sun = val::array();
+    for (int i = 0; i < 3; ++i) sun.call<void>("push", sun_direction_[i]);
+    s.set("sun_direction", sun);
     s.set("last_error", last_error_);
     // Bands 0-2 of the live SH (RGB triples, index l(l+1)+m): the room's irradiance.
     val sh = val::array();
@@ -421,6 +443,8 @@ class WebClient {
   double frame_exposure_ = kLockedExposure;  // the newest frame's exposure, from arlightd
   bool maps_ = false;
   glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
+  SunState sun_state_ = SunState::Unknown;
+  glm::vec3 sun_direction_{0.0f};
 };
 
 EMSCRIPTEN_BINDINGS(arlight_web) {
@@ -442,6 +466,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
       .function("setShading", &WebClient::set_shading)
+      .function("location", &WebClient::location)
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
       .function("objectPixel", &WebClient::object_pixel);

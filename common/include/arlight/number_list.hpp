@@ -1,14 +1,17 @@
-// Numbers from command lines: comma-separated lists ("1,10,80", "0.8,0.2,80") and image sizes
-// ("640x480").
+// Numbers from command lines: comma-separated lists ("1,10,80", "0.8,0.2,80"), image sizes
+// ("640x480"), places ("51.45,-2.59") and UTC times ("2026-06-21T12:00:00Z").
 #pragma once
 
 #include <charconv>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "arlight/error.hpp"
+#include "arlight/geo.hpp"
 
 namespace arlight {
 
@@ -51,6 +54,41 @@ inline ImageSize parse_image_size(std::string_view text, std::string_view what) 
     throw InputError(std::string(what) + " '" + std::string(text) +
                      "': width and height must be 8..16384");
   return s;
+}
+
+// "LAT,LON[,ALT]" (degrees, degrees, metres). InputError naming `what` otherwise.
+inline GeoLocation parse_geo_location(std::string_view text, std::string_view what) {
+  const std::vector<double> v = parse_number_list(text, what);
+  if (v.size() != 2 && v.size() != 3)
+    throw InputError(std::string(what) + " '" + std::string(text) +
+                     "': expected LAT,LON or LAT,LON,ALT (degrees, degrees, metres)");
+  const GeoLocation g{v[0], v[1], v.size() == 3 ? v[2] : 0.0};
+  if (const std::string e = geo_location_error(g); !e.empty())
+    throw InputError(std::string(what) + " '" + std::string(text) + "': " + e);
+  return g;
+}
+
+// "YYYY-MM-DDTHH:MM[:SS]" in UTC (a trailing "Z" allowed) as Unix seconds. InputError naming
+// `what` for anything else or an impossible date.
+inline double parse_utc_time(std::string_view text, std::string_view what) {
+  int y = 0, mo = 0, d = 0, h = 0, mi = 0, n = 0;
+  double sec = 0;
+  std::string t(text);
+  if (!t.empty() && (t.back() == 'Z' || t.back() == 'z')) t.pop_back();
+  const bool with_seconds =
+      std::sscanf(t.c_str(), "%d-%d-%dT%d:%d:%lf%n", &y, &mo, &d, &h, &mi, &sec, &n) == 6;
+  if (!with_seconds) sec = 0, n = 0;
+  const bool ok = (with_seconds ||
+                   std::sscanf(t.c_str(), "%d-%d-%dT%d:%d%n", &y, &mo, &d, &h, &mi, &n) == 5) &&
+                  n == int(t.size());
+  const std::chrono::year_month_day date{std::chrono::year{y}, std::chrono::month(unsigned(mo)),
+                                         std::chrono::day(unsigned(d))};
+  if (!ok || !date.ok() || y < 1000 || y > 3000 || h < 0 || h > 23 || mi < 0 || mi > 59 ||
+      !(sec >= 0 && sec < 61))
+    throw InputError(std::string(what) + " '" + std::string(text) +
+                     "': expected a UTC time YYYY-MM-DDTHH:MM[:SS][Z], e.g. 2026-06-21T12:00:00Z");
+  const auto days = std::chrono::sys_days(date).time_since_epoch().count();
+  return double(days) * 86400.0 + h * 3600.0 + mi * 60.0 + sec;
 }
 
 }  // namespace arlight

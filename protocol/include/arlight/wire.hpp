@@ -22,6 +22,7 @@
 #include "arlight/camera.hpp"
 #include "arlight/error.hpp"
 #include "arlight/frame.hpp"
+#include "arlight/geo.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/sh.hpp"
 
@@ -123,6 +124,7 @@ struct Welcome {
   bool resumed = false;
   std::uint64_t frames_processed = 0;  // of the session so far (non-zero after a resume)
   std::optional<WireLimits> limits;    // what this server accepts
+  std::vector<std::string> capabilities;  // e.g. kServerCapabilityLocation
   bool operator==(const Welcome& o) const;
 };
 
@@ -143,6 +145,11 @@ struct LightingUpdate {
   // exposure:unknown (what the client should tone-map the composite with). 0 for a frame
   // that was not used.
   double frame_exposure = 0;
+  // The sun (PROTOCOL.md, location): Unknown until a Location arrives; towards it, world frame.
+  // Confirmed: the captured map's brightest compact light is where the sun is, and
+  // dominant_direction is the sun's direction.
+  SunState sun_state = SunState::Unknown;
+  glm::vec3 sun_direction{0.0f};
   bool operator==(const LightingUpdate& o) const;
 };
 
@@ -220,11 +227,24 @@ struct ExposureAdvice {
   bool operator==(const ExposureAdvice&) const = default;
 };
 
+// Where and when the client is (client -> server, to a server whose Welcome names
+// kServerCapabilityLocation): the sun's place in the sky follows (dissertation §5.3.3).
+struct Location {
+  GeoLocation where;
+  double utc_seconds = 0;         // Unix time at the client when sent
+  bool north_referenced = false;  // the frames' world -Z is (compass) north
+  double north_offset_deg = 0;    // that north's azimuth from true north, eastward
+  bool operator==(const Location&) const = default;
+};
+
+// What a server's Welcome may name: it takes Location messages.
+inline constexpr const char* kServerCapabilityLocation = "location";
+
 // In the schema's union order.
 using Message = std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet,
                              RequestMaps, Ping, Bye, Welcome, LightingUpdate, MapTile,
                              MapSetComplete, Progress, Error, Pong, CalibrationResult,
-                             ExposureAdvice>;
+                             ExposureAdvice, Location>;
 
 const char* message_name(const Message& m);  // "Hello", "CameraFrame", ...
 

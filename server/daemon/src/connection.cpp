@@ -120,6 +120,7 @@ void Connection::handle(wire::Message&& message) {
     if (!why.empty()) return fail(wire::ErrorCode::BadMessage, why);
     return;
   }
+  if (auto* l = std::get_if<wire::Location>(&message)) return session_->set_location(*l);
   if (auto* c = std::get_if<wire::CalibrationSet>(&message))
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
@@ -156,7 +157,8 @@ void Connection::handle_hello(const wire::Hello& m) {
       wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice));
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
-                              session_->frames_processed(), env_.limits});
+                              session_->frames_processed(), env_.limits,
+                              {wire::kServerCapabilityLocation}});
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
 }

@@ -230,9 +230,31 @@ void Session::process() {
   }
 }
 
+void Session::set_location(const wire::Location& location) {
+  std::lock_guard lock(mutex_);
+  location_ = location;
+  location_received_ = Clock::now();
+  sun_checked_ = {};  // the next update checks at once
+}
+
 wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq) {
   const ShCoeffs& sh = capture_->sh();
-  const DominantLight light = sh_dominant_light(sh);
+  DominantLight light = sh_dominant_light(sh);
+  if (location_) {
+    const auto now = Clock::now();
+    if (now - sun_checked_ >= std::chrono::seconds(1)) {
+      sun_checked_ = now;
+      const double utc = location_->utc_seconds +
+                         std::chrono::duration<double>(now - location_received_).count();
+      // A sun prior for the dominant light (issue 17): the map's brightest compact light, if
+      // it is where place and time put the sun. Only what was measured counts (not the fill).
+      sun_ = capture::estimate_sun(capture::sun_position(location_->where, utc),
+                                   capture::brightest_region(capture_->measured_environment()),
+                                   location_->north_referenced, location_->north_offset_deg);
+    }
+    // Confirmed, the sun's direction is exact where the SH's bands 0-1 smear it with the sky.
+    if (sun_.state == SunState::Confirmed) light.direction = glm::vec3(sun_.direction);
+  }
   return {.frame_sequence = seq,
           .frame_used = r.used,
           .reason = r.skipped_reason,
@@ -243,7 +265,9 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .frames_processed = processed_,
           .frames_dropped = dropped_,
           .estimated = float(capture_->estimated_fraction()),
-          .frame_exposure = r.used ? r.exposure_gain : 0.0};
+          .frame_exposure = r.used ? r.exposure_gain : 0.0,
+          .sun_state = location_ ? sun_.state : SunState::Unknown,
+          .sun_direction = location_ ? glm::vec3(sun_.direction) : glm::vec3(0.0f)};
 }
 
 std::string Session::request_maps(MapRequest r) {
@@ -479,7 +503,8 @@ json Session::summary() const {
             {"map_sets", map_set_},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
             {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
-            {"coverage", capture_ ? capture_->coverage() : 0.0}};
+            {"coverage", capture_ ? capture_->coverage() : 0.0},
+            {"sun", location_ ? sun_state_name(sun_.state) : "unknown"}};
   return j;
 }
 

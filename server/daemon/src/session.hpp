@@ -21,6 +21,7 @@
 
 #include "arlight/capture.hpp"
 #include "arlight/capture/exposure_advice.hpp"
+#include "arlight/capture/sun.hpp"
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
@@ -104,6 +105,9 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void submit(FrameJob job);               // newest wins
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
+  // Where and when the client is (a Location message): from now on every LightingUpdate says
+  // where the sun is and whether the map confirms it (capture/sun.hpp).
+  void set_location(const wire::Location& location);
   // Response calibration from one view at several exposures (JPEGs, exposure x gain each), on
   // the worker pool; answers with a CalibrationResult.
   void calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vector<double> times,
@@ -146,6 +150,11 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
+  // The client's place and time, when it sent them, and the sun as last checked against the
+  // map (at most once a second: the sun moves 0.004 degrees a second).
+  std::optional<wire::Location> location_;
+  Clock::time_point location_received_{}, sun_checked_{};
+  capture::SunEstimate sun_;
   std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
   bool busy_ = false;             // a process() is queued or running
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;

@@ -32,6 +32,9 @@ struct LinkOptions {
   // The source can take a frame at a given exposure: the Hello names exposure:advice and
   // arlightd says when it needs a darker frame (take_exposure_advice()).
   bool exposure_advice = false;
+  // Where and when the client is (the sun, PROTOCOL.md): sent after each handshake with a
+  // server that takes it, its time moved on by the time since the link started.
+  std::optional<wire::Location> location;
 };
 
 // The newest lighting: live SH (from every LightingUpdate) and the newest complete map set.
@@ -44,6 +47,8 @@ struct Lighting {
   glm::vec3 dominant_colour{0.0f};
   double coverage = 0;   // fraction of the sphere measured
   double estimated = 0;  // fraction estimated by arlightd from what was measured
+  SunState sun_state = SunState::Unknown;  // what arlightd knows of the sun (with a location)
+  glm::vec3 sun_direction{0.0f};           // world frame, towards it
 };
 
 // A reconnection that resumed the session: what the server's Welcome said it had kept, and
@@ -104,6 +109,7 @@ class LightingLink {
   Lighting lighting_;
   LinkStats stats_;
   std::optional<double> advice_;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
   std::atomic<bool> stop_{false};
   std::thread thread_;

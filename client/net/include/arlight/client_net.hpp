@@ -94,6 +94,8 @@ class Client {
   // One view at several exposures; the server answers with a CalibrationResult.
   void send_calibration_set(const std::string& method, int width, int height,
                             const std::vector<CalibrationFrame>& frames);
+  // Where and when the client is; only to a server whose Welcome names "location".
+  void send_location(const wire::Location& location);
   void ping(std::uint64_t nonce);
   void bye();
   void send_raw(std::span<const std::uint8_t> bytes);  // tests: anything at all
