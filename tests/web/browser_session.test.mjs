@@ -104,6 +104,30 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(inside.some((p) => diff(p.at_object.composite, p.at_object.frame) > 30),
       `the object's pixels look like the camera's: ${JSON.stringify(inside.slice(0, 3))}`);
 
+    // The page's controls of issue 17: the shading control switches the renderer to hemisphere
+    // shading, and the location box sends the phone's place (the browser's geolocation, which
+    // Playwright grants here) to arlightd, which answers with the sun (unknown until then).
+    assert.equal(status.sun, 'unknown');
+    await context.grantPermissions(['geolocation']);
+    await context.setGeolocation({ latitude: 45.4371, longitude: 12.3326, accuracy: 10 });
+    await page.evaluate(() => {
+      const shading = document.getElementById('shading');
+      shading.value = 'hemisphere';
+      shading.dispatchEvent(new Event('change'));
+      const box = document.getElementById('use-location');
+      box.checked = true;
+      box.dispatchEvent(new Event('change'));
+    });
+    await page.waitForFunction(() => {
+      const s = window.arlight.status();
+      return s.shading === 'hemisphere' && s.sun !== 'unknown';
+    }, null, { timeout: 30000 });
+    const lit = await page.evaluate(() => window.arlight.status());
+    assert.equal(lit.geolocation, 'granted');
+    assert.ok(['below-horizon', 'predicted', 'confirmed'].includes(lit.sun), lit.sun);
+    assert.ok(Math.abs(Math.hypot(...lit.sun_direction) - 1) < 1e-3, `sun ${lit.sun_direction}`);
+    assert.deepEqual(pageErrors, []);
+
     // A wrong token: the page says it was refused, and does not retry.
     const wrong = await context.newPage();
     await enableOrientationOverride(wrong);
