@@ -65,7 +65,8 @@ const ClientFixture& fixture() {
 
 // The client's per-frame pipeline itself (arlight_client_app, as arlight-client runs it), with
 // the lighting fixed instead of coming over the network.
-void BM_ClientFrame(benchmark::State& state, bool shadow) {
+void BM_ClientFrame(benchmark::State& state, bool shadow,
+                    render::Shading shading = render::Shading::ImageBased) {
   const ClientFixture& fx = fixture();
   render::GlContext gl = render::GlContext::headless();
   client_app::PipelineOptions options;
@@ -75,6 +76,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow) {
   options.material.kd = glm::vec3(0.7f), options.material.ks = glm::vec3(0.3f);
   options.material.shininess = 80;
   options.shadow = shadow;
+  options.shading = shading;
   client_app::FramePipeline pipeline(
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
   auto maps = std::make_shared<client::MapSet>();
@@ -107,6 +109,16 @@ BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p, true)
     ->Iterations(96)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_no_shadow, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+// Hemisphere shading (dissertation §5.4) instead of the maps: eq. 6, with and without occlusion.
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_hemisphere, true, render::Shading::Hemisphere)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_hemisphere_occlusion, true,
+                  render::Shading::HemisphereOcclusion)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(96)
     ->UseRealTime();
