@@ -186,6 +186,26 @@ TEST(SunEstimate, ConfirmsTheSunOfAnOutdoorMapWhereThePlaceAndTimePutIt) {
   EXPECT_EQ(estimate_sun(sun, std::nullopt, false, 0.0).state, SunState::Predicted);
 }
 
+// Two lights of nearly one brightness on opposite sides: the region is the brighter one's (a
+// centroid of both would point between them, at neither).
+TEST(BrightRegion, IsTheBrightestLightAloneNotTheMeanOfTwo) {
+  const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, 128);
+  EnvMap env(layout, Image(layout.width(), layout.height(), glm::vec3(0.1f)));
+  const glm::dvec3 a = glm::normalize(glm::dvec3(0.5, 0.3, -0.8)), b = -a;
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) {
+      const glm::dvec3 d = layout.texel_dir(x, y);
+      if (glm::dot(d, a) > std::cos(2.0 * M_PI / 180)) env.image.set(x, y, glm::vec3(100.0f));
+      if (glm::dot(d, b) > std::cos(2.0 * M_PI / 180)) env.image.set(x, y, glm::vec3(90.0f));
+    }
+  const auto r = brightest_region(env);
+  ASSERT_TRUE(r);
+  EXPECT_GT(glm::dot(r->direction, a), std::cos(1.0 * M_PI / 180));
+  EXPECT_LT(r->solid_angle_sr, 0.01);
+  EXPECT_GT(r->contrast, 100.0);
+  EXPECT_FALSE(brightest_region(EnvMap(layout)));  // nothing seen
+}
+
 // Under clouds (city.exr) the brightest patch (a bright cloud, 12x the mean) is no sun at any
 // time of day.
 TEST(SunEstimate, AnOvercastSkyConfirmsNoSun) {

@@ -111,19 +111,25 @@ std::optional<BrightRegion> brightest_region(const EnvMap& measured) {
     return double(luminance(p[0], p[1], p[2]));
   };
   double peak = 0, sum = 0, seen = 0;
+  std::size_t peak_at = 0;
   for (std::size_t i = 0; i < t.size(); ++i) {
     const double l = lum_at(i);
     if (!(l > 0)) continue;  // never seen (or a negative, damaged texel)
-    peak = std::max(peak, l);
+    if (l > peak) peak = l, peak_at = i;
     sum += l * t.solid_angle[i], seen += t.solid_angle[i];
   }
   if (!(peak > 0)) return std::nullopt;
+  // The light around the peak: texels over half its luminance within 15 degrees of it (a
+  // second light elsewhere must not pull the centroid between the two).
+  const glm::dvec3 peak_dir(t.x[peak_at], t.y[peak_at], t.z[peak_at]);
+  const double near_cos = std::cos(radians(15.0));
   BrightRegion r;
   glm::dvec3 centroid(0.0);
   double region_sum = 0;
   for (std::size_t i = 0; i < t.size(); ++i) {
     const double l = lum_at(i);
-    if (l < 0.5 * peak) continue;
+    if (l < 0.5 * peak || glm::dot(glm::dvec3(t.x[i], t.y[i], t.z[i]), peak_dir) < near_cos)
+      continue;
     centroid += l * t.solid_angle[i] * glm::dvec3(t.x[i], t.y[i], t.z[i]);
     region_sum += l * t.solid_angle[i];
     r.solid_angle_sr += t.solid_angle[i];

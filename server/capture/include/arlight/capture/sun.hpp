@@ -48,7 +48,8 @@ glm::dvec3 sun_direction_world(const SunPosition& sun, double north_offset_deg =
 
 // The brightest compact light of a map (texels never seen are 0 and count for nothing).
 struct BrightRegion {
-  glm::dvec3 direction{0.0, 1.0, 0.0};  // luminance-weighted centroid of the texels >= half the peak
+  // Luminance-weighted centroid of the texels over half the peak within 15 degrees of it.
+  glm::dvec3 direction{0.0, 1.0, 0.0};
   double solid_angle_sr = 0;            // their solid angle
   double contrast = 0;                  // their mean luminance over the map's mean (seen texels)
 };
