@@ -4,9 +4,8 @@
 // with the daemon and the client.
 #include <array>
 #include <cmath>
-#include <utility>
-
 #include <glm/geometric.hpp>
+#include <utility>
 
 #include "arlight/wire.hpp"
 #include "arlight_generated.h"
@@ -346,8 +345,7 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   if (u.sun_state != SunState::Unknown) {
     const fb::Vec3* sun = m.sun_direction();
     if (!sun)
-      refuse(Fault::OutOfRange, "LightingUpdate", "sun_direction",
-             "missing for a known sun state");
+      refuse(Fault::OutOfRange, "LightingUpdate", "sun_direction", "missing for a known sun state");
     u.sun_direction = {sun->x(), sun->y(), sun->z()};
     const float len = glm::length(u.sun_direction);
     if (!(std::abs(len - 1.0f) < 1e-3f))

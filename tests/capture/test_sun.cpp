@@ -32,7 +32,7 @@ double azimuth_difference(double a, double b) {
   return d;
 }
 
-constexpr double kTolDeg = 0.05;  // the bar
+constexpr double kTolDeg = 0.05;                           // the bar
 const GeoLocation kGolden{39.742476, -105.1786, 1830.14};  // NREL, Golden, Colorado
 const GeoLocation kSouth{-35.0, 0.0, 0.0};
 
@@ -75,7 +75,7 @@ TEST(SunPosition, MatchesPublishedSunriseTransitAndSunsetForTwoPlacesAndFourDate
   for (const RiseSetTransit& r : table) {
     SCOPED_TRACE(std::to_string(r.y) + "-" + std::to_string(r.mo) + "-" + std::to_string(r.d) +
                  " at " + std::to_string(r.where.latitude_deg));
-    const auto at = [&](const int (&t)[3]) {
+    const auto at = [&](const int(&t)[3]) {
       return sun_position(r.where, utc(r.y, r.mo, r.d, t[0], t[1], t[2]));
     };
     EXPECT_NEAR(azimuth_difference(at(r.transit).azimuth_deg, r.transit_azimuth), 0.0, kTolDeg);
@@ -213,8 +213,9 @@ TEST(SunEstimate, AnOvercastSkyConfirmsNoSun) {
   ASSERT_TRUE(bright);
   int confirmed = 0;
   for (double e = 2.0; e < 80.0; e += 2.0)
-    confirmed += estimate_sun(sun_position(kGolden, time_at_elevation(e)), bright, false, 0.0)
-                     .state == SunState::Confirmed;
+    confirmed +=
+        estimate_sun(sun_position(kGolden, time_at_elevation(e)), bright, false, 0.0).state ==
+        SunState::Confirmed;
   EXPECT_EQ(confirmed, 0) << "region " << bright->solid_angle_sr << " sr, contrast "
                           << bright->contrast;
 }

@@ -211,7 +211,8 @@ TEST(ArlightClient, TellsArlightdWhereItIsAndGetsTheSunConfirmedByTheMap) {
       ARLIGHT_CLIENT_EXE,
       "--server " + d.server() + " --token " + test::kToken + " --source sim:" + park +
           " --size 320x240 --frames 240 --realtime --maps '' --location 39.742476,-105.1786,1830"
-          " --time 2015-08-02T13:03:00Z --json " + (dir / "c.json").string());
+          " --time 2015-08-02T13:03:00Z --json " +
+          (dir / "c.json").string());
   ASSERT_EQ(r.status, 0) << r.output;
   const json j = read_json(dir / "c.json");
   ASSERT_EQ(j.at("sun").at("state"), "confirmed") << j.dump();
@@ -227,7 +228,8 @@ TEST(ArlightClient, TellsArlightdWhereItIsAndGetsTheSunConfirmedByTheMap) {
       ARLIGHT_CLIENT_EXE,
       "--server " + d.server() + " --token " + test::kToken + " --source sim:" + park +
           " --size 320x240 --frames 240 --realtime --maps '' --location 39.742476,-105.1786,1830"
-          " --time 2015-08-02T16:03:00Z --json " + (dir / "later.json").string());
+          " --time 2015-08-02T16:03:00Z --json " +
+          (dir / "later.json").string());
   ASSERT_EQ(later.status, 0) << later.output;
   EXPECT_EQ(read_json(dir / "later.json").at("sun").at("state"), "predicted");
 

@@ -41,8 +41,8 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::RequestMaps{{1.0f, 10.0f, 1280.0f}, 256, Projection::Cube, "sh:12"},
       wire::Ping{0xfeedfacecafebeefull},
       wire::Bye{},
-      wire::Welcome{"0123456789abcdef", "arlightd 0.1", true, 60, wire::WireLimits{1, 2, 3, 4},
-                    {"location"}},
+      wire::Welcome{
+          "0123456789abcdef", "arlightd 0.1", true, 60, wire::WireLimits{1, 2, 3, 4}, {"location"}},
       wire::LightingUpdate{.frame_sequence = 9,
                            .frame_used = false,
                            .reason = "motion blur",

@@ -24,8 +24,8 @@ EnvMap step_room(glm::dvec3 s_x) {
   for (int y = 0; y < layout.height(); ++y)
     for (int x = 0; x < layout.width(); ++x) {
       const glm::dvec3 d = layout.texel_dir(x, y);
-      env.image.set(x, y, glm::vec3(kC + kSy * (d.y > 0 ? 1.0 : -1.0) +
-                                    s_x * (d.x > 0 ? 1.0 : -1.0)));
+      env.image.set(x, y,
+                    glm::vec3(kC + kSy * (d.y > 0 ? 1.0 : -1.0) + s_x * (d.x > 0 ? 1.0 : -1.0)));
     }
   return env;
 }
@@ -38,7 +38,7 @@ std::optional<Surface> surface_at(const SphereScene& s, int x, int y, const glm:
   if (s.inside(x, y) != 1) return std::nullopt;
   const glm::dvec3 p = *ray_sphere(s.cam, x, y, s.centre, SphereScene::kRadius).point;
   const glm::dvec3 n = glm::normalize(p - s.centre);  // camera = scene rotation here
-  const glm::dvec3 v = glm::normalize(-p);             // towards the eye
+  const glm::dvec3 v = glm::normalize(-p);            // towards the eye
   return Surface{world * n, world * glm::reflect(-v, n)};
 }
 

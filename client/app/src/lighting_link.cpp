@@ -87,9 +87,11 @@ bool LightingLink::connect_once() {
     const client::Welcome w = c->connect(options_.host, options_.port, options_.device_id,
                                          options_.token, "arlight-client", resume, 5s);
     c->send_intrinsics(options_.camera);
-    if (options_.location && wire::has_capability(w.capabilities, wire::kServerCapabilityLocation)) {
+    if (options_.location &&
+        wire::has_capability(w.capabilities, wire::kServerCapabilityLocation)) {
       wire::Location l = *options_.location;
-      l.utc_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+      l.utc_seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
       c->send_location(l);
     }
     if (!options_.shininess.empty())

@@ -108,9 +108,12 @@ struct IblProgram {
 
 const char* shading_name(Shading shading) {
   switch (shading) {
-    case Shading::ImageBased: return "maps";
-    case Shading::Hemisphere: return "hemisphere";
-    case Shading::HemisphereOcclusion: return "hemisphere-occlusion";
+    case Shading::ImageBased:
+      return "maps";
+    case Shading::Hemisphere:
+      return "hemisphere";
+    case Shading::HemisphereOcclusion:
+      return "hemisphere-occlusion";
   }
   return "?";
 }
@@ -572,8 +575,7 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
                             (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
                             (specular && a != b && !hemisphere ? kMix : 0u) |
                             (hemisphere ? kHemisphere : 0u);
-  const IblProgram& u =
-      p.ibl_program(hemisphere ? Projection::LatLong : env.projection, features);
+  const IblProgram& u = p.ibl_program(hemisphere ? Projection::LatLong : env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   glEnable(GL_DEPTH_TEST);

@@ -8,7 +8,6 @@
 #include <string>
 #include <string_view>
 
-
 namespace arlight {
 
 // WGS84 latitude (north positive) and longitude (east positive) in degrees; altitude above sea
@@ -39,10 +38,14 @@ enum class SunState : std::uint8_t {
 
 inline const char* sun_state_name(SunState s) {
   switch (s) {
-    case SunState::Unknown: return "unknown";
-    case SunState::BelowHorizon: return "below-horizon";
-    case SunState::Predicted: return "predicted";
-    case SunState::Confirmed: return "confirmed";
+    case SunState::Unknown:
+      return "unknown";
+    case SunState::BelowHorizon:
+      return "below-horizon";
+    case SunState::Predicted:
+      return "predicted";
+    case SunState::Confirmed:
+      return "confirmed";
   }
   return "?";
 }

@@ -78,9 +78,9 @@ inline double parse_utc_time(std::string_view text, std::string_view what) {
   const bool with_seconds =
       std::sscanf(t.c_str(), "%d-%d-%dT%d:%d:%lf%n", &y, &mo, &d, &h, &mi, &sec, &n) == 6;
   if (!with_seconds) sec = 0, n = 0;
-  const bool ok = (with_seconds ||
-                   std::sscanf(t.c_str(), "%d-%d-%dT%d:%d%n", &y, &mo, &d, &h, &mi, &n) == 5) &&
-                  n == int(t.size());
+  const bool ok =
+      (with_seconds || std::sscanf(t.c_str(), "%d-%d-%dT%d:%d%n", &y, &mo, &d, &h, &mi, &n) == 5) &&
+      n == int(t.size());
   const std::chrono::year_month_day date{std::chrono::year{y}, std::chrono::month(unsigned(mo)),
                                          std::chrono::day(unsigned(d))};
   if (!ok || !date.ok() || y < 1000 || y > 3000 || h < 0 || h > 23 || mi < 0 || mi > 59 ||

@@ -241,10 +241,10 @@ struct Location {
 inline constexpr const char* kServerCapabilityLocation = "location";
 
 // In the schema's union order.
-using Message = std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet,
-                             RequestMaps, Ping, Bye, Welcome, LightingUpdate, MapTile,
-                             MapSetComplete, Progress, Error, Pong, CalibrationResult,
-                             ExposureAdvice, Location>;
+using Message =
+    std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet, RequestMaps, Ping,
+                 Bye, Welcome, LightingUpdate, MapTile, MapSetComplete, Progress, Error, Pong,
+                 CalibrationResult, ExposureAdvice, Location>;
 
 const char* message_name(const Message& m);  // "Hello", "CameraFrame", ...
 

@@ -8,12 +8,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <numbers>
 #include <span>
 #include <stdexcept>
 #include <string>
-
-#include <glm/geometric.hpp>
 
 #include "arlight/image.hpp"
 
@@ -51,8 +50,9 @@ SunPosition sun_position(const GeoLocation& where, double utc_seconds, const Atm
                                 " is not between the years 1000 and 3000");
   if (!(air.pressure_hpa > 0.0 && air.pressure_hpa < 1200.0) ||
       !(air.temperature_c > -90.0 && air.temperature_c < 70.0))
-    throw std::invalid_argument("sun position: pressure must be in (0, 1200) hPa and temperature "
-                                "in (-90, 70) C");
+    throw std::invalid_argument(
+        "sun position: pressure must be in (0, 1200) hPa and temperature "
+        "in (-90, 70) C");
   const double jd = kUnixEpochJd + utc_seconds / 86400.0;
   // The sun's apparent place is a function of dynamical time (TT = UT + Delta T); the Earth's
   // rotation, in ln_get_hrz_from_equ, of universal time. The dissertation's SPA call took
@@ -70,14 +70,13 @@ SunPosition sun_position(const GeoLocation& where, double utc_seconds, const Atm
   const double precession_deg = (5029.0966 * t + 1.11113 * t * t) / 3600.0;
   ln_nutation nutation{};
   ln_get_nutation(jde, &nutation);
-  const double lambda = radians(geometric.L + precession_deg + nutation.longitude -
-                                20.4898 / 3600.0 / geometric.R);
+  const double lambda =
+      radians(geometric.L + precession_deg + nutation.longitude - 20.4898 / 3600.0 / geometric.R);
   const double beta = radians(geometric.B);
   const double epsilon = radians(nutation.ecliptic + nutation.obliquity);  // true obliquity
   ln_equ_posn equ{};
-  equ.ra = degrees(std::atan2(std::sin(lambda) * std::cos(epsilon) -
-                                  std::tan(beta) * std::sin(epsilon),
-                              std::cos(lambda)));
+  equ.ra = degrees(std::atan2(
+      std::sin(lambda) * std::cos(epsilon) - std::tan(beta) * std::sin(epsilon), std::cos(lambda)));
   if (equ.ra < 0.0) equ.ra += 360.0;
   equ.dec = degrees(std::asin(std::sin(beta) * std::cos(epsilon) +
                               std::cos(beta) * std::sin(epsilon) * std::sin(lambda)));
@@ -158,9 +157,8 @@ SunEstimate estimate_sun(const SunPosition& predicted, const std::optional<Brigh
     return e;
   const double measured_offset =
       azimuth_difference_deg(predicted.azimuth_deg, world_azimuth_deg(bright->direction));
-  if (north_referenced &&
-      std::abs(azimuth_difference_deg(measured_offset, north_offset_deg)) >
-          check.azimuth_tolerance_deg)
+  if (north_referenced && std::abs(azimuth_difference_deg(measured_offset, north_offset_deg)) >
+                              check.azimuth_tolerance_deg)
     return e;
   e.state = SunState::Confirmed;
   e.north_offset_deg = measured_offset;

@@ -156,8 +156,11 @@ void Connection::handle_hello(const wire::Hello& m) {
       },
       wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice));
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
-  stream_->send(wire::Welcome{session_->id(), env_.server_version, !m.resume_session.empty(),
-                              session_->frames_processed(), env_.limits,
+  stream_->send(wire::Welcome{session_->id(),
+                              env_.server_version,
+                              !m.resume_session.empty(),
+                              session_->frames_processed(),
+                              env_.limits,
                               {wire::kServerCapabilityLocation}});
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one

@@ -244,8 +244,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
     const auto now = Clock::now();
     if (now - sun_checked_ >= std::chrono::seconds(1)) {
       sun_checked_ = now;
-      const double utc = location_->utc_seconds +
-                         std::chrono::duration<double>(now - location_received_).count();
+      const double utc =
+          location_->utc_seconds + std::chrono::duration<double>(now - location_received_).count();
       // A sun prior for the dominant light (issue 17): the map's brightest compact light, if
       // it is where place and time put the sun. Only what was measured counts (not the fill).
       sun_ = capture::estimate_sun(capture::sun_position(location_->where, utc),

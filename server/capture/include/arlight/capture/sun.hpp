@@ -50,8 +50,8 @@ glm::dvec3 sun_direction_world(const SunPosition& sun, double north_offset_deg =
 struct BrightRegion {
   // Luminance-weighted centroid of the texels over half the peak within 15 degrees of it.
   glm::dvec3 direction{0.0, 1.0, 0.0};
-  double solid_angle_sr = 0;            // their solid angle
-  double contrast = 0;                  // their mean luminance over the map's mean (seen texels)
+  double solid_angle_sr = 0;  // their solid angle
+  double contrast = 0;        // their mean luminance over the map's mean (seen texels)
 };
 // nullopt for a map with nothing seen or nothing brighter than black.
 std::optional<BrightRegion> brightest_region(const EnvMap& measured);
@@ -68,8 +68,8 @@ struct SunCheck {
 
 struct SunEstimate {
   SunState state = SunState::Unknown;
-  glm::dvec3 direction{0.0};   // world frame, unit (0 for Unknown)
-  double north_offset_deg = 0; // what the direction was computed with (Confirmed: measured)
+  glm::dvec3 direction{0.0};    // world frame, unit (0 for Unknown)
+  double north_offset_deg = 0;  // what the direction was computed with (Confirmed: measured)
 };
 
 // `north_referenced`: the client's world -Z is (magnetic) north, offset from true north by
