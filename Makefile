@@ -37,7 +37,10 @@ demo: deps
 	$(BUILD)/bin/arlight-sim --env $(DEMO_PROBE) --out $(DEMO_OUT)/ar/recording --frames 90 \
 	  --trajectory orbit --marker 7,0.2 --gyro-drift 0.5 --seed 2
 	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon \
-	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client
+	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client $(DEMO_OUT)/compositing
+	node deploy/compositing-sheet.mjs $(DEMO_OUT)/compositing/contact_sheet.png \
+	  maps=$(DEMO_OUT)/ar/client/frames hemisphere=$(DEMO_OUT)/compositing/hemisphere/frames \
+	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames"
 	node deploy/web-demo.mjs $(BUILD)/bin $(DEMO_OUT)/web $(DEMO_PROBE)
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
@@ -60,6 +63,9 @@ demo: deps
 	@echo "  ar/client/contact_sheet.png  the bunny on the marker, lit by the captured room"
 	@echo "  ar/client/frames/          every composited frame (arlight-client, camera-matched"
 	@echo "                            tone mapping); client.json: timings and pose error vs truth"
+	@echo "  compositing/contact_sheet.png  the bunny shaded with the maps, with hemisphere shading and"
+	@echo "                            with hemisphere shading and occlusion, side by side (rows:"
+	@echo "                            three frames); compositing/<mode>/ each run's frames and JSON"
 	@echo "  web/contact_sheet.png     the phone page arlightd serves, in headless Chromium: a simulated"
 	@echo "                            phone sweeps the room, the sphere takes on its light, then"
 	@echo "                            the page tracks the marker and stands the bunny on it;"

@@ -4,9 +4,12 @@
 # admin endpoints' answers; then, given an AR recording (a phone looking at a marker in the same
 # room), runs arlight-client on it in the same session, so the virtual object is lit by the
 # room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
-# Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR [AR_RECORDING MODEL CLIENT_OUT]
+# With COMPOSITING_OUT, the client runs again once per other shading mode (hemisphere shading,
+# with and without occlusion) into COMPOSITING_OUT/<mode>/, for the side-by-side sheet.
+# Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR [AR_RECORDING MODEL CLIENT_OUT
+#        [COMPOSITING_OUT]]
 set -euo pipefail
-build=$1 rec=$2 out=$3 ar_rec=${4:-} model=${5:-} client_out=${6:-}
+build=$1 rec=$2 out=$3 ar_rec=${4:-} model=${5:-} client_out=${6:-} compositing_out=${7:-}
 rm -rf "$out"
 mkdir -p "$out"
 token=$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')
@@ -47,4 +50,14 @@ if [ -n "$ar_rec" ]; then
     --source "replay:$ar_rec" --model "$model" --marker 7,0.2 --material 0.7,0.3,80 \
     --resume "$session" --wait-maps 60 --out "$client_out" > "$client_out.log"
   tail -1 "$client_out.log"
+  if [ -n "$compositing_out" ]; then
+    rm -rf "$compositing_out"
+    mkdir -p "$compositing_out"
+    for shading in hemisphere hemisphere-occlusion; do
+      "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
+        --source "replay:$ar_rec" --model "$model" --marker 7,0.2 --material 0.7,0.3,80 \
+        --resume "$session" --wait-maps 60 --shading "$shading" --out "$compositing_out/$shading" \
+        --json "$compositing_out/$shading.json" > "$compositing_out/$shading.log"
+    done
+  fi
 fi
