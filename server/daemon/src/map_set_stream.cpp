@@ -23,21 +23,9 @@ class BackgroundPriority : public tbb::task_scheduler_observer {
   explicit BackgroundPriority(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) {
     observe(true);
   }
+  ~BackgroundPriority() override { observe(false); }
   void on_scheduler_entry(bool) override { lower_thread_priority(kMapNice); }
 };
-
-// One low-priority arena for every session's map sets, for the life of the process: below the
-// live path, so the frames of every session come first. Never destroyed, on purpose: an
-// observer detached while a TBB worker still refers to it (oneTBB 2021.8, observe(false) racing
-// a worker's exit) was leaked by TBB, once per map set; one that is never detached is not.
-tbb::task_arena& background_arena() {
-  struct Background {
-    tbb::task_arena arena{tbb::task_arena::automatic, 1, tbb::task_arena::priority::low};
-    BackgroundPriority priority{(arena.initialize(), arena)};
-  };
-  static Background* const background = new Background;
-  return background->arena;
-}
 
 }  // namespace
 
@@ -65,15 +53,16 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
   };
   try {
     lighting::MapSet maps;
-    // Isolated: a thread waiting for its own set's tiles never picks up another session's.
-    background_arena().execute([&] {
-      tbb::this_task_arena::isolate([&] {
-        const EnvLayout reduced = preview_input_layout(layout);
-        const bool reduce = job.preview && reduced.texel_count() < job.input.layout.texel_count();
-        maps = lighting::compute_maps(reduce ? resample(job.input, reduced) : job.input,
-                                      request.shininess, layout,
-                                      lighting::parse_method(request.method), hooks);
-      });
+    // Below the live path: the frames of every session come first.
+    tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
+    arena.initialize();
+    const BackgroundPriority background(arena);
+    arena.execute([&] {
+      const EnvLayout reduced = preview_input_layout(layout);
+      const bool reduce = job.preview && reduced.texel_count() < job.input.layout.texel_count();
+      maps = lighting::compute_maps(reduce ? resample(job.input, reduced) : job.input,
+                                    request.shininess, layout,
+                                    lighting::parse_method(request.method), hooks);
     });
     const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
                                   int h) {
