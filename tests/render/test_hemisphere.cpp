@@ -52,14 +52,17 @@ TEST(HemispherePriors, AreTheRoomsUpperAndLowerMeansAndItsLitAndDarkSides) {
   const glm::dvec3 s_x(0.5, 0.4, 0.3);
   const EnvMap room = step_room(s_x);
   const glm::vec3 up(kC + kSy), down(kC - kSy), lit(kC + s_x), dark(kC - s_x);
+  // Light and shadow are luminances as the renderer takes them (Rec. 709, common/image.hpp).
+  const auto expect_priors = [&](const HemispherePriors& h) {
+    for (int ch = 0; ch < 3; ++ch) {
+      EXPECT_NEAR(h.upper[ch], up[ch], 0.01 * up[ch]);
+      EXPECT_NEAR(h.lower[ch], down[ch], 0.01 * down[ch]);
+    }
+    EXPECT_NEAR(h.light, luminance(lit), 0.01 * luminance(lit));
+    EXPECT_NEAR(h.shadow, luminance(dark), 0.01 * luminance(dark));
+  };
   s.r.set_sh(sh_project(room, 8));  // the live SH, as arlightd sends it
-  const HemispherePriors sh = s.r.hemisphere_priors();
-  for (int ch = 0; ch < 3; ++ch) {
-    EXPECT_NEAR(sh.upper[ch], up[ch], 0.01 * up[ch]);
-    EXPECT_NEAR(sh.lower[ch], down[ch], 0.01 * down[ch]);
-  }
-  EXPECT_NEAR(sh.light, lum(lit), 0.01 * lum(lit));
-  EXPECT_NEAR(sh.shadow, lum(dark), 0.01 * lum(dark));
+  expect_priors(s.r.hemisphere_priors());
 
   // With a map set, from its irradiance map (here the exact one).
   const EnvLayout layout = EnvLayout::for_size(Projection::Cube, 32);
@@ -70,13 +73,7 @@ TEST(HemispherePriors, AreTheRoomsUpperAndLowerMeansAndItsLitAndDarkSides) {
       irradiance.image.set(x, y, glm::vec3(kC + kSy * n.y + s_x * n.x));
     }
   s.r.set_maps({1.0}, {irradiance});
-  const HemispherePriors maps = s.r.hemisphere_priors();
-  for (int ch = 0; ch < 3; ++ch) {
-    EXPECT_NEAR(maps.upper[ch], up[ch], 0.01 * up[ch]);
-    EXPECT_NEAR(maps.lower[ch], down[ch], 0.01 * down[ch]);
-  }
-  EXPECT_NEAR(maps.light, lum(lit), 0.01 * lum(lit));
-  EXPECT_NEAR(maps.shadow, lum(dark), 0.01 * lum(dark));
+  expect_priors(s.r.hemisphere_priors());
 }
 
 // Eq. 6 on every pixel of the sphere, with the scene turned against the world: a blend by the
@@ -126,7 +123,7 @@ TEST(HemisphereShading, OcclusionDarkensTowardsTheGroundByTheDarkOverTheLitSide)
   const glm::dquat world = glm::angleAxis(-0.6, glm::normalize(glm::dvec3(1.0, 0.1, 0.3)));
   s.r.set_world_from_scene(world);
   const glm::dvec3 up = kC + kSy, down = kC - kSy;
-  const double ratio = lum(glm::vec3(kC - s_x)) / lum(glm::vec3(kC + s_x));
+  const double ratio = luminance(kC - s_x) / luminance(kC + s_x);
   Material m;
   m.kd = glm::vec3(1.0f), m.ks = glm::vec3(0.0f);
   s.r.set_shading(Shading::Hemisphere);
