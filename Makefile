@@ -40,7 +40,8 @@ demo: deps
 	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client $(DEMO_OUT)/compositing
 	node deploy/compositing-sheet.mjs $(DEMO_OUT)/compositing/contact_sheet.png \
 	  maps=$(DEMO_OUT)/ar/client/frames hemisphere=$(DEMO_OUT)/compositing/hemisphere/frames \
-	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames"
+	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames" \
+	  "glass (live refraction)=$(DEMO_OUT)/compositing/glass/frames"
 	node deploy/web-demo.mjs $(BUILD)/bin $(DEMO_OUT)/web $(DEMO_PROBE)
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
@@ -63,9 +64,10 @@ demo: deps
 	@echo "  ar/client/contact_sheet.png  the bunny on the marker, lit by the captured room"
 	@echo "  ar/client/frames/          every composited frame (arlight-client, camera-matched"
 	@echo "                            tone mapping); client.json: timings and pose error vs truth"
-	@echo "  compositing/contact_sheet.png  the bunny shaded with the maps, with hemisphere shading and"
-	@echo "                            with hemisphere shading and occlusion, side by side (rows:"
-	@echo "                            three frames); compositing/<mode>/ each run's frames and JSON"
+	@echo "  compositing/contact_sheet.png  the bunny shaded with the maps, with hemisphere shading,"
+	@echo "                            with hemisphere shading and occlusion, and as glass showing"
+	@echo "                            the camera frame through it, side by side (rows: three"
+	@echo "                            frames); compositing/<mode>/ each run's frames and JSON"
 	@echo "  web/contact_sheet.png     the phone page arlightd serves, in headless Chromium: a simulated"
 	@echo "                            phone sweeps the room, the sphere takes on its light, then"
 	@echo "                            the page tracks the marker and stands the bunny on it;"

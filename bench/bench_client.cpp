@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "arlight/client_app.hpp"
@@ -66,7 +67,8 @@ const ClientFixture& fixture() {
 // The client's per-frame pipeline itself (arlight_client_app, as arlight-client runs it), with
 // the lighting fixed instead of coming over the network.
 void BM_ClientFrame(benchmark::State& state, bool shadow,
-                    render::Shading shading = render::Shading::ImageBased) {
+                    render::Shading shading = render::Shading::ImageBased,
+                    std::optional<render::Refraction> glass = std::nullopt) {
   const ClientFixture& fx = fixture();
   render::GlContext gl = render::GlContext::headless();
   client_app::PipelineOptions options;
@@ -77,6 +79,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   options.material.shininess = 80;
   options.shadow = shadow;
   options.shading = shading;
+  if (glass) options.material = render::glass(1.5f, 1280.0f), options.refraction = *glass;
   client_app::FramePipeline pipeline(
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
   auto maps = std::make_shared<client::MapSet>();
@@ -88,12 +91,16 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   cv::Mat out;
   client_app::RunStats stats;
   std::size_t k = 0, drawn = 0;
+  std::vector<double> refraction_ms;
   for (auto _ : state) {
     const client_app::FrameReport r =
         pipeline.process(fx.frames[k++ % fx.frames.size()], lighting, out);
     stats.add(r, 0.0);
     drawn += r.drawn;
+    refraction_ms.push_back(pipeline.renderer().timings().refraction_ms);
   }
+  if (glass == render::Refraction::LiveFrame)
+    state.counters["refraction_ms"] = client_app::median(refraction_ms);
   state.counters["tracking_ms"] = client_app::median(stats.track_ms);
   state.counters["render_ms"] = client_app::median(stats.render_ms);
   state.counters["tonemap_ms"] = client_app::median(stats.tonemap_ms);
@@ -119,6 +126,17 @@ BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_hemisphere, true, render::Shading::
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_hemisphere_occlusion, true,
                   render::Shading::HemisphereOcclusion)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+// The bunny as glass (dissertation §5.5), seeing the maps or the camera frame through it.
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_glass_maps, true, render::Shading::ImageBased,
+                  render::Refraction::Maps)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_glass_live, true, render::Shading::ImageBased,
+                  render::Refraction::LiveFrame)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(96)
     ->UseRealTime();

@@ -1,6 +1,6 @@
 // The compositing part of `make demo`: arlight-client's composited frames of one AR recording,
-// one run per shading mode (--shading maps, hemisphere, hemisphere-occlusion), side by side: a
-// row per picked frame, a column per mode, labelled. Drawn by headless Chromium's canvas (no
+// one run per compositing mode (--shading maps, hemisphere, hemisphere-occlusion; --glass
+// live), side by side: a row per picked frame, a column per mode, labelled. Drawn by headless Chromium's canvas (no
 // image library needed), as the page's contact sheet is.
 //   node deploy/compositing-sheet.mjs OUT.png LABEL=FRAMES_DIR...
 import fs from 'node:fs';

@@ -4,8 +4,9 @@
 # admin endpoints' answers; then, given an AR recording (a phone looking at a marker in the same
 # room), runs arlight-client on it in the same session, so the virtual object is lit by the
 # room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
-# With COMPOSITING_OUT, the client runs again once per other shading mode (hemisphere shading,
-# with and without occlusion) into COMPOSITING_OUT/<mode>/, for the side-by-side sheet.
+# With COMPOSITING_OUT, the client runs again once per other compositing mode (hemisphere
+# shading, with and without occlusion; the object as glass showing the live frame through it)
+# into COMPOSITING_OUT/<mode>/, for the side-by-side sheet.
 # Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR [AR_RECORDING MODEL CLIENT_OUT
 #        [COMPOSITING_OUT]]
 set -euo pipefail
@@ -53,11 +54,15 @@ if [ -n "$ar_rec" ]; then
   if [ -n "$compositing_out" ]; then
     rm -rf "$compositing_out"
     mkdir -p "$compositing_out"
-    for shading in hemisphere hemisphere-occlusion; do
+    # name:flags of each other mode.
+    for mode in "hemisphere:--shading hemisphere" \
+      "hemisphere-occlusion:--shading hemisphere-occlusion" "glass:--glass live"; do
+      name=${mode%%:*} flags=${mode#*:}
+      # shellcheck disable=SC2086  # the flags are words
       "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
         --source "replay:$ar_rec" --model "$model" --marker 7,0.2 --material 0.7,0.3,80 \
-        --resume "$session" --wait-maps 60 --shading "$shading" --out "$compositing_out/$shading" \
-        --json "$compositing_out/$shading.json" > "$compositing_out/$shading.log"
+        --resume "$session" --wait-maps 60 $flags --out "$compositing_out/$name" \
+        --json "$compositing_out/$name.json" > "$compositing_out/$name.log"
     done
   fi
 fi

@@ -3,8 +3,8 @@
 // tangent-space normal mapping (Alg. 5.4). Map texels are lobe-weighted average radiance
 // (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls. The renderer compiles one variant per
 // projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
-// USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE), so no fragment pays for a feature its material
-// lacks.
+// USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB), so no fragment
+// pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
 precision highp samplerCube;
@@ -47,6 +47,86 @@ vec3 hemisphere(vec3 d) {
 }
 #endif
 
+// The reflection maps (or eq. 6) in a world-frame direction: what a mirror-like lobe sees.
+vec3 specular_environment(vec3 d) {
+#ifdef HEMISPHERE
+  return hemisphere(normalize(d));
+#else
+  ENV_COORD c = env_coord(d);  // once for both maps
+  vec3 l = env_fetch(u_reflection0, c);
+#ifdef MIX_REFLECTIONS
+  l = mix(l, env_fetch(u_reflection1, c), u_reflection_mix);
+#endif
+  return l;
+#endif
+}
+
+#ifdef GLASS
+// Glass (dissertation §5.5.1, done with both interfaces and Fresnel): the view ray refracts into
+// the object at this fragment, crosses it to the far side of the ellipsoid inscribed in the
+// mesh's bounds (exact for a sphere, the thickness of anything else), and refracts out. The
+// dissertation drew glass as specular highlights over the background with one refract() through
+// a "negative-angle" environment matrix; here Snell's law holds at both surfaces, the Fresnel
+// term splits reflection from transmission, and what is seen through the object is the
+// environment (the maps) or, with LIVE_REFRACTION, the camera frame itself (§5.5.3).
+uniform float u_ior;                // index of refraction (the object's over air's)
+uniform vec3 u_transmission;        // the share of the refracted light that gets through (tint)
+uniform mat4 u_object_from_scene;   // inverse of u_model
+uniform vec3 u_ellipsoid_centre;    // object frame: the centre of the mesh's bounds
+uniform vec3 u_ellipsoid_axes;      // object frame: half its extents
+
+// Unpolarised Fresnel reflectance of a dielectric interface, for the cosine of the angle of
+// incidence and eta = n_incident / n_transmitted; 1 under total internal reflection.
+float fresnel(float cos_i, float eta) {
+  float sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+  if (sin2_t >= 1.0) return 1.0;
+  float cos_t = sqrt(1.0 - sin2_t);
+  float rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  float rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  return 0.5 * (rs * rs + rp * rp);
+}
+
+#ifdef LIVE_REFRACTION
+// Dissertation §5.5.3, live refraction: what the camera sees behind the object, looked up in a
+// copy of this frame's camera image (uploaded once per frame as a texture; the dissertation
+// re-encoded every frame as a PNG). The ray leaving the object ends on the real floor (the plane
+// z = 0 of the scene, where the shadow catcher is) when it goes down to it, else far away.
+uniform mat4 u_view_proj;
+uniform sampler2D u_frame;             // the camera frame's codes, top row first
+uniform sampler2D u_response_inverse;  // 256 x 1: linear exposure of each code, per channel
+uniform float u_inv_exposure_gain;     // 1 / (the frame's exposure x gain): codes to radiance
+
+vec3 decode(vec3 code) {
+  vec3 x = clamp(code, 0.0, 1.0) * 255.0;
+  ivec3 i = min(ivec3(x), ivec3(254));
+  vec3 f = x - vec3(i);
+  return vec3(
+      mix(texelFetch(u_response_inverse, ivec2(i.r, 0), 0).r,
+          texelFetch(u_response_inverse, ivec2(i.r + 1, 0), 0).r, f.r),
+      mix(texelFetch(u_response_inverse, ivec2(i.g, 0), 0).g,
+          texelFetch(u_response_inverse, ivec2(i.g + 1, 0), 0).g, f.g),
+      mix(texelFetch(u_response_inverse, ivec2(i.b, 0), 0).b,
+          texelFetch(u_response_inverse, ivec2(i.b + 1, 0), 0).b, f.b));
+}
+
+// The frame's radiance behind the object along the ray x + s d (scene frame), or false when the
+// ray leaves the frame (the maps show then).
+bool frame_radiance(vec3 x, vec3 d, out vec3 radiance) {
+  vec4 clip = d.z < 0.0 && x.z > 0.0 ? u_view_proj * vec4(x - d * (x.z / d.z), 1.0)
+                                     : u_view_proj * vec4(d, 0.0);
+  if (clip.w <= 0.0) return false;
+  vec2 uv = 0.5 * clip.xy / clip.w + 0.5;  // the targets' row 0 is the image's top row
+  if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return false;
+  vec3 code = texture(u_frame, uv).rgb;
+#if !FRAME_RGB
+  code = code.bgr;  // a native frame holds B, G, R
+#endif
+  radiance = decode(code) * u_inv_exposure_gain;
+  return true;
+}
+#endif
+#endif
+
 layout(location = 0) out vec4 o_color;  // rgb: radiance
 layout(location = 1) out float o_mask;  // 1 = virtual pixel (the HDR target's R8 attachment)
 
@@ -80,19 +160,42 @@ void main() {
 #endif
   lo += kd * ld;
 #endif
-#ifdef USE_SPECULAR
+#if defined(USE_SPECULAR) || defined(GLASS)
   vec3 v = normalize(u_camera_position - v_position);  // towards the eye
+#ifdef GLASS
+  n = faceforward(n, -v, n);  // interpolated normals at the silhouette may face away
+#endif
   vec3 r = u_world_from_scene * reflect(-v, n);         // Alg. 5.1 line 3
-#ifdef HEMISPHERE
-  vec3 ls = hemisphere(normalize(r));
+  vec3 ls = specular_environment(r);
+#ifdef GLASS
+  float f_in = fresnel(dot(n, v), 1.0 / u_ior);
+  lo += f_in * ls;
+  // Through the object: in at this point, out where the ray leaves the inscribed ellipsoid.
+  vec3 t_in = refract(-v, n, 1.0 / u_ior);
+  vec3 q = ((u_object_from_scene * vec4(v_position, 1.0)).xyz - u_ellipsoid_centre) /
+           u_ellipsoid_axes;
+  vec3 e = mat3(u_object_from_scene) * t_in / u_ellipsoid_axes;
+  float ee = dot(e, e), qe = dot(q, e);
+  float s = max(0.0, (-qe + sqrt(max(0.0, qe * qe - ee * (dot(q, q) - 1.0)))) / ee);
+  vec3 x_out = v_position + s * t_in;  // the map to the object frame is linear: s is shared
+  vec3 n_out = normalize(transpose(mat3(u_object_from_scene)) *
+                         ((q + s * e) / u_ellipsoid_axes));  // the ellipsoid's outward normal
+  vec3 t_out = refract(t_in, -n_out, u_ior);
+  float f_out = fresnel(max(dot(t_in, n_out), 0.0), u_ior);
+  if (t_out == vec3(0.0)) {
+    // Total internal reflection: the light is taken to leave after this one bounce.
+    t_out = reflect(t_in, -n_out), f_out = 0.0;
+  }
+  vec3 through = u_transmission * (1.0 - f_in) * (1.0 - f_out);
+  vec3 behind;
+#ifdef LIVE_REFRACTION
+  if (!frame_radiance(x_out, t_out, behind))
+#endif
+    behind = specular_environment(u_world_from_scene * t_out);
+  lo += through * behind;
 #else
-  ENV_COORD cr = env_coord(r);                          // line 4, once for both maps
-  vec3 ls = env_fetch(u_reflection0, cr);
-#ifdef MIX_REFLECTIONS
-  ls = mix(ls, env_fetch(u_reflection1, cr), u_reflection_mix);
-#endif
-#endif
   lo += u_ks * ls;
+#endif
 #endif
   o_color = vec4(lo, 1.0);  // Alg. 5.1 line 7
   o_mask = 1.0;

@@ -3,6 +3,7 @@
 // truth — what is sent, when the object is drawn and with what, and where it lands.
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <opencv2/core.hpp>
 
 #include "arlight/client_app.hpp"
@@ -194,6 +195,21 @@ TEST(ClientApp, FlagValuesAreCheckedWithTheFlagNamed) {
     ADD_FAILURE() << "phong accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("--shading"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(client_app::parse_glass("off"));
+  EXPECT_EQ(client_app::parse_glass("live"), render::Refraction::LiveFrame);
+  EXPECT_EQ(client_app::parse_glass("maps"), render::Refraction::Maps);
+  EXPECT_FLOAT_EQ(client_app::glass_material(1.33, 640).ior, 1.33f);
+  EXPECT_TRUE(client_app::glass_material(1.33, 640).transmissive());
+  for (const auto& [flag, bad] :
+       {std::pair{"--glass", std::function<void()>([] { client_app::parse_glass("crystal"); })},
+        std::pair{"--ior", std::function<void()>([] { client_app::glass_material(0.5, 640); })}}) {
+    try {
+      bad();
+      ADD_FAILURE() << flag << " accepted a bad value";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(flag), std::string::npos) << e.what();
+    }
   }
   EXPECT_THROW(client_app::load_model("/nonexistent.glb"), InputError);
 }

@@ -92,7 +92,9 @@ TEST(HemisphereShading, TwoColourRoomGivesEquation6ByTheWorldsUpAxis) {
   // For this room eq. 6 is the exact irradiance: image-based shading of the diffuse part
   // agrees (the specular part differs: the maps are sharper than two colours).
   s.r.set_shading(Shading::ImageBased);
-  const HdrReadback ibl = s.render(Material{.kd = m.kd, .ks = glm::vec3(0.0f)});
+  Material diffuse;
+  diffuse.kd = m.kd, diffuse.ks = glm::vec3(0.0f);
+  const HdrReadback ibl = s.render(diffuse);
   int checked = 0;
   double worst = 0, worst_ibl = 0;
   for (int y = 0; y < H; y += 2)

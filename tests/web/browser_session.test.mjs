@@ -105,23 +105,33 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
       `the object's pixels look like the camera's: ${JSON.stringify(inside.slice(0, 3))}`);
 
     // The page's controls of issue 17: the shading control switches the renderer to hemisphere
-    // shading, and the location box sends the phone's place (the browser's geolocation, which
+    // shading, the material and refraction controls make the object glass showing the video
+    // through it, and the location box sends the phone's place (the browser's geolocation, which
     // Playwright grants here) to arlightd, which answers with the sun (unknown until then).
     assert.equal(status.sun, 'unknown');
     await context.grantPermissions(['geolocation']);
     await context.setGeolocation({ latitude: 45.4371, longitude: 12.3326, accuracy: 10 });
+    const before = await page.evaluate(() => window.arlight.status().frame_media_time);
     await page.evaluate(() => {
-      const shading = document.getElementById('shading');
-      shading.value = 'hemisphere';
-      shading.dispatchEvent(new Event('change'));
+      for (const [id, value] of [['shading', 'hemisphere'], ['material', 'glass'], ['refraction', 'live']]) {
+        const select = document.getElementById(id);
+        select.value = value;
+        select.dispatchEvent(new Event('change'));
+      }
       const box = document.getElementById('use-location');
       box.checked = true;
       box.dispatchEvent(new Event('change'));
     });
     await page.waitForFunction(() => {
       const s = window.arlight.status();
-      return s.shading === 'hemisphere' && s.sun !== 'unknown';
+      return s.shading === 'hemisphere' && s.material === 'glass' && s.refraction === 'live' &&
+        s.sun !== 'unknown';
     }, null, { timeout: 30000 });
+    // The glass (live refraction: the video frame copied and sampled through it) keeps rendering
+    // (10 more video frames composited, no error shown).
+    await page.waitForFunction((t) => window.arlight.status().frame_media_time > t + 5, before,
+      { timeout: 30000 });
+    assert.equal(await page.evaluate(() => document.getElementById('error').textContent), '');
     const lit = await page.evaluate(() => window.arlight.status());
     assert.equal(lit.geolocation, 'granted');
     assert.ok(['below-horizon', 'predicted', 'confirmed'].includes(lit.sun), lit.sun);

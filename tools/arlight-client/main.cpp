@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 
 #include "arlight/client_app.hpp"
@@ -38,11 +39,11 @@ int main(int argc, char** argv) {
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
       intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps",
-      location, time_text;
+      location, time_text, glass = "off";
   std::optional<double> north_offset;
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
-  double object_height = 0, wait_maps_s = 0;
+  double object_height = 0, wait_maps_s = 0, ior = 1.5;
   client::TlsOptions tls;
   app.add_option("--server", server, "arlightd HOST:PORT")->required();
   app.add_option("--token", token, "this device's token")->required();
@@ -69,6 +70,14 @@ int main(int argc, char** argv) {
                  "room's upper and lower half, blended by the normal: the fallback for weak "
                  "devices) or hemisphere-occlusion (that, darker towards the ground by the "
                  "room's dark side over its lit side)")
+      ->capture_default_str();
+  app.add_option("--glass", glass,
+                 "off (the --material), or the object is clear glass (dissertation §5.5): "
+                 "reflection and refraction split by the Fresnel term, refracted at both of "
+                 "its surfaces, showing the room's maps (maps) or the camera frame behind it "
+                 "(live: what is there now, a person walking past too) through it")
+      ->capture_default_str();
+  app.add_option("--ior", ior, "the glass's index of refraction (water 1.33, diamond 2.42)")
       ->capture_default_str();
   app.add_option("--location", location,
                  "LAT,LON[,ALT]: where the camera is (degrees, degrees, metres), so arlightd "
@@ -123,6 +132,12 @@ int main(int argc, char** argv) {
     po.shading = parse_shading(shading);
     po.response = CameraResponse::named(response);
     const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
+    if (const auto refraction = parse_glass(glass)) {
+      // As sharp as the sharpest reflection map asked for.
+      po.material = glass_material(
+          ior, shininess.empty() ? 1280.0 : *std::max_element(shininess.begin(), shininess.end()));
+      po.refraction = *refraction;
+    }
     source::SourceOptions so;
     so.realtime = realtime, so.intrinsics_file = intrinsics_file;
     const ImageSize image = parse_image_size(size, "--size");
@@ -192,6 +207,8 @@ int main(int argc, char** argv) {
                   {{"renderer", gl.renderer()},
                    {"size", {po.camera.width, po.camera.height}},
                    {"shading", render::shading_name(po.shading)},
+                   {"glass", glass},
+                   {"ior", ior},
                    {"sun", sun_json(channel.lighting())}});
     return stats.frames > 0 ? 0 : 1;
   } catch (const InputError& e) {

@@ -39,6 +39,7 @@ FramePipeline::FramePipeline(PipelineOptions options, const render::Mesh& mesh)
       webcam_orientation_(options_.camera) {
   renderer_.set_response(options_.response);
   renderer_.set_shading(options_.shading);
+  renderer_.set_refraction(options_.refraction);
 }
 
 FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel& channel,
@@ -152,6 +153,18 @@ render::ToneMode parse_tone(const std::string& name) {
 render::Shading parse_shading(const std::string& name) {
   if (const auto s = render::shading_named(name)) return *s;
   throw InputError("--shading: '" + name + "' is not maps, hemisphere or hemisphere-occlusion");
+}
+
+std::optional<render::Refraction> parse_glass(const std::string& name) {
+  if (name == "off") return std::nullopt;
+  if (const auto r = render::refraction_named(name)) return r;
+  throw InputError("--glass: '" + name + "' is not off, maps or live");
+}
+
+render::Material glass_material(double ior, double shininess) {
+  if (!(ior >= 1.0 && ior <= 3.0))
+    throw InputError("--ior: the index of refraction must be in [1, 3] (glass 1.5, water 1.33)");
+  return render::glass(float(ior), float(std::max(shininess, 1.0)));
 }
 
 render::Mesh load_model(const std::string& name) {

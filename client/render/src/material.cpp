@@ -30,4 +30,17 @@ std::shared_ptr<const TextureImage> make_texture(int width, int height, int chan
   return t;
 }
 
+Material glass(float ior, float shininess) {
+  if (!(ior >= 1.0f && ior <= 3.0f))
+    throw std::invalid_argument("glass: the index of refraction must be in [1, 3], not " +
+                                std::to_string(ior));
+  if (!(shininess >= 1.0f)) throw std::invalid_argument("glass: shininess must be >= 1");
+  Material m;
+  m.kd = glm::vec3(0.0f), m.ks = glm::vec3(0.0f);
+  m.shininess = shininess;
+  m.transmission = glm::vec3(1.0f);
+  m.ior = ior;
+  return m;
+}
+
 }  // namespace arlight::render

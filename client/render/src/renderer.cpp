@@ -29,7 +29,7 @@ constexpr int kShMapSize = 32;                             // SH maps: 64 x 32 l
 const std::vector<double> kShShininess = {1, 8, 32, 128};  // SH maps' lobes
 
 // Texture units.
-enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight };
+enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, kResponseInverse };
 
 constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
 constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
@@ -92,7 +92,25 @@ enum Feature : unsigned {
   kLightMap = 8,
   kSpecular = 16,
   kMix = 32,
-  kHemisphere = 64,  // eq. 6 instead of the maps (Shading::Hemisphere*)
+  kHemisphere = 64,       // eq. 6 instead of the maps (Shading::Hemisphere*)
+  kGlass = 128,           // a transmissive material (Material::transmission)
+  kLiveRefraction = 256,  // ... showing the camera frame (Refraction::LiveFrame)
+  kFrameRgb = 512,        // ... whose copy holds R, G, B (the browser's), not B, G, R
+};
+
+// What draw() took from the renderer's state for a draw it defers to composite().
+struct DrawState {
+  glm::mat4 view_proj;
+  glm::vec3 camera_position;
+  glm::mat3 world_from_scene;
+};
+
+// Glass under Refraction::LiveFrame, drawn in composite() once the frame is there.
+struct DeferredDraw {
+  const GpuMesh* mesh;
+  Material material;
+  glm::mat4 model;
+  DrawState state;
 };
 
 constexpr int kHorizontalNormals = 16;  // HemispherePriors' light and shadow
@@ -101,7 +119,8 @@ struct IblProgram {
   Program program;
   GLint model = -1, normal_matrix = -1, view_proj = -1, reflection_mix = -1, camera_position = -1,
         world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1, sky = -1, ground = -1,
-        occlusion = -1;
+        occlusion = -1, ior = -1, transmission = -1, object_from_scene = -1, ellipsoid_centre = -1,
+        ellipsoid_axes = -1, inv_exposure_gain = -1;
 };
 
 }  // namespace
@@ -121,6 +140,16 @@ const char* shading_name(Shading shading) {
 std::optional<Shading> shading_named(std::string_view name) {
   for (Shading s : {Shading::ImageBased, Shading::Hemisphere, Shading::HemisphereOcclusion})
     if (name == shading_name(s)) return s;
+  return std::nullopt;
+}
+
+const char* refraction_name(Refraction refraction) {
+  return refraction == Refraction::LiveFrame ? "live" : "maps";
+}
+
+std::optional<Refraction> refraction_named(std::string_view name) {
+  for (Refraction r : {Refraction::Maps, Refraction::LiveFrame})
+    if (name == refraction_name(r)) return r;
   return std::nullopt;
 }
 
@@ -162,7 +191,8 @@ struct Renderer::Impl {
   GLuint empty_vao = 0;
 
   gl::Framebuffer hdr_fbo, out_fbo;
-  gl::Texture hdr_tex, mask_tex, out_tex, response_lut, white_tex, flat_normal_tex;
+  gl::Texture hdr_tex, mask_tex, out_tex, response_lut, response_inverse, white_tex,
+      flat_normal_tex;
   gl::Renderbuffer depth;
   struct Level {
     gl::Framebuffer fbo;
@@ -223,6 +253,16 @@ struct Renderer::Impl {
   }
 
   Shading shading = Shading::ImageBased;
+  Refraction refraction = Refraction::Maps;
+  std::vector<DeferredDraw> live_glass;  // this frame's, for composite()
+  gl::Texture frame_copy;                // what live glass samples: the output can't be both
+  DrawState draw_state() const { return {view_proj, camera_position, world_from_scene}; }
+  // Binds everything a draw needs and draws; `live` = kLiveRefraction (| kFrameRgb) for the
+  // deferred glass, with the frame's 1 / (exposure x gain).
+  void issue(const GpuMesh& mesh, const Material& m, const glm::mat4& model, const DrawState& st,
+             unsigned live, float inv_exposure_gain);
+  // The frame in the output copied for the live glass, which is then drawn into the HDR target.
+  void draw_live_glass(const ToneMapping& tone, bool rgb);
 
   HemispherePriors hemisphere_priors() const {
     HemispherePriors h;
@@ -311,11 +351,15 @@ struct Renderer::Impl {
     std::vector<std::pair<std::string, std::string>> defines = {
         {"ENV_PROJECTION", std::to_string(int(projection))}};
     const std::pair<Feature, const char*> names[] = {
-        {kDiffuse, "USE_DIFFUSE"},    {kAlbedoMap, "USE_ALBEDO"},  {kNormalMap, "USE_NORMAL_MAP"},
-        {kLightMap, "USE_LIGHT_MAP"}, {kSpecular, "USE_SPECULAR"}, {kMix, "MIX_REFLECTIONS"},
-        {kHemisphere, "HEMISPHERE"}};
+        {kDiffuse, "USE_DIFFUSE"},           {kAlbedoMap, "USE_ALBEDO"},
+        {kNormalMap, "USE_NORMAL_MAP"},      {kLightMap, "USE_LIGHT_MAP"},
+        {kSpecular, "USE_SPECULAR"},         {kMix, "MIX_REFLECTIONS"},
+        {kHemisphere, "HEMISPHERE"},         {kGlass, "GLASS"},
+        {kLiveRefraction, "LIVE_REFRACTION"}};
     for (auto [bit, name] : names)
       if (features & bit) defines.emplace_back(name, "1");
+    if (features & kLiveRefraction)
+      defines.emplace_back("FRAME_RGB", features & kFrameRgb ? "1" : "0");
     IblProgram ip;
     ip.program = Program(shader_dir, "ibl.vert", "ibl.frag", defines);
     const Program& pr = ip.program;
@@ -327,6 +371,11 @@ struct Renderer::Impl {
     ip.normal_strength = pr.uniform("u_normal_strength");
     ip.sky = pr.uniform("u_sky"), ip.ground = pr.uniform("u_ground");
     ip.occlusion = pr.uniform("u_occlusion");
+    ip.ior = pr.uniform("u_ior"), ip.transmission = pr.uniform("u_transmission");
+    ip.object_from_scene = pr.uniform("u_object_from_scene");
+    ip.ellipsoid_centre = pr.uniform("u_ellipsoid_centre");
+    ip.ellipsoid_axes = pr.uniform("u_ellipsoid_axes");
+    ip.inv_exposure_gain = pr.uniform("u_inv_exposure_gain");
     glUseProgram(pr.id());
     glUniform1i(pr.uniform("u_irradiance"), kIrr);
     glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -334,6 +383,8 @@ struct Renderer::Impl {
     glUniform1i(pr.uniform("u_albedo"), kAlbedo);
     glUniform1i(pr.uniform("u_normal_map"), kNormal);
     glUniform1i(pr.uniform("u_light_map"), kLight);
+    glUniform1i(pr.uniform("u_frame"), kFrame);
+    glUniform1i(pr.uniform("u_response_inverse"), kResponseInverse);
     return ibl.emplace(key, std::move(ip)).first->second;
   }
 
@@ -459,6 +510,7 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   EnvMap zero(EnvLayout::for_size(Projection::LatLong, 1));
   p.black.upload({1.0}, {zero});
   upload_response_lut(CameraResponse::srgb(), p.response_lut);
+  upload_response_inverse(CameraResponse::srgb(), p.response_inverse);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   gl::check("creating the renderer");
 }
@@ -531,6 +583,10 @@ void Renderer::set_shading(Shading shading) { p_->shading = shading; }
 
 Shading Renderer::shading() const { return p_->shading; }
 
+void Renderer::set_refraction(Refraction refraction) { p_->refraction = refraction; }
+
+Refraction Renderer::refraction() const { return p_->refraction; }
+
 HemispherePriors Renderer::hemisphere_priors() const { return p_->hemisphere_priors(); }
 
 void Renderer::set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
@@ -548,6 +604,7 @@ void Renderer::set_world_from_scene(const glm::dmat3& r) { p_->world_from_scene 
 
 void Renderer::set_response(const CameraResponse& response) {
   upload_response_lut(response, p_->response_lut);
+  upload_response_inverse(response, p_->response_inverse);
 }
 
 void Renderer::begin_frame() {
@@ -555,6 +612,7 @@ void Renderer::begin_frame() {
   p.frame_start = Clock::now();
   p.composited = false;
   p.casters.clear();
+  p.live_glass.clear();
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   const float zero[4] = {0, 0, 0, 0};
@@ -562,26 +620,28 @@ void Renderer::begin_frame() {
   glClearBufferfi(GL_DEPTH_STENCIL, 0, 1.0f, 0);
 }
 
-void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model) {
-  Impl& p = *p_;
+void Renderer::Impl::issue(const GpuMesh& mesh, const Material& m, const glm::mat4& model,
+                           const DrawState& st, unsigned live, float inv_exposure_gain) {
+  Impl& p = *this;
   const EnvSet& env = p.lighting();
   const auto [a, b, t] = env.pick(m.shininess, p.lookup);
   const bool use_normal = m.normal_map && mesh.has_tangents();
   const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
-  const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f);
+  const bool glass = m.transmissive();
+  const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f) && !glass;
   const bool hemisphere = p.shading != Shading::ImageBased;
   const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
                             (use_normal ? kNormalMap : 0u) |
                             (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
-                            (specular && a != b && !hemisphere ? kMix : 0u) |
-                            (hemisphere ? kHemisphere : 0u);
+                            ((specular || glass) && a != b && !hemisphere ? kMix : 0u) |
+                            (hemisphere ? kHemisphere : 0u) | (glass ? kGlass | live : 0u);
   const IblProgram& u = p.ibl_program(hemisphere ? Projection::LatLong : env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDisable(GL_BLEND);
-  if (m.double_sided) {
+  if (m.double_sided && !glass) {  // glass is drawn from the front (its far side is modelled)
     glDisable(GL_CULL_FACE);
   } else {
     // Counter-clockwise front faces (glTF) appear clockwise on the targets, which are stored
@@ -594,11 +654,29 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   glUniformMatrix4fv(u.model, 1, GL_FALSE, glm::value_ptr(model));
   const glm::mat3 normal_matrix = glm::inverseTranspose(glm::mat3(model));
   glUniformMatrix3fv(u.normal_matrix, 1, GL_FALSE, glm::value_ptr(normal_matrix));
-  glUniformMatrix4fv(u.view_proj, 1, GL_FALSE, glm::value_ptr(p.view_proj));
-  glUniform3fv(u.camera_position, 1, glm::value_ptr(p.camera_position));
-  glUniformMatrix3fv(u.world_from_scene, 1, GL_FALSE, glm::value_ptr(p.world_from_scene));
+  glUniformMatrix4fv(u.view_proj, 1, GL_FALSE, glm::value_ptr(st.view_proj));
+  glUniform3fv(u.camera_position, 1, glm::value_ptr(st.camera_position));
+  glUniformMatrix3fv(u.world_from_scene, 1, GL_FALSE, glm::value_ptr(st.world_from_scene));
   glUniform3fv(u.kd, 1, glm::value_ptr(m.kd));
   glUniform3fv(u.ks, 1, glm::value_ptr(m.ks));
+  if (glass) {
+    glUniform1f(u.ior, m.ior);
+    glUniform3fv(u.transmission, 1, glm::value_ptr(m.transmission));
+    const glm::mat4 object_from_scene = glm::inverse(model);
+    glUniformMatrix4fv(u.object_from_scene, 1, GL_FALSE, glm::value_ptr(object_from_scene));
+    const Bounds& bounds = mesh.bounds();
+    const glm::vec3 centre = 0.5f * (bounds.min + bounds.max);
+    const glm::vec3 axes = glm::max(0.5f * (bounds.max - bounds.min), glm::vec3(1e-6f));
+    glUniform3fv(u.ellipsoid_centre, 1, glm::value_ptr(centre));
+    glUniform3fv(u.ellipsoid_axes, 1, glm::value_ptr(axes));
+    if (live) {
+      glUniform1f(u.inv_exposure_gain, inv_exposure_gain);
+      glActiveTexture(GL_TEXTURE0 + kFrame);
+      glBindTexture(GL_TEXTURE_2D, p.frame_copy.id);
+      glActiveTexture(GL_TEXTURE0 + kResponseInverse);
+      glBindTexture(GL_TEXTURE_2D, p.response_inverse.id);
+    }
+  }
   if (hemisphere) {
     const HemispherePriors h = p.hemisphere_priors();
     glUniform3fv(u.sky, 1, glm::value_ptr(h.upper));
@@ -630,6 +708,14 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
   glDrawElements(GL_TRIANGLES, GLsizei(mesh.index_count()), GL_UNSIGNED_INT, nullptr);
   glBindVertexArray(0);
   gl::check("draw");
+}
+
+void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model) {
+  Impl& p = *p_;
+  if (m.transmissive() && p.refraction == Refraction::LiveFrame)
+    p.live_glass.push_back({&mesh, m, model, p.draw_state()});
+  else
+    p.issue(mesh, m, model, p.draw_state(), 0, 1.0f);
   if (p.shadow.enabled) {
     Caster c{mesh.vao(), GLsizei(mesh.index_count()), model, glm::vec3(1e30f), glm::vec3(-1e30f)};
     const Bounds& b = mesh.bounds();
@@ -688,6 +774,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glBindTexture(GL_TEXTURE_2D, 0);
 
+  p.draw_live_glass(tone, false);
   p.tone_map_and_composite(tone, false);
   p.timings.tonemap_ms = ms_since(t0);
 
@@ -715,6 +802,7 @@ void Renderer::composite_in_place(const ToneMapping& tone) {
   // timings are then the time to issue the frame, not to draw it).
   const auto t0 = p.begin_composite(tone, /*wait=*/false);
   p.timings.shadow_ms = 0;  // the shadow catcher needs the frame on the CPU: composite() only
+  p.draw_live_glass(tone, true);
   p.tone_map_and_composite(tone, true);
   p.timings.tonemap_ms = ms_since(t0);
   p.timings.readback_ms = 0;
@@ -734,6 +822,36 @@ Clock::time_point Renderer::Impl::begin_composite(const ToneMapping& tone, bool 
   glDisable(GL_CULL_FACE);
   glBindVertexArray(empty_vao);
   return t0;
+}
+
+void Renderer::Impl::draw_live_glass(const ToneMapping& tone, bool rgb) {
+  timings.refraction_ms = 0;
+  if (live_glass.empty()) return;
+  const auto t0 = Clock::now();
+  if (!frame_copy.id) {
+    frame_copy.create();
+    glBindTexture(GL_TEXTURE_2D, frame_copy.id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, w, h, 0, GL_RGB, GL_UNSIGNED_BYTE, nullptr);
+    gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  }
+  // The output holds the frame now (uploaded, or the page's); the glass samples a copy of it.
+  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
+  glActiveTexture(GL_TEXTURE0 + kFrame);
+  glBindTexture(GL_TEXTURE_2D, frame_copy.id);
+  glCopyTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 0, 0, w, h);
+  const float inv_exposure_gain = float(1.0 / (tone.exposure * tone.gain));
+  for (const DeferredDraw& d : live_glass)
+    issue(*d.mesh, d.material, d.model, d.state, kLiveRefraction | (rgb ? kFrameRgb : 0u),
+          inv_exposure_gain);
+  live_glass.clear();
+  // Back to the fullscreen passes' state (begin_composite()).
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glBindVertexArray(empty_vao);
+  if (!rgb) glFinish();  // composite() waits for the GPU anyway: time this part on its own
+  gl::check("live refraction");
+  timings.refraction_ms = ms_since(t0);
 }
 
 // The tone-mapping pass: Reinhard's log-average (when asked) and the composite of the objects'

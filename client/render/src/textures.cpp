@@ -106,4 +106,19 @@ void upload_response_lut(const CameraResponse& response, gl::Texture& tex) {
   gl::check("uploading the camera response table");
 }
 
+void upload_response_inverse(const CameraResponse& response, gl::Texture& tex) {
+  std::vector<float> lut(256 * 4, 1.0f);
+  for (int code = 0; code < 256; ++code)
+    for (int c = 0; c < 3; ++c)
+      lut[std::size_t(code) * 4 + std::size_t(c)] = response.linear(code, c);
+  tex.create();
+  glBindTexture(GL_TEXTURE_2D, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, 256, 1, 0, GL_RGBA, GL_FLOAT, lut.data());
+  gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  gl::check("uploading the inverse camera response table");
+}
+
 }  // namespace arlight::render

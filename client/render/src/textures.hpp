@@ -25,5 +25,8 @@ gl::Texture upload_material_texture(const TextureImage& image);
 // the shader interpolates linearly between entries). Code value in [0, 1] per channel.
 constexpr int kResponseLutSize = 1024;
 void upload_response_lut(const CameraResponse& response, gl::Texture& tex);
+// Its inverse: the linear exposure of each of the 256 codes per channel (CameraResponse::linear),
+// a 256 x 1 RGBA32F texture (nearest; the shader interpolates between codes).
+void upload_response_inverse(const CameraResponse& response, gl::Texture& tex);
 
 }  // namespace arlight::render

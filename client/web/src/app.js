@@ -6,10 +6,11 @@
 // opencv.js); the C++ pose filter places the object on it, and its views refine the focal length.
 //
 // The URL's fragment (never sent to the server in an HTTP request) carries the session:
-//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal]
+//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
+//   [&refraction=live|maps]  (what glass shows through it, as arlight-client's --glass)
 //   [&location=1]  (tick "the sun from my location": the browser still asks its user)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
@@ -112,6 +113,8 @@ window.arlight = {
       model: object ? object.model : 'sphere',
       model_vertices: object ? object.model_vertices : 0,
       shading: object ? object.shading : 'maps',
+      material: object ? object.material : 'plastic',
+      refraction: object ? object.refraction : 'live',
       sun: object ? object.sun : 'unknown',
       sun_direction: object ? object.sun_direction : [0, 0, 0],
       geolocation: state.geolocation,
@@ -357,21 +360,25 @@ async function start() {
   client.setFov(fov);
   state.focalPx = client.camera().fx;
   client.setMarkerSize(marker.size);
-  client.setMaterial(params.get('material') || $('material').value);
-  const shading = params.get('shading') || $('shading').value;
-  if ([...$('shading').options].some((o) => o.value === shading)) {
-    $('shading').value = shading;
-    client.setShading(shading);
-  } else {
-    showError(`shading '${shading}': maps, hemisphere or hemisphere-occlusion`);
+  // The URL's choices for the selects (named like their ids), else the selects' own.
+  for (const [id, set] of [['material', (v) => client.setMaterial(v)],
+    ['shading', (v) => client.setShading(v)], ['refraction', (v) => client.setRefraction(v)]]) {
+    const value = params.get(id) || $(id).value;
+    const options = [...$(id).options].map((o) => o.value);
+    if (options.includes(value)) {
+      $(id).value = value;
+      set(value);
+    } else {
+      showError(`${id} '${value}': ${options.join(', ')}`);
+      set($(id).value);
+    }
+    $(id).addEventListener('change', (e) => set(e.target.value));
   }
   const coverage = new CoverageView($('coverage'), fov, w / h);
   const orientation = startOrientation();
   const grabber = new FrameGrabber(camera.video, { width: w, height: h });
   camera.lockExposure().catch(() => {});
 
-  $('material').addEventListener('change', (e) => client.setMaterial(e.target.value));
-  $('shading').addEventListener('change', (e) => client.setShading(e.target.value));
   // Models other than the sphere are files beside the page (models/NAME.glb).
   const setModel = async (name) => {
     try {

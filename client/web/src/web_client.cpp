@@ -81,8 +81,10 @@ render::Material material_named(const std::string& name) {
     m.kd = glm::vec3(0.05f), m.ks = glm::vec3(0.9f, 0.8f, 0.6f), m.shininess = 640;
   } else if (name == "matte") {
     m.kd = glm::vec3(0.8f), m.ks = glm::vec3(0.0f), m.shininess = 10;
+  } else if (name == "glass") {
+    m = render::glass(1.5f, kShininess.back());  // as sharp as the sharpest map
   } else {
-    throw std::invalid_argument("material '" + name + "': matte, plastic or metal");
+    throw std::invalid_argument("material '" + name + "': matte, plastic, metal or glass");
   }
   return m;
 }
@@ -299,7 +301,18 @@ class WebClient {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
 
-  void set_material(const std::string& name) { material_ = material_named(name); }
+  void set_material(const std::string& name) {
+    material_ = material_named(name);
+    material_name_ = name;
+  }
+
+  // What glass shows through it: "live" (the camera frame behind it) or "maps" (the room as
+  // captured); render::Refraction, arlight-client --glass.
+  void set_refraction(const std::string& name) {
+    const auto refraction = render::refraction_named(name);
+    if (!refraction) throw std::invalid_argument("refraction '" + name + "': live or maps");
+    renderer_.set_refraction(*refraction);
+  }
 
   // "maps", "hemisphere" or "hemisphere-occlusion" (render::Shading, arlight-client --shading).
   void set_shading(const std::string& name) {
@@ -361,6 +374,8 @@ class WebClient {
                                   : source == render::LightingSource::Sh ? "sh"
                                                                          : "none"));
     s.set("shading", std::string(render::shading_name(renderer_.shading())));
+    s.set("material", material_name_);
+    s.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
     s.set("sun", std::string(sun_state_name(sun_state_)));
     val sun = val::array();
     for (int i = 0; i < 3; ++i) sun.call<void>("push", sun_direction_[i]);
@@ -414,6 +429,7 @@ class WebClient {
   std::string model_name_ = "sphere";
   std::size_t model_vertices_ = 0;
   render::Material material_;
+  std::string material_name_ = "plastic";
   glm::mat4 model_{1.0f};
   double object_height_ = 0;
   int width_, height_;
@@ -466,6 +482,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("render", &WebClient::render)
       .function("setMaterial", &WebClient::set_material)
       .function("setShading", &WebClient::set_shading)
+      .function("setRefraction", &WebClient::set_refraction)
       .function("location", &WebClient::location)
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)

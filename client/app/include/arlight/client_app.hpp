@@ -67,6 +67,8 @@ struct PipelineOptions {
   bool shadow = true;  // shadows on the real floor (the marker's plane)
   render::ToneMode tone = render::ToneMode::CameraMatched;
   render::Shading shading = render::Shading::ImageBased;
+  // What a glass material shows through it (render::Refraction; only transmissive materials).
+  render::Refraction refraction = render::Refraction::Maps;
   CameraResponse response = CameraResponse::srgb();
   // The camera's true pose in the marker frame for a frame index, where known (a simulated
   // recording's ground truth) and the marker in view: pose errors are measured against it.
@@ -118,6 +120,10 @@ render::Material parse_material(const std::string& text);  // --material kd,ks,s
 render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
 // --shading maps|hemisphere|hemisphere-occlusion (render::Shading)
 render::Shading parse_shading(const std::string& name);
+// --glass off|maps|live: std::nullopt (the --material), or what clear glass shows through it.
+std::optional<render::Refraction> parse_glass(const std::string& name);
+// --ior: clear glass (render::glass) of that index of refraction, in [1, 3].
+render::Material glass_material(double ior, double shininess);
 render::Mesh load_model(const std::string& name);          // --model a glTF file, or "sphere"
 
 // Median, 95th percentile and maximum of a run's figures (what arlight-client reports).

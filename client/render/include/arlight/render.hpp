@@ -108,6 +108,22 @@ enum class Shading {
 const char* shading_name(Shading shading);
 std::optional<Shading> shading_named(std::string_view name);
 
+// What a transmissive material (Material::transmission, glass) shows through it.
+enum class Refraction {
+  // The reflection maps (or eq. 6) in the direction the ray leaves the object: the room as
+  // captured (dissertation §5.5.1).
+  Maps,
+  // The camera frame itself where that ray meets the real floor (the scene's z = 0) or, going up,
+  // far away (dissertation §5.5.3, live feed): what is behind the object now, a person walking
+  // past included. Drawn after the opaque objects, in composite(), over a copy of the frame
+  // (screen-space refraction, as Filament does); rays that leave the frame fall back to the maps.
+  // Virtual objects behind the glass do not show through it.
+  LiveFrame,
+};
+// The clients' names (arlight-client --glass, the page's control): "maps", "live".
+const char* refraction_name(Refraction refraction);
+std::optional<Refraction> refraction_named(std::string_view name);
+
 // The colour priors of hemisphere shading (dissertation §5.4), from the current lighting (the
 // irradiance map, or the live SH's irradiance until it arrives), world frame.
 struct HemispherePriors {
@@ -127,6 +143,7 @@ struct FrameTimings {
   double render_ms = 0;    // begin_frame() to the end of the draws (glFinish)
   double tonemap_ms = 0;   // upload of the camera frame, shadow, reduction, tone map, composite
   double shadow_ms = 0;    // the shadow map and the shadow catcher (part of tonemap_ms)
+  double refraction_ms = 0;  // live refraction: the frame's copy and the glass (in tonemap_ms)
   double readback_ms = 0;  // glReadPixels and conversion to BGR
   double total() const { return render_ms + tonemap_ms + readback_ms; }
 };
@@ -202,6 +219,9 @@ class Renderer {
   Shading shading() const;
   // What hemisphere shading uses now (zero without lighting).
   HemispherePriors hemisphere_priors() const;
+  // What glass shows through it (default: the maps).
+  void set_refraction(Refraction refraction);
+  Refraction refraction() const;
 
   // ---- camera and frames ----
   void set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
@@ -221,7 +241,8 @@ class Renderer {
   void begin_frame();
   // Thesis Alg. 5.1-5.4: kd * Ld(n) (* light map) + ks * Ls(reflect(-v, n)), normal mapping
   // with a TBN basis, depth tested, into the RGBA16F target (alpha = mask). With shadows on,
-  // the mesh also casts a shadow in composite(): it must live until then.
+  // the mesh also casts a shadow in composite(), and a transmissive material under
+  // Refraction::LiveFrame is drawn there too: the mesh must live until then.
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model);
   // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
   // renderer's size) in one pass; pixels outside the mask keep the frame exactly (except the
@@ -233,7 +254,8 @@ class Renderer {
   // The browser's way, without the frame ever on the CPU: the page uploads its video frame
   // (R, G, B, the renderer's size, top row first) into camera_texture(), the GL texture the
   // composite is made in, then composite_in_place() tone maps the objects over it there, for
-  // present(). No shadow catcher (it works on the frame's bytes) and no readback.
+  // present(). No shadow catcher (it works on the frame's bytes) and no readback. The camera's
+  // response (set_response) decodes the frame for live refraction.
   unsigned camera_texture() const;
   void composite_in_place(const ToneMapping& tone);
   // Shows the last composite in a window context's default framebuffer (then swap_buffers()).

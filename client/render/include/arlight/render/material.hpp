@@ -45,6 +45,19 @@ struct Material {
   // Light map (e.g. ambient occlusion), linear RGB in [0, 1], multiplies the diffuse irradiance
   // only (thesis Alg. 5.2). Sampled with TEXCOORD_0.
   std::shared_ptr<const TextureImage> light_map;
+  // Glass (dissertation §5.5): the share of the light refracted through the object that gets
+  // through it, per channel (its tint); 0 = opaque. A transmissive material's reflection is
+  // the Fresnel term of `ior` times the reflection map of `shininess` (ks is not used), and
+  // what shows through it is the environment or the live camera frame (Renderer's
+  // set_refraction). It is drawn from the front only: its far surface is the ellipsoid
+  // inscribed in the mesh's bounds (exact for a sphere, a thickness for anything else).
+  glm::vec3 transmission{0.0f};
+  float ior = 1.5f;  // index of refraction (crown glass 1.5, water 1.33, diamond 2.42)
+
+  bool transmissive() const { return transmission != glm::vec3(0.0f); }
 };
+
+// Clear glass of an index of refraction, reflections as sharp as the shininess picks.
+Material glass(float ior = 1.5f, float shininess = 1280.0f);
 
 }  // namespace arlight::render
