@@ -113,6 +113,8 @@ bench: deps
 	$(BUILD)/bin/arlight-bench --benchmark_min_time=1 $(BENCH_ARGS)
 	$(BUILD)/bin/arlight-bench-fill data/probes/heldout/*.exr --work out/bench/fill \
 	  --json out/bench/fill/heldout.json
+	$(BUILD)/bin/arlight-bench-colour data/probes/heldout/*.exr --model data/models/bunny.glb \
+	  --json out/bench/colour.json
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out

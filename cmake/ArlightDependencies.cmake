@@ -57,7 +57,7 @@ arlight_find_pkgconfig(QRENCODE libqrencode DEB libqrencode-dev)
 
 # capture and tracking
 arlight_find(OpenCV DEB "libopencv-dev libopencv-contrib-dev" CONFIG COMPONENTS
-  core imgproc imgcodecs calib3d features2d photo video aruco)
+  core imgproc imgcodecs calib3d features2d photo video aruco quality)
 # libjpeg-turbo directly: frames decode straight to BGR at a reduced scale
 arlight_find(JPEG DEB libjpeg62-turbo-dev)
 arlight_find_pkgconfig(LIBV4L2 libv4l2 DEB libv4l-dev)

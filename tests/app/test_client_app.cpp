@@ -196,6 +196,11 @@ TEST(ClientApp, FlagValuesAreCheckedWithTheFlagNamed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("--shading"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(client_app::parse_tone_options("camera,match"),
+            std::pair(render::ToneMode::CameraMatched, render::ColourCorrection::Match));
+  EXPECT_EQ(client_app::parse_tone_options("linear").second, render::ColourCorrection::None);
+  for (const char* bad : {"camera,none", "camera,reinhard", "aces,match"})
+    EXPECT_THROW(client_app::parse_tone_options(bad), InputError) << bad;
   EXPECT_FALSE(client_app::parse_glass("off"));
   EXPECT_EQ(client_app::parse_glass("live"), render::Refraction::LiveFrame);
   EXPECT_EQ(client_app::parse_glass("maps"), render::Refraction::Maps);

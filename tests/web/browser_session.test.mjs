@@ -113,7 +113,8 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     await context.setGeolocation({ latitude: 45.4371, longitude: 12.3326, accuracy: 10 });
     const before = await page.evaluate(() => window.arlight.status().frame_media_time);
     await page.evaluate(() => {
-      for (const [id, value] of [['shading', 'hemisphere'], ['material', 'glass'], ['refraction', 'live']]) {
+      for (const [id, value] of [['shading', 'hemisphere'], ['material', 'glass'], ['refraction', 'live'],
+        ['colour', 'match']]) {
         const select = document.getElementById(id);
         select.value = value;
         select.dispatchEvent(new Event('change'));
@@ -125,7 +126,7 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     await page.waitForFunction(() => {
       const s = window.arlight.status();
       return s.shading === 'hemisphere' && s.material === 'glass' && s.refraction === 'live' &&
-        s.sun !== 'unknown';
+        s.colour === 'match' && s.sun !== 'unknown';
     }, null, { timeout: 30000 });
     // The glass (live refraction: the video frame copied and sampled through it) keeps rendering
     // (10 more video frames composited, no error shown).

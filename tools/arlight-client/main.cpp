@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <tuple>
 
 #include "arlight/client_app.hpp"
 #include "arlight/error.hpp"
@@ -95,7 +96,10 @@ int main(int argc, char** argv) {
   app.add_option("--json", json_path, "write the summary (frames, timings, pose error) here");
   app.add_option("--device", device, "device id (default: the source's)");
   app.add_option("--resume", resume, "continue this arlightd session");
-  app.add_option("--tone", tone, "camera (matched to the frame), reinhard or linear")
+  app.add_option("--tone", tone,
+                 "camera (matched to the frame), reinhard or linear; then optionally "
+                 ",brightness, ,contrast or ,match: the dissertation's colour correction "
+                 "against the room's colour priors (e.g. camera,match)")
       ->capture_default_str();
   app.add_option("--response", response, "camera response: srgb, filmic or a JSON curve")
       ->capture_default_str();
@@ -128,7 +132,7 @@ int main(int argc, char** argv) {
     po.material = parse_material(material_text);
     po.object_height = object_height;
     po.shadow = shadow == "on";
-    po.tone = parse_tone(tone);
+    std::tie(po.tone, po.colour) = parse_tone_options(tone);
     po.shading = parse_shading(shading);
     po.response = CameraResponse::named(response);
     const std::vector<double> shininess = parse_number_list(maps_text, "--maps");
@@ -208,6 +212,7 @@ int main(int argc, char** argv) {
                    {"size", {po.camera.width, po.camera.height}},
                    {"shading", render::shading_name(po.shading)},
                    {"glass", glass},
+                   {"colour", render::colour_correction_name(po.colour)},
                    {"ior", ior},
                    {"sun", sun_json(channel.lighting())}});
     return stats.frames > 0 ? 0 : 1;

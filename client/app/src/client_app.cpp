@@ -107,6 +107,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   }
   render::ToneMapping tone;
   tone.mode = options_.tone;
+  tone.colour = options_.colour;
   tone.exposure = exposure;
   tone.gain = f.gain;
   render::composite(renderer_, f.bgr, tone, composited);
@@ -148,6 +149,16 @@ render::ToneMode parse_tone(const std::string& name) {
   if (name == "reinhard") return render::ToneMode::Reinhard;
   if (name == "linear") return render::ToneMode::Linear;
   throw InputError("--tone: '" + name + "' is not camera, reinhard or linear");
+}
+
+std::pair<render::ToneMode, render::ColourCorrection> parse_tone_options(const std::string& text) {
+  const std::size_t comma = text.find(',');
+  const render::ToneMode mode = parse_tone(text.substr(0, comma));
+  if (comma == std::string::npos) return {mode, render::ColourCorrection::None};
+  const std::string name = text.substr(comma + 1);
+  if (const auto c = render::colour_correction_named(name); c && name != "none") return {mode, *c};
+  throw InputError("--tone: '" + name +
+                   "' is not a colour correction (brightness, contrast or match)");
 }
 
 render::Shading parse_shading(const std::string& name) {

@@ -25,6 +25,7 @@ double ms_since(Clock::time_point t) {
 }
 
 constexpr int kReduceBlock = 8;                            // loglum_reduce.frag's BLOCK
+constexpr int kColourStep = 2;  // colour matching measures every 2nd pixel across and down
 constexpr int kShMapSize = 32;                             // SH maps: 64 x 32 lat-long
 const std::vector<double> kShShininess = {1, 8, 32, 128};  // SH maps' lobes
 
@@ -182,9 +183,12 @@ struct Renderer::Impl {
   int w, h;
   std::filesystem::path shader_dir;
   std::unordered_map<unsigned, IblProgram> ibl;  // by projection | features << 2, made lazily
-  Program reduce_first, reduce, composite[3], present;  // composite per ToneMode
-  // The same for a frame stored R, G, B in the output (composite_in_place), made when first used.
-  Program composite_rgb[3], present_rgb;
+  Program reduce_first, reduce, present;
+  // composite.frag by ToneMode | ColourCorrection << 2 | (a frame stored R, G, B, as
+  // composite_in_place has it) << 4, made when first used.
+  std::unordered_map<unsigned, Program> composites;
+  const Program& composite_program(int mode, ColourCorrection colour, bool rgb);
+  Program present_rgb;
   bool frame_rgb = false;  // what the last composite left in the output
   Clock::time_point begin_composite(const ToneMapping& tone, bool wait);
   void tone_map_and_composite(const ToneMapping& tone, bool rgb);
@@ -200,6 +204,22 @@ struct Renderer::Impl {
     int w, h;
   };
   std::vector<Level> levels;  // the log-luminance reduction chain, down to 1x1
+  // Colour matching's statistics of the virtual pixels (colour_stats_reduce.frag), made when
+  // first used: sums and sums of squares, down to 1x1.
+  struct ColourLevel {
+    gl::Framebuffer fbo;
+    gl::Texture sum, sum2;
+    int w, h;
+  };
+  std::vector<ColourLevel> colour_levels;
+  Program colour_first, colour_reduce;
+  void measure_colour(const ToneMapping& tone);
+  // The room's colour priors (dissertation §5.1) from the live SH and from the map set.
+  EnvironmentPriors sh_priors, map_priors;
+  std::optional<EnvironmentPriors> priors_override;
+  const EnvironmentPriors& environment_priors() const {
+    return priors_override ? *priors_override : maps.empty() ? sh_priors : map_priors;
+  }
 
   EnvSet maps, sh_maps, black;
   ShCoeffs last_sh;
@@ -395,20 +415,28 @@ struct Renderer::Impl {
   }
 };
 
-namespace {
+namespace {}  // namespace
 
-// composite.frag for a ToneMode, for an output holding B, G, R (OpenCV) or R, G, B (browser).
-Program composite_program(const std::filesystem::path& shader_dir, int mode, bool rgb) {
+// composite.frag for a ToneMode and a ColourCorrection, for an output holding B, G, R (OpenCV)
+// or R, G, B (browser).
+const Program& Renderer::Impl::composite_program(int mode, ColourCorrection colour, bool rgb) {
+  const unsigned key = unsigned(mode) | unsigned(colour) << 2 | (rgb ? 16u : 0u);
+  if (auto it = composites.find(key); it != composites.end()) return it->second;
   Program c(shader_dir, "fullscreen.vert", "composite.frag",
-            {{"TONE_MODE", std::to_string(mode)}, {"FRAME_RGB", rgb ? "1" : "0"}});
+            {{"TONE_MODE", std::to_string(mode)},
+             {"COLOUR_MODE", std::to_string(int(colour))},
+             {"FRAME_RGB", rgb ? "1" : "0"}});
   glUseProgram(c.id());
   glUniform1i(c.uniform("u_hdr"), 0);
   glUniform1i(c.uniform("u_response"), 2);
   glUniform1i(c.uniform("u_log_sum"), 3);
-  return c;
+  glUniform1i(c.uniform("u_colour_sum"), 4);
+  glUniform1i(c.uniform("u_colour_sum2"), 5);
+  const glm::mat3 lab = lab_from_rgb(), rgb_of_lab = rgb_from_lab();
+  glUniformMatrix3fv(c.uniform("u_lab_from_rgb"), 1, GL_FALSE, glm::value_ptr(lab));
+  glUniformMatrix3fv(c.uniform("u_rgb_from_lab"), 1, GL_FALSE, glm::value_ptr(rgb_of_lab));
+  return composites.emplace(key, std::move(c)).first->second;
 }
-
-}  // namespace
 
 Renderer::Renderer(int width, int height, const std::filesystem::path& shader_dir)
     : p_(std::make_unique<Impl>()) {
@@ -441,8 +469,7 @@ Renderer::Renderer(int width, int height, const std::filesystem::path& shader_di
   p.reduce_first = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag",
                            {{"BLOCK", block}, {"FIRST_PASS", "1"}});
   p.reduce = Program(shader_dir, "fullscreen.vert", "loglum_reduce.frag", {{"BLOCK", block}});
-  for (int mode = 0; mode < 3; ++mode)
-    p.composite[mode] = composite_program(shader_dir, mode, false);
+  for (int mode = 0; mode < 3; ++mode) p.composite_program(mode, ColourCorrection::None, false);
   p.present = Program(shader_dir, "fullscreen.vert", "present.frag", {{"FRAME_RGB", "0"}});
   glGenVertexArrays(1, &p.empty_vao);
 
@@ -539,6 +566,10 @@ void Renderer::set_sh(const ShCoeffs& sh) {
     maps.emplace_back(layout, std::move(img));
   }
   p.sh_maps.upload(kShShininess, maps);
+  // The room's radiance as the SH holds it, for the colour priors.
+  Image radiance = sh_reconstruct(sh, layout);
+  for (float& v : radiance.storage()) v = std::max(v, 0.0f);
+  p.sh_priors = render::environment_priors(EnvMap(layout, std::move(radiance)));
 }
 
 void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<EnvMap>& maps) {
@@ -554,6 +585,10 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
       std::size_t(std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
   // For the shadow's f (ShadowSettings) and the hemisphere priors.
   p_->irradiance_map_sh = sh_project(maps[smallest], 2);
+  // The sharpest map is nearest the room's radiance: the colour priors.
+  const std::size_t sharpest =
+      std::size_t(std::max_element(shininess.begin(), shininess.end()) - shininess.begin());
+  p_->map_priors = render::environment_priors(maps[sharpest]);
 }
 
 void Renderer::clear_maps() {
@@ -588,6 +623,12 @@ void Renderer::set_refraction(Refraction refraction) { p_->refraction = refracti
 Refraction Renderer::refraction() const { return p_->refraction; }
 
 HemispherePriors Renderer::hemisphere_priors() const { return p_->hemisphere_priors(); }
+
+EnvironmentPriors Renderer::environment_priors() const { return p_->environment_priors(); }
+
+void Renderer::set_environment_priors(std::optional<EnvironmentPriors> priors) {
+  p_->priors_override = priors;
+}
 
 void Renderer::set_camera(const CameraIntrinsics& k, const glm::dmat4& camera_from_scene,
                           float near_plane, float far_plane) {
@@ -854,6 +895,60 @@ void Renderer::Impl::draw_live_glass(const ToneMapping& tone, bool rgb) {
   timings.refraction_ms = ms_since(t0);
 }
 
+void Renderer::Impl::measure_colour(const ToneMapping& tone) {
+  if (colour_levels.empty()) {
+    const std::string block = std::to_string(kReduceBlock);
+    colour_first =
+        Program(shader_dir, "fullscreen.vert", "colour_stats_reduce.frag",
+                {{"BLOCK", block}, {"FIRST_PASS", "1"}, {"STEP", std::to_string(kColourStep)}});
+    colour_reduce =
+        Program(shader_dir, "fullscreen.vert", "colour_stats_reduce.frag", {{"BLOCK", block}});
+    for (int lw = w, lh = h; lw > 1 || lh > 1 || colour_levels.empty();) {
+      const int span = kReduceBlock * (colour_levels.empty() ? kColourStep : 1);
+      lw = (lw + span - 1) / span, lh = (lh + span - 1) / span;
+      ColourLevel& l = colour_levels.emplace_back();
+      l.w = lw, l.h = lh;
+      l.fbo.create();
+      glBindFramebuffer(GL_FRAMEBUFFER, l.fbo.id);
+      for (auto [tex, attachment] :
+           {std::pair{&l.sum, GL_COLOR_ATTACHMENT0}, std::pair{&l.sum2, GL_COLOR_ATTACHMENT1}}) {
+        tex->create();
+        glBindTexture(GL_TEXTURE_2D, tex->id);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, lw, lh, 0, GL_RGBA, GL_FLOAT, nullptr);
+        gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, attachment, GL_TEXTURE_2D, tex->id, 0);
+      }
+      const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+      glDrawBuffers(2, both);
+      gl::check_framebuffer("colour statistics level (2 x RGBA32F)");
+    }
+  }
+  GLuint input = hdr_tex.id, input2 = mask_tex.id;
+  int in_w = w, in_h = h;
+  for (std::size_t i = 0; i < colour_levels.size(); ++i) {
+    const Program& prog = i == 0 ? colour_first : colour_reduce;
+    glUseProgram(prog.id());
+    glUniform1i(prog.uniform("u_input"), 0);
+    glUniform1i(prog.uniform("u_input2"), 1);
+    glUniform2i(prog.uniform("u_input_size"), in_w, in_h);
+    if (i == 0) {
+      glUniform1f(prog.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
+      const glm::mat3 lab = lab_from_rgb();
+      glUniformMatrix3fv(prog.uniform("u_lab_from_rgb"), 1, GL_FALSE, glm::value_ptr(lab));
+    }
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, input);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, input2);
+    glBindFramebuffer(GL_FRAMEBUFFER, colour_levels[i].fbo.id);
+    glViewport(0, 0, colour_levels[i].w, colour_levels[i].h);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    input = colour_levels[i].sum.id, input2 = colour_levels[i].sum2.id;
+    in_w = colour_levels[i].w, in_h = colour_levels[i].h;
+  }
+}
+
 // The tone-mapping pass: Reinhard's log-average (when asked) and the composite of the objects'
 // pixels into the output, whose other pixels already hold the camera frame.
 void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
@@ -883,10 +978,22 @@ void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
   const int mode = tone.mode == ToneMode::CameraMatched ? 0
                    : tone.mode == ToneMode::Reinhard    ? 1
                                                         : 2;
-  if (rgb && !p.composite_rgb[mode].id())
-    p.composite_rgb[mode] = composite_program(shader_dir, mode, true);
-  const Program& comp = rgb ? p.composite_rgb[mode] : p.composite[mode];
+  if (tone.colour == ColourCorrection::Match) p.measure_colour(tone);
+  const Program& comp = p.composite_program(mode, tone.colour, rgb);
   glUseProgram(comp.id());
+  if (tone.colour == ColourCorrection::Match) {
+    const EnvironmentPriors& room = p.environment_priors();
+    const float eg = float(tone.exposure * tone.gain);
+    glUniform3fv(comp.uniform("u_source_mean"), 1, glm::value_ptr(room.lab.mean * eg));
+    glUniform3fv(comp.uniform("u_source_sd"), 1, glm::value_ptr(room.lab.sd * eg));
+    glActiveTexture(GL_TEXTURE4);
+    glBindTexture(GL_TEXTURE_2D, p.colour_levels.back().sum.id);
+    glActiveTexture(GL_TEXTURE5);
+    glBindTexture(GL_TEXTURE_2D, p.colour_levels.back().sum2.id);
+  } else if (tone.colour != ColourCorrection::None) {
+    const EnvironmentPriors& room = p.environment_priors();
+    glUniform3f(comp.uniform("u_grey"), room.grey_low, room.grey_mean, room.grey_high);
+  }
   glUniform1f(comp.uniform("u_exposure_gain"), float(tone.exposure * tone.gain));
   glUniform1f(comp.uniform("u_key"), tone.key);
   glUniform1f(comp.uniform("u_white"), tone.white);

@@ -11,6 +11,7 @@
 //   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
 //   [&refraction=live|maps]  (what glass shows through it, as arlight-client's --glass)
+//   [&colour=none|match|brightness|contrast]  (as arlight-client's --tone camera,CORRECTION)
 //   [&location=1]  (tick "the sun from my location": the browser still asks its user)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
 // window.arlight.status() reports what the page is doing (tests read it).
@@ -115,6 +116,7 @@ window.arlight = {
       shading: object ? object.shading : 'maps',
       material: object ? object.material : 'plastic',
       refraction: object ? object.refraction : 'live',
+      colour: object ? object.colour : 'none',
       sun: object ? object.sun : 'unknown',
       sun_direction: object ? object.sun_direction : [0, 0, 0],
       geolocation: state.geolocation,
@@ -362,7 +364,8 @@ async function start() {
   client.setMarkerSize(marker.size);
   // The URL's choices for the selects (named like their ids), else the selects' own.
   for (const [id, set] of [['material', (v) => client.setMaterial(v)],
-    ['shading', (v) => client.setShading(v)], ['refraction', (v) => client.setRefraction(v)]]) {
+    ['shading', (v) => client.setShading(v)], ['refraction', (v) => client.setRefraction(v)],
+    ['colour', (v) => client.setColour(v)]]) {
     const value = params.get(id) || $(id).value;
     const options = [...$(id).options].map((o) => o.value);
     if (options.includes(value)) {

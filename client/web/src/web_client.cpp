@@ -295,7 +295,9 @@ class WebClient {
     }
     // The camera's exposure as arlightd estimated it for the newest frame it processed (the
     // browser cannot say; its auto-exposure moves as the phone turns), in the map's units.
-    renderer_.composite_in_place({render::ToneMode::CameraMatched, frame_exposure_, 1.0});
+    render::ToneMapping tone{render::ToneMode::CameraMatched, frame_exposure_, 1.0};
+    tone.colour = colour_;
+    renderer_.composite_in_place(tone);
     renderer_.present();
     ++frames_rendered_;
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -321,6 +323,15 @@ class WebClient {
       throw std::invalid_argument("shading '" + name +
                                   "': maps, hemisphere or hemisphere-occlusion");
     renderer_.set_shading(*shading);
+  }
+
+  // The dissertation's colour correction (render::ColourCorrection, arlight-client's --tone
+  // camera,CORRECTION): "none", "brightness", "contrast" or "match".
+  void set_colour(const std::string& name) {
+    const auto colour = render::colour_correction_named(name);
+    if (!colour)
+      throw std::invalid_argument("colour '" + name + "': none, brightness, contrast or match");
+    colour_ = *colour;
   }
 
   // The object: "sphere", or a model's .glb bytes (the page fetches models/NAME.glb; no Draco in
@@ -376,6 +387,7 @@ class WebClient {
     s.set("shading", std::string(render::shading_name(renderer_.shading())));
     s.set("material", material_name_);
     s.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
+    s.set("colour", std::string(render::colour_correction_name(colour_)));
     s.set("sun", std::string(sun_state_name(sun_state_)));
     val sun = val::array();
     for (int i = 0; i < 3; ++i) sun.call<void>("push", sun_direction_[i]);
@@ -430,6 +442,7 @@ class WebClient {
   std::size_t model_vertices_ = 0;
   render::Material material_;
   std::string material_name_ = "plastic";
+  render::ColourCorrection colour_ = render::ColourCorrection::None;
   glm::mat4 model_{1.0f};
   double object_height_ = 0;
   int width_, height_;
@@ -483,6 +496,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("setMaterial", &WebClient::set_material)
       .function("setShading", &WebClient::set_shading)
       .function("setRefraction", &WebClient::set_refraction)
+      .function("setColour", &WebClient::set_colour)
       .function("location", &WebClient::location)
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)

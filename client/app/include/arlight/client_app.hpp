@@ -10,6 +10,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "arlight/camera.hpp"
@@ -66,6 +67,7 @@ struct PipelineOptions {
   render::Material material;
   bool shadow = true;  // shadows on the real floor (the marker's plane)
   render::ToneMode tone = render::ToneMode::CameraMatched;
+  render::ColourCorrection colour = render::ColourCorrection::None;  // dissertation §5.6
   render::Shading shading = render::Shading::ImageBased;
   // What a glass material shows through it (render::Refraction; only transmissive materials).
   render::Refraction refraction = render::Refraction::Maps;
@@ -118,6 +120,9 @@ class FramePipeline {
 track::MarkerSpec parse_marker(const std::string& text);   // --marker ID,SIZE_M (DICT_4X4_50)
 render::Material parse_material(const std::string& text);  // --material kd,ks,shininess
 render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
+// --tone MODE[,CORRECTION]: the tone mode and the colour correction (none when not given;
+// brightness, contrast or match: render::ColourCorrection).
+std::pair<render::ToneMode, render::ColourCorrection> parse_tone_options(const std::string& text);
 // --shading maps|hemisphere|hemisphere-occlusion (render::Shading)
 render::Shading parse_shading(const std::string& name);
 // --glass off|maps|live: std::nullopt (the --material), or what clear glass shows through it.

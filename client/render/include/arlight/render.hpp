@@ -34,6 +34,7 @@
 #include "arlight/image.hpp"
 #include "arlight/image_u8.hpp"
 #include "arlight/projection.hpp"
+#include "arlight/render/colour.hpp"
 #include "arlight/render/gl_context.hpp"
 #include "arlight/render/material.hpp"
 #include "arlight/render/mesh.hpp"
@@ -84,6 +85,9 @@ struct ToneMapping {
   double gain = 1.0;      // the frame's analogue/digital gain
   float key = 0.18f;      // Reinhard's key value a
   float white = 2.0f;     // Reinhard's L_white (scaled luminance that maps to white)
+  // Dissertation §5.6's colour correction of the virtual pixels against the room's colour
+  // priors (Renderer::environment_priors()); off by default.
+  ColourCorrection colour = ColourCorrection::None;
 };
 
 enum class LightingSource { None, Sh, Maps };
@@ -219,6 +223,12 @@ class Renderer {
   Shading shading() const;
   // What hemisphere shading uses now (zero without lighting).
   HemispherePriors hemisphere_priors() const;
+  // The room's colour priors (dissertation §5.1) from the current lighting: the map set's
+  // sharpest map, or the live SH's radiance (zero without lighting).
+  EnvironmentPriors environment_priors() const;
+  // Or these priors, whatever the lighting: a room measured elsewhere than the light the object
+  // is shaded with (nullopt: the lighting's own again).
+  void set_environment_priors(std::optional<EnvironmentPriors> priors);
   // What glass shows through it (default: the maps).
   void set_refraction(Refraction refraction);
   Refraction refraction() const;

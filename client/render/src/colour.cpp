@@ -1,0 +1,160 @@
+#include "arlight/render/colour.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+
+#include "arlight/image.hpp"
+
+namespace arlight::render {
+
+namespace {
+
+// Running solid-angle (or texel) weighted sums of l alpha beta and its square.
+struct LabSums {
+  glm::dvec3 sum{0.0}, sum2{0.0};
+  double weight = 0.0;
+  void add(glm::vec3 rgb, double w) {
+    const glm::dvec3 lab = glm::dmat3(lab_from_rgb()) * glm::dvec3(rgb);
+    sum += w * lab, sum2 += w * lab * lab, weight += w;
+  }
+  ColourStats stats() const {
+    ColourStats s;
+    if (!(weight > 0.0)) return s;
+    const glm::dvec3 mean = sum / weight;
+    s.mean = glm::vec3(mean);
+    s.sd = glm::vec3(glm::sqrt(glm::max(sum2 / weight - mean * mean, glm::dvec3(0.0))));
+    return s;
+  }
+};
+
+float srgb_to_linear(std::uint8_t code) {
+  const float c = float(code) / 255.0f;
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+}  // namespace
+
+glm::mat3 lab_from_rgb() {
+  // Rows: l, alpha, beta (glm is column-major: built transposed).
+  return glm::transpose(glm::mat3(0.3475f, 0.8231f, 0.5559f,   //
+                                  0.2162f, 0.4316f, -0.6411f,  //
+                                  0.1304f, -0.1033f, -0.0269f));
+}
+
+glm::mat3 rgb_from_lab() { return glm::inverse(lab_from_rgb()); }
+
+EnvironmentPriors environment_priors(const EnvMap& radiance) {
+  const EnvLayout& layout = radiance.layout;
+  LabSums sides;
+  std::array<double, 4> grey{}, weight{};  // -Z, +X, +Z, -X
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) {
+      const double w = layout.texel_solid_angle(x, y);
+      if (!(w > 0.0)) continue;
+      const glm::dvec3 d = layout.texel_dir(x, y);
+      if (std::abs(d.y) > std::max(std::abs(d.x), std::abs(d.z))) continue;  // top or bottom
+      const glm::vec3 c = radiance.image.at(x, y);
+      sides.add(c, w);
+      const int side = std::abs(d.z) >= std::abs(d.x) ? (d.z < 0 ? 0 : 2) : (d.x > 0 ? 1 : 3);
+      grey[std::size_t(side)] += w * luminance(c), weight[std::size_t(side)] += w;
+    }
+  EnvironmentPriors p;
+  p.lab = sides.stats();
+  double total = 0.0, total_weight = 0.0;
+  p.grey_low = std::numeric_limits<float>::max();
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (!(weight[i] > 0.0)) continue;
+    const float mean = float(grey[i] / weight[i]);
+    p.grey_low = std::min(p.grey_low, mean), p.grey_high = std::max(p.grey_high, mean);
+    total += grey[i], total_weight += weight[i];
+  }
+  if (!(total_weight > 0.0)) return EnvironmentPriors{};
+  p.grey_mean = float(total / total_weight);
+  return p;
+}
+
+std::vector<std::uint8_t> uv_coverage(const Mesh& mesh, int width, int height) {
+  if (mesh.uvs.empty() || width < 1 || height < 1) return {};
+  std::vector<std::uint8_t> covered(std::size_t(width) * height, 0);
+  const glm::dvec2 size(width, height);
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    std::array<glm::dvec2, 3> p;  // texel space: texel (i, j) has its centre at (i + .5, j + .5)
+    for (int k = 0; k < 3; ++k)
+      p[std::size_t(k)] = glm::dvec2(mesh.uvs[mesh.indices[t + std::size_t(k)]]) * size;
+    const double area =
+        (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
+    if (area == 0.0 || !std::isfinite(area)) continue;
+    const glm::dvec2 lo = glm::min(p[0], glm::min(p[1], p[2])),
+                     hi = glm::max(p[0], glm::max(p[1], p[2]));
+    // A triangle spanning more than a few repeats is garbage, not a texture layout.
+    if (hi.x - lo.x > 4.0 * width || hi.y - lo.y > 4.0 * height) continue;
+    const auto edge = [](glm::dvec2 a, glm::dvec2 b, glm::dvec2 q) {
+      return (b.x - a.x) * (q.y - a.y) - (b.y - a.y) * (q.x - a.x);
+    };
+    // Texel centres inside the triangle (either winding); a triangle thinner than a texel that
+    // holds no centre marks the texels its corners are in.
+    const auto mark = [&](int i, int j) {
+      const int x = ((i % width) + width) % width, y = ((j % height) + height) % height;
+      covered[std::size_t(y) * width + x] = 1;
+    };
+    bool any = false;
+    for (int j = int(std::floor(lo.y)); j <= int(std::floor(hi.y)); ++j)
+      for (int i = int(std::floor(lo.x)); i <= int(std::floor(hi.x)); ++i) {
+        const glm::dvec2 q(i + 0.5, j + 0.5);
+        const double e0 = edge(p[0], p[1], q), e1 = edge(p[1], p[2], q), e2 = edge(p[2], p[0], q);
+        if (area > 0 ? e0 >= 0 && e1 >= 0 && e2 >= 0 : e0 <= 0 && e1 <= 0 && e2 <= 0)
+          mark(i, j), any = true;
+      }
+    if (!any)
+      for (const glm::dvec2& c : p) mark(int(std::floor(c.x)), int(std::floor(c.y)));
+  }
+  return covered;
+}
+
+std::optional<ColourStats> model_priors(const Mesh& mesh, const Material& material) {
+  const TextureImage* albedo = material.albedo.get();
+  if (!albedo || mesh.uvs.empty())
+    return ColourStats{lab_from_rgb() * material.kd, glm::vec3(0.0f)};
+  const std::vector<std::uint8_t> covered = uv_coverage(mesh, albedo->width, albedo->height);
+  LabSums sums;
+  const int n = albedo->channels;
+  for (std::size_t i = 0; i < covered.size(); ++i) {
+    if (!covered[i]) continue;
+    glm::vec3 c;
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t at = i * std::size_t(n) + std::size_t(n == 1 ? 0 : k);
+      c[k] = albedo->f32.empty()
+                 ? (albedo->srgb ? srgb_to_linear(albedo->u8[at]) : float(albedo->u8[at]) / 255.0f)
+                 : albedo->f32[at];
+    }
+    sums.add(material.kd * c, 1.0);
+  }
+  if (!(sums.weight > 0.0)) return std::nullopt;
+  return sums.stats();
+}
+
+const char* colour_correction_name(ColourCorrection c) {
+  switch (c) {
+    case ColourCorrection::None:
+      return "none";
+    case ColourCorrection::Brightness:
+      return "brightness";
+    case ColourCorrection::Contrast:
+      return "contrast";
+    case ColourCorrection::Match:
+      return "match";
+  }
+  return "?";
+}
+
+std::optional<ColourCorrection> colour_correction_named(std::string_view name) {
+  for (ColourCorrection c : {ColourCorrection::None, ColourCorrection::Brightness,
+                             ColourCorrection::Contrast, ColourCorrection::Match})
+    if (name == colour_correction_name(c)) return c;
+  return std::nullopt;
+}
+
+}  // namespace arlight::render
