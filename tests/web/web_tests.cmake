@@ -27,3 +27,13 @@ set_tests_properties(web.harness web.browser_session web.marker_session PROPERTI
   # shared the cores with the other tests).
   RUN_SERIAL TRUE
   ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+
+# The page against the native renderer, pixel for pixel (page_pixels.test.mjs): its native side.
+add_executable(web_pixel_reference ${ARLIGHT_WEB_TEST_DIR}/web_pixel_reference.cpp)
+target_link_libraries(web_pixel_reference PRIVATE arlight_render arlight_wire arlight_common
+  arlight_warnings nlohmann_json::nlohmann_json opencv_core opencv_imgcodecs)
+set_target_properties(web_pixel_reference PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+add_test(NAME web.page_pixels
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/page_pixels.test.mjs)
+set_tests_properties(web.page_pixels PROPERTIES TIMEOUT 300 RUN_SERIAL TRUE
+  ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR};ARLIGHT_WEB_PIXEL_REFERENCE=${CMAKE_BINARY_DIR}/tests/web_pixel_reference")

@@ -30,6 +30,23 @@ std::shared_ptr<const TextureImage> make_texture(int width, int height, int chan
   return t;
 }
 
+Material preset_material(std::string_view name, float sharpest) {
+  Material m;
+  if (name == "plastic") {
+    m.kd = glm::vec3(0.55f, 0.1f, 0.08f), m.ks = glm::vec3(0.25f), m.shininess = 160;
+  } else if (name == "metal") {
+    m.kd = glm::vec3(0.05f), m.ks = glm::vec3(0.9f, 0.8f, 0.6f), m.shininess = sharpest;
+  } else if (name == "matte") {
+    m.kd = glm::vec3(0.8f), m.ks = glm::vec3(0.0f), m.shininess = 10;
+  } else if (name == "glass") {
+    m = glass(1.5f, sharpest);
+  } else {
+    throw std::invalid_argument("material '" + std::string(name) +
+                                "': matte, plastic, metal or glass");
+  }
+  return m;
+}
+
 Material glass(float ior, float shininess) {
   if (!(ior >= 1.0f && ior <= 3.0f))
     throw std::invalid_argument("glass: the index of refraction must be in [1, 3], not " +

@@ -214,11 +214,26 @@ struct Renderer::Impl {
   std::vector<ColourLevel> colour_levels;
   Program colour_first, colour_reduce;
   void measure_colour(const ToneMapping& tone);
-  // The room's colour priors (dissertation §5.1) from the live SH and from the map set.
-  EnvironmentPriors sh_priors, map_priors;
+  // The room's colour priors (dissertation §5.1) from the live SH or the map set's sharpest map,
+  // made when first asked for (a colour correction): the page must not spend its frame time on
+  // them with every LightingUpdate.
+  mutable std::optional<EnvironmentPriors> sh_priors, map_priors;
   std::optional<EnvironmentPriors> priors_override;
+  std::optional<EnvMap> sharpest_map;
   const EnvironmentPriors& environment_priors() const {
-    return priors_override ? *priors_override : maps.empty() ? sh_priors : map_priors;
+    if (priors_override) return *priors_override;
+    if (!maps.empty()) {
+      if (!map_priors) map_priors = render::environment_priors(*sharpest_map);
+      return *map_priors;
+    }
+    if (!sh_priors) {
+      const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, kShMapSize);
+      Image radiance = last_sh.order > 0 ? sh_reconstruct(last_sh, layout)
+                                         : Image(layout.width(), layout.height());
+      for (float& v : radiance.storage()) v = std::max(v, 0.0f);
+      sh_priors = render::environment_priors(EnvMap(layout, std::move(radiance)));
+    }
+    return *sh_priors;
   }
 
   EnvSet maps, sh_maps, black;
@@ -415,8 +430,6 @@ struct Renderer::Impl {
   }
 };
 
-namespace {}  // namespace
-
 // composite.frag for a ToneMode and a ColourCorrection, for an output holding B, G, R (OpenCV)
 // or R, G, B (browser).
 const Program& Renderer::Impl::composite_program(int mode, ColourCorrection colour, bool rgb) {
@@ -566,10 +579,7 @@ void Renderer::set_sh(const ShCoeffs& sh) {
     maps.emplace_back(layout, std::move(img));
   }
   p.sh_maps.upload(kShShininess, maps);
-  // The room's radiance as the SH holds it, for the colour priors.
-  Image radiance = sh_reconstruct(sh, layout);
-  for (float& v : radiance.storage()) v = std::max(v, 0.0f);
-  p.sh_priors = render::environment_priors(EnvMap(layout, std::move(radiance)));
+  p.sh_priors.reset();
 }
 
 void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<EnvMap>& maps) {
@@ -585,15 +595,17 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
       std::size_t(std::min_element(shininess.begin(), shininess.end()) - shininess.begin());
   // For the shadow's f (ShadowSettings) and the hemisphere priors.
   p_->irradiance_map_sh = sh_project(maps[smallest], 2);
-  // The sharpest map is nearest the room's radiance: the colour priors.
+  // The sharpest map is nearest the room's radiance: the colour priors' (made when needed).
   const std::size_t sharpest =
       std::size_t(std::max_element(shininess.begin(), shininess.end()) - shininess.begin());
-  p_->map_priors = render::environment_priors(maps[sharpest]);
+  p_->sharpest_map = maps[sharpest];
+  p_->map_priors.reset();
 }
 
 void Renderer::clear_maps() {
   p_->maps = EnvSet();
   p_->irradiance_map_sh.reset();
+  p_->sharpest_map.reset(), p_->map_priors.reset();
 }
 
 void Renderer::set_shadow(const ShadowSettings& settings) {

@@ -74,19 +74,7 @@ glm::dmat4 matrix_of(const Pose& p) {
 }
 
 render::Material material_named(const std::string& name) {
-  render::Material m;
-  if (name == "plastic") {
-    m.kd = glm::vec3(0.55f, 0.1f, 0.08f), m.ks = glm::vec3(0.25f), m.shininess = 160;
-  } else if (name == "metal") {
-    m.kd = glm::vec3(0.05f), m.ks = glm::vec3(0.9f, 0.8f, 0.6f), m.shininess = 640;
-  } else if (name == "matte") {
-    m.kd = glm::vec3(0.8f), m.ks = glm::vec3(0.0f), m.shininess = 10;
-  } else if (name == "glass") {
-    m = render::glass(1.5f, kShininess.back());  // as sharp as the sharpest map
-  } else {
-    throw std::invalid_argument("material '" + name + "': matte, plastic, metal or glass");
-  }
-  return m;
+  return render::preset_material(name, kShininess.back());  // as sharp as the sharpest map
 }
 
 }  // namespace
@@ -284,6 +272,7 @@ class WebClient {
     renderer_.begin_frame();
     if (renderer_.lighting_source() != render::LightingSource::None) {
       last_camera_from_scene_ = matrix_of(inverse(camera_in_scene));
+      last_world_from_scene_ = world_from_scene;
       renderer_.set_camera(camera_, *last_camera_from_scene_);
       renderer_.set_world_from_scene(world_from_scene);
       render::ShadowSettings shadow;  // on the real floor: only where a marker says it is
@@ -364,6 +353,33 @@ class WebClient {
     p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
     p.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
     return p;
+  }
+
+  // What the last render() drew with, for a renderer elsewhere to draw the same (tests, tools):
+  // {camera_from_scene, model: 16 numbers each, column-major; world_from_scene: [w, x, y, z];
+  // exposure; material, shading, refraction, colour}, or null before anything was drawn.
+  val view() const {
+    if (!last_camera_from_scene_) return val::null();
+    const auto matrix = [](const auto& m) {
+      val a = val::array();
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) a.call<void>("push", double(m[c][r]));
+      return a;
+    };
+    val q = val::array();
+    for (const double v : {last_world_from_scene_.w, last_world_from_scene_.x,
+                           last_world_from_scene_.y, last_world_from_scene_.z})
+      q.call<void>("push", v);
+    val out = val::object();
+    out.set("camera_from_scene", matrix(*last_camera_from_scene_));
+    out.set("model", matrix(model_));
+    out.set("world_from_scene", q);
+    out.set("exposure", frame_exposure_);
+    out.set("material", material_name_);
+    out.set("shading", std::string(render::shading_name(renderer_.shading())));
+    out.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
+    out.set("colour", std::string(render::colour_correction_name(colour_)));
+    return out;
   }
 
   val status() const {
@@ -460,6 +476,7 @@ class WebClient {
   track::WorldFromMarker world_from_marker_{track::WorldFromMarkerOptions{.min_samples = 1}};
   std::uint64_t tracked_frames_ = 0;
   std::optional<glm::dmat4> last_camera_from_scene_;
+  glm::dquat last_world_from_scene_{1.0, 0.0, 0.0, 0.0};
   std::optional<YuvFrame> yuv_;
   std::optional<ShCoeffs> sh_;
   client::MapSetAssembler assembler_;
@@ -500,7 +517,8 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("location", &WebClient::location)
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
-      .function("objectPixel", &WebClient::object_pixel);
+      .function("objectPixel", &WebClient::object_pixel)
+      .function("view", &WebClient::view);
 }
 
 }  // namespace arlight::web
