@@ -3,7 +3,9 @@
 // JPEG encoding, frame -> LightingUpdate latency over wss, first load; at 640x480 and 1280x720
 // from Chromium's built-in fake camera, against a real arlightd on loopback. Also the size of
 // the page's code (gzip). Each size with the camera frame uploaded as the <video> and as its YUV
-// planes, and 640x480 with the page's own choice (upload=auto). Prints a Markdown table.
+// planes, and 640x480 with the page's own choice (upload=auto); then 1280x720 in each other
+// compositing mode (hemisphere shading, glass with live refraction, colour matching). Prints a
+// Markdown table.
 //   node bench/web_page.mjs [BUILD_BIN] [SECONDS]
 import fs from 'node:fs';
 import os from 'node:os';
@@ -26,13 +28,14 @@ const median = (v) => {
 };
 const rows = [];
 try {
-  for (const [size, upload] of [['640x480', 'video'], ['640x480', 'yuv'], ['640x480', 'auto'],
-    ['1280x720', 'video'], ['1280x720', 'yuv']]) {
+  for (const [size, upload, mode = ''] of [['640x480', 'video'], ['640x480', 'yuv'], ['640x480', 'auto'],
+    ['1280x720', 'video'], ['1280x720', 'yuv'], ['1280x720', 'video', 'shading=hemisphere'],
+    ['1280x720', 'video', 'material=glass&refraction=live'], ['1280x720', 'video', 'colour=match']]) {
     const { browser, page } = await launchChromium();
     try {
       await enableOrientationOverride(page);
       await overrideOrientation(page, { x: 0.5, y: 0, z: 0, w: Math.sqrt(0.75) });
-      await page.goto(`${daemon.url}&autostart=1&size=${size}&upload=${upload}`);
+      await page.goto(`${daemon.url}&autostart=1&size=${size}&upload=${upload}${mode ? `&${mode}` : ''}`);
       await page.waitForFunction(() => window.arlight.status().lighting !== 'none', null, { timeout: 60000 });
       const samples = [];
       const t0 = Date.now();
@@ -44,6 +47,7 @@ try {
       const last = samples[samples.length - 1];
       rows.push({
         size,
+        mode: mode || 'plastic, maps',
         upload: `${upload}${upload === 'auto' ? ` (${last.upload})` : ''}`,
         track: median(samples.map((s) => s.track_ms)),
         fps: median(samples.map((s) => s.fps)),
@@ -65,10 +69,10 @@ try {
 }
 
 console.log(`headless Chromium ${seconds} s per size, Chromium's fake camera at 30 fps, arlightd on loopback (wss)\n`);
-console.log('| camera | upload | composited fps | camera frame in | frame time (C++) | JPEG (worker) | tracking (worker) | frames sent/s | latency p50 / p99 | first load |');
-console.log('|---|---|---|---|---|---|---|---|---|---|');
+console.log('| camera | mode | upload | composited fps | camera frame in | frame time (C++) | JPEG (worker) | tracking (worker) | frames sent/s | latency p50 / p99 | first load |');
+console.log('|---|---|---|---|---|---|---|---|---|---|---|');
 for (const r of rows)
-  console.log(`| ${r.size} | ${r.upload} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ${r.track.toFixed(0)} ms | ` +
+  console.log(`| ${r.size} | ${r.mode} | ${r.upload} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ${r.track.toFixed(0)} ms | ` +
     `${(r.sent / seconds).toFixed(1)} | ${r.p50.toFixed(0)} / ${r.p99.toFixed(0)} ms | ${r.ready.toFixed(0)} ms |`);
 
 // The page's code as a phone downloads it; opencv.js (the tracking worker's) and the models apart.
