@@ -155,6 +155,25 @@ Recording read_recording(const fs::path& folder) {
     top.fail("version", std::to_string(rec.version) + " is newer than this reader (" +
                             std::to_string(kFormatVersion) + ")");
   if (top.has("device_id")) rec.device_id = top.string("device_id");
+  if (top.has("place")) {
+    const Fields place(manifest, top.get("place"), "place.");
+    RecordedPlace p;
+    const auto number = [&](const char* field) {
+      const double x = place.number_or_nan(field);
+      if (!std::isfinite(x)) place.fail(field, "expected a finite number");
+      return x;
+    };
+    p.where = {number("latitude"), number("longitude"),
+               place.has("altitude") ? number("altitude") : 0.0};
+    if (const std::string e = geo_location_error(p.where); !e.empty()) top.fail("place", e);
+    p.utc_seconds = number("utc_seconds");
+    if (place.has("north_offset")) {
+      p.north_offset_deg = number("north_offset");
+      if (std::abs(*p.north_offset_deg) > 180.0)
+        place.fail("north_offset", "must be in [-180, 180] degrees");
+    }
+    rec.place = p;
+  }
 
   const Fields cam(manifest, top.get("camera"), "camera.");
   CameraIntrinsics& c = rec.camera;
@@ -270,12 +289,25 @@ void RecordingWriter::add_imu(const ImuSample& sample) {
   rec_.imu.push_back(sample);
 }
 
+void RecordingWriter::set_place(const RecordedPlace& place) {
+  if (const std::string e = geo_location_error(place.where); !e.empty())
+    throw std::invalid_argument("RecordingWriter: place: " + e);
+  rec_.place = place;
+}
+
 void RecordingWriter::finish() {
   if (finished_) return;
   json j;
   j["format"] = kFormatName;
   j["version"] = kFormatVersion;
   if (!rec_.device_id.empty()) j["device_id"] = rec_.device_id;
+  if (const auto& p = rec_.place) {
+    j["place"] = {{"latitude", p->where.latitude_deg},
+                  {"longitude", p->where.longitude_deg},
+                  {"altitude", p->where.altitude_m},
+                  {"utc_seconds", p->utc_seconds}};
+    if (p->north_offset_deg) j["place"]["north_offset"] = *p->north_offset_deg;
+  }
   const CameraIntrinsics& c = rec_.camera;
   j["camera"] = {
       {"width", c.width}, {"height", c.height},        {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},

@@ -233,6 +233,26 @@ TEST(ArlightClient, TellsArlightdWhereItIsAndGetsTheSunConfirmedByTheMap) {
   ASSERT_EQ(later.status, 0) << later.output;
   EXPECT_EQ(read_json(dir / "later.json").at("sun").at("state"), "predicted");
 
+  // A recording that carries its place and time (RECORDING.md "place", arlight-sim --location):
+  // its replay tells arlightd without --location, and the sun is known (up, at 16:03 UTC).
+  const fs::path placed = simulate(dir, "placed",
+                                   "--frames 12 --size 160x120 --location 39.742476,-105.1786,1830"
+                                   " --time 2015-08-02T16:03:00Z");
+  const auto replay =
+      test::run_tool(ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
+                                             " --source replay:" + placed.string() +
+                                             " --maps '' --json " + (dir / "placed.json").string());
+  ASSERT_EQ(replay.status, 0) << replay.output;
+  EXPECT_EQ(read_json(dir / "placed.json").at("sun").at("state"), "predicted") << replay.output;
+  // ... and without a place it is not.
+  const fs::path unplaced = simulate(dir, "unplaced", "--frames 12 --size 160x120");
+  const auto plain =
+      test::run_tool(ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
+                                             " --source replay:" + unplaced.string() +
+                                             " --maps '' --json " + (dir / "plain.json").string());
+  ASSERT_EQ(plain.status, 0) << plain.output;
+  EXPECT_EQ(read_json(dir / "plain.json").at("sun").at("state"), "unknown");
+
   // A place off the Earth is refused, naming the flag.
   const auto bad = test::run_tool(ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " +
                                                           test::kToken + " --source sim:" + park +

@@ -46,6 +46,7 @@ fs::path make_recording(const std::string& name) {
   for (int i = 0; i < 3; ++i) w.add_frame(jpeg(64, 48, 40 * i), i / 30.0, 0.01 * (i + 1), 1.5, q);
   w.add_imu({0.001, {0.01, -0.02, 0.03}, {0.1, -9.81, 0.2}});
   w.add_imu({0.006, {0.02, -0.01, 0.0}, {0.0, -9.8, 0.1}});
+  w.set_place({{39.742476, -105.1786, 1830.0}, 1438520580.25, 7.5});
   w.finish();
   return dir;
 }
@@ -97,6 +98,10 @@ TEST(Recording, WriterAndReaderRoundTripEverything) {
   EXPECT_EQ(r.imu[0].timestamp, 0.001);
   EXPECT_EQ(r.imu[0].accel.y, -9.81);
   EXPECT_EQ(r.imu[1].gyro.x, 0.02);
+  ASSERT_TRUE(r.place);
+  EXPECT_EQ(r.place->where, (GeoLocation{39.742476, -105.1786, 1830.0}));
+  EXPECT_EQ(r.place->utc_seconds, 1438520580.25);
+  EXPECT_EQ(r.place->north_offset_deg, 7.5);
 }
 
 TEST(Recording, UnfinishedWriterLeavesNoManifest) {
@@ -136,6 +141,10 @@ TEST(Recording, WholeRecordingProblemsAreErrorsNamingTheField) {
        },
        "frames[0].orientation: expected [w, x, y, z]"},
       {[](auto& j) { j["imu"] = "/tmp/x.csv"; }, "imu: must be a path inside"},
+      {[](auto& j) { j["place"]["latitude"] = 95; }, "place: latitude 95"},
+      {[](auto& j) { j["place"].erase("utc_seconds"); }, "place.utc_seconds: missing"},
+      {[](auto& j) { j["place"]["north_offset"] = 200; }, "place.north_offset: must be in"},
+      {[](auto& j) { j["place"]["longitude"] = "west"; }, "place.longitude: expected a number"},
   };
   for (const Case& c : cases) {
     nlohmann::json j = good;

@@ -83,7 +83,8 @@ int main(int argc, char** argv) {
   app.add_option("--location", location,
                  "LAT,LON[,ALT]: where the camera is (degrees, degrees, metres), so arlightd "
                  "knows where the sun is (it reports it, and uses it for the dominant light "
-                 "and the shadows once the captured map shows it there)");
+                 "and the shadows once the captured map shows it there); a replay: the "
+                 "recording's place, if it has one");
   app.add_option("--time", time_text,
                  "UTC time of the frames, YYYY-MM-DDTHH:MM[:SS]Z, with --location (default: "
                  "now)");
@@ -181,6 +182,19 @@ int main(int argc, char** argv) {
       lo.location = l;
     } else if (!time_text.empty() || north_offset) {
       throw InputError("--time and --north-offset need --location");
+    } else if (const auto* replay = dynamic_cast<source::ReplaySource*>(src.get());
+               replay && replay->recording().place) {
+      // A recording that says where and when it was made (RECORDING.md "place").
+      const recording::Recording& rec = replay->recording();
+      const recording::RecordedPlace& p = *rec.place;
+      wire::Location l;
+      l.where = p.where;
+      l.utc_seconds = p.utc_seconds + (rec.frames.empty() ? 0.0 : rec.frames.front().timestamp);
+      l.north_referenced = p.north_offset_deg.has_value();
+      l.north_offset_deg = p.north_offset_deg.value_or(0.0);
+      lo.location = l;
+      spdlog::info("the recording was made at {:.5f}, {:.5f}: telling arlightd (the sun)",
+                   p.where.latitude_deg, p.where.longitude_deg);
     }
     LightingLink link(lo);
     link.wait_connected(std::chrono::seconds(10));

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <exception>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "arlight/error.hpp"
@@ -19,7 +20,10 @@ namespace {
 
 using arlight::ImageSize;
 using arlight::InputError;
+using arlight::parse_geo_location;
 using arlight::parse_image_size;
+using arlight::parse_utc_time;
+namespace recording = arlight::recording;
 using namespace arlight::sim;
 
 
@@ -97,6 +101,15 @@ int main(int argc, char** argv) {
                  "also write the frames as a YUV4MPEG2 video for Chromium's fake camera "
                  "(exposure fixed at the first view's, as a browser locks it)");
   app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
+  std::string location, time_text;
+  std::optional<double> north_offset;
+  app.add_option("--location", location,
+                 "LAT,LON[,ALT]: where the phone is (degrees, degrees, metres), written to the "
+                 "recording with --time so clients tell arlightd (the sun)");
+  app.add_option("--time", time_text, "UTC time of the first frame, YYYY-MM-DDTHH:MM[:SS]Z");
+  app.add_option("--north-offset", north_offset,
+                 "the world's -Z is north, this many degrees east of true north (default: the "
+                 "heading is arbitrary)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -144,6 +157,18 @@ int main(int argc, char** argv) {
     if (o.bracket < 0 || o.bracket > 64) throw InputError("--bracket: must be 1..64 frames");
     if (threads < 0) throw InputError("--threads: must be >= 0");
     if (!marker.empty() || app.count("--marker")) o.marker = parse_marker(marker);
+    if (!location.empty()) {
+      if (time_text.empty()) throw InputError("--location needs --time (the first frame's UTC)");
+      recording::RecordedPlace p;
+      p.where = parse_geo_location(location, "--location");
+      p.utc_seconds = parse_utc_time(time_text, "--time");
+      if (north_offset && !(std::abs(*north_offset) <= 180.0))
+        throw InputError("--north-offset: must be in [-180, 180] degrees");
+      p.north_offset_deg = north_offset;
+      o.place = p;
+    } else if (!time_text.empty() || north_offset) {
+      throw InputError("--time and --north-offset need --location");
+    }
     const auto [end, ec] = std::from_chars(seed.data(), seed.data() + seed.size(), o.seed);
     if (ec != std::errc() || end != seed.data() + seed.size())
       throw InputError("--seed '" + seed + "': expected a whole number 0..18446744073709551615");

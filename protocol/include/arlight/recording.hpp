@@ -15,6 +15,7 @@
 
 #include "arlight/camera.hpp"
 #include "arlight/frame.hpp"
+#include "arlight/geo.hpp"
 
 namespace arlight::recording {
 
@@ -45,10 +46,21 @@ struct ImuSample {
   glm::dvec3 accel{0.0};  // m/s^2 specific force (gravity included), camera coordinates
 };
 
+// Where and when a recording was made (RECORDING.md "place"): what a client tells arlightd in a
+// Location message, so the sun can be placed (dissertation §5.3.3).
+struct RecordedPlace {
+  GeoLocation where;
+  double utc_seconds = 0;  // UTC (seconds since 1970) of timestamp 0
+  // The orientations' world -Z is north, this many degrees east of true north (a compass);
+  // nullopt: the heading is arbitrary.
+  std::optional<double> north_offset_deg;
+};
+
 struct Recording {
   std::filesystem::path folder;
   int version = kFormatVersion;
   std::string device_id;  // optional; keys per-device camera response curves
+  std::optional<RecordedPlace> place;  // optional
   CameraIntrinsics camera;
   std::vector<Frame> frames;
   std::vector<ImuSample> imu;  // optional raw IMU samples, timestamps non-decreasing
@@ -104,6 +116,7 @@ class RecordingWriter {
   std::size_t add_frame(const std::vector<std::uint8_t>& jpeg, double timestamp, double exposure,
                         double gain, const glm::dquat& orientation);
   void add_imu(const ImuSample& sample);
+  void set_place(const RecordedPlace& place);
   void finish();
   const std::filesystem::path& folder() const { return folder_; }
 

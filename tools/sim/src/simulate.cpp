@@ -89,6 +89,10 @@ std::string describe(const SimOptions& o) {
   if (o.marker)
     d << " marker=" << o.marker->id << "," << o.marker->size_m << "," << o.marker->centre.x << ","
       << o.marker->centre.y << "," << o.marker->centre.z;
+  if (o.place)
+    d << " place=" << o.place->where.latitude_deg << "," << o.place->where.longitude_deg << ","
+      << o.place->where.altitude_m << "," << o.place->utc_seconds << ","
+      << o.place->north_offset_deg.value_or(1000.0);
   d << " built=" << __DATE__ << " " << __TIME__;
   return d.str();
 }
@@ -264,6 +268,7 @@ int simulate(const SimOptions& o) {
     for (const Pose& p : poses) truth.marker_visible.push_back(marker->visible(camera, p));
   }
   recording::write_truth(o.out, truth);
+  if (o.place) writer.set_place(*o.place);
   writer.finish();
   return n;
 }

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "arlight/recording.hpp"
 #include "arlight/sim/marker.hpp"
 #include "arlight/sim/trajectory.hpp"
 
@@ -35,6 +36,8 @@ struct SimOptions {
   // Also write the frames as a YUV4MPEG2 video here (Chromium's fake camera plays it to the
   // browser client). Its exposure is fixed at the first view's, as a browser locks it.
   std::filesystem::path y4m;
+  // Where and when the phone was (the recording's "place": the sun for arlightd).
+  std::optional<recording::RecordedPlace> place;
 };
 
 // Every option as one line of text, and when this simulator was built: two runs with the same
