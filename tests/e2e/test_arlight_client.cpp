@@ -234,14 +234,16 @@ TEST(ArlightClient, TellsArlightdWhereItIsAndGetsTheSunConfirmedByTheMap) {
   EXPECT_EQ(read_json(dir / "later.json").at("sun").at("state"), "predicted");
 
   // A recording that carries its place and time (RECORDING.md "place", arlight-sim --location):
-  // its replay tells arlightd without --location, and the sun is known (up, at 16:03 UTC).
+  // its replay tells arlightd without --location, and the sun is known (up, at 16:03 UTC). At
+  // its pace (3 s): arlightd checks the sun at most once a second.
   const fs::path placed = simulate(dir, "placed",
-                                   "--frames 12 --size 160x120 --location 39.742476,-105.1786,1830"
-                                   " --time 2015-08-02T16:03:00Z");
+                                   "--frames 12 --fps 4 --size 160x120 --location "
+                                   "39.742476,-105.1786,1830 --time 2015-08-02T16:03:00Z");
   const auto replay =
       test::run_tool(ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
                                              " --source replay:" + placed.string() +
-                                             " --maps '' --json " + (dir / "placed.json").string());
+                                             " --realtime --maps '' --json " +
+                                             (dir / "placed.json").string());
   ASSERT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(read_json(dir / "placed.json").at("sun").at("state"), "predicted") << replay.output;
   // ... and without a place it is not.
