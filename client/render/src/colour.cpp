@@ -5,8 +5,10 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
+#include <limits>
 
 #include "arlight/image.hpp"
+#include "arlight/response.hpp"
 
 namespace arlight::render {
 
@@ -29,11 +31,6 @@ struct LabSums {
     return s;
   }
 };
-
-float srgb_to_linear(std::uint8_t code) {
-  const float c = float(code) / 255.0f;
-  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
 
 }  // namespace
 
@@ -120,6 +117,7 @@ std::optional<ColourStats> model_priors(const Mesh& mesh, const Material& materi
     return ColourStats{lab_from_rgb() * material.kd, glm::vec3(0.0f)};
   const std::vector<std::uint8_t> covered = uv_coverage(mesh, albedo->width, albedo->height);
   LabSums sums;
+  const CameraResponse srgb = CameraResponse::srgb();  // an 8-bit sRGB texel's linear value
   const int n = albedo->channels;
   for (std::size_t i = 0; i < covered.size(); ++i) {
     if (!covered[i]) continue;
@@ -127,7 +125,7 @@ std::optional<ColourStats> model_priors(const Mesh& mesh, const Material& materi
     for (int k = 0; k < 3; ++k) {
       const std::size_t at = i * std::size_t(n) + std::size_t(n == 1 ? 0 : k);
       c[k] = albedo->f32.empty()
-                 ? (albedo->srgb ? srgb_to_linear(albedo->u8[at]) : float(albedo->u8[at]) / 255.0f)
+                 ? (albedo->srgb ? srgb.linear(albedo->u8[at], 0) : float(albedo->u8[at]) / 255.0f)
                  : albedo->f32[at];
     }
     sums.add(material.kd * c, 1.0);
