@@ -22,8 +22,9 @@ target_compile_definitions(e2e_tests PRIVATE
   ARLIGHT_CAPTURE_EXE="$<TARGET_FILE:arlight-capture>"
   ARLIGHTD_EXE="$<TARGET_FILE:arlightd>"
   ARLIGHT_REPLAY_EXE="$<TARGET_FILE:arlight-replay>"
-  ARLIGHT_CLIENT_EXE="$<TARGET_FILE:arlight-client>")
+  ARLIGHT_CLIENT_EXE="$<TARGET_FILE:arlight-client>"
+  ARLIGHT_EVAL_EXE="$<TARGET_FILE:arlight-eval>")
 add_dependencies(e2e_tests arlight-maps arlight-sim arlight-capture arlightd arlight-replay
-  arlight-client)
+  arlight-client arlight-eval)
 set_target_properties(e2e_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
 gtest_discover_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 300)

@@ -40,11 +40,11 @@ int main(int argc, char** argv) {
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
       intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps",
-      location, time_text, glass = "off";
+      location, time_text, glass = "off", pose = "track";
   std::optional<double> north_offset;
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
-  double object_height = 0, wait_maps_s = 0, ior = 1.5;
+  double object_height = 0, wait_maps_s = 0, ior = 1.5, fps = 30;
   client::TlsOptions tls;
   app.add_option("--server", server, "arlightd HOST:PORT")->required();
   app.add_option("--token", token, "this device's token")->required();
@@ -116,6 +116,14 @@ int main(int argc, char** argv) {
                  "many, 300 when 0)");
   app.add_option("--size", size, "camera size WIDTHxHEIGHT of v4l2: (asked for) and sim: sources")
       ->capture_default_str();
+  app.add_option("--pose", pose,
+                 "draw the object where the marker tracker puts it (track) or, replaying a "
+                 "simulated recording, where its ground truth does (truth: scores the lighting "
+                 "alone, arlight-eval)")
+      ->capture_default_str();
+  app.add_option("--fps", fps,
+                 "frame rate asked of a v4l2: source, and of a sim: source's simulated camera")
+      ->capture_default_str();
   app.add_option("--intrinsics", intrinsics_file, "webcam calibration (OpenCV YAML/JSON)");
   app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
   app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
@@ -147,12 +155,21 @@ int main(int argc, char** argv) {
     so.realtime = realtime, so.intrinsics_file = intrinsics_file;
     const ImageSize image = parse_image_size(size, "--size");
     so.width = image.width, so.height = image.height;
+    so.fps = fps;
     if (frames_limit > 0) so.frames = frames_limit;
     std::unique_ptr<source::FrameSource> src = source::open_source(source_spec, so);
     po.camera = src->intrinsics();
     spdlog::info("source: {}", src->describe());
+    std::optional<recording::Truth> truth;
     if (const auto* replay = dynamic_cast<source::ReplaySource*>(src.get()))
-      po.true_pose = true_poses(recording::read_truth(replay->recording().folder));
+      truth = recording::read_truth(replay->recording().folder);
+    po.true_pose = true_poses(truth);
+    if (pose != "track" && pose != "truth")
+      throw InputError("--pose '" + pose + "': use track or truth");
+    po.draw_at_true_pose = pose == "truth";
+    if (po.draw_at_true_pose && !po.true_pose)
+      throw InputError("--pose truth: needs a replay of a simulated recording with a marker");
+    if (po.draw_at_true_pose) po.true_world_from_marker = truth->marker->pose.orientation;
     render::GlContext gl =
         window ? render::GlContext::window(po.camera.width, po.camera.height, "arlight-client")
                : render::GlContext::headless();

@@ -12,8 +12,11 @@
 #include <optional>
 #include <sstream>
 
+#include "arlight/client_app.hpp"
 #include "arlight/error.hpp"
+#include "arlight/hdr_io.hpp"
 #include "arlight/number_list.hpp"
+#include "arlight/reference.hpp"
 #include "arlight/sim.hpp"
 
 namespace {
@@ -110,6 +113,20 @@ int main(int argc, char** argv) {
   app.add_option("--north-offset", north_offset,
                  "the world's -Z is north, this many degrees east of true north (default: the "
                  "heading is arbitrary)");
+  std::string object, object_material = "0.8,0.2,80";
+  double object_height = 0;
+  int reference_every = 1;
+  app.add_option("--object", object,
+                 "also render references (REC/truth/reference/): this virtual object (sphere or a "
+                 "glTF file, as arlight-client's --model) standing on the marker, ray traced "
+                 "under the true room, with its shadow (needs --marker)");
+  app.add_option("--object-material", object_material, "its material kd,ks,shininess")
+      ->capture_default_str();
+  app.add_option("--object-height", object_height, "its height, metres (0: 1.5 x the marker)")
+      ->capture_default_str();
+  app.add_option("--reference-every", reference_every,
+                 "a reference for every N-th frame with the marker in view")
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -169,6 +186,18 @@ int main(int argc, char** argv) {
     } else if (!time_text.empty() || north_offset) {
       throw InputError("--time and --north-offset need --location");
     }
+    std::optional<arlight::reference::ReferenceObject> reference_object;
+    if (!object.empty()) {
+      if (!o.marker) throw InputError("--object stands on the marker: give --marker too");
+      if (reference_every < 1) throw InputError("--reference-every: must be >= 1");
+      if (object_height < 0 || object_height > 100)
+        throw InputError("--object-height: must be 0..100 metres");
+      reference_object.emplace();
+      reference_object->model = object;
+      reference_object->mesh = arlight::client_app::load_model(object);
+      reference_object->material = arlight::client_app::parse_material(object_material);
+      reference_object->height_m = object_height > 0 ? object_height : 1.5 * o.marker->size_m;
+    }
     const auto [end, ec] = std::from_chars(seed.data(), seed.data() + seed.size(), o.seed);
     if (ec != std::errc() || end != seed.data() + seed.size())
       throw InputError("--seed '" + seed + "': expected a whole number 0..18446744073709551615");
@@ -184,6 +213,15 @@ int main(int argc, char** argv) {
     std::printf("arlight-sim: wrote %d frames (%dx%d) to %s in %.1f s; ground truth in %s\n",
                 frames, o.width, o.height, o.out.string().c_str(), seconds,
                 (o.out / "truth").string().c_str());
+    if (reference_object) {
+      const auto traced = std::chrono::steady_clock::now();
+      const auto frames_done = arlight::reference::write_references(
+          o.out, *reference_object, arlight::load_envmap(o.env).env, {}, reference_every);
+      std::printf("arlight-sim: %zu reference views of the %s in %s in %.1f s\n",
+                  frames_done.size(), object.c_str(),
+                  (o.out / "truth" / arlight::reference::kReferenceFolder).string().c_str(),
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - traced).count());
+    }
     return 0;
   } catch (const InputError& e) {
     std::fprintf(stderr, "arlight-sim: bad input: %s\n", e.what());

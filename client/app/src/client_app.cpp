@@ -61,7 +61,11 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     world_from_camera = est.orientation;
     world_from_scene = track::webcam_world_from_marker();
   }
-  if (tr.tracked) {
+  if (options_.draw_at_true_pose) {
+    last_pose_ = options_.true_pose ? options_.true_pose(f.index) : std::nullopt;
+    last_pose_time_ = f.timestamp;
+    world_from_scene = options_.true_world_from_marker;
+  } else if (tr.tracked) {
     last_pose_ = tr.smoothed;
     last_pose_time_ = f.timestamp;
   }

@@ -75,6 +75,11 @@ struct PipelineOptions {
   // The camera's true pose in the marker frame for a frame index, where known (a simulated
   // recording's ground truth) and the marker in view: pose errors are measured against it.
   std::function<std::optional<Pose>(std::size_t frame_index)> true_pose;
+  // Draw at that true pose instead of the tracked one, with the marker's true rotation into the
+  // world (evaluations of the lighting alone, arlight-eval): every frame with a true pose is
+  // drawn, from the first; frames without one are not.
+  bool draw_at_true_pose = false;
+  glm::dquat true_world_from_marker{1, 0, 0, 0};
 };
 
 // What happened to one frame.
