@@ -115,6 +115,8 @@ bench: deps
 	  --json out/bench/fill/heldout.json
 	$(BUILD)/bin/arlight-bench-colour data/probes/heldout/*.exr --model data/models/bunny.glb \
 	  --json out/bench/colour.json
+	bench/eval_rooms.sh $(BUILD) out/bench/eval data/probes/venice.exr data/probes/lab.exr \
+	  data/probes/park.exr
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out

@@ -251,6 +251,14 @@ TEST(ArlightClient, TellsArlightdWhereItIsAndGetsTheSunConfirmedByTheMap) {
                                              (dir / "placed.json").string());
   ASSERT_EQ(replay.status, 0) << replay.output;
   EXPECT_EQ(read_json(dir / "placed.json").at("sun").at("state"), "predicted") << replay.output;
+  // arlight-replay tells arlightd too (a new session).
+  const auto streamed = test::run_tool(
+      ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + test::kToken + " --recording " +
+                              placed.string() + " --realtime --maps '' --out " +
+                              (dir / "placed_replay").string());
+  ASSERT_EQ(streamed.status, 0) << streamed.output;
+  EXPECT_EQ(read_json(dir / "placed_replay" / "replay.json").at("sun").at("state"), "predicted")
+      << streamed.output;
   // ... and without a place it is not.
   const fs::path unplaced = simulate(dir, "unplaced", "--frames 12 --size 160x120");
   const auto plain =

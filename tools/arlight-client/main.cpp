@@ -185,18 +185,15 @@ int main(int argc, char** argv) {
     lo.camera = po.camera, lo.shininess = shininess, lo.map_size = map_size;
     lo.exposure_advice = src->request_exposure(0.0);  // (0 asks nothing: can it at all?)
     if (!location.empty()) {
-      wire::Location l;
-      l.where = parse_geo_location(location, "--location");
-      l.utc_seconds =
+      if (north_offset && !(std::abs(*north_offset) <= 180.0))
+        throw InputError("--north-offset: must be in [-180, 180] degrees");
+      lo.location = client::make_location(
+          parse_geo_location(location, "--location"),
           !time_text.empty()
               ? parse_utc_time(time_text, "--time")
               : std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-                    .count();
-      l.north_referenced = north_offset.has_value();
-      l.north_offset_deg = north_offset.value_or(0.0);
-      if (!(std::abs(l.north_offset_deg) <= 180.0))
-        throw InputError("--north-offset: must be in [-180, 180] degrees");
-      lo.location = l;
+                    .count(),
+          north_offset);
     } else if (!time_text.empty() || north_offset) {
       throw InputError("--time and --north-offset need --location");
     } else if (const auto* replay = dynamic_cast<source::ReplaySource*>(src.get());
@@ -204,12 +201,9 @@ int main(int argc, char** argv) {
       // A recording that says where and when it was made (RECORDING.md "place").
       const recording::Recording& rec = replay->recording();
       const recording::RecordedPlace& p = *rec.place;
-      wire::Location l;
-      l.where = p.where;
-      l.utc_seconds = p.utc_seconds + (rec.frames.empty() ? 0.0 : rec.frames.front().timestamp);
-      l.north_referenced = p.north_offset_deg.has_value();
-      l.north_offset_deg = p.north_offset_deg.value_or(0.0);
-      lo.location = l;
+      lo.location = client::make_location(
+          p.where, p.utc_seconds + (rec.frames.empty() ? 0.0 : rec.frames.front().timestamp),
+          p.north_offset_deg);
       spdlog::info("the recording was made at {:.5f}, {:.5f}: telling arlightd (the sun)",
                    p.where.latitude_deg, p.where.longitude_deg);
     }

@@ -68,6 +68,16 @@ int main(int argc, char** argv) {
                                         "arlight-replay", resume);
     std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");
     c.send_intrinsics(rec.camera);
+    // A recording that says where and when it was made (RECORDING.md "place"): arlightd can
+    // place the sun (dissertation §5.3.3).
+    if (rec.place && wire::has_capability(w.capabilities, wire::kServerCapabilityLocation)) {
+      c.send_location(client::make_location(
+          rec.place->where,
+          rec.place->utc_seconds + (rec.frames.empty() ? 0.0 : rec.frames.front().timestamp),
+          rec.place->north_offset_deg));
+      std::printf("told arlightd where and when the recording was made (%.5f, %.5f)\n",
+                  rec.place->where.latitude_deg, rec.place->where.longitude_deg);
+    }
     if (!shininess.empty()) c.request_maps(shininess, map_size);
 
     std::size_t sent = 0;
@@ -127,6 +137,9 @@ int main(int argc, char** argv) {
       j["dominant_direction"] = {u->dominant_direction.x, u->dominant_direction.y,
                                  u->dominant_direction.z};
       j["dominant_colour"] = {u->dominant_colour.x, u->dominant_colour.y, u->dominant_colour.z};
+      j["sun"] = {{"state", sun_state_name(u->sun_state)}};
+      if (u->sun_state != SunState::Unknown)
+        j["sun"]["direction"] = {u->sun_direction.x, u->sun_direction.y, u->sun_direction.z};
     }
     j["maps"] = nlohmann::json::array();
     if (const auto m = c.last_complete_maps()) {

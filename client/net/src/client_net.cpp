@@ -340,4 +340,16 @@ std::uint64_t Client::map_sets_completed() const {
   return impl_->completed;
 }
 
+wire::Location make_location(const GeoLocation& where, double utc_seconds,
+                             std::optional<double> north_offset_deg) {
+  if (north_offset_deg && !(std::abs(*north_offset_deg) <= 180.0))
+    throw std::invalid_argument("the north offset must be in [-180, 180] degrees");
+  wire::Location l;
+  l.where = where;
+  l.utc_seconds = utc_seconds;
+  l.north_referenced = north_offset_deg.has_value();
+  l.north_offset_deg = north_offset_deg.value_or(0.0);
+  return l;
+}
+
 }  // namespace arlight::client
