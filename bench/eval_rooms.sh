@@ -51,7 +51,7 @@ for probe in "$@"; do
     eval "\"$bin/arlight-client\" --server $server --token $token --source replay:$dir/orbit \
       --model $model --material $material --marker 7,0.2 --pose truth --resume $session $flags \
       --out $dir/$slug" > "$dir/$slug.log"
-    "$bin/arlight-eval" --recording "$dir/orbit" --frames "$dir/$slug/frames" \
+    "$bin/arlight-eval" composite --recording "$dir/orbit" --frames "$dir/$slug/frames" \
       --json "$dir/$slug.json" --out "$dir/$slug/seen" > "$dir/$slug.eval"
     # "  object: PSNR 22.77 dB, SSIM 0.8808", the same for the shadow, then "... seen: 27.3 %".
     read -r op os < <(sed -n 's/^  object: PSNR \([0-9.-]*\) dB, SSIM \([0-9.-]*\)$/\1 \2/p' "$dir/$slug.eval")

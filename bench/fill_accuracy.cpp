@@ -6,7 +6,10 @@
 // seen texels (--fill mean) and the estimate (--fill estimate), and each filled map's
 // irradiance map (s = 1, auto method, 128x128 angle map) is compared with the true room's
 // (thesis eq. 6.1, mean error), as `arlight-maps diff` does. All three come from the same
-// capture in the same run.
+// capture in the same run. The estimate-filled map, and its SH-9 (bands 0-2: what ARCore-style
+// lighting holds), are also scored by the sphere protocol of single-image lighting estimation
+// (arlight_eval::score_lighting: si-RMSE of diffuse, matte silver and mirror spheres, and the
+// dominant light's angle; issue 18 §8).
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <array>
@@ -22,10 +25,12 @@
 #include "arlight/capture.hpp"
 #include "arlight/capture/fill.hpp"
 #include "arlight/error.hpp"
+#include "arlight/eval.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/resample.hpp"
+#include "arlight/sh.hpp"
 #include "arlight/sim.hpp"
 
 namespace fs = std::filesystem;
@@ -125,6 +130,10 @@ int main(int argc, char** argv) {
     const std::size_t rows = levels.size() + 1;
     std::vector<std::array<double, 3>> vs_truth(rows, {0, 0, 0}), vs_capture(rows, {0, 0, 0});
     std::vector<int> reached(rows, 0);
+    struct SphereSums {
+      double diffuse = 0, silver = 0, mirror = 0, angle = 0, diffuse_rmse = 0;
+    };
+    std::vector<std::array<SphereSums, 2>> spheres(rows);  // [row][estimate, SH-9]
     std::printf(
         "irradiance error (thesis eq. 6.1, mean) against the truth [against the finished "
         "capture]\n%-10s %9s  %17s %17s %17s\n",
@@ -147,6 +156,7 @@ int main(int argc, char** argv) {
         return estimator.filled(measured);
       };
       const EnvMap truth_irradiance = irradiance(truth);
+      const EnvMap truth_full = load_envmap(probe).env;
       const EnvMap captured_irradiance = irradiance(filled(snapshots.back(), capture::Fill::None));
       for (std::size_t k = 0; k < snapshots.size(); ++k) {
         const Snapshot& snap = snapshots[k];
@@ -165,6 +175,22 @@ int main(int argc, char** argv) {
           vs_truth[row][f] += t, vs_capture[row][f] += c;
           std::printf("  %6.1f%% [%5.1f%%]", 100 * t, 100 * c);
         }
+        // The sphere protocol: the estimate-filled capture, and SH-9 of it.
+        const EnvMap estimate = filled(snap, capture::Fill::Estimate);
+        const EnvMap sh9(layout, sh_reconstruct(sh_project(estimate, 3), layout));
+        for (const auto& [label, env] :
+             {std::pair<const char*, const EnvMap*>{"spheres", &estimate}, {"spheres_sh9", &sh9}}) {
+          const eval::LightingScore ls = eval::score_lighting(truth_full, *env);
+          entry[label] = {{"diffuse_si_rmse", ls.diffuse.si_rmse},
+                          {"matte_silver_si_rmse", ls.matte_silver.si_rmse},
+                          {"mirror_si_rmse", ls.mirror.si_rmse},
+                          {"diffuse_rmse", ls.diffuse.rmse},
+                          {"dominant_light_deg", ls.dominant_light_deg}};
+          SphereSums& sums = spheres[row][label == std::string("spheres") ? 0 : 1];
+          sums.diffuse += ls.diffuse.si_rmse, sums.silver += ls.matte_silver.si_rmse;
+          sums.mirror += ls.mirror.si_rmse, sums.angle += ls.dominant_light_deg;
+          sums.diffuse_rmse += ls.diffuse.rmse;
+        }
         std::printf("\n");
         ++reached[row];
         report.push_back(entry);
@@ -180,6 +206,23 @@ int main(int argc, char** argv) {
         std::printf("  %s %5.1f%% [%5.1f%%]", std::string(capture::fill_name(kFills[f])).c_str(),
                     100 * vs_truth[r][f] / reached[r], 100 * vs_capture[r][f] / reached[r]);
       std::printf("\n");
+    }
+    std::printf(
+        "\nthe sphere protocol, mean over the probes (si-RMSE of the diffuse, matte silver and "
+        "mirror spheres; diffuse RMSE; the dominant light's angle):\n");
+    for (std::size_t r = 0; r < rows; ++r) {
+      if (reached[r] == 0) continue;
+      const std::string label =
+          r < levels.size() ? "~" + std::to_string(int(100 * levels[r] + 0.5)) + " %" : "end";
+      for (int k = 0; k < 2; ++k) {
+        const SphereSums& m = spheres[r][std::size_t(k)];
+        const double n = reached[r];
+        std::printf(
+            "  %-7s %-9s diffuse %.3f  matte silver %.3f  mirror %.3f  diffuse RMSE %.3f  "
+            "light %5.1f deg\n",
+            label.c_str(), k == 0 ? "captured" : "SH-9", m.diffuse / n, m.silver / n, m.mirror / n,
+            m.diffuse_rmse / n, m.angle / n);
+      }
     }
     if (!json.empty()) write_file_atomically(json, report.dump(2) + "\n");
     return 0;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -106,6 +107,53 @@ TEST(VisibleDifferences, FineDetailIsHarderToSeeWhenItIsSmallerOnTheRetina) {
   });
   EXPECT_GT(visible_differences(ref, test, 16).fraction_seen, 0.9);
   EXPECT_LT(visible_differences(ref, test, 60).fraction_seen, 0.1);
+}
+
+// The sphere protocol: a room, the same room twice as bright, and the room turned.
+arlight::EnvMap room_with_a_lamp(glm::dvec3 lamp) {
+  arlight::EnvMap env(arlight::EnvLayout(arlight::Projection::LatLong, 128, 64));
+  lamp = glm::normalize(lamp);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 128; ++x) {
+      const glm::dvec3 d = env.layout.texel_dir(x, y);
+      // A sky brighter above, and a lamp of ~10 degrees radius.
+      const float sky = float(0.2 + 0.1 * d.y),
+                  lamp_radiance = glm::dot(d, lamp) > 0.985 ? 40.0f : 0.0f;
+      env.image.set(x, y, glm::vec3(sky + lamp_radiance, sky + 0.8f * lamp_radiance, sky));
+    }
+  return env;
+}
+
+TEST(SphereScores, AreZeroForTheTruthAndScaleFreeInSiRmse) {
+  const arlight::EnvMap room = room_with_a_lamp({1, 1, -1});
+  const LightingScore same = score_lighting(room, room);
+  EXPECT_NEAR(same.diffuse.rmse, 0.0, 1e-9);
+  EXPECT_NEAR(same.mirror.si_rmse, 0.0, 1e-9);
+  EXPECT_NEAR(same.dominant_light_deg, 0.0, 1e-3);
+  // Twice as bright: every image doubles, so the RMSE (relative to the true image's mean) is
+  // the true image's RMS over its mean, >= 1, and the scale-invariant RMSE is 0.
+  arlight::EnvMap bright = room;
+  for (float& v : bright.image.storage()) v *= 2;
+  const LightingScore twice = score_lighting(room, bright);
+  for (const SphereScore& s : {twice.diffuse, twice.matte_silver, twice.mirror}) {
+    EXPECT_GE(s.rmse, 1.0 - 1e-6);
+    EXPECT_NEAR(s.si_rmse, 0.0, 1e-6);
+  }
+  EXPECT_NEAR(twice.dominant_light_deg, 0.0, 1e-3);
+}
+
+TEST(SphereScores, AMovedLampIsAnAngleAndAnError) {
+  // The lamp 40 degrees further round the horizon: the dominant light turns by about that
+  // much (the sky's own gradient pulls it a little up), and the spheres disagree.
+  const double a = std::atan2(1.0, 1.0), b = a + 40.0 * M_PI / 180.0;
+  const arlight::EnvMap truth = room_with_a_lamp({std::cos(a), 0.3, -std::sin(a)}),
+                        moved = room_with_a_lamp({std::cos(b), 0.3, -std::sin(b)});
+  const LightingScore s = score_lighting(truth, moved);
+  EXPECT_NEAR(s.dominant_light_deg, 40.0, 4.0);
+  EXPECT_GT(s.diffuse.si_rmse, 0.05);
+  EXPECT_GT(s.mirror.si_rmse, s.diffuse.si_rmse);  // a mirror shows the lamp itself
+  const arlight::EnvMap dark(arlight::EnvLayout(arlight::Projection::LatLong, 16, 8));
+  EXPECT_THROW(score_lighting(dark, truth), arlight::InputError);
 }
 
 }  // namespace

@@ -10,8 +10,11 @@
 #include <opencv2/quality.hpp>
 
 #include "arlight/error.hpp"
+#include "arlight/lighting.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/reference.hpp"
+#include "arlight/resample.hpp"
+#include "arlight/sh.hpp"
 #include "arlight/truth.hpp"
 
 namespace arlight::eval {
@@ -229,6 +232,74 @@ RecordingScore score_recording(const fs::path& rec, const fs::path& frames_dir,
   if (shadow_n > 0) score.shadow.psnr_db /= shadow_n, score.shadow.ssim /= shadow_n;
   score.fraction_seen /= double(score.frames.size());
   return score;
+}
+
+namespace {
+
+constexpr int kSphereSize = 64;
+constexpr double kMatteSilverShininess = 32;
+
+// One sphere's image under `env`: its maps' (or, for the mirror, the environment's own) radiance
+// at each disc pixel's normal or mirror direction, RGB, row-major, pixels off the disc left out.
+std::vector<glm::dvec3> sphere_image(const EnvMap& map, bool at_mirror_direction) {
+  const EnvSampler sampler(map);
+  std::vector<glm::dvec3> out;
+  for (int y = 0; y < kSphereSize; ++y)
+    for (int x = 0; x < kSphereSize; ++x) {
+      const double u = (x + 0.5) / kSphereSize * 2 - 1, v = 1 - (y + 0.5) / kSphereSize * 2;
+      const double z2 = 1 - u * u - v * v;
+      if (z2 <= 0) continue;
+      const glm::dvec3 n(u, v, std::sqrt(z2));
+      const glm::dvec3 view(0, 0, 1);  // towards the camera
+      const glm::dvec3 dir = at_mirror_direction ? 2 * glm::dot(n, view) * n - view : n;
+      out.push_back(glm::dvec3(sampler.sample(dir, 0.0)));
+    }
+  return out;
+}
+
+SphereScore sphere_score(const std::vector<glm::dvec3>& truth,
+                         const std::vector<glm::dvec3>& estimate) {
+  double mean = 0, te = 0, ee = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    mean += truth[i].x + truth[i].y + truth[i].z;
+    te += glm::dot(truth[i], estimate[i]), ee += glm::dot(estimate[i], estimate[i]);
+  }
+  mean /= double(3 * truth.size());
+  if (!(mean > 0)) throw InputError("score_lighting: the true lighting has no light");
+  const double scale = ee > 0 ? te / ee : 0.0;
+  double se = 0, si = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const glm::dvec3 d = estimate[i] - truth[i], ds = scale * estimate[i] - truth[i];
+    se += glm::dot(d, d), si += glm::dot(ds, ds);
+  }
+  const double n = double(3 * truth.size());
+  return {std::sqrt(se / n) / mean, std::sqrt(si / n) / mean};
+}
+
+}  // namespace
+
+LightingScore score_lighting(const EnvMap& truth_in, const EnvMap& estimate_in) {
+  const EnvLayout layout(Projection::LatLong, 256, 128);
+  const EnvMap truth = resample(truth_in, layout), estimate = resample(estimate_in, layout);
+  // The diffuse and matte silver spheres shade with the lobe-averaged maps (DESIGN.md: shading
+  // is kd Ld + ks Ls), computed the same way for both lightings.
+  const double shininess[] = {1.0, kMatteSilverShininess};
+  const EnvLayout maps_layout(Projection::LatLong, 128, 64);
+  const auto maps = [&](const EnvMap& env) {
+    return lighting::compute_maps(env, shininess, maps_layout, lighting::parse_method("auto")).maps;
+  };
+  const std::vector<EnvMap> t = maps(truth), e = maps(estimate);
+  LightingScore s;
+  s.diffuse = sphere_score(sphere_image(t[0], false), sphere_image(e[0], false));
+  s.matte_silver = sphere_score(sphere_image(t[1], true), sphere_image(e[1], true));
+  s.mirror = sphere_score(sphere_image(truth, true), sphere_image(estimate, true));
+  // (an order-2 SH: bands 0 and 1)
+  const glm::dvec3 a(sh_dominant_light(sh_project(truth, 2)).direction),
+      b(sh_dominant_light(sh_project(estimate, 2)).direction);
+  s.dominant_light_deg =
+      std::acos(std::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)) * 180.0 /
+      M_PI;
+  return s;
 }
 
 }  // namespace arlight::eval

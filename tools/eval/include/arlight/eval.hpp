@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "arlight/projection.hpp"
+
 namespace arlight::eval {
 
 struct MaskedQuality {
@@ -69,5 +71,25 @@ RecordingScore score_recording(const std::filesystem::path& recording,
                                const std::filesystem::path& frames_dir,
                                double pixels_per_degree = 0,
                                const std::filesystem::path& pictures_dir = {});
+
+// The lighting-estimation protocol of single-image estimators (Gardner et al. 2019, LeGendre
+// et al. 2019): three spheres — diffuse (albedo 1), matte silver (a Phong lobe of shininess 32)
+// and a mirror — seen from the front (orthographic, 64x64, looking down -Z, +Y up), rendered
+// under the estimated and the true lighting. Each sphere's images are divided by the true
+// image's mean radiance, so the figures are unitless and compare across rooms:
+// RMSE = sqrt(mean (e - t)^2) over the disc's pixels and channels; si-RMSE the same after the
+// least-squares scale of e (sum t e / sum e^2), so only the lighting's shape counts.
+struct SphereScore {
+  double rmse = 0, si_rmse = 0;
+};
+struct LightingScore {
+  SphereScore diffuse, matte_silver, mirror;
+  // Angle between the two lightings' dominant lights (common/sh.hpp sh_dominant_light: the
+  // direction of the first-order SH, what the clients' shadows use), degrees.
+  double dominant_light_deg = 0;
+};
+// Both maps may be of any projection and size; both are resampled to one 256x128 lat-long
+// first. InputError for a map without light.
+LightingScore score_lighting(const EnvMap& truth, const EnvMap& estimate);
 
 }  // namespace arlight::eval
