@@ -268,3 +268,25 @@ TEST(ArlightMapsCompute, BadInputGivesOneClearLineAndNonZeroStatus) {
     EXPECT_LE(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
   }
 }
+
+// Tutorial §9: previews with a global or a local operator, the input's size, any other name
+// refused naming it.
+TEST(ArlightMapsPreview, WritesEachToneAndRefusesAnUnknownOne) {
+  const fs::path out = temp_dir("preview");
+  for (const char* tone : {"global", "drago", "reinhard", "mantiuk"}) {
+    const fs::path png = out / (std::string(tone) + ".png");
+    const RunResult r = run("preview " + kProbe + " --tone " + tone + " --out " + png.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_EQ(r.output.find("WARN"), std::string::npos) << r.output;
+    const LoadedImage img = load_image(png);
+    EXPECT_EQ(img.image.width(), 512) << tone;
+    EXPECT_EQ(img.image.height(), 256) << tone;
+  }
+  const RunResult bad = run("preview " + kProbe + " --tone aces --out " + (out / "x.png").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.output.find("'aces'"), std::string::npos) << bad.output;
+  const RunResult missing =
+      run("preview " + (out / "none.exr").string() + " --out " + (out / "y.png").string());
+  EXPECT_EQ(missing.status, 2) << missing.output;
+  EXPECT_FALSE(fs::exists(out / "y.png"));
+}

@@ -13,6 +13,7 @@ Runner add_sh_command(CLI::App& app);
 Runner add_compute_command(CLI::App& app);
 Runner add_compare_command(CLI::App& app);
 Runner add_diff_command(CLI::App& app);
+Runner add_preview_command(CLI::App& app);
 
 // --shininess, --size, --projection, shared by compute, compare and diff.
 // --shininess, --size, --projection and --fill (what a map's unseen texels become: see

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
       {"compare", arlight::maps::add_compare_command(app)},
       {"diff", arlight::maps::add_diff_command(app)},
       {"sh", arlight::maps::add_sh_command(app)},
+      {"preview", arlight::maps::add_preview_command(app)},
   };
   for (const auto& [name, runner] : commands)
     app.get_subcommand(name)->callback([&run, r = runner] { run = r; });

@@ -79,16 +79,27 @@ enum class ExrPixel { Half, Float };
 void write_exr(const std::filesystem::path& path, ConstImageView img,
                const ImageMetadata& metadata = {}, ExrPixel pixel = ExrPixel::Half);
 
+// How a preview compresses the range (tutorial §9): Global is Reinhard's x / (1 + x) per
+// channel; the others are OpenCV's local operators (photo module), which keep detail in both
+// the lamps and the shadows of a room whose range a global curve cannot hold: Drago et al. 2003
+// (adaptive logarithm, bias 0.85), Reinhard & Devlin 2005 (photoreceptor, adapting to each
+// pixel's own light: light_adapt 1), Mantiuk et al. 2006 (contrast domain, scale 0.7).
+enum class PreviewTone { Global, Drago, Reinhard, Mantiuk };
+const char* preview_tone_name(PreviewTone tone);
+// "global", "drago", "reinhard", "mantiuk"; InputError naming the value otherwise.
+PreviewTone parse_preview_tone(const std::string& name);
+
 struct PreviewOptions {
   // Exposure in stops; std::nullopt picks it so the log-average luminance maps to 0.18.
   std::optional<double> exposure_stops;
+  PreviewTone tone = PreviewTone::Global;
 };
 
 // Exposure (stops) that maps the log-average luminance of the non-black pixels to 0.18.
 double auto_exposure_stops(ConstImageView img);
 
-// 8-bit sRGB pixels (RGB, row-major) for people to look at: exposure, then Reinhard's
-// x / (1 + x) per channel, then the sRGB curve.
+// 8-bit sRGB pixels (RGB, row-major) for people to look at: exposure, then the tone curve
+// (PreviewTone), then the sRGB curve.
 std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOptions& options = {});
 
 // preview_pixels() as a PNG file, written atomically like write_exr.
