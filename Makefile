@@ -35,9 +35,15 @@ demo: deps
 	$(BUILD)/bin/arlight-maps diff --reference $(DEMO_OUT)/capture/recording/truth/env.exr \
 	  --test $(DEMO_OUT)/capture/env.exr --method auto --size 128 --json $(DEMO_OUT)/capture/diff.json
 	$(BUILD)/bin/arlight-sim --env $(DEMO_PROBE) --out $(DEMO_OUT)/ar/recording --frames 90 \
-	  --trajectory orbit --marker 7,0.2 --gyro-drift 0.5 --seed 2
+	  --trajectory orbit --marker 7,0.2 --gyro-drift 0.5 --seed 2 \
+	  --object data/models/bunny.glb --object-material 0.7,0.3,80 --reference-every 15
 	./deploy/demo-daemon.sh $(BUILD) $(DEMO_OUT)/capture/recording $(DEMO_OUT)/daemon \
-	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client $(DEMO_OUT)/compositing
+	  $(DEMO_OUT)/ar/recording data/models/bunny.glb $(DEMO_OUT)/ar/client $(DEMO_OUT)/compositing \
+	  $(DEMO_OUT)/eval
+	node deploy/compositing-sheet.mjs $(DEMO_OUT)/eval/contact_sheet.png \
+	  "reference (ray traced)=$(DEMO_OUT)/ar/recording/truth/reference" \
+	  "maps=$(DEMO_OUT)/eval/maps/frames" "differences seen (maps)=$(DEMO_OUT)/eval/maps/seen" \
+	  "sh-9=$(DEMO_OUT)/eval/sh-9/frames" "differences seen (sh-9)=$(DEMO_OUT)/eval/sh-9/seen"
 	node deploy/compositing-sheet.mjs $(DEMO_OUT)/compositing/contact_sheet.png \
 	  maps=$(DEMO_OUT)/ar/client/frames hemisphere=$(DEMO_OUT)/compositing/hemisphere/frames \
 	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames" \
@@ -68,6 +74,12 @@ demo: deps
 	@echo "                            with hemisphere shading and occlusion, and as glass showing"
 	@echo "                            the camera frame through it, side by side (rows: three"
 	@echo "                            frames); compositing/<mode>/ each run's frames and JSON"
+	@echo "  eval/contact_sheet.png    the bunny ray traced under the true room (the reference,"
+	@echo "                            ar/recording/truth/reference/) beside arlight-client's"
+	@echo "                            composites at the true pose lit by the maps and by SH-9"
+	@echo "                            alone, and where a viewer would see them differ"
+	@echo "  eval/table.md             PSNR/SSIM in the object and its shadow, differences seen"
+	@echo "                            (arlight-eval), also for the tracked run; <run>.json"
 	@echo "  web/contact_sheet.png     the phone page arlightd serves, in headless Chromium: a simulated"
 	@echo "                            phone sweeps the room, the sphere takes on its light, then"
 	@echo "                            the page tracks the marker and stands the bunny on it;"

@@ -52,12 +52,8 @@ for probe in "$@"; do
       --model $model --material $material --marker 7,0.2 --pose truth --resume $session $flags \
       --out $dir/$slug" > "$dir/$slug.log"
     "$bin/arlight-eval" composite --recording "$dir/orbit" --frames "$dir/$slug/frames" \
-      --json "$dir/$slug.json" --out "$dir/$slug/seen" > "$dir/$slug.eval"
-    # "  object: PSNR 22.77 dB, SSIM 0.8808", the same for the shadow, then "... seen: 27.3 %".
-    read -r op os < <(sed -n 's/^  object: PSNR \([0-9.-]*\) dB, SSIM \([0-9.-]*\)$/\1 \2/p' "$dir/$slug.eval")
-    read -r sp ss < <(sed -n 's/^  shadow: PSNR \([0-9.-]*\) dB, SSIM \([0-9.-]*\)$/\1 \2/p' "$dir/$slug.eval")
-    seen=$(sed -n 's/^  differences likely seen: \([0-9.]*\) %.*/\1/p' "$dir/$slug.eval")
-    echo "| $room | $name | $op | $os | $sp | $ss | $seen % |" >> "$out/table.md"
+      --json "$dir/$slug.json" --out "$dir/$slug/seen" --row "$room | $name" | tail -1 \
+      >> "$out/table.md"
   done
 done
 cat "$out/table.md"

@@ -6,11 +6,15 @@
 # room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
 # With COMPOSITING_OUT, the client runs again once per other compositing mode (hemisphere
 # shading, with and without occlusion; the object as glass showing the live frame through it)
-# into COMPOSITING_OUT/<mode>/, for the side-by-side sheet.
+# into COMPOSITING_OUT/<mode>/, for the side-by-side sheet. With EVAL_OUT (the AR recording
+# has references: arlight-sim --object), the client runs at the true pose with the maps and
+# with SH-9 alone, and arlight-eval scores those and the tracked run against the references
+# (EVAL_OUT/table.md, <run>.json, <run>/frames, <run>/seen).
 # Usage: deploy/demo-daemon.sh BUILD_DIR RECORDING OUT_DIR [AR_RECORDING MODEL CLIENT_OUT
-#        [COMPOSITING_OUT]]
+#        [COMPOSITING_OUT [EVAL_OUT]]]
 set -euo pipefail
 build=$1 rec=$2 out=$3 ar_rec=${4:-} model=${5:-} client_out=${6:-} compositing_out=${7:-}
+eval_out=${8:-}
 rm -rf "$out"
 mkdir -p "$out"
 token=$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')
@@ -64,5 +68,27 @@ if [ -n "$ar_rec" ]; then
         --resume "$session" --wait-maps 60 $flags --out "$compositing_out/$name" \
         --json "$compositing_out/$name.json" > "$compositing_out/$name.log"
     done
+  fi
+  if [ -n "$eval_out" ]; then
+    rm -rf "$eval_out"
+    mkdir -p "$eval_out"
+    for run in "maps:" "sh-9:--maps ''"; do
+      name=${run%%:*} flags=${run#*:}
+      eval "\"$build/bin/arlight-client\" --server 127.0.0.1:$port --token $token \
+        --source replay:$ar_rec --model $model --marker 7,0.2 --material 0.7,0.3,80 \
+        --resume $session --wait-maps 60 --pose truth $flags --out $eval_out/$name" \
+        > "$eval_out/$name.log"
+    done
+    {
+      echo "| run | object PSNR (dB) | object SSIM | shadow PSNR (dB) | shadow SSIM | differences seen |"
+      echo "|---|---|---|---|---|---|"
+      for run in "maps:$eval_out/maps/frames" "sh-9:$eval_out/sh-9/frames" \
+        "maps, tracked pose:$client_out/frames"; do
+        name=${run%%:*} frames=${run#*:} slug=$(echo "${run%%:*}" | tr -c 'a-z0-9\n-' '_')
+        "$build/bin/arlight-eval" composite --recording "$ar_rec" --frames "$frames" \
+          --json "$eval_out/$slug.json" --out "$eval_out/$slug/seen" --row "$name" | tail -1
+      done
+    } > "$eval_out/table.md"
+    cat "$eval_out/table.md"
   fi
 fi

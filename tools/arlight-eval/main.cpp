@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
       "PSNR and SSIM inside the object and its shadow, and the share of differences a viewer "
       "likely sees, of composited frames against a simulated recording's references "
       "(arlight-sim --object)");
-  std::string recording, frames, json_path, out;
+  std::string recording, frames, json_path, out, row;
   double ppd = 0;
   composite->add_option("--recording", recording, "the simulated recording (with truth/reference/)")
       ->required();
@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
       ->required();
   composite->add_option("--json", json_path, "write the scores here");
   composite->add_option("--out", out, "write each frame's visible-differences map here");
+  composite->add_option("--row", row,
+                        "also print the scores as a Markdown table row with this label: | label | "
+                        "object PSNR | object SSIM | shadow PSNR | shadow SSIM | seen |");
   composite
       ->add_option("--ppd", ppd,
                    "pixels per degree of the viewer (0: the camera's own, as an AR screen shows "
@@ -98,6 +101,9 @@ int main(int argc, char** argv) {
       std::printf("  shadow: PSNR %.2f dB, SSIM %.4f\n", s.shadow.psnr_db, s.shadow.ssim);
       std::printf("  differences likely seen: %.1f %% of the object and shadow\n",
                   100 * s.fraction_seen);
+      if (!row.empty())
+        std::printf("| %s | %.2f | %.4f | %.2f | %.4f | %.1f %% |\n", row.c_str(), s.object.psnr_db,
+                    s.object.ssim, s.shadow.psnr_db, s.shadow.ssim, 100 * s.fraction_seen);
     }
     if (!json_path.empty()) arlight::write_file_atomically(json_path, j.dump(2) + "\n");
     return 0;

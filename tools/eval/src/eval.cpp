@@ -216,7 +216,7 @@ RecordingScore score_recording(const fs::path& rec, const fs::path& frames_dir,
         visible_differences(ref, test, pixels_per_degree, object | shadow);
     f.fraction_seen = vd.fraction_seen;
     if (!pictures_dir.empty())
-      cv::imwrite((pictures_dir / (name + "_seen.png")).string(), visible_differences_picture(vd));
+      cv::imwrite((pictures_dir / (name + ".png")).string(), visible_differences_picture(vd));
     if (f.object.pixels > 0) {
       score.object.psnr_db += f.object.psnr_db, score.object.ssim += f.object.ssim;
       score.object.pixels += f.object.pixels, ++object_n;

@@ -65,7 +65,8 @@ struct RecordingScore {
 // Scores composites `frames_dir`/NNNNNN.png (arlight-client --out DIR's frames/, one per
 // recording frame) against the recording's references. `pixels_per_degree` <= 0 takes the
 // camera's (its width over its horizontal field of view: an AR screen shows the world at its
-// own angular size). When `pictures_dir` is given, writes NNNNNN_seen.png there. InputError for a
+// own angular size). When `pictures_dir` is given, writes each frame's visible-differences
+// picture there as NNNNNN.png. InputError for a
 // recording without references or a missing or mis-sized composite.
 RecordingScore score_recording(const std::filesystem::path& recording,
                                const std::filesystem::path& frames_dir,
