@@ -5,10 +5,12 @@
 // once, as arlightd would send it). Frames come from a simulated 1280x720 orbit around a marker in
 // venice (arlight-sim).
 #include <benchmark/benchmark.h>
+#include <tbb/info.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -152,4 +154,53 @@ BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_colour_contrast, true, render::Shad
                   std::nullopt, render::ColourCorrection::Contrast)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(96)
+    ->UseRealTime();
+
+// The bunny's occlusion of itself baked with Embree on all cores (tutorial §6.1; what
+// arlight-client does at model load), at the bundled 2,826 vertices and split 1 and 2 times
+// (each triangle into four at its edges' midpoints: ~11 k and ~45 k vertices, beyond the
+// original scan's 35,947), 1,024 directions per vertex (arlight-client's) and 2,048.
+namespace {
+
+render::Mesh split_triangles(const render::Mesh& in) {
+  render::Mesh out;
+  out.positions = in.positions;
+  out.normals = in.normals;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> midpoints;
+  const auto midpoint = [&](std::uint32_t a, std::uint32_t b) {
+    const auto key = std::minmax(a, b);
+    const auto [it, fresh] =
+        midpoints.try_emplace({key.first, key.second}, std::uint32_t(out.positions.size()));
+    if (fresh) {
+      out.positions.push_back(0.5f * (in.positions[a] + in.positions[b]));
+      out.normals.push_back(glm::normalize(in.normals[a] + in.normals[b]));
+    }
+    return it->second;
+  };
+  for (std::size_t t = 0; t < in.indices.size(); t += 3) {
+    const std::uint32_t a = in.indices[t], b = in.indices[t + 1], c = in.indices[t + 2];
+    const std::uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+    out.indices.insert(out.indices.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+  }
+  render::compute_bounds(out);
+  return out;
+}
+
+void BM_BakeOcclusion(benchmark::State& state) {
+  render::Mesh mesh = render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb");
+  for (int i = 0; i < state.range(0); ++i) mesh = split_triangles(mesh);
+  for (auto _ : state) {
+    render::Mesh baked = mesh;
+    render::bake_occlusion(baked, int(state.range(1)));
+    benchmark::DoNotOptimize(baked.occlusion.data());
+  }
+  state.counters["vertices"] = double(mesh.vertex_count());
+  state.counters["threads"] = double(tbb::info::default_concurrency());
+}
+
+}  // namespace
+BENCHMARK(BM_BakeOcclusion)
+    ->ArgNames({"splits", "directions"})
+    ->ArgsProduct({{0, 1, 2}, {1024, 2048}})
+    ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

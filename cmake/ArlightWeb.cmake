@@ -43,7 +43,8 @@ add_custom_command(OUTPUT ${ARLIGHT_WEB_PAGE_STAMP}
   DEPENDS ${ARLIGHT_WEB_PAGE}
   COMMENT "The browser client's page -> bin/web")
 # The page's models (bin/web/models/): the bundled ones re-encoded without Draco, which the
-# WebAssembly build cannot decode.
+# WebAssembly build cannot decode, with their occlusion of themselves baked in (the page cannot
+# ray-cast: it downloads the bake from arlightd with the model).
 set(ARLIGHT_WEB_MODELS)
 foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb")
   list(GET pair 0 from)
@@ -51,7 +52,7 @@ foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb")
   set(out ${ARLIGHT_WEB_DIR}/models/${to})
   add_custom_command(OUTPUT ${out}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}/models
-    COMMAND arlight-model convert ${CMAKE_SOURCE_DIR}/data/models/${from} ${out} > /dev/null
+    COMMAND arlight-model convert --bake ${CMAKE_SOURCE_DIR}/data/models/${from} ${out} > /dev/null
     DEPENDS arlight-model ${CMAKE_SOURCE_DIR}/data/models/${from}
     COMMENT "The page's model ${to} (no Draco)")
   list(APPEND ARLIGHT_WEB_MODELS ${out})

@@ -15,6 +15,8 @@ in vec3 v_position;
 in vec3 v_normal;
 in vec4 v_tangent;
 in vec2 v_uv;
+in vec3 v_bent_normal;
+in float v_occlusion;
 
 uniform ENV_SAMPLER u_irradiance;   // shininess 1: indexed by the normal
 uniform ENV_SAMPLER u_reflection0;  // the two reflection maps around the material's shininess,
@@ -145,11 +147,16 @@ void main() {
 #endif
   vec3 lo = vec3(0.0);
 #ifdef USE_DIFFUSE
-  // Environment lookups in the world frame (Alg. 5.1 lines 2-6).
+  // Environment lookups in the world frame (Alg. 5.1 lines 2-6). Where the mesh's occlusion of
+  // itself is baked (tutorial §6.1), the light comes along the bent normal (the open directions'
+  // mean; a normal map's tilt kept) and only its open share: the ambient occlusion.
+  vec3 d = n;
+  if (dot(v_bent_normal, v_bent_normal) > 1e-8)
+    d = normalize(n + normalize(v_bent_normal) - normalize(v_normal));
 #ifdef HEMISPHERE
-  vec3 ld = hemisphere(normalize(u_world_from_scene * n));
+  vec3 ld = hemisphere(normalize(u_world_from_scene * d)) * v_occlusion;
 #else
-  vec3 ld = env_sample(u_irradiance, u_world_from_scene * n);
+  vec3 ld = env_sample(u_irradiance, u_world_from_scene * d) * v_occlusion;
 #endif
 #ifdef USE_LIGHT_MAP
   ld *= texture(u_light_map, v_uv).rgb;  // Alg. 5.2 lines 7-8

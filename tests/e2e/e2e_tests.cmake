@@ -8,6 +8,7 @@ add_executable(e2e_tests
   ${CMAKE_CURRENT_LIST_DIR}/test_arlightd.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlightd_web.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_arlight_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_failover.cpp)
 target_include_directories(e2e_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..
   ${CMAKE_SOURCE_DIR}/server/daemon/src)
@@ -23,8 +24,9 @@ target_compile_definitions(e2e_tests PRIVATE
   ARLIGHTD_EXE="$<TARGET_FILE:arlightd>"
   ARLIGHT_REPLAY_EXE="$<TARGET_FILE:arlight-replay>"
   ARLIGHT_CLIENT_EXE="$<TARGET_FILE:arlight-client>"
-  ARLIGHT_EVAL_EXE="$<TARGET_FILE:arlight-eval>")
+  ARLIGHT_EVAL_EXE="$<TARGET_FILE:arlight-eval>"
+  ARLIGHT_MODEL_EXE="$<TARGET_FILE:arlight-model>")
 add_dependencies(e2e_tests arlight-maps arlight-sim arlight-capture arlightd arlight-replay
-  arlight-client arlight-eval)
+  arlight-client arlight-eval arlight-model)
 set_target_properties(e2e_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
 gtest_discover_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 300)

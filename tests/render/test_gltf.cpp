@@ -187,6 +187,25 @@ TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
     EXPECT_NE(std::string(e.what()).find("'page.gltf'"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("mesh.bin"), std::string::npos) << e.what();
   }
+  // The baked occlusion (arlight's _OCCLUSION attribute) travels with the model to the page.
+  Mesh baked = sphere;
+  for (std::size_t i = 0; i < baked.positions.size(); ++i)
+    baked.occlusion.push_back(glm::vec4(baked.normals[i], float(i % 7) / 7.0f));
+  const Mesh baked_back = load_gltf(encode_glb(baked), "baked.glb");
+  ASSERT_EQ(baked_back.occlusion.size(), baked.occlusion.size());
+  for (std::size_t i = 0; i < baked.occlusion.size(); ++i)
+    ASSERT_LT(glm::length(baked_back.occlusion[i] - baked.occlusion[i]), 1e-6f) << i;
+  // An occlusion outside [0, 1] is a bad file, named.
+  baked.occlusion[3].w = 1.5f;
+  try {
+    load_gltf(encode_glb(baked), "bad_occlusion.glb");
+    FAIL() << "an occlusion of 1.5 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("_OCCLUSION"), std::string::npos) << e.what();
+  }
+  baked.occlusion.pop_back();
+  EXPECT_THROW(encode_glb(baked), std::invalid_argument);
+
   Mesh broken = sphere;
   broken.indices.push_back(9999);
   broken.indices.push_back(0);

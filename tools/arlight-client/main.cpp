@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
       model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
       resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
       intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps",
-      location, time_text, glass = "off", pose = "track";
+      location, time_text, glass = "off", pose = "track", occlusion = "baked";
   std::optional<double> north_offset;
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128;
@@ -71,6 +71,11 @@ int main(int argc, char** argv) {
                  "room's upper and lower half, blended by the normal: the fallback for weak "
                  "devices) or hemisphere-occlusion (that, darker towards the ground by the "
                  "room's dark side over its lit side)")
+      ->capture_default_str();
+  app.add_option("--occlusion", occlusion,
+                 "baked (the model's occlusion of itself, ray-cast with Embree at load: its "
+                 "creases get less of the room's light, from the directions left open) or none")
+      ->check(CLI::IsMember({"baked", "none"}))
       ->capture_default_str();
   app.add_option("--glass", glass,
                  "off (the --material), or the object is clear glass (dissertation §5.5): "
@@ -176,7 +181,17 @@ int main(int argc, char** argv) {
     spdlog::info("GL: {} ({})", gl.renderer(), gl.version());
     if (!normal_map.empty()) po.material.normal_map = render::load_texture(normal_map, false);
     if (!light_map.empty()) po.material.light_map = render::load_texture(light_map, false);
-    FramePipeline pipeline(po, load_model(model));
+    render::Mesh mesh = load_model(model);
+    double bake_ms = 0;
+    if (occlusion == "none") mesh.occlusion.clear();
+    if (occlusion == "baked" && mesh.occlusion.empty()) {  // a file may carry its bake already
+      const auto bake_start = Clock::now();
+      render::bake_occlusion(mesh);
+      bake_ms = std::chrono::duration<double, std::milli>(Clock::now() - bake_start).count();
+      spdlog::info("{}: occlusion baked for {} vertices in {:.0f} ms", model, mesh.vertex_count(),
+                   bake_ms);
+    }
+    FramePipeline pipeline(po, std::move(mesh));
 
     lo.token = token, lo.tls = tls, lo.resume_session = resume;
     lo.device_id = !device.empty()             ? device
@@ -237,6 +252,7 @@ int main(int argc, char** argv) {
                    {"size", {po.camera.width, po.camera.height}},
                    {"shading", render::shading_name(po.shading)},
                    {"glass", glass},
+                   {"occlusion", {{"state", occlusion}, {"bake_ms", bake_ms}}},
                    {"colour", render::colour_correction_name(po.colour)},
                    {"ior", ior},
                    {"sun", sun_json(channel.lighting())}});

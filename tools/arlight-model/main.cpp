@@ -1,8 +1,12 @@
-// arlight-model: what a model file holds (info), and a copy without Draco compression for the
-// browser client, whose WebAssembly build has no Draco decoder (convert). A thin shell over
-// arlight_render's glTF reader and writer.
+// arlight-model: what a model file holds (info), a copy without Draco compression for the
+// browser client, whose WebAssembly build has no Draco decoder (convert), and its radiance
+// transfer baked with Embree, timed (bake). A thin shell over arlight_render's glTF reader and
+// writer and arlight_common's transfer bake.
+#include <tbb/info.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -12,6 +16,7 @@
 #include "arlight/render/colour.hpp"
 #include "arlight/render/mesh.hpp"
 #include "arlight/render/opencv.hpp"
+#include "arlight/transfer.hpp"
 
 using namespace arlight;
 
@@ -22,13 +27,35 @@ nlohmann::json describe(const render::Mesh& m) {
   return {{"vertices", m.vertex_count()},
           {"triangles", m.triangle_count()},
           {"uvs", !m.uvs.empty()},
+          {"occlusion", !m.occlusion.empty()},
           {"bounds", {{"min", v3(m.bounds.min)}, {"max", v3(m.bounds.max)}}}};
+}
+
+// Self-shadowing of the model's own vertices (tutorial §6.1): the bake's time and what it found.
+nlohmann::json bake(const render::Mesh& m, const TransferOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const Occluder occluder(m.positions, m.indices);
+  const Transfer t = bake_transfer(occluder, m.positions, m.normals, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  double sum = 0;
+  for (const float a : t.ao) sum += a;
+  return {
+      {"directions", options.directions},
+      {"order", options.order},
+      {"threads", tbb::info::default_concurrency()},
+      {"bake_seconds", seconds},
+      {"ao",
+       {{"mean", sum / double(t.size())}, {"min", *std::min_element(t.ao.begin(), t.ao.end())}}}};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"arlight-model: inspect a glTF model, or re-encode it without Draco for the browser client"};
+  CLI::App app{
+      "arlight-model: inspect a glTF model, re-encode it without Draco for the browser "
+      "client, or bake its radiance transfer"};
+  TransferOptions bake_options;
   app.require_subcommand(1);
   std::string input, output, albedo;
   CLI::App* info = app.add_subcommand("info", "print the model's vertex and triangle counts and bounds (JSON)");
@@ -41,14 +68,35 @@ int main(int argc, char** argv) {
       "convert", "write the model as a plain binary glTF (.glb): one mesh, no compression");
   convert->add_option("model", input, "a glTF 2.0 file (.glb or .gltf, Draco-compressed or not)")->required();
   convert->add_option("out", output, "the .glb to write")->required();
+  bool convert_bake = false;
+  convert->add_flag("--bake", convert_bake,
+                    "bake the model's occlusion of itself into the copy (an _OCCLUSION attribute: "
+                    "bent normal and ambient occlusion per vertex), so that the page, which "
+                    "cannot ray-cast, draws with it");
+  convert->add_option("--directions", bake_options.directions, "rays per vertex for --bake")
+      ->check(CLI::Range(16, 1 << 20))
+      ->capture_default_str();
+  CLI::App* bake_cmd = app.add_subcommand(
+      "bake",
+      "bake the radiance transfer of the model's vertices (ambient occlusion, bent "
+      "normals, SH transfer) with Embree on all cores; print its time and occlusion (JSON)");
+  bake_cmd->add_option("model", input, "a glTF 2.0 file (.glb or .gltf)")->required();
+  bake_cmd->add_option("--directions", bake_options.directions, "rays per vertex")
+      ->check(CLI::Range(16, 1 << 20))
+      ->capture_default_str();
+  bake_cmd->add_option("--order", bake_options.order, "SH order of the transfer (3: SH-9)")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
-    const render::Mesh mesh = render::load_gltf(input);
+    render::Mesh mesh = render::load_gltf(input);
     if (*convert) {
+      if (convert_bake) render::bake_occlusion(mesh, bake_options.directions);
       const std::vector<std::uint8_t> glb = render::encode_glb(mesh);
       write_file_atomically(output, std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
     }
     nlohmann::json out = describe(mesh);
+    if (*bake_cmd) out["bake"] = bake(mesh, bake_options);
     if (!albedo.empty()) {
       render::Material m;
       m.kd = glm::vec3(1.0f);

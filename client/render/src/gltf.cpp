@@ -6,6 +6,7 @@
 #include <draco/compression/decode.h>
 #endif
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <glm/gtc/matrix_inverse.hpp>
@@ -286,6 +287,7 @@ class GltfReader {
   struct Primitive {
     std::vector<glm::vec3> positions, normals;
     std::vector<glm::vec2> uvs;
+    std::vector<glm::vec4> occlusion;  // _OCCLUSION (arlight's baked occlusion, Mesh::occlusion)
     std::vector<std::uint32_t> indices;
   };
 
@@ -361,6 +363,13 @@ class GltfReader {
       p.normals = as_vec<glm::vec3>(read_accessor(attrs["NORMAL"].get<std::size_t>(), 3));
     if (attrs.contains("TEXCOORD_0"))
       p.uvs = as_vec<glm::vec2>(read_accessor(attrs["TEXCOORD_0"].get<std::size_t>(), 2));
+    if (attrs.contains("_OCCLUSION")) {
+      p.occlusion = as_vec<glm::vec4>(read_accessor(attrs["_OCCLUSION"].get<std::size_t>(), 4));
+      for (const glm::vec4& o : p.occlusion)
+        if (!(o.w >= 0.0f && o.w <= 1.0f) || !std::isfinite(o.x + o.y + o.z))
+          throw InputError(where_ +
+                           "_OCCLUSION: an occlusion outside [0, 1] or a bent normal not finite");
+    }
     if (prim.contains("indices")) {
       p.indices = read_indices(prim["indices"].get<std::size_t>());
     } else {
@@ -380,7 +389,8 @@ class GltfReader {
       Primitive p = read_primitive(prim);
       const std::size_t n = p.positions.size();
       if (n == 0) throw InputError(where_ + "primitive without positions");
-      if ((!p.normals.empty() && p.normals.size() != n) || (!p.uvs.empty() && p.uvs.size() != n))
+      if ((!p.normals.empty() && p.normals.size() != n) || (!p.uvs.empty() && p.uvs.size() != n) ||
+          (!p.occlusion.empty() && p.occlusion.size() != n))
         throw InputError(where_ + "primitive attributes have different counts");
       if (p.indices.size() % 3 != 0) throw InputError(where_ + "index count is not a multiple of 3");
       for (std::uint32_t i : p.indices)
@@ -392,6 +402,12 @@ class GltfReader {
         mesh_.uvs.assign(mesh_.positions.size(), glm::vec2(0.0f));
       if (!p.uvs.empty()) has_uvs_ = true;
       if (has_uvs_ && p.uvs.empty()) p.uvs.assign(n, glm::vec2(0.0f));
+      // Occlusion likewise; a primitive without it counts as open (nothing baked).
+      const glm::vec4 open(0.0f, 0.0f, 0.0f, 1.0f);
+      if (!p.occlusion.empty() && !has_occlusion_ && !mesh_.positions.empty())
+        mesh_.occlusion.assign(mesh_.positions.size(), open);
+      if (!p.occlusion.empty()) has_occlusion_ = true;
+      if (has_occlusion_ && p.occlusion.empty()) p.occlusion.assign(n, open);
       Mesh part;
       part.positions = std::move(p.positions);
       part.indices = std::move(p.indices);
@@ -402,6 +418,12 @@ class GltfReader {
         const glm::vec3 nn = N * part.normals[i];
         const float l = glm::length(nn);
         mesh_.normals.push_back(l > 0.0f ? nn / l : glm::vec3(0, 1, 0));
+        if (has_occlusion_) {  // the bent normal turns with the normals
+          const glm::vec3 b = N * glm::vec3(p.occlusion[i]);
+          const float lb = glm::length(b);
+          mesh_.occlusion.push_back(
+              glm::vec4(lb > 0.0f ? b / lb : glm::vec3(0.0f), p.occlusion[i].w));
+        }
       }
       if (has_uvs_) mesh_.uvs.insert(mesh_.uvs.end(), p.uvs.begin(), p.uvs.end());
       for (std::size_t i = 0; i < part.indices.size(); i += 3) {
@@ -457,7 +479,7 @@ class GltfReader {
   std::vector<std::vector<std::uint8_t>> buffers_;
   bool on_disk_ = true;  // separate buffer files resolve next to path_
   Mesh mesh_;
-  bool has_uvs_ = false;
+  bool has_uvs_ = false, has_occlusion_ = false;
 };
 
 }  // namespace
@@ -482,8 +504,9 @@ Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name) {
 std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
   const std::size_t n = mesh.positions.size();
   if (n == 0 || mesh.normals.size() != n || (!mesh.uvs.empty() && mesh.uvs.size() != n) ||
-      mesh.indices.size() % 3 != 0)
-    throw std::invalid_argument("encode_glb: positions, normals (and uvs) must match, whole triangles");
+      (!mesh.occlusion.empty() && mesh.occlusion.size() != n) || mesh.indices.size() % 3 != 0)
+    throw std::invalid_argument(
+        "encode_glb: positions, normals (and uvs, occlusion) must match, whole triangles");
   for (const std::uint32_t i : mesh.indices)
     if (i >= n) throw std::invalid_argument("encode_glb: an index beyond the vertices");
   // The binary chunk: positions, normals, uvs, indices, each 4-byte aligned (they are).
@@ -509,6 +532,9 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
   attributes["NORMAL"] = append(mesh.normals.data(), n * sizeof(glm::vec3), kArrayBuffer, kFloat, n, "VEC3");
   if (!mesh.uvs.empty())
     attributes["TEXCOORD_0"] = append(mesh.uvs.data(), n * sizeof(glm::vec2), kArrayBuffer, kFloat, n, "VEC2");
+  if (!mesh.occlusion.empty())  // glTF's application-specific attributes start with '_'
+    attributes["_OCCLUSION"] =
+        append(mesh.occlusion.data(), n * sizeof(glm::vec4), kArrayBuffer, kFloat, n, "VEC4");
   const std::size_t indices = append(mesh.indices.data(), mesh.indices.size() * 4, kElementArrayBuffer,
                                      kUint, mesh.indices.size(), "SCALAR");
   const json doc = {

@@ -6,22 +6,28 @@
 namespace arlight::render {
 
 // One buffer holding the attribute arrays one after the other (positions, normals, uvs,
-// tangents), locations 0-3 as in ibl.vert; absent uvs/tangents read constant defaults.
+// tangents, occlusion), locations 0-4 as in ibl.vert; absent ones read constant defaults.
 GpuMesh::GpuMesh(const Mesh& mesh) {
   const std::size_t n = mesh.positions.size();
   if (n == 0 || mesh.normals.size() != n || mesh.indices.empty())
     throw std::invalid_argument("GpuMesh: the mesh needs positions, one normal each, and indices");
   has_uvs_ = mesh.uvs.size() == n;
   has_tangents_ = has_uvs_ && mesh.tangents.size() == n;
+  has_occlusion_ = mesh.occlusion.size() == n;
   bounds_ = mesh.bounds;
   index_count_ = mesh.indices.size();
-  const std::size_t pos_bytes = n * sizeof(glm::vec3), uv_bytes = has_uvs_ ? n * sizeof(glm::vec2) : 0,
-                    tan_bytes = has_tangents_ ? n * sizeof(glm::vec4) : 0;
-  std::vector<std::uint8_t> data(2 * pos_bytes + uv_bytes + tan_bytes);
+  const std::size_t pos_bytes = n * sizeof(glm::vec3),
+                    uv_bytes = has_uvs_ ? n * sizeof(glm::vec2) : 0,
+                    tan_bytes = has_tangents_ ? n * sizeof(glm::vec4) : 0,
+                    occ_bytes = has_occlusion_ ? n * sizeof(glm::vec4) : 0;
+  std::vector<std::uint8_t> data(2 * pos_bytes + uv_bytes + tan_bytes + occ_bytes);
   std::memcpy(data.data(), mesh.positions.data(), pos_bytes);
   std::memcpy(data.data() + pos_bytes, mesh.normals.data(), pos_bytes);
   if (uv_bytes) std::memcpy(data.data() + 2 * pos_bytes, mesh.uvs.data(), uv_bytes);
   if (tan_bytes) std::memcpy(data.data() + 2 * pos_bytes + uv_bytes, mesh.tangents.data(), tan_bytes);
+  if (occ_bytes)
+    std::memcpy(data.data() + 2 * pos_bytes + uv_bytes + tan_bytes, mesh.occlusion.data(),
+                occ_bytes);
 
   glGenVertexArrays(1, &vao_);
   glGenBuffers(1, &vbo_);
@@ -37,6 +43,7 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   attrib(1, 3, pos_bytes);
   if (has_uvs_) attrib(2, 2, 2 * pos_bytes);
   if (has_tangents_) attrib(3, 4, 2 * pos_bytes + uv_bytes);
+  if (has_occlusion_) attrib(4, 4, 2 * pos_bytes + uv_bytes + tan_bytes);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo_);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(index_count_ * sizeof(std::uint32_t)),
                mesh.indices.data(), GL_STATIC_DRAW);
@@ -51,6 +58,7 @@ GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
     release();
     vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
     index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
+    has_occlusion_ = o.has_occlusion_;
     bounds_ = o.bounds_;
   }
   return *this;

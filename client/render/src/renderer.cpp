@@ -758,6 +758,7 @@ void Renderer::Impl::issue(const GpuMesh& mesh, const Material& m, const glm::ma
   glBindVertexArray(mesh.vao());
   if (!mesh.has_uvs()) glVertexAttrib2f(2, 0.0f, 0.0f);
   if (!mesh.has_tangents()) glVertexAttrib4f(3, 1.0f, 0.0f, 0.0f, 1.0f);
+  if (!mesh.has_occlusion()) glVertexAttrib4f(4, 0.0f, 0.0f, 0.0f, 1.0f);  // nothing baked
   glDrawElements(GL_TRIANGLES, GLsizei(mesh.index_count()), GL_UNSIGNED_INT, nullptr);
   glBindVertexArray(0);
   gl::check("draw");

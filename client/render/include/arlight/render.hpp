@@ -56,6 +56,7 @@ class GpuMesh {
 
   bool has_uvs() const { return has_uvs_; }
   bool has_tangents() const { return has_tangents_; }
+  bool has_occlusion() const { return has_occlusion_; }
   std::size_t index_count() const { return index_count_; }
   const Bounds& bounds() const { return bounds_; }
   unsigned vao() const { return vao_; }
@@ -64,7 +65,7 @@ class GpuMesh {
   void release();
   unsigned vao_ = 0, vbo_ = 0, ibo_ = 0;
   std::size_t index_count_ = 0;
-  bool has_uvs_ = false, has_tangents_ = false;
+  bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false;
   Bounds bounds_;
 };
 

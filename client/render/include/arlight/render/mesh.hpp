@@ -29,6 +29,10 @@ struct Mesh {
   std::vector<glm::vec3> normals;      // unit, one per position
   std::vector<glm::vec2> uvs;          // empty or one per position
   std::vector<glm::vec4> tangents;     // empty or one per position (computed when uvs exist)
+  // Empty or one per position: the mesh's occlusion of itself, baked (transfer.hpp): the bent
+  // normal (xyz, object frame) and the ambient occlusion (w). The diffuse light is looked up
+  // along the bent normal and scaled by the occlusion, so creases darken as the room's light says.
+  std::vector<glm::vec4> occlusion;
   std::vector<std::uint32_t> indices;  // triangles
   Bounds bounds;
 
@@ -49,6 +53,11 @@ void compute_normals(Mesh& mesh);
 // the south pole (v = 1), `segments` around. u = 0.25 faces +Z, u grows towards +X there, so the
 // tangent at the front (0, 0, r) is +X and the bitangent +Y. The seam at u = 0/1 faces -X.
 Mesh make_sphere(float radius, int rings, int segments);
+
+// Bakes the mesh's occlusion of itself into mesh.occlusion (bent normals and ambient occlusion
+// of its vertices, arlight::bake_transfer with Embree on all cores; `directions` rays per
+// vertex over the sphere). Native only: the browser build has no Embree.
+void bake_occlusion(Mesh& mesh, int directions = 1024);
 
 // Loads every triangle primitive of the default scene (or of all root nodes) of a glTF 2.0 file
 // into one mesh, with node transforms applied. Positions, normals (computed when absent),
