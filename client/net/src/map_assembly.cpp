@@ -39,11 +39,19 @@ std::optional<MapSet> MapSetAssembler::complete(const wire::MapSetComplete& c) {
   const auto it = building_.find(c.map_set);
   if (it == building_.end()) return std::nullopt;
   MapSet set = std::move(it->second);
+  building_.erase(building_.begin(), std::next(it));  // older sets are stale
+  // Whole or not at all: a set whose first tiles went to an earlier connection of the session
+  // (arlightd streams an in-flight set on to the one that resumed it) lacks maps or texels.
+  if (set.maps.size() != c.maps) return std::nullopt;
+  for (std::size_t i = 0; i < set.maps.size(); ++i)
+    if (set.texels_received[i] !=
+            std::size_t(set.maps[i].image.width()) * set.maps[i].image.height() ||
+        !(set.shininess[i] > 0.0))
+      return std::nullopt;
   set.complete = true;
   set.server_seconds = c.seconds;
   set.coverage = c.coverage;
   set.frames = c.frames;
-  building_.erase(building_.begin(), std::next(it));  // older sets are stale
   return set;
 }
 

@@ -31,7 +31,8 @@ class MapSetAssembler {
   // A tile whose size disagrees with its set's first tiles, or whose data does not decode, is
   // dropped (the set then never completes its texel count).
   void add_tile(const wire::MapTile& tile);
-  // The completed set, or nullopt when no tile of it arrived.
+  // The completed set, or nullopt unless every one of its `done.maps` maps arrived whole (a set
+  // begun on an earlier connection of a resumed session, or with a dropped tile, is not used).
   std::optional<MapSet> complete(const wire::MapSetComplete& done);
 
  private:

@@ -1,0 +1,73 @@
+// Map sets as their tiles arrive (client/net MapSetAssembler): only whole sets are used.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "arlight/map_assembly.hpp"
+
+using namespace arlight;
+using namespace arlight::client;
+
+namespace {
+
+// Angle maps of 16x16 in 8x8 tiles; each map's texels hold its index + 1.
+constexpr int kSize = 16, kTile = 8;
+
+std::vector<wire::MapTile> tiles_of(std::uint32_t set, int maps) {
+  std::vector<wire::MapTile> out;
+  for (int k = 0; k < maps; ++k)
+    for (int y = 0; y < kSize; y += kTile)
+      for (int x = 0; x < kSize; x += kTile) {
+        const std::vector<float> px(std::size_t(kTile * kTile * 3), float(k + 1));
+        out.push_back({.map_set = set,
+                       .map_index = std::uint16_t(k),
+                       .shininess = float(10 * (k + 1)),
+                       .projection = Projection::AngleMap,
+                       .map_width = kSize,
+                       .map_height = kSize,
+                       .level = 0,
+                       .x = std::uint32_t(x),
+                       .y = std::uint32_t(y),
+                       .width = kTile,
+                       .height = kTile,
+                       .data = wire::encode_half_rgb(px.data(), px.size() / 3)});
+      }
+  return out;
+}
+
+wire::MapSetComplete done(std::uint32_t set, int maps) {
+  return {
+      .map_set = set, .maps = std::uint16_t(maps), .seconds = 0.1f, .coverage = 0.5f, .frames = 7};
+}
+
+}  // namespace
+
+TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
+  MapSetAssembler a;
+  for (const auto& t : tiles_of(3, 2)) a.add_tile(t);
+  const auto set = a.complete(done(3, 2));
+  ASSERT_TRUE(set);
+  EXPECT_TRUE(set->complete);
+  ASSERT_EQ(set->maps.size(), 2u);
+  EXPECT_EQ(set->shininess, (std::vector<double>{10.0, 20.0}));
+  EXPECT_EQ(set->maps[1].image.at(kSize - 1, kSize - 1).g, 2.0f);
+  EXPECT_EQ(set->frames, 7u);
+}
+
+// A set resumed on a new connection after its first tiles went to the old one: the maps that
+// never arrived would be black with shininess 0 (arlight-client died on that); it is dropped,
+// and the next whole set is used.
+TEST(MapSetAssembler, ASetMissingItsFirstTilesIsDroppedAndTheNextWholeOneUsed) {
+  MapSetAssembler a;
+  const auto tiles = tiles_of(4, 3);
+  for (std::size_t i = 5; i < tiles.size(); ++i)
+    a.add_tile(tiles[i]);  // map 0 and part of map 1 lost
+  EXPECT_FALSE(a.complete(done(4, 3)));
+  // Fewer maps than MapSetComplete counts: dropped too.
+  for (const auto& t : tiles_of(5, 2)) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(5, 3)));
+  for (const auto& t : tiles_of(6, 3)) a.add_tile(t);
+  const auto set = a.complete(done(6, 3));
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->shininess, (std::vector<double>{10.0, 20.0, 30.0}));
+}
