@@ -64,3 +64,14 @@ TEST(ArlightModel, ConvertBakeCarriesTheOcclusionInTheCopy) {
   EXPECT_GE(extra, 2826u * 16u);
   EXPECT_LT(extra, 2826u * 16u + 512u);
 }
+
+// lightmap needs UVs: the bunny has none, and says so without writing anything.
+TEST(ArlightModel, LightMapOfAModelWithoutUvsIsRefusedByName) {
+  const fs::path out = fs::temp_directory_path() / "arlight_model_test_light.png";
+  fs::remove(out);
+  const test::RunResult r = run("lightmap " + kBunny + " " + out.string() + " --size 64");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no UVs"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("bunny.glb"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+}

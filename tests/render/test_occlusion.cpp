@@ -104,5 +104,44 @@ TEST(BakedOcclusion, TheBunnysCreasesAreDarkenedAndItsOpenSideIsNot) {
   EXPECT_GT(bunny.occlusion[std::size_t(top - bunny.positions.begin())].w, 0.8f);
 }
 
+// Thesis Alg. 5.2's light map baked: a floor quad (its UVs its x and z) under a ball whose UVs
+// cover nothing. Each texel is its floor point's ambient occlusion, 1 - r^2 h / D^3 under a ball
+// of radius r with its centre h above the floor at distance D (the form factor of a sphere).
+TEST(BakedLightMap, AFloorUnderABallHoldsTheFormFactorsOcclusion) {
+  Mesh m;
+  m.positions = {{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}};
+  m.normals.assign(4, glm::vec3(0, 1, 0));
+  m.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  m.indices = {0, 2, 1, 0, 3, 2};
+  const float r = 0.5f, h = 1.0f;
+  const Mesh ball = make_sphere(r, 48, 96);
+  const auto base = std::uint32_t(m.positions.size());
+  for (std::size_t i = 0; i < ball.positions.size(); ++i) {
+    m.positions.push_back(ball.positions[i] + glm::vec3(0, h, 0));
+    m.normals.push_back(ball.normals[i]);
+    m.uvs.push_back({0.5f, 0.5f});  // no UV area: the ball gets no texels
+  }
+  for (const std::uint32_t i : ball.indices) m.indices.push_back(base + i);
+  constexpr int kSize = 48;
+  const std::vector<float> ao = bake_light_map(m, kSize, kSize, 4096);
+  ASSERT_EQ(ao.size(), std::size_t(kSize * kSize));
+  double worst = 0, darkest = 1;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const double px = (x + 0.5) / kSize * 4.0 - 2.0, pz = (y + 0.5) / kSize * 4.0 - 2.0;
+      const double d2 = px * px + pz * pz + double(h) * h;
+      const double want = 1.0 - double(r) * r * h / (d2 * std::sqrt(d2));
+      const double got = ao[std::size_t(y) * kSize + std::size_t(x)];
+      worst = std::max(worst, std::abs(got - want));
+      darkest = std::min(darkest, got);
+    }
+  EXPECT_LT(worst, 0.012);
+  EXPECT_NEAR(darkest, 0.75, 0.012);  // under the ball's centre: 1 - r^2 / h^2
+
+  Mesh no_uvs = m;
+  no_uvs.uvs.clear();
+  EXPECT_THROW(bake_light_map(no_uvs, 8, 8), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace arlight::render

@@ -9,6 +9,8 @@
 #include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 
 #include "arlight/atomic_file.hpp"
@@ -87,6 +89,19 @@ int main(int argc, char** argv) {
   bake_cmd->add_option("--order", bake_options.order, "SH order of the transfer (3: SH-9)")
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
+  int light_map_size = 512;
+  CLI::App* light_map_cmd = app.add_subcommand(
+      "lightmap",
+      "bake a light map of the model's occlusion of itself over its UVs (thesis "
+      "Alg. 5.2's light map, for arlight-client --light-map): an 8-bit grey PNG");
+  light_map_cmd->add_option("model", input, "a glTF 2.0 file with UVs (TEXCOORD_0)")->required();
+  light_map_cmd->add_option("out", output, "the .png to write")->required();
+  light_map_cmd->add_option("--size", light_map_size, "the light map's width and height")
+      ->check(CLI::Range(8, 8192))
+      ->capture_default_str();
+  light_map_cmd->add_option("--directions", bake_options.directions, "rays per texel")
+      ->check(CLI::Range(16, 1 << 20))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     render::Mesh mesh = render::load_gltf(input);
@@ -96,6 +111,31 @@ int main(int argc, char** argv) {
       write_file_atomically(output, std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
     }
     nlohmann::json out = describe(mesh);
+    if (*light_map_cmd) {
+      if (mesh.uvs.empty())
+        throw InputError(input + ": no UVs (TEXCOORD_0) to lay a light map over");
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<float> ao =
+          render::bake_light_map(mesh, light_map_size, light_map_size, bake_options.directions);
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      cv::Mat grey(light_map_size, light_map_size, CV_8UC1);
+      for (int y = 0; y < light_map_size; ++y)
+        for (int x = 0; x < light_map_size; ++x)
+          grey.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(
+              255.0f * ao[std::size_t(y) * std::size_t(light_map_size) + std::size_t(x)] + 0.5f);
+      std::vector<std::uint8_t> png;
+      if (!cv::imencode(".png", grey, png)) throw std::runtime_error("could not encode the PNG");
+      write_file_atomically(
+          output, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+      const std::vector<std::uint8_t> covered =
+          render::uv_coverage(mesh, light_map_size, light_map_size);
+      out["light_map"] = {{"size", light_map_size},
+                          {"directions", bake_options.directions},
+                          {"bake_seconds", seconds},
+                          {"covered", double(std::count(covered.begin(), covered.end(), 1)) /
+                                          double(covered.size())}};
+    }
     if (*bake_cmd) out["bake"] = bake(mesh, bake_options);
     if (!albedo.empty()) {
       render::Material m;

@@ -76,38 +76,9 @@ EnvironmentPriors environment_priors(const EnvMap& radiance) {
 std::vector<std::uint8_t> uv_coverage(const Mesh& mesh, int width, int height) {
   if (mesh.uvs.empty() || width < 1 || height < 1) return {};
   std::vector<std::uint8_t> covered(std::size_t(width) * height, 0);
-  const glm::dvec2 size(width, height);
-  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-    std::array<glm::dvec2, 3> p;  // texel space: texel (i, j) has its centre at (i + .5, j + .5)
-    for (int k = 0; k < 3; ++k)
-      p[std::size_t(k)] = glm::dvec2(mesh.uvs[mesh.indices[t + std::size_t(k)]]) * size;
-    const double area =
-        (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
-    if (area == 0.0 || !std::isfinite(area)) continue;
-    const glm::dvec2 lo = glm::min(p[0], glm::min(p[1], p[2])),
-                     hi = glm::max(p[0], glm::max(p[1], p[2]));
-    // A triangle spanning more than a few repeats is garbage, not a texture layout.
-    if (hi.x - lo.x > 4.0 * width || hi.y - lo.y > 4.0 * height) continue;
-    const auto edge = [](glm::dvec2 a, glm::dvec2 b, glm::dvec2 q) {
-      return (b.x - a.x) * (q.y - a.y) - (b.y - a.y) * (q.x - a.x);
-    };
-    // Texel centres inside the triangle (either winding); a triangle thinner than a texel that
-    // holds no centre marks the texels its corners are in.
-    const auto mark = [&](int i, int j) {
-      const int x = ((i % width) + width) % width, y = ((j % height) + height) % height;
-      covered[std::size_t(y) * width + x] = 1;
-    };
-    bool any = false;
-    for (int j = int(std::floor(lo.y)); j <= int(std::floor(hi.y)); ++j)
-      for (int i = int(std::floor(lo.x)); i <= int(std::floor(hi.x)); ++i) {
-        const glm::dvec2 q(i + 0.5, j + 0.5);
-        const double e0 = edge(p[0], p[1], q), e1 = edge(p[1], p[2], q), e2 = edge(p[2], p[0], q);
-        if (area > 0 ? e0 >= 0 && e1 >= 0 && e2 >= 0 : e0 <= 0 && e1 <= 0 && e2 <= 0)
-          mark(i, j), any = true;
-      }
-    if (!any)
-      for (const glm::dvec2& c : p) mark(int(std::floor(c.x)), int(std::floor(c.y)));
-  }
+  for_each_uv_texel(mesh, width, height, [&](int x, int y, std::size_t, const glm::dvec3&) {
+    covered[std::size_t(y) * width + x] = 1;
+  });
   return covered;
 }
 

@@ -1,6 +1,7 @@
 #include "arlight/render/mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -111,6 +112,47 @@ Mesh make_sphere(float radius, int rings, int segments) {
     }
   compute_bounds(m);
   return m;
+}
+
+void for_each_uv_texel(const Mesh& mesh, int width, int height,
+                       const std::function<void(int, int, std::size_t, const glm::dvec3&)>& visit) {
+  if (mesh.uvs.size() != mesh.positions.size() || width < 1 || height < 1) return;
+  const glm::dvec2 size(width, height);
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    std::array<glm::dvec2, 3> p;  // texel space: texel (i, j) has its centre at (i + .5, j + .5)
+    for (int k = 0; k < 3; ++k)
+      p[std::size_t(k)] = glm::dvec2(mesh.uvs[mesh.indices[t + std::size_t(k)]]) * size;
+    const double area =
+        (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
+    if (area == 0.0 || !std::isfinite(area)) continue;
+    const glm::dvec2 lo = glm::min(p[0], glm::min(p[1], p[2])),
+                     hi = glm::max(p[0], glm::max(p[1], p[2]));
+    // A triangle spanning more than a few repeats is garbage, not a texture layout.
+    if (hi.x - lo.x > 4.0 * width || hi.y - lo.y > 4.0 * height) continue;
+    const auto edge = [](glm::dvec2 a, glm::dvec2 b, glm::dvec2 q) {
+      return (b.x - a.x) * (q.y - a.y) - (b.y - a.y) * (q.x - a.x);
+    };
+    const auto at = [&](int i, int j, const glm::dvec3& b) {
+      visit(((i % width) + width) % width, ((j % height) + height) % height, t, b);
+    };
+    bool any = false;
+    for (int j = int(std::floor(lo.y)); j <= int(std::floor(hi.y)); ++j)
+      for (int i = int(std::floor(lo.x)); i <= int(std::floor(hi.x)); ++i) {
+        const glm::dvec2 q(i + 0.5, j + 0.5);
+        // e0 is twice the area opposite corner 2, e1 opposite corner 0, e2 opposite corner 1.
+        const double e0 = edge(p[0], p[1], q), e1 = edge(p[1], p[2], q), e2 = edge(p[2], p[0], q);
+        if (area > 0 ? e0 >= 0 && e1 >= 0 && e2 >= 0 : e0 <= 0 && e1 <= 0 && e2 <= 0) {
+          at(i, j, glm::dvec3(e1, e2, e0) / area);
+          any = true;
+        }
+      }
+    if (!any)
+      for (int k = 0; k < 3; ++k) {
+        glm::dvec3 corner(0.0);
+        corner[k] = 1.0;
+        at(int(std::floor(p[std::size_t(k)].x)), int(std::floor(p[std::size_t(k)].y)), corner);
+      }
+  }
 }
 
 }  // namespace arlight::render

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -59,6 +60,15 @@ Mesh make_sphere(float radius, int rings, int segments);
 // vertex over the sphere). Native only: the browser build has no Embree.
 void bake_occlusion(Mesh& mesh, int directions = 1024);
 
+// Thesis Alg. 5.2's light map, baked instead of read from a file: per texel of a width x height
+// map over the mesh's UVs, the ambient occlusion of the surface point there (its position and
+// normal interpolated from the triangle's corners): width x height values, row 0 at v = 0 (the
+// top of the image, as TextureImage stores it). Texels no
+// triangle covers take their covered neighbours' mean (a few texels of padding, so bilinear
+// filtering and mipmaps do not bleed white into the seams), and 1 beyond. Needs UVs
+// (std::invalid_argument without). Native only, as bake_occlusion.
+std::vector<float> bake_light_map(const Mesh& mesh, int width, int height, int directions = 1024);
+
 // Loads every triangle primitive of the default scene (or of all root nodes) of a glTF 2.0 file
 // into one mesh, with node transforms applied. Positions, normals (computed when absent),
 // TEXCOORD_0 (float) and indices (u8/u16/u32) are read; KHR_draco_mesh_compression primitives are
@@ -71,6 +81,16 @@ Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name);
 // node, no compression (what the browser client loads: its build has no Draco). Throws
 // std::invalid_argument for a mesh whose arrays disagree.
 std::vector<std::uint8_t> encode_glb(const Mesh& mesh);
+
+// Visits every texel of a width x height texture whose centre lies inside one of the mesh's
+// UV triangles (either winding; texel (i, j) has its centre at uv ((i + .5) / width,
+// (j + .5) / height), wrapped into the texture as GL_REPEAT does), with the triangle (the
+// position of its first index in mesh.indices) and the centre's barycentric coordinates. A
+// triangle thinner than a texel that holds no centre visits the texels its corners are in (the
+// coordinates of that corner). Degenerate and wildly repeating triangles are skipped.
+void for_each_uv_texel(const Mesh& mesh, int width, int height,
+                       const std::function<void(int x, int y, std::size_t triangle,
+                                                const glm::dvec3& barycentric)>& visit);
 
 // The model matrix that stands a +Y-up model (glTF's convention) on a tracked marker, whose
 // frame has +Z out of the floor (OpenCV aruco): rotated +Y -> +Z, scaled to `height` metres,
