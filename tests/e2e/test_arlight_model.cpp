@@ -59,10 +59,13 @@ TEST(ArlightModel, ConvertBakeCarriesTheOcclusionInTheCopy) {
   ASSERT_EQ(b.status, 0) << b.output;
   EXPECT_FALSE(json::parse(p.output).at("occlusion").get<bool>());
   EXPECT_TRUE(json::parse(b.output).at("occlusion").get<bool>());
-  // 2,826 bent normals and occlusions of 4 floats each, and their accessor's few hundred bytes.
+  EXPECT_FALSE(json::parse(p.output).at("ground").get<bool>());
+  EXPECT_TRUE(json::parse(b.output).at("ground").get<bool>());
+  // 2,826 bent normals and occlusions of 4 floats each, the floor's 64 x 64 floats, and their
+  // accessors' few hundred bytes.
   const auto extra = fs::file_size(baked) - fs::file_size(plain);
-  EXPECT_GE(extra, 2826u * 16u);
-  EXPECT_LT(extra, 2826u * 16u + 512u);
+  EXPECT_GE(extra, 2826u * 16u + 4096u * 4u);
+  EXPECT_LT(extra, 2826u * 16u + 4096u * 4u + 1024u);
 }
 
 // lightmap needs UVs: the bunny has none, and says so without writing anything.

@@ -206,6 +206,23 @@ TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
   baked.occlusion.pop_back();
   EXPECT_THROW(encode_glb(baked), std::invalid_argument);
 
+  // So does the baked floor (extras.arlight_ground).
+  Mesh floored = sphere;
+  floored.ground = {{-1.5f, -1.0f}, {1.5f, 2.0f}, 4, {}};
+  for (int i = 0; i < 16; ++i) floored.ground.occluded.push_back(float(i) / 16.0f);
+  const Mesh floored_back = load_gltf(encode_glb(floored), "floored.glb");
+  EXPECT_EQ(floored_back.ground.min, floored.ground.min);
+  EXPECT_EQ(floored_back.ground.max, floored.ground.max);
+  EXPECT_EQ(floored_back.ground.size, 4);
+  EXPECT_EQ(floored_back.ground.occluded, floored.ground.occluded);
+  floored.ground.occluded[5] = -0.5f;
+  try {
+    load_gltf(encode_glb(floored), "bad_ground.glb");
+    FAIL() << "a floor occlusion of -0.5 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("arlight_ground"), std::string::npos) << e.what();
+  }
+
   Mesh broken = sphere;
   broken.indices.push_back(9999);
   broken.indices.push_back(0);

@@ -197,6 +197,81 @@ TEST(Shadow, ContactShadowUnderConstantLight) {
   }
 }
 
+// A flat disc (radius a) held at height h over the floor, with its bounds reaching the floor (a
+// degenerate triangle there, as a table's legs would): the ellipsoid in its bounds is all wrong
+// (it would sit on the floor and black out the point under the disc), the baked floor is right.
+// A floor point at distance rho from under the disc's centre sees it with the form factor
+// F = (1 - (h^2 + rho^2 - a^2) / sqrt((h^2 + rho^2 + a^2)^2 - 4 a^2 rho^2)) / 2 (a parallel
+// disc), so under a uniform sky the catcher darkens it by F.
+TEST(Shadow, BakedFloorOcclusionFollowsTheShapeNotItsBounds) {
+  context();
+  const double a = 0.5, h = 0.5;
+  Mesh disc;
+  disc.positions.push_back({0.0f, float(h), 0.0f});
+  disc.normals.push_back({0.0f, -1.0f, 0.0f});
+  constexpr int kRim = 96;
+  for (int i = 0; i < kRim; ++i) {
+    const double t = 2.0 * std::numbers::pi * i / kRim;
+    disc.positions.push_back({float(a * std::cos(t)), float(h), float(a * std::sin(t))});
+    disc.normals.push_back({0.0f, -1.0f, 0.0f});
+    disc.indices.insert(disc.indices.end(),
+                        {0u, std::uint32_t(1 + i), std::uint32_t(1 + (i + 1) % kRim)});
+  }
+  const auto foot = std::uint32_t(disc.positions.size());
+  disc.positions.push_back({0.0f, 0.0f, 0.0f});  // the bounds reach the floor
+  disc.normals.push_back({0.0f, 1.0f, 0.0f});
+  disc.indices.insert(disc.indices.end(), {foot, foot, foot});
+  compute_bounds(disc);
+  bake_occlusion(disc, 4096);
+  ASSERT_FALSE(disc.ground.empty());
+
+  Renderer r(W, H);
+  set_constant_maps(r, Projection::LatLong, glm::vec3(0.5f));
+  ShadowSettings s;
+  s.enabled = true;
+  s.light_direction = glm::vec3(0, 1, 0);
+  s.light_colour = glm::vec3(0.0f);  // no directional share: the sky alone
+  r.set_shadow(s);
+  View v;
+  v.camera_from_scene = look({0.0, -4.0, 1.0}, {0, 0, 0});  // low: it sees under the disc
+  r.set_camera(v.k, v.camera_from_scene);
+  r.set_world_from_scene(world_from_scene());
+  // Object +Y onto scene +Z: the disc's floor is the scene's z = 0.
+  const glm::mat4 stand =
+      glm::rotate(glm::mat4(1.0f), std::numbers::pi_v<float> / 2, glm::vec3(1, 0, 0));
+  const GpuMesh baked(disc);
+  Mesh unbaked_mesh = disc;
+  unbaked_mesh.ground = {};
+  const GpuMesh unbaked(unbaked_mesh);
+  const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(150, 160, 170));
+  const auto shade = [&](const GpuMesh& mesh) {
+    r.begin_frame();
+    r.draw(mesh, Material{}, stand);
+    cv::Mat out;
+    composite(r, frame, {}, out);
+    return out;
+  };
+  const cv::Mat with_bake = shade(baked), with_ellipsoid = shade(unbaked);
+  maybe_write("shadow_baked_floor.png", with_bake);
+  int checked = 0;
+  for (const double rho : {0.0, 0.3, 0.6, 0.9, 1.2}) {
+    for (const glm::dvec2 dir : {glm::dvec2(1, 0), glm::dvec2(-1, 0), glm::dvec2(0, -1)}) {
+      const glm::dvec3 floor(dir * rho, 0.0);
+      const glm::dvec2 px = v.project(floor);
+      const int x = int(std::lround(px.x)), y = int(std::lround(px.y));
+      const double q = h * h + rho * rho + a * a;
+      const double form =
+          0.5 * (1.0 - (h * h + rho * rho - a * a) / std::sqrt(q * q - 4 * a * a * rho * rho));
+      EXPECT_NEAR(darkening(with_bake, frame, x, y), form, 0.04) << "rho " << rho;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 15);
+  // Under the centre the disc hides half the sky (a = h); the ellipsoid would hide nearly all.
+  const glm::dvec2 c = v.project({0, 0, 0});
+  EXPECT_GT(darkening(with_ellipsoid, frame, int(std::lround(c.x)), int(std::lround(c.y))), 0.8);
+}
+
 // (c) Shadows off: the output is byte-identical to a renderer that never had them; on, they
 // change neither the object's pixels nor Reinhard's log-average (the mask is the object's).
 TEST(Shadow, DisabledIsByteIdenticalAndMaskUnchanged) {

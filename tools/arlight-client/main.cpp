@@ -73,8 +73,10 @@ int main(int argc, char** argv) {
                  "room's dark side over its lit side)")
       ->capture_default_str();
   app.add_option("--occlusion", occlusion,
-                 "baked (the model's occlusion of itself, ray-cast with Embree at load: its "
-                 "creases get less of the room's light, from the directions left open) or none")
+                 "baked (the model's occlusion of itself and of the floor, ray-cast with Embree "
+                 "at load: its creases get less of the room's light, from the directions left "
+                 "open, and its contact shadow follows its shape) or none (the contact shadow "
+                 "of the ellipsoid in its bounds)")
       ->check(CLI::IsMember({"baked", "none"}))
       ->capture_default_str();
   app.add_option("--glass", glass,
@@ -183,8 +185,9 @@ int main(int argc, char** argv) {
     if (!light_map.empty()) po.material.light_map = render::load_texture(light_map, false);
     render::Mesh mesh = load_model(model);
     double bake_ms = 0;
-    if (occlusion == "none") mesh.occlusion.clear();
-    if (occlusion == "baked" && mesh.occlusion.empty()) {  // a file may carry its bake already
+    if (occlusion == "none") mesh.occlusion.clear(), mesh.ground = {};
+    // A file may carry its bake already (arlight-model convert --bake).
+    if (occlusion == "baked" && (mesh.occlusion.empty() || mesh.ground.empty())) {
       const auto bake_start = Clock::now();
       render::bake_occlusion(mesh);
       bake_ms = std::chrono::duration<double, std::milli>(Clock::now() - bake_start).count();

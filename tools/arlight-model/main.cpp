@@ -30,6 +30,7 @@ nlohmann::json describe(const render::Mesh& m) {
           {"triangles", m.triangle_count()},
           {"uvs", !m.uvs.empty()},
           {"occlusion", !m.occlusion.empty()},
+          {"ground", !m.ground.empty()},
           {"bounds", {{"min", v3(m.bounds.min)}, {"max", v3(m.bounds.max)}}}};
 }
 

@@ -113,10 +113,34 @@ class GltfReader {
     if (mesh_.positions.empty()) throw InputError(where_ + "no triangle meshes in the scene");
     compute_bounds(mesh_);
     if (has_uvs_) compute_tangents(mesh_);
+    read_ground();
     return std::move(mesh_);
   }
 
  private:
+  // arlight's baked floor occlusion (Mesh::ground), in the loaded mesh's frame: the document's
+  // extras.arlight_ground = {min: [x, z], max: [x, z], size: N, accessor: A (N x N floats)}.
+  void read_ground() {
+    if (!doc_.contains("extras") || !doc_["extras"].is_object() ||
+        !doc_["extras"].contains("arlight_ground"))
+      return;
+    const json& g = doc_["extras"]["arlight_ground"];
+    const std::string what = where_ + "extras.arlight_ground: ";
+    const auto mn = g.at("min").get<std::vector<float>>(),
+               mx = g.at("max").get<std::vector<float>>();
+    const int size = g.at("size").get<int>();
+    if (mn.size() != 2 || mx.size() != 2 || !(mn[0] < mx[0]) || !(mn[1] < mx[1]))
+      throw InputError(what + "min and max must be [x, z] with min < max");
+    if (size < 2 || size > 1024) throw InputError(what + "size must be 2 to 1024");
+    std::vector<float> occluded = read_accessor(g.at("accessor").get<std::size_t>(), 1);
+    if (occluded.size() != std::size_t(size) * std::size_t(size))
+      throw InputError(what + "the accessor holds " + std::to_string(occluded.size()) +
+                       " values, not size x size");
+    for (const float v : occluded)
+      if (!(v >= 0.0f && v <= 1.0f)) throw InputError(what + "an occlusion outside [0, 1]");
+    mesh_.ground = {{mn[0], mn[1]}, {mx[0], mx[1]}, size, std::move(occluded)};
+  }
+
   void parse_glb() {
     if (file_.size() < 12) throw InputError(where_ + "truncated GLB header");
     const std::uint32_t version = u32(file_.data() + 4), length = u32(file_.data() + 8);
@@ -512,9 +536,11 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
   // The binary chunk: positions, normals, uvs, indices, each 4-byte aligned (they are).
   std::vector<std::uint8_t> bin;
   json views = json::array(), accessors = json::array();
-  auto append = [&](const void* data, std::size_t bytes, int target, int component, std::size_t count,
-                    const char* type) {
-    views.push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}, {"target", target}});
+  auto append = [&](const void* data, std::size_t bytes, int target, int component,
+                    std::size_t count, const char* type) {
+    json view = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}};
+    if (target) view["target"] = target;  // 0: not vertex or index data
+    views.push_back(std::move(view));
     accessors.push_back({{"bufferView", views.size() - 1}, {"componentType", component},
                          {"count", count}, {"type", type}});
     const auto* p = static_cast<const std::uint8_t*>(data);
@@ -537,18 +563,31 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
         append(mesh.occlusion.data(), n * sizeof(glm::vec4), kArrayBuffer, kFloat, n, "VEC4");
   const std::size_t indices = append(mesh.indices.data(), mesh.indices.size() * 4, kElementArrayBuffer,
                                      kUint, mesh.indices.size(), "SCALAR");
-  const json doc = {
+  json extras = json::object();
+  if (!mesh.ground.empty()) {
+    const GroundOcclusion& g = mesh.ground;
+    if (g.occluded.size() != std::size_t(g.size) * std::size_t(g.size))
+      throw std::invalid_argument("encode_glb: the ground occlusion is not size x size");
+    const std::size_t a = append(g.occluded.data(), g.occluded.size() * sizeof(float), 0, kFloat,
+                                 g.occluded.size(), "SCALAR");
+    extras["arlight_ground"] = {{"min", {g.min.x, g.min.y}},
+                                {"max", {g.max.x, g.max.y}},
+                                {"size", g.size},
+                                {"accessor", a}};
+  }
+  json doc = {
       {"asset", {{"version", "2.0"}, {"generator", "arlight"}}},
       {"scene", 0},
       {"scenes", json::array({{{"nodes", {0}}}})},
       {"nodes", json::array({{{"mesh", 0}}})},
-      {"meshes", json::array({{{"primitives",
-                                json::array({{{"attributes", attributes},
-                                              {"indices", indices},
-                                              {"mode", 4}}})}}})},
+      {"meshes",
+       json::array(
+           {{{"primitives",
+              json::array({{{"attributes", attributes}, {"indices", indices}, {"mode", 4}}})}}})},
       {"buffers", json::array({{{"byteLength", bin.size()}}})},
       {"bufferViews", views},
       {"accessors", accessors}};
+  if (!extras.empty()) doc["extras"] = std::move(extras);
   std::string text = doc.dump();
   text.resize((text.size() + 3) / 4 * 4, ' ');  // chunks are 4-byte aligned
   bin.resize((bin.size() + 3) / 4 * 4, 0);

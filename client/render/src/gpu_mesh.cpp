@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "arlight/render.hpp"
@@ -48,6 +50,22 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(index_count_ * sizeof(std::uint32_t)),
                mesh.indices.data(), GL_STATIC_DRAW);
   glBindVertexArray(0);
+  if (!mesh.ground.empty() && mesh.ground.occluded.size() ==
+                                  std::size_t(mesh.ground.size) * std::size_t(mesh.ground.size)) {
+    std::vector<std::uint8_t> texels(mesh.ground.occluded.size());
+    for (std::size_t i = 0; i < texels.size(); ++i)
+      texels[i] =
+          std::uint8_t(std::lround(255.0f * std::clamp(mesh.ground.occluded[i], 0.0f, 1.0f)));
+    glGenTextures(1, &ground_tex_);
+    glBindTexture(GL_TEXTURE_2D, ground_tex_);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8, mesh.ground.size, mesh.ground.size, 0, GL_RED,
+                 GL_UNSIGNED_BYTE, texels.data());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    ground_rect_ = {mesh.ground.min, mesh.ground.max, mesh.ground.size, {}};
+  }
   gl::check("uploading a mesh");
 }
 
@@ -57,6 +75,7 @@ GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
   if (this != &o) {
     release();
     vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
+    ground_tex_ = std::exchange(o.ground_tex_, 0), ground_rect_ = o.ground_rect_;
     index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
     has_occlusion_ = o.has_occlusion_;
     bounds_ = o.bounds_;
@@ -70,7 +89,8 @@ void GpuMesh::release() {
   if (vao_) glDeleteVertexArrays(1, &vao_);
   if (vbo_) glDeleteBuffers(1, &vbo_);
   if (ibo_) glDeleteBuffers(1, &ibo_);
-  vao_ = vbo_ = ibo_ = 0;
+  if (ground_tex_) glDeleteTextures(1, &ground_tex_);
+  vao_ = vbo_ = ibo_ = ground_tex_ = 0;
 }
 
 }  // namespace arlight::render

@@ -1,5 +1,6 @@
 // The mesh's occlusion of itself, baked with Embree (mesh.hpp, transfer.hpp): per vertex, and
 // as a light map over its UVs.
+#include <algorithm>
 #include <glm/geometric.hpp>
 #include <stdexcept>
 
@@ -16,6 +17,26 @@ void bake_occlusion(Mesh& mesh, int directions) {
   mesh.occlusion.resize(t.size());
   for (std::size_t i = 0; i < t.size(); ++i)
     mesh.occlusion[i] = glm::vec4(t.bent_normal[i], t.ao[i]);
+
+  // The floor: up-facing points of the plane under the mesh's bounds.
+  constexpr int kGround = 64;
+  constexpr float kReach = 3.0f;  // half-extents, as ShadowSettings::ao_reach
+  if (mesh.bounds.max == mesh.bounds.min) compute_bounds(mesh);
+  const Bounds& b = mesh.bounds;
+  const glm::vec2 mid(0.5f * (b.min.x + b.max.x), 0.5f * (b.min.z + b.max.z));
+  const float half =
+      kReach * std::max({0.5f * (b.max.x - b.min.x), 0.5f * (b.max.z - b.min.z), 1e-4f});
+  GroundOcclusion& g = mesh.ground;
+  g.min = mid - glm::vec2(half), g.max = mid + glm::vec2(half), g.size = kGround;
+  std::vector<glm::vec3> points, up(std::size_t(kGround * kGround), glm::vec3(0, 1, 0));
+  for (int j = 0; j < kGround; ++j)
+    for (int i = 0; i < kGround; ++i)
+      points.push_back({g.min.x + (float(i) + 0.5f) / kGround * (g.max.x - g.min.x), b.min.y,
+                        g.min.y + (float(j) + 0.5f) / kGround * (g.max.y - g.min.y)});
+  const Transfer floor =
+      bake_transfer(occluder, points, up, {.directions = directions, .order = 1});
+  g.occluded.resize(floor.size());
+  for (std::size_t i = 0; i < floor.size(); ++i) g.occluded[i] = 1.0f - floor.ao[i];
 }
 
 std::vector<float> bake_light_map(const Mesh& mesh, int width, int height, int directions) {

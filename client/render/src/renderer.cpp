@@ -9,6 +9,7 @@
 #include <numbers>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include "arlight/render.hpp"
@@ -32,7 +33,8 @@ const std::vector<double> kShShininess = {1, 8, 32, 128};  // SH maps' lobes
 // Texture units.
 enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, kResponseInverse };
 
-constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes
+constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes / u_ground*
+constexpr int kGroundUnit = 3;     // the catcher's texture units of u_ground0..3
 constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
 
 // A mesh drawn this frame, for the shadow pass (its scene-frame bounds and what draws it).
@@ -41,6 +43,10 @@ struct Caster {
   GLsizei count;
   glm::mat4 model;
   glm::vec3 lo, hi;  // scene-frame AABB
+  // The mesh's baked floor occlusion when the mesh stands on the floor (its bake plane is the
+  // scene's z = 0, its +Y the scene's +Z), else 0: the catcher then uses the ellipsoid.
+  GLuint ground_tex = 0;
+  glm::mat4 ground_from_scene{1.0f};  // scene point -> (u, v) of the ground texture
 };
 
 // A set of environment maps of one projection, sorted by shininess.
@@ -319,6 +325,9 @@ struct Renderer::Impl {
       glUseProgram(shadow_catcher.id());
       glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
+      for (int k = 0; k < kMaxEllipsoids; ++k)
+        glUniform1i(shadow_catcher.uniform(("u_ground" + std::to_string(k)).c_str()),
+                    kGroundUnit + k);
       // The factors at 1/kFactorScale of the output's resolution (shadows are smooth).
       factor_w = (w + kFactorScale - 1) / kFactorScale,
       factor_h = (h + kFactorScale - 1) / kFactorScale;
@@ -779,6 +788,20 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
       const glm::vec3 q = glm::vec3(model * glm::vec4(corner, 1.0f));
       c.lo = glm::min(c.lo, q), c.hi = glm::max(c.hi, q);
     }
+    // The baked floor applies where the bake's plane (y = min.y, object frame) is the floor.
+    const glm::vec3 up = glm::normalize(glm::mat3(model) * glm::vec3(0, 1, 0));
+    const float floor_z = (model * glm::vec4(b.centre().x, b.min.y, b.centre().z, 1.0f)).z;
+    const GroundOcclusion& g = mesh.ground_rect();
+    if (mesh.ground_texture() && up.z > 0.999f &&
+        std::abs(floor_z) <= 1e-3f * std::max(glm::length(c.hi - c.lo), 1e-6f)) {
+      // (x, z) of the object frame onto [0, 1]^2 of the texture.
+      glm::mat4 to_uv(0.0f);
+      to_uv[0][0] = 1.0f / (g.max.x - g.min.x), to_uv[3][0] = -g.min.x / (g.max.x - g.min.x);
+      to_uv[2][1] = 1.0f / (g.max.y - g.min.y), to_uv[3][1] = -g.min.y / (g.max.y - g.min.y);
+      to_uv[3][3] = 1.0f;
+      c.ground_tex = mesh.ground_texture();
+      c.ground_from_scene = to_uv * glm::inverse(model);
+    }
     p.casters.push_back(c);
   }
 }
@@ -1140,6 +1163,20 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
     glUniform3fv(pr.uniform("u_centre"), count, glm::value_ptr(centres[0]));
     glUniform3fv(pr.uniform("u_inv_axes"), count, glm::value_ptr(inv_axes[0]));
   }
+  // The casters' baked floor occlusion, where they have one (tutorial §6.1's receiver plane).
+  std::vector<float> has_ground(kMaxEllipsoids, 0.0f);
+  std::vector<glm::mat4> ground_from_scene(kMaxEllipsoids, glm::mat4(1.0f));
+  for (int k = 0; k < kMaxEllipsoids; ++k) {
+    glActiveTexture(GLenum(GL_TEXTURE0 + kGroundUnit + k));
+    const bool baked = k < count && casters[std::size_t(k)].ground_tex;
+    glBindTexture(GL_TEXTURE_2D, baked ? casters[std::size_t(k)].ground_tex : white_tex.id);
+    if (baked)
+      has_ground[std::size_t(k)] = 1.0f,
+      ground_from_scene[std::size_t(k)] = casters[std::size_t(k)].ground_from_scene;
+  }
+  glUniform1fv(pr.uniform("u_has_ground"), kMaxEllipsoids, has_ground.data());
+  glUniformMatrix4fv(pr.uniform("u_ground_from_scene"), kMaxEllipsoids, GL_FALSE,
+                     glm::value_ptr(ground_from_scene[0]));
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
   glActiveTexture(GL_TEXTURE2);

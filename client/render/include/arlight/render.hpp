@@ -57,13 +57,18 @@ class GpuMesh {
   bool has_uvs() const { return has_uvs_; }
   bool has_tangents() const { return has_tangents_; }
   bool has_occlusion() const { return has_occlusion_; }
+  // The baked floor occlusion (Mesh::ground) as an R8 texture, and its rectangle; 0 / empty
+  // when none was baked.
+  unsigned ground_texture() const { return ground_tex_; }
+  const GroundOcclusion& ground_rect() const { return ground_rect_; }
   std::size_t index_count() const { return index_count_; }
   const Bounds& bounds() const { return bounds_; }
   unsigned vao() const { return vao_; }
 
  private:
   void release();
-  unsigned vao_ = 0, vbo_ = 0, ibo_ = 0;
+  unsigned vao_ = 0, vbo_ = 0, ibo_ = 0, ground_tex_ = 0;
+  GroundOcclusion ground_rect_;  // min, max and size only
   std::size_t index_count_ = 0;
   bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false;
   Bounds bounds_;
@@ -162,9 +167,11 @@ struct FrameTimings {
 // n the plane's normal and l the light direction (world frame), Lbar(n) the irradiance map's
 // value there (irradiance / pi, from the maps or the SH); V the light's visibility from an
 // orthographic shadow map fitted to the objects' bounds (PCF); AO the cosine-weighted share of
-// the remaining (sky) irradiance hidden by the objects, each taken as the ellipsoid inscribed in
-// its bounds. Only the composited output changes: the mask, the HDR target and Reinhard's
-// log-average are the objects' alone, and pixels whose ratio rounds to 1 keep the frame exactly.
+// the remaining (sky) irradiance hidden by the objects: baked by ray casting for a mesh with its
+// floor occlusion baked (Mesh::ground) standing on the floor, else taken as the ellipsoid
+// inscribed in its bounds. Only the composited output changes: the mask, the HDR target and
+// Reinhard's log-average are the objects' alone, and pixels whose ratio rounds to 1 keep the frame
+// exactly.
 struct ShadowSettings {
   bool enabled = false;
   // The dominant light as arlightd sends it (LightingUpdate): unit direction towards the light

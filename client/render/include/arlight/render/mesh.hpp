@@ -22,6 +22,17 @@ struct Bounds {
   glm::vec3 size() const { return max - min; }
 };
 
+// The mesh's occlusion of the floor it stands on (tutorial §6.1's receiver plane), baked: over a
+// rectangle [min, max] of x and z (object frame) on the plane y = bounds.min.y, size x size texels
+// (row-major, rows along z) of the cosine-weighted share of the sky the mesh hides from an
+// up-facing floor point (1 - its ambient occlusion). Empty: not baked.
+struct GroundOcclusion {
+  glm::vec2 min{0.0f}, max{0.0f};
+  int size = 0;
+  std::vector<float> occluded;
+  bool empty() const { return size == 0; }
+};
+
 // uv (0,0) is the top-left of a texture image (as in glTF and image files). Tangents follow
 // glTF / MikkTSpace: xyz along increasing u, w = +-1 with bitangent = w * cross(normal, tangent)
 // pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
@@ -34,6 +45,7 @@ struct Mesh {
   // normal (xyz, object frame) and the ambient occlusion (w). The diffuse light is looked up
   // along the bent normal and scaled by the occlusion, so creases darken as the room's light says.
   std::vector<glm::vec4> occlusion;
+  GroundOcclusion ground;
   std::vector<std::uint32_t> indices;  // triangles
   Bounds bounds;
 
@@ -57,7 +69,9 @@ Mesh make_sphere(float radius, int rings, int segments);
 
 // Bakes the mesh's occlusion of itself into mesh.occlusion (bent normals and ambient occlusion
 // of its vertices, arlight::bake_transfer with Embree on all cores; `directions` rays per
-// vertex over the sphere). Native only: the browser build has no Embree.
+// vertex over the sphere), and of the floor it stands on into mesh.ground (a 64 x 64 grid
+// reaching 3 half-extents from its centre, as far as the shadow catcher's contact shadow).
+// Native only: the browser build has no Embree.
 void bake_occlusion(Mesh& mesh, int directions = 1024);
 
 // Thesis Alg. 5.2's light map, baked instead of read from a file: per texel of a width x height
