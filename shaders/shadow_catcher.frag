@@ -51,10 +51,6 @@ float directional_visibility(vec3 p) {
   return v / 9.0;
 }
 
-// Cosine-weighted occlusion of the upper hemisphere at p (normal +z) by the ellipsoids. For a
-// sphere of radius r at distance d whose direction makes angle theta with the normal, the
-// projected solid angle over pi is exactly cos(theta) r^2 / d^2 (while the sphere is above the
-// horizon); the ellipsoid uses its normalized distance |q| = |(c - p) / axes| for d / r.
 // The baked floor of object k at p (0 outside its rectangle, where it hides next to nothing).
 // textureLod: no derivatives in the branches that pick the sampler.
 float baked_ground(int k, vec3 p) {
@@ -66,6 +62,11 @@ float baked_ground(int k, vec3 p) {
   return textureLod(u_ground3, uv, 0.0).r;
 }
 
+// Cosine-weighted occlusion of the upper hemisphere at p (normal +z) by the objects: baked, or
+// by the ellipsoids. For a sphere of radius r at distance d whose direction makes angle theta
+// with the normal, the projected solid angle over pi is exactly cos(theta) r^2 / d^2 (while the
+// sphere is above the horizon); the ellipsoid uses its normalized distance |q| = |(c - p) / axes|
+// for d / r.
 float ambient_occlusion(vec3 p) {
   float ao = 0.0;
   for (int k = 0; k < 4; ++k) {

@@ -58,7 +58,7 @@ std::vector<float> bake_light_map(const Mesh& mesh, int width, int height, int d
     if (!(glm::length(n) > 1e-12)) return;
     int& slot = point_of[std::size_t(y) * std::size_t(width) + std::size_t(x)];
     if (slot < 0) slot = int(points.size()), points.emplace_back(), normals.emplace_back();
-    points[std::size_t(slot)] = glm::vec3(p),
+    points[std::size_t(slot)] = glm::vec3(p);
     normals[std::size_t(slot)] = glm::vec3(glm::normalize(n));
   });
   const Occluder occluder(mesh.positions, mesh.indices);

@@ -1170,9 +1170,10 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
     glActiveTexture(GLenum(GL_TEXTURE0 + kGroundUnit + k));
     const bool baked = k < count && casters[std::size_t(k)].ground_tex;
     glBindTexture(GL_TEXTURE_2D, baked ? casters[std::size_t(k)].ground_tex : white_tex.id);
-    if (baked)
-      has_ground[std::size_t(k)] = 1.0f,
+    if (baked) {
+      has_ground[std::size_t(k)] = 1.0f;
       ground_from_scene[std::size_t(k)] = casters[std::size_t(k)].ground_from_scene;
+    }
   }
   glUniform1fv(pr.uniform("u_has_ground"), kMaxEllipsoids, has_ground.data());
   glUniformMatrix4fv(pr.uniform("u_ground_from_scene"), kMaxEllipsoids, GL_FALSE,
