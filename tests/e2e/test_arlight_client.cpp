@@ -294,13 +294,16 @@ TEST(ArlightEval, ScoresTheCompositeLitByTheRoomsMapsAboveTheSh9One) {
                    kBunny + " --object-material " + kGlossy + " --reference-every 4");
   const json refs = read_json(orbit / "truth" / "reference" / "reference.json");
   ASSERT_GE(refs.at("frames").size(), 5u) << refs.dump();
+  // Every run shares one bake cache: the first bakes the bunny, the others read it back.
+  const std::string client =
+      "env XDG_CACHE_HOME=" + (dir / "cache").string() + " " + ARLIGHT_CLIENT_EXE;
   const auto composite = [&](const std::string& name, const std::string& args) {
-    const auto r =
-        test::run_tool(ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
-                                               " --source replay:" + orbit.string() + " --model " +
-                                               kBunny + " --material " + kGlossy +
-                                               " --marker 7,0.2 --pose truth --resume " + session +
-                                               " " + args + " --out " + (dir / name).string());
+    const auto r = test::run_tool(client, "--json " + (dir / (name + "_client.json")).string() +
+                                              " --server " + d.server() + " --token " +
+                                              test::kToken + " --source replay:" + orbit.string() +
+                                              " --model " + kBunny + " --material " + kGlossy +
+                                              " --marker 7,0.2 --pose truth --resume " + session +
+                                              " " + args + " --out " + (dir / name).string());
     if (r.status != 0) throw std::runtime_error(r.output);
     const auto e =
         test::run_tool(ARLIGHT_EVAL_EXE, "composite --recording " + orbit.string() + " --frames " +
@@ -313,7 +316,24 @@ TEST(ArlightEval, ScoresTheCompositeLitByTheRoomsMapsAboveTheSh9One) {
   const json maps = composite("maps", "--wait-maps 60");
   const json open = composite("open", "--wait-maps 60 --occlusion none");
   const json sh = composite("sh", "--maps ''");
+  // A damaged cache file is baked again (and replaced), not trusted.
+  const auto bakes = [&] {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "cache" / "arlight" / "bake"))
+      files.push_back(e.path());
+    return files;
+  };
+  ASSERT_EQ(bakes().size(), 1u);
+  { std::ofstream(bakes()[0], std::ios::binary | std::ios::trunc) << "not a glb"; }
   const json matched = composite("match", "--wait-maps 60 --tone camera,match");
+  const auto state = [&](const std::string& name) {
+    return read_json(dir / (name + "_client.json")).at("occlusion").at("state").get<std::string>();
+  };
+  EXPECT_EQ(state("maps"), "baked");
+  EXPECT_EQ(state("open"), "none");
+  EXPECT_EQ(state("sh"), "cached");
+  EXPECT_EQ(state("match"), "baked");
+  EXPECT_GT(fs::file_size(bakes()[0]), 2826u * 16u);  // replaced by the bake
   const auto psnr = [](const json& j) { return j.at("object").at("psnr_db").get<double>(); };
   const auto ssim = [](const json& j) { return j.at("object").at("ssim").get<double>(); };
   EXPECT_EQ(maps.at("frames").size(), refs.at("frames").size());

@@ -184,15 +184,15 @@ int main(int argc, char** argv) {
     if (!normal_map.empty()) po.material.normal_map = render::load_texture(normal_map, false);
     if (!light_map.empty()) po.material.light_map = render::load_texture(light_map, false);
     render::Mesh mesh = load_model(model);
+    std::string occlusion_state = "none";
     double bake_ms = 0;
-    if (occlusion == "none") mesh.occlusion.clear(), mesh.ground = {};
-    // A file may carry its bake already (arlight-model convert --bake).
-    if (occlusion == "baked" && (mesh.occlusion.empty() || mesh.ground.empty())) {
-      const auto bake_start = Clock::now();
-      render::bake_occlusion(mesh);
-      bake_ms = std::chrono::duration<double, std::milli>(Clock::now() - bake_start).count();
-      spdlog::info("{}: occlusion baked for {} vertices in {:.0f} ms", model, mesh.vertex_count(),
-                   bake_ms);
+    if (occlusion == "none") {
+      mesh.occlusion.clear(), mesh.ground = {};
+    } else {
+      BakedModel baked = bake_model(std::move(mesh), default_bake_cache());
+      mesh = std::move(baked.mesh), occlusion_state = baked.state, bake_ms = baked.bake_ms;
+      spdlog::info("{}: occlusion {} for {} vertices in {:.0f} ms", model, occlusion_state,
+                   mesh.vertex_count(), bake_ms);
     }
     FramePipeline pipeline(po, std::move(mesh));
 
@@ -255,7 +255,7 @@ int main(int argc, char** argv) {
                    {"size", {po.camera.width, po.camera.height}},
                    {"shading", render::shading_name(po.shading)},
                    {"glass", glass},
-                   {"occlusion", {{"state", occlusion}, {"bake_ms", bake_ms}}},
+                   {"occlusion", {{"state", occlusion_state}, {"bake_ms", bake_ms}}},
                    {"colour", render::colour_correction_name(po.colour)},
                    {"ior", ior},
                    {"sun", sun_json(channel.lighting())}});

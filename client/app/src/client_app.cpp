@@ -1,10 +1,16 @@
 #include "arlight/client_app.hpp"
 
+#include <spdlog/spdlog.h>
+#include <xxhash.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
 
+#include "arlight/atomic_file.hpp"
 #include "arlight/error.hpp"
 #include "arlight/number_list.hpp"
 
@@ -187,6 +193,61 @@ render::Mesh load_model(const std::string& name) {
       name == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(name);
   if (mesh.positions.empty()) throw InputError(name + ": no triangles");
   return mesh;
+}
+
+BakedModel bake_model(render::Mesh mesh, const std::filesystem::path& cache_dir) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  const auto ms = [&] {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  };
+  if (!mesh.occlusion.empty() && !mesh.ground.empty()) return {std::move(mesh), "file", 0.0};
+  constexpr int kDirections = 1024;  // render::bake_occlusion's default
+  mesh.occlusion.clear(), mesh.ground = {};
+  std::filesystem::path cached;
+  if (!cache_dir.empty()) {
+    const std::vector<std::uint8_t> geometry = render::encode_glb(mesh);
+    char name[64];
+    std::snprintf(name, sizeof name, "%016llx-v1-%d.glb",
+                  static_cast<unsigned long long>(XXH3_64bits(geometry.data(), geometry.size())),
+                  kDirections);
+    cached = cache_dir / name;
+    std::error_code ec;
+    if (std::filesystem::exists(cached, ec)) {
+      try {
+        render::Mesh back = render::load_gltf(cached);
+        if (back.vertex_count() == mesh.vertex_count() &&
+            back.occlusion.size() == mesh.vertex_count() && !back.ground.empty()) {
+          mesh.occlusion = std::move(back.occlusion), mesh.ground = std::move(back.ground);
+          return {std::move(mesh), "cached", ms()};
+        }
+        spdlog::warn("{}: not this model's bake; baking again", cached.string());
+      } catch (const InputError& e) {
+        spdlog::warn("the bake cache's {}; baking again", e.what());
+      }
+    }
+  }
+  render::bake_occlusion(mesh, kDirections);
+  const double bake_ms = ms();
+  if (!cached.empty()) {
+    try {
+      std::filesystem::create_directories(cached.parent_path());
+      const std::vector<std::uint8_t> glb = render::encode_glb(mesh);
+      write_file_atomically(
+          cached, std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
+    } catch (const std::exception& e) {  // a read-only or full disk: the next start bakes again
+      spdlog::warn("could not keep the bake in {}: {}", cached.string(), e.what());
+    }
+  }
+  return {std::move(mesh), "baked", bake_ms};
+}
+
+std::filesystem::path default_bake_cache() {
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return std::filesystem::path(xdg) / "arlight" / "bake";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return std::filesystem::path(home) / ".cache" / "arlight" / "bake";
+  return {};
 }
 
 void RunStats::add(const FrameReport& r, double decode) {

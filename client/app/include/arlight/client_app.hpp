@@ -5,6 +5,7 @@
 // (thesis ch. 5, tutorial §4.1) -> composite -> a report of what happened and how long it took.
 #pragma once
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -135,6 +136,21 @@ std::optional<render::Refraction> parse_glass(const std::string& name);
 // --ior: clear glass (render::glass) of that index of refraction, in [1, 3].
 render::Material glass_material(double ior, double shininess);
 render::Mesh load_model(const std::string& name);          // --model a glTF file, or "sphere"
+
+// --occlusion baked: the mesh with its occlusion of itself and of the floor baked
+// (render::bake_occlusion), unless it came with one. Bakes are kept in `cache_dir` (one .glb per
+// mesh, named by the xxHash of its geometry, and the bake's version and ray count), so a model
+// is baked once per machine; a cached file that does not read back is baked again and replaced,
+// and a cache that cannot be written only costs the next start a bake. state: "file" (it came
+// baked), "cached" or "baked".
+struct BakedModel {
+  render::Mesh mesh;
+  std::string state;
+  double bake_ms = 0;  // the bake itself, or reading it from the cache
+};
+BakedModel bake_model(render::Mesh mesh, const std::filesystem::path& cache_dir);
+// $XDG_CACHE_HOME/arlight/bake, or ~/.cache/arlight/bake; empty when neither is set.
+std::filesystem::path default_bake_cache();
 
 // Median, 95th percentile and maximum of a run's figures (what arlight-client reports).
 struct RunStats {
