@@ -1,10 +1,12 @@
 #version 300 es
 // Shadow catcher (tutorial §6.3, differential rendering): the real floor's radiance is scaled
 // by the ratio of the plane's irradiance with the virtual objects to without them,
-//   ratio = 1 - f (1 - V_dir) - (1 - f) AO,
-// f = the dominant light's share of the plane's irradiance (computed by the renderer),
-// V_dir = its visibility from the shadow map (3x3 PCF taps, each a 2x2 bilinear comparison),
-// AO = the cosine-weighted share of the rest (the sky, taken as uniform) hidden by the objects:
+//   ratio = 1 - sum_i f_i (1 - V_i) - (1 - f) AO,   f = sum_i f_i,
+// over the lights i whose hard shadows blend into the soft one (tutorial §6.3; the renderer
+// picks them, §6.4): f_i = light i's share of the plane's irradiance, V_i = its visibility from
+// its layer of the shadow maps (one 2x2 bilinear comparison, or 3x3 of them for one or two
+// lights), AO = the cosine-weighted share of the rest (the sky, taken as uniform) hidden by the
+// objects:
 // baked by ray casting where an object has its floor occlusion baked (tutorial §6.1's receiver
 // plane), else approximated by the ellipsoid inscribed in its bounds. The output holds the camera
 // frame's codes, so the radiance ratio becomes a code ratio through the camera response around
@@ -13,16 +15,21 @@
 // the camera frame (bilinear upsampling) before uploading it.
 precision highp float;
 precision highp sampler2D;
-precision highp sampler2DShadow;
+precision highp sampler2DArrayShadow;
+
+#define MAX_LIGHTS 32  // render.hpp's kMaxShadowLights
 
 in vec3 v_position;
 
-uniform sampler2DShadow u_shadow_map;
+uniform sampler2DArrayShadow u_shadow_maps;  // layer i: light i's depth
 uniform sampler2D u_response;
-uniform mat4 u_shadow_from_scene;  // scene -> shadow-map texture coordinates and depth [0, 1]
+uniform int u_light_count;
+uniform mat4 u_shadow_from_scene[MAX_LIGHTS];  // scene -> light i's texture coords, depth [0, 1]
+uniform vec4 u_light_fraction[MAX_LIGHTS / 4];  // f_i, four to a vec4
+uniform int u_pcf_radius;          // 0: one bilinear comparison; 1: 3x3 of them
 uniform float u_pcf_step;          // PCF tap spacing in texture coordinates
 uniform float u_depth_bias;
-uniform float u_fraction;          // f, 0 when there is no directional shadow
+uniform float u_fraction;          // f = sum f_i (0 without lights)
 uniform float u_ao_strength;
 uniform float u_ao_reach;          // AO fades to 0 at this many half-extents, horizontally
 uniform float u_min_ratio;
@@ -40,15 +47,18 @@ out vec4 o_factor;
 
 #include "response.glsl"
 
-float directional_visibility(vec3 p) {
-  vec3 s = (u_shadow_from_scene * vec4(p, 1.0)).xyz;
+float visibility(int light, vec3 p) {
+  vec3 s = (u_shadow_from_scene[light] * vec4(p, 1.0)).xyz;
   if (s.x < 0.0 || s.y < 0.0 || s.x > 1.0 || s.y > 1.0) return 1.0;
   float ref = min(s.z, 1.0) - u_depth_bias;
-  float v = 0.0;
-  for (int j = -1; j <= 1; ++j)
-    for (int i = -1; i <= 1; ++i)
-      v += texture(u_shadow_map, vec3(s.xy + vec2(float(i), float(j)) * u_pcf_step, ref));
-  return v / 9.0;
+  float v = 0.0, n = 0.0;
+  for (int j = -u_pcf_radius; j <= u_pcf_radius; ++j)
+    for (int i = -u_pcf_radius; i <= u_pcf_radius; ++i) {
+      vec2 uv = s.xy + vec2(float(i), float(j)) * u_pcf_step;
+      v += texture(u_shadow_maps, vec4(uv, float(light), ref));
+      n += 1.0;
+    }
+  return v / n;
 }
 
 // The baked floor of object k at p (0 outside its rectangle, where it hides next to nothing).
@@ -85,9 +95,13 @@ float ambient_occlusion(vec3 p) {
 }
 
 void main() {
-  float v = u_fraction > 0.0 ? directional_visibility(v_position) : 1.0;
+  float hidden = 0.0;  // sum_i f_i (1 - V_i)
+  for (int i = 0; i < MAX_LIGHTS; ++i) {
+    if (i >= u_light_count) break;
+    hidden += u_light_fraction[i / 4][i % 4] * (1.0 - visibility(i, v_position));
+  }
   float ao = ambient_occlusion(v_position) * u_ao_strength;
-  float ratio = 1.0 - u_fraction * (1.0 - v) - (1.0 - u_fraction) * ao;
+  float ratio = 1.0 - hidden - (1.0 - u_fraction) * ao;
   ratio = max(ratio, u_min_ratio);
   if (ratio > 0.998) discard;  // the pass's target was cleared to 1
   vec3 grey = encode(vec3(0.18));

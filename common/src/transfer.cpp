@@ -11,6 +11,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "arlight/image.hpp"
+
 namespace arlight {
 
 struct Occluder::Impl {
@@ -188,6 +190,43 @@ Transfer bake_transfer(const Occluder& occluder, std::span<const glm::vec3> poin
     for (int k = 0; k < n_sh; ++k)
       out.sh[p * std::size_t(n_sh) + std::size_t(k)] = float(t[std::size_t(k)]);
   });
+  return out;
+}
+
+ShadowReference::ShadowReference(const EnvMap& world_map, const glm::dmat3& scene_from_world,
+                                 glm::dvec3 normal)
+    : normal_(glm::normalize(normal)) {
+  const auto table = texel_table(world_map.layout);
+  const auto width = std::uint32_t(world_map.layout.width());
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const glm::dvec3 d = scene_from_world * glm::dvec3(table->x[i], table->y[i], table->z[i]);
+    const double c = glm::dot(d, normal_);
+    const std::uint32_t index = table->index[i];
+    const double l =
+        luminance(glm::dvec3(world_map.image.at(int(index % width), int(index / width))));
+    if (!(c > 0) || !(l > 0)) continue;
+    dirs_.push_back(glm::normalize(d));
+    weights_.push_back(l * table->solid_angle[i] * c);
+    total_ += weights_.back();
+  }
+}
+
+double ShadowReference::ratio(const Occluder& occluder, const glm::dvec3& point) const {
+  if (!(total_ > 0)) return 1.0;
+  const glm::dvec3 origin = point + 1e-5 * std::max(occluder.radius(), 1e-6) * normal_;
+  std::vector<std::uint8_t> hit(dirs_.size());
+  occluder.occluded(origin, dirs_, hit);
+  double open = 0;
+  for (std::size_t i = 0; i < dirs_.size(); ++i)
+    if (!hit[i]) open += weights_[i];
+  return open / total_;
+}
+
+std::vector<double> ShadowReference::ratios(const Occluder& occluder,
+                                            std::span<const glm::dvec3> points) const {
+  std::vector<double> out(points.size());
+  tbb::parallel_for(std::size_t(0), points.size(),
+                    [&](std::size_t i) { out[i] = ratio(occluder, points[i]); });
   return out;
 }
 

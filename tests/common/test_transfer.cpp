@@ -82,6 +82,35 @@ TEST(Transfer, ASphereOverAPlaneOccludesWhatTheFormFactorSays) {
   }
 }
 
+// The ray-traced shadow reference over every texel of a map: a uniform sky gives the form
+// factor; a single lamp gives 0 or 1 as the ball hides it or not; the scene frame is the map's
+// turned (scene z up = world y up).
+TEST(ShadowReference, UniformSkyGivesTheFormFactorAndALampItsVisibility) {
+  const float r = 0.5f, h = 1.2f;
+  const TriangleMesh ball = sphere({0.0f, 0.0f, h}, r);  // scene frame: z up
+  const Occluder occluder(ball.positions, ball.indices);
+  const glm::dmat3 scene_from_world(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, 1), glm::dvec3(0, -1, 0));
+  const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, 256);
+  EnvMap sky(layout);
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) sky.image.set(x, y, glm::vec3(2.0f));
+  const ShadowReference uniform(sky, scene_from_world, {0, 0, 1});
+  std::vector<glm::dvec3> points;
+  for (const double x : {0.0, 0.4, 1.0, 3.0}) points.push_back({x, 0.0, 0.0});
+  const std::vector<double> ratios = uniform.ratios(occluder, points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double d2 = points[i].x * points[i].x + double(h) * h;
+    EXPECT_NEAR(ratios[i], 1.0 - double(r) * r * h / (d2 * std::sqrt(d2)), 0.005) << points[i].x;
+  }
+  // One lamp texel straight above (world +y): the ball hides it from under its centre only.
+  EnvMap lamp(layout);
+  const glm::ivec2 t = layout.dir_to_texel({0.0, 1.0, 0.0});
+  lamp.image.set(t.x, t.y, glm::vec3(100.0f));
+  const ShadowReference one(lamp, scene_from_world, {0, 0, 1});
+  EXPECT_EQ(one.ratio(occluder, {0.0, 0.0, 0.0}), 0.0);
+  EXPECT_EQ(one.ratio(occluder, {0.7, 0.0, 0.0}), 1.0);
+}
+
 // In a room of constant radiance the transfer dotted with the room's SH is exactly the ambient
 // occlusion (the lobe-averaged radiance the point still receives).
 TEST(Transfer, ConstantRoomGivesTheAmbientOcclusion) {

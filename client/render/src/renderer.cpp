@@ -12,6 +12,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "arlight/light_sources.hpp"
 #include "arlight/render.hpp"
 #include "gl.hpp"
 #include "textures.hpp"
@@ -260,9 +261,9 @@ struct Renderer::Impl {
   // the irradiance for f (the irradiance SH of the live SH; a copy of the irradiance map).
   ShadowSettings shadow;
   std::vector<Caster> casters;
-  gl::Texture shadow_tex, factor_tex;
+  gl::Texture shadow_tex, factor_tex;  // shadow_tex: one depth layer per light
   gl::Framebuffer shadow_fbo, factor_fbo;
-  int shadow_size = 0, factor_w = 0, factor_h = 0;
+  int shadow_size = 0, shadow_layers = 0, factor_w = 0, factor_h = 0;
   std::vector<float> shadow_key;
   std::vector<std::uint8_t> factors;  // the low-resolution factors, read back  // what the shadow
                                       // map holds (light, casters); empty: nothing
@@ -280,7 +281,8 @@ struct Renderer::Impl {
     return glm::vec3(0.0f);
   }
 
-  float shadow_fraction() const {
+  // The dominant light's f (ShadowSettings), for lighting without a map set.
+  float dominant_fraction() const {
     if (!shadow.enabled) return 0.0f;
     const glm::vec3 up = world_from_scene * glm::vec3(0, 0, 1);
     const float len = glm::length(shadow.light_direction);
@@ -291,6 +293,57 @@ struct Renderer::Impl {
     const float e_tot = std::numbers::pi_v<float> * luminance(irradiance_over_pi(up));
     const float f = e_tot > 0 ? e_dom / e_tot : 1.0f;
     return std::clamp(f, 0.0f, std::clamp(shadow.max_fraction, 0.0f, 1.0f));
+  }
+
+  // The map set's light clusters (tutorial §6), built for the floor's normal (rebuilt when it
+  // turns by more than ~2 degrees) and the source share they were asked for.
+  mutable std::optional<LightTree> light_tree;
+  mutable float light_tree_share = 0;
+  struct ShadowLight {
+    glm::vec3 direction;  // unit, scene frame, above the floor
+    float fraction;       // its f_i: share of the floor's irradiance
+  };
+  // The hard shadows this frame blends: the chosen clusters under a map set, else the dominant
+  // light; their fractions sum to at most max_fraction.
+  std::vector<ShadowLight> shadow_lights() const {
+    std::vector<ShadowLight> lights;
+    if (!shadow.enabled) return lights;
+    const glm::mat3 scene_from_world = glm::transpose(world_from_scene);
+    const glm::vec3 up = world_from_scene * glm::vec3(0, 0, 1);
+    const auto add = [&](glm::vec3 world_direction, float f) {
+      const glm::vec3 l = glm::normalize(scene_from_world * world_direction);
+      if (f > 0.0f && l.z > 0.02f) lights.push_back({l, f});
+    };
+    if (sharpest_map) {
+      if (!light_tree || light_tree_share != shadow.source_share ||
+          glm::dot(light_tree->normal, up) < 0.9994f) {
+        LightTreeOptions o;
+        o.power_share = std::clamp(double(shadow.source_share), 0.01, 1.0);
+        o.max_leaves = kMaxShadowLights;
+        light_tree = build_light_tree(*sharpest_map, glm::dvec3(up), o);
+        light_tree_share = shadow.source_share;
+      }
+      const float total = luminance(light_tree->receiver_irradiance);
+      for (const int i :
+           select_lights(*light_tree, std::clamp(shadow.lights, 1, kMaxShadowLights))) {
+        const LightCluster& c = light_tree->nodes[std::size_t(i)];
+        if (total > 0.0f && c.spread <= shadow.max_spread)
+          add(c.direction, luminance(c.irradiance) / total);
+      }
+    } else if (glm::length(shadow.light_direction) > 0.0f) {
+      add(shadow.light_direction, dominant_fraction());
+    }
+    float sum = 0.0f;
+    for (const ShadowLight& l : lights) sum += l.fraction;
+    const float cap = std::clamp(shadow.max_fraction, 0.0f, 1.0f);
+    if (sum > cap)
+      for (ShadowLight& l : lights) l.fraction *= cap / sum;
+    return lights;
+  }
+  float shadow_fraction() const {
+    float sum = 0.0f;
+    for (const ShadowLight& l : shadow_lights()) sum += l.fraction;
+    return sum;
   }
 
   Shading shading = Shading::ImageBased;
@@ -318,12 +371,12 @@ struct Renderer::Impl {
     return h;
   }
 
-  void ensure_shadow_resources() {
+  void ensure_shadow_resources(int layers) {
     if (!shadow_depth.id()) {
       shadow_depth = Program(shader_dir, "shadow_depth.vert", "shadow_depth.frag");
       shadow_catcher = Program(shader_dir, "shadow_catcher.vert", "shadow_catcher.frag");
       glUseProgram(shadow_catcher.id());
-      glUniform1i(shadow_catcher.uniform("u_shadow_map"), 0);
+      glUniform1i(shadow_catcher.uniform("u_shadow_maps"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
       for (int k = 0; k < kMaxEllipsoids; ++k)
         glUniform1i(shadow_catcher.uniform(("u_ground" + std::to_string(k)).c_str()),
@@ -342,25 +395,27 @@ struct Renderer::Impl {
       glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, factor_tex.id, 0);
       gl::check_framebuffer("shadow factors (RGBA8)");
     }
+    // One depth layer per light, grown as more lights are asked for.
     const int n = std::max(16, shadow.map_size);
-    if (shadow_size == n) return;
-    shadow_size = n;
+    layers = std::max(layers, 1);
+    if (shadow_size == n && shadow_layers >= layers) return;
+    shadow_size = n, shadow_layers = std::max(layers, shadow_layers);
     shadow_key.clear();
     shadow_tex = gl::Texture();
     shadow_tex.create();
-    glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, n, n, 0, GL_DEPTH_COMPONENT,
-                 GL_UNSIGNED_INT, nullptr);
-    gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
-    shadow_fbo.create();
+    glBindTexture(GL_TEXTURE_2D_ARRAY, shadow_tex.id);
+    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_DEPTH_COMPONENT24, n, n, shadow_layers, 0,
+                 GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+    gl::set_sampling(GL_TEXTURE_2D_ARRAY, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    if (!shadow_fbo.id) shadow_fbo.create();
     glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
-    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_tex.id, 0);
+    glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_tex.id, 0, 0);
     const GLenum none = GL_NONE;
     glDrawBuffers(1, &none);
-    gl::check_framebuffer("shadow map (DEPTH_COMPONENT24)");
+    gl::check_framebuffer("shadow maps (DEPTH_COMPONENT24 layers)");
   }
 
   // The shadow map and the shadow catcher's factors; when some are below 1, `shadowed` is the
@@ -608,13 +663,13 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
   const std::size_t sharpest =
       std::size_t(std::max_element(shininess.begin(), shininess.end()) - shininess.begin());
   p_->sharpest_map = maps[sharpest];
-  p_->map_priors.reset();
+  p_->map_priors.reset(), p_->light_tree.reset();
 }
 
 void Renderer::clear_maps() {
   p_->maps = EnvSet();
   p_->irradiance_map_sh.reset();
-  p_->sharpest_map.reset(), p_->map_priors.reset();
+  p_->sharpest_map.reset(), p_->map_priors.reset(), p_->light_tree.reset();
 }
 
 void Renderer::set_shadow(const ShadowSettings& settings) {
@@ -826,7 +881,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   // Shadows on the floor: the factors at low resolution on the GPU, multiplied into a copy of
   // the frame where they are below 1 (before the upload; the objects' pixels get darkened too,
   // but the composite pass overwrites every one of them).
-  p.timings.shadow_ms = 0;
+  p.timings.shadow_ms = 0, p.timings.shadow_lights = 0;
   ImageU8View camera = frame;
   if (p.shadow.enabled && !p.casters.empty()) {
     const auto ts = Clock::now();
@@ -878,7 +933,8 @@ void Renderer::composite_in_place(const ToneMapping& tone) {
   // No glFinish: in a browser it is a round trip to the GPU process that stalls the page (the
   // timings are then the time to issue the frame, not to draw it).
   const auto t0 = p.begin_composite(tone, /*wait=*/false);
-  p.timings.shadow_ms = 0;  // the shadow catcher needs the frame on the CPU: composite() only
+  p.timings.shadow_ms = 0,
+  p.timings.shadow_lights = 0;  // the shadow catcher needs the frame on the CPU: composite() only
   p.draw_live_glass(tone, true);
   p.tone_map_and_composite(tone, true);
   p.timings.tonemap_ms = ms_since(t0);
@@ -1062,35 +1118,40 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   if (cam.z <= 0.0f) return false;  // seen from under the floor
   const float size = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-6f});
 
-  // Light direction in the scene frame; f.
-  const float f = shadow_fraction();
-  glm::vec3 l(0, 0, 1);
-  if (glm::length(shadow.light_direction) > 0)
-    l = glm::normalize(glm::transpose(world_from_scene) * glm::normalize(shadow.light_direction));
-  const bool directional = f > 0.0f && l.z > 0.02f;
+  // The hard shadows to blend (scene frame) and their shares of the floor's light.
+  const std::vector<ShadowLight> lights = shadow_lights();
+  float f_sum = 0.0f;
+  for (const ShadowLight& sl : lights) f_sum += sl.fraction;
+  timings.shadow_lights = int(lights.size());
 
   // The receiver rectangle: the objects' footprints widened to where AO fades out, and the
-  // shadows' reach along -l (at most max_shadow_length object sizes).
+  // shadows' reach along each -l (at most max_shadow_length object sizes).
   glm::vec2 r0(1e30f), r1(-1e30f);
   for (const Caster& c : casters) {
     const glm::vec2 half = 0.5f * glm::vec2(c.hi - c.lo), mid = 0.5f * glm::vec2(c.hi + c.lo);
     const glm::vec2 reach = std::max(shadow.ao_reach, 0.0f) * glm::max(half, glm::vec2(1e-4f));
     r0 = glm::min(r0, mid - reach), r1 = glm::max(r1, mid + reach);
-    if (!directional) continue;
-    for (int i = 0; i < 8; ++i) {
-      const glm::vec3 q(i & 1 ? c.hi.x : c.lo.x, i & 2 ? c.hi.y : c.lo.y, i & 4 ? c.hi.z : c.lo.z);
-      glm::vec2 d = -glm::vec2(l) * (std::max(q.z, 0.0f) / l.z);
-      const float len = glm::length(d), cap = shadow.max_shadow_length * size;
-      if (len > cap) d *= cap / len;
-      const glm::vec2 hit = glm::vec2(q) + d;
-      r0 = glm::min(r0, hit), r1 = glm::max(r1, hit);
+    for (const ShadowLight& sl : lights) {
+      const glm::vec3 l = sl.direction;
+      for (int i = 0; i < 8; ++i) {
+        const glm::vec3 q(i & 1 ? c.hi.x : c.lo.x, i & 2 ? c.hi.y : c.lo.y,
+                          i & 4 ? c.hi.z : c.lo.z);
+        glm::vec2 d = -glm::vec2(l) * (std::max(q.z, 0.0f) / l.z);
+        const float len = glm::length(d), cap = shadow.max_shadow_length * size;
+        if (len > cap) d *= cap / len;
+        const glm::vec2 hit = glm::vec2(q) + d;
+        r0 = glm::min(r0, hit), r1 = glm::max(r1, hit);
+      }
     }
   }
 
-  ensure_shadow_resources();
-  glm::mat4 shadow_from_scene(1.0f);
-  if (directional) {
-    // Orthographic light view fitted to the casters' bounds, a few texels of margin.
+  ensure_shadow_resources(int(lights.size()));
+  // Per light, an orthographic view fitted to the casters' bounds, a few texels of margin.
+  std::vector<glm::mat4> light_view_proj, shadow_from_scene;
+  const glm::mat4 to_tex = glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) *
+                           glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
+  for (const ShadowLight& sl : lights) {
+    const glm::vec3 l = sl.direction;
     const glm::vec3 centre = 0.5f * (lo + hi);
     const glm::vec3 up_hint = std::abs(l.z) < 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
     const glm::mat4 view = glm::lookAt(centre + l * (2.0f * size), centre, up_hint);
@@ -1103,38 +1164,41 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
     const float margin = (b.x - a.x + b.y - a.y) * (shadow.pcf_step + 2.0f) / float(shadow_size);
     const glm::mat4 proj = glm::ortho(a.x - margin, b.x + margin, a.y - margin, b.y + margin,
                                       -b.z - margin, -a.z + margin);
-    const glm::mat4 light_view_proj = proj * view;
-    glm::mat4 to_tex = glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) *
-                       glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
-    shadow_from_scene = to_tex * light_view_proj;
+    light_view_proj.push_back(proj * view);
+    shadow_from_scene.push_back(to_tex * light_view_proj.back());
+  }
 
-    // The map is re-rendered only when the light or a caster moved (in the scene frame).
-    std::vector<float> key(glm::value_ptr(light_view_proj), glm::value_ptr(light_view_proj) + 16);
-    for (const Caster& c : casters) {
-      key.push_back(float(c.vao)), key.push_back(float(c.count));
-      key.insert(key.end(), glm::value_ptr(c.model), glm::value_ptr(c.model) + 16);
-    }
-    if (key != shadow_key) {
-      shadow_key = std::move(key);
-      glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
-      glViewport(0, 0, shadow_size, shadow_size);
-      glDisable(GL_BLEND);
-      glDisable(GL_CULL_FACE);
-      glEnable(GL_DEPTH_TEST);
-      glDepthFunc(GL_LESS);
-      glDepthMask(GL_TRUE);
+  // The maps are re-rendered only when a light or a caster moved (in the scene frame).
+  std::vector<float> key;
+  for (const glm::mat4& m : light_view_proj)
+    key.insert(key.end(), glm::value_ptr(m), glm::value_ptr(m) + 16);
+  for (const Caster& c : casters) {
+    key.push_back(float(c.vao)), key.push_back(float(c.count));
+    key.insert(key.end(), glm::value_ptr(c.model), glm::value_ptr(c.model) + 16);
+  }
+  if (!lights.empty() && key != shadow_key) {
+    shadow_key = std::move(key);
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo.id);
+    glViewport(0, 0, shadow_size, shadow_size);
+    glDisable(GL_BLEND);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glUseProgram(shadow_depth.id());
+    const GLint u_light = shadow_depth.uniform("u_light_view_proj");
+    const GLint u_model = shadow_depth.uniform("u_model");
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+      glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, shadow_tex.id, 0, GLint(i));
       glClear(GL_DEPTH_BUFFER_BIT);
-      glUseProgram(shadow_depth.id());
-      glUniformMatrix4fv(shadow_depth.uniform("u_light_view_proj"), 1, GL_FALSE,
-                         glm::value_ptr(light_view_proj));
-      const GLint u_model = shadow_depth.uniform("u_model");
+      glUniformMatrix4fv(u_light, 1, GL_FALSE, glm::value_ptr(light_view_proj[i]));
       for (const Caster& c : casters) {
         glUniformMatrix4fv(u_model, 1, GL_FALSE, glm::value_ptr(c.model));
         glBindVertexArray(c.vao);
         glDrawElements(GL_TRIANGLES, c.count, GL_UNSIGNED_INT, nullptr);
       }
-      glBindVertexArray(0);
     }
+    glBindVertexArray(0);
   }
 
   // The catcher, in two passes over the rectangle of z = 0: the code factors at low
@@ -1144,11 +1208,19 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   glUseProgram(pr.id());
   glUniform4f(pr.uniform("u_rect"), r0.x, r0.y, r1.x, r1.y);
   glUniformMatrix4fv(pr.uniform("u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
-  glUniformMatrix4fv(pr.uniform("u_shadow_from_scene"), 1, GL_FALSE,
-                     glm::value_ptr(shadow_from_scene));
+  glUniform1i(pr.uniform("u_light_count"), int(lights.size()));
+  if (!lights.empty()) {
+    glUniformMatrix4fv(pr.uniform("u_shadow_from_scene"), GLsizei(lights.size()), GL_FALSE,
+                       glm::value_ptr(shadow_from_scene[0]));
+    std::array<float, kMaxShadowLights> fractions{};
+    for (std::size_t i = 0; i < lights.size(); ++i) fractions[i] = lights[i].fraction;
+    glUniform4fv(pr.uniform("u_light_fraction"), kMaxShadowLights / 4, fractions.data());
+  }
+  // Few lights: each shadow's edge softened by PCF; many: their overlap is the penumbra.
+  glUniform1i(pr.uniform("u_pcf_radius"), lights.size() <= 2 ? 1 : 0);
   glUniform1f(pr.uniform("u_pcf_step"), shadow.pcf_step / float(shadow_size));
   glUniform1f(pr.uniform("u_depth_bias"), 2.0f / float(shadow_size));
-  glUniform1f(pr.uniform("u_fraction"), directional ? f : 0.0f);
+  glUniform1f(pr.uniform("u_fraction"), f_sum);
   glUniform1f(pr.uniform("u_ao_strength"), std::max(shadow.ao_strength, 0.0f));
   glUniform1f(pr.uniform("u_ao_reach"), std::max(shadow.ao_reach, 1e-3f));
   glUniform1f(pr.uniform("u_min_ratio"), std::clamp(shadow.min_ratio, 0.0f, 1.0f));
@@ -1179,7 +1251,7 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   glUniformMatrix4fv(pr.uniform("u_ground_from_scene"), kMaxEllipsoids, GL_FALSE,
                      glm::value_ptr(ground_from_scene[0]));
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, shadow_tex.id);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, shadow_tex.id);
   glActiveTexture(GL_TEXTURE2);
   glBindTexture(GL_TEXTURE_2D, response_lut.id);
   glBindFramebuffer(GL_FRAMEBUFFER, factor_fbo.id);

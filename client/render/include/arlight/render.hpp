@@ -155,6 +155,7 @@ struct FrameTimings {
   double shadow_ms = 0;    // the shadow map and the shadow catcher (part of tonemap_ms)
   double refraction_ms = 0;  // live refraction: the frame's copy and the glass (in tonemap_ms)
   double readback_ms = 0;  // glReadPixels and conversion to BGR
+  int shadow_lights = 0;   // the hard shadows the last composite's soft shadow blended
   double total() const { return render_ms + tonemap_ms + readback_ms; }
 };
 
@@ -162,7 +163,8 @@ struct FrameTimings {
 // (marker) frame receives the shadows of the objects drawn this frame, and the camera frame's
 // pixels there are scaled by the ratio of the plane's irradiance with the objects to without:
 //   ratio = max(min_ratio, 1 - f (1 - V) - (1 - f) AO)
-// with f the dominant light's share of the plane's irradiance,
+// with f the dominant light's share of the plane's irradiance (under a map set, the sum over
+// `lights` clusters of f_i (1 - V_i) instead: see `lights` below),
 //   f = clamp(lum(light_colour) max(0, l.n) / (pi lum(Lbar(n))), 0, max_fraction),
 // n the plane's normal and l the light direction (world frame), Lbar(n) the irradiance map's
 // value there (irradiance / pi, from the maps or the SH); V the light's visibility from an
@@ -186,6 +188,42 @@ struct ShadowSettings {
   float ao_reach = 3.0f;         // AO fades to 0 at this many half-extents from an object
   float max_shadow_length = 4.0f;  // the plane reaches at most this many object sizes
   float min_ratio = 0.15f;       // the darkest the floor gets
+  // Soft shadows under a map set (tutorial §6): its sharpest map's brightest texels holding
+  // source_share of the floor's light are median-cut into clusters (build_light_tree), and
+  // `lights` of them (select_lights; at most kMaxShadowLights) each cast a hard shadow from
+  // their centroid, weighted by their share of the floor's irradiance (their f_i, summing to
+  // about source_share); the rest of the light shadows through AO. The lights above are then
+  // unused; under the live SH alone they are the one light. A cluster wider than max_spread
+  // (its texels' mean angle from its centre, radians) casts no hard shadow of its own: one hard
+  // shadow is a poor stand-in for a broad light (an overcast sky, a uniform room), so its share
+  // joins the AO's, which is exact for a uniform sky.
+  int lights = 8;
+  float source_share = 0.7f;
+  float max_spread = 0.25f;
+};
+inline constexpr int kMaxShadowLights = 32;  // shadow_catcher.frag's MAX_LIGHTS
+
+// Tutorial §6.4's frame-rate control: how many lights (ShadowSettings::lights) hold a target
+// frame time. Each frame reports its time; after two frames over the target the count drops in
+// proportion at once (at least by one), and after kPatience frames in a row under kHeadroom x
+// the target it grows by one, so it settles just under the target and follows a renderer that
+// slows down or speeds up.
+class LightCountControl {
+ public:
+  // Throws std::invalid_argument for a target <= 0 or max_lights outside [1, kMaxShadowLights].
+  LightCountControl(double target_ms, int max_lights, int start = 1);
+  // One frame drawn with lights() lights took frame_ms; returns the count for the next frame.
+  int update(double frame_ms);
+  int lights() const { return lights_; }
+  double target_ms() const { return target_ms_; }
+
+ private:
+  double target_ms_;
+  int max_lights_, lights_;
+  int calm_frames_ = 0;
+  double last_ms_ = 0;
+  static constexpr double kHeadroom = 0.85;
+  static constexpr int kPatience = 4;
 };
 
 struct HdrReadback {
@@ -252,7 +290,8 @@ class Renderer {
   // ---- shadows on the real floor (see ShadowSettings); off by default ----
   void set_shadow(const ShadowSettings& settings);
   const ShadowSettings& shadow() const;
-  // f of ShadowSettings for the current lighting, world_from_scene and light (0 when off).
+  // f of ShadowSettings for the current lighting, world_from_scene and light (0 when off);
+  // under a map set, the sum of the chosen clusters' f_i.
   float shadow_fraction() const;
 
   // Clears the HDR target (radiance 0, mask 0) and depth, and the frame's shadow casters.
