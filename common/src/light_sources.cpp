@@ -87,6 +87,9 @@ LightTree build_light_tree(const EnvMap& map, glm::dvec3 normal, const LightTree
   double held = 0;
   std::size_t count = 0;
   while (count < texels.size() && held < wanted) held += texels[count++].energy;
+  // A radiance threshold, not a count: texels as bright as the last one taken are taken too
+  // (a lamp of one radiance is not cut in two by the order of equal texels).
+  while (count < texels.size() && texels[count].radiance >= texels[count - 1].radiance) ++count;
   texels.resize(std::max<std::size_t>(count, 1));
 
   // Top-down: split the leaf that gives the plane the most light until max_leaves.

@@ -1,10 +1,10 @@
 // Shadow-casting light sources from an environment map (tutorial §6): the source set is the
 // brightest texels that hold `power_share` (the tutorial's ~70 %) of the light a receiver plane
-// gets from the whole map; it is clustered top-down into a binary KD-tree (§6.2: "subdivision
-// of a binary KD-tree node only increases the number of leaves by one"), each split on the
-// directions' widest axis at the power median (Debevec 2005's median cut), so a renderer can
-// pick any number of clusters at run time and still account for the whole set (§6.4). The rest
-// of the light (1 - power_share) is left to the ambient transfer.
+// gets from the whole map (and any as bright as the last one taken); it is clustered top-down into
+// a binary KD-tree (§6.2: "subdivision of a binary KD-tree node only increases the number of leaves
+// by one"), each split on the directions' widest axis at the power median (Debevec 2005's median
+// cut), so a renderer can pick any number of clusters at run time and still account for the whole
+// set (§6.4). The rest of the light (1 - power_share) is left to the ambient transfer.
 #pragma once
 
 #include <glm/vec3.hpp>
