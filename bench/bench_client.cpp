@@ -71,7 +71,8 @@ const ClientFixture& fixture() {
 void BM_ClientFrame(benchmark::State& state, bool shadow,
                     render::Shading shading = render::Shading::ImageBased,
                     std::optional<render::Refraction> glass = std::nullopt,
-                    render::ColourCorrection colour = render::ColourCorrection::None) {
+                    render::ColourCorrection colour = render::ColourCorrection::None,
+                    int shadow_lights = 16, double target_fps = 0) {
   const ClientFixture& fx = fixture();
   render::GlContext gl = render::GlContext::headless();
   client_app::PipelineOptions options;
@@ -83,6 +84,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   options.shadow = shadow;
   options.shading = shading;
   options.colour = colour;
+  options.shadow_lights = shadow_lights, options.target_fps = target_fps;
   if (glass) options.material = render::glass(1.5f, 1280.0f), options.refraction = *glass;
   client_app::FramePipeline pipeline(
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
@@ -95,13 +97,18 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   cv::Mat out;
   client_app::RunStats stats;
   std::size_t k = 0, drawn = 0;
-  std::vector<double> refraction_ms;
+  std::vector<double> refraction_ms, shadow_ms;
   for (auto _ : state) {
     const client_app::FrameReport r =
         pipeline.process(fx.frames[k++ % fx.frames.size()], lighting, out);
     stats.add(r, 0.0);
     drawn += r.drawn;
     refraction_ms.push_back(pipeline.renderer().timings().refraction_ms);
+    if (r.drawn) shadow_ms.push_back(pipeline.renderer().timings().shadow_ms);
+  }
+  if (shadow) {
+    state.counters["shadow_ms"] = client_app::median(shadow_ms);
+    state.counters["shadow_lights"] = client_app::median(stats.shadow_lights);
   }
   if (glass == render::Refraction::LiveFrame)
     state.counters["refraction_ms"] = client_app::median(refraction_ms);
@@ -152,6 +159,26 @@ BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_colour_match, true, render::Shading
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_colour_contrast, true, render::Shading::ImageBased,
                   std::nullopt, render::ColourCorrection::Contrast)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+// Soft shadows (tutorial §6): N hard shadows of the room's light clusters, fixed, and as many
+// as hold 30 fps (the frame-rate control, §6.4; shadow_lights is the median it chose).
+void BM_SoftShadowLights(benchmark::State& state) {
+  BM_ClientFrame(state, true, render::Shading::ImageBased, std::nullopt,
+                 render::ColourCorrection::None, int(state.range(0)), 0.0);
+}
+BENCHMARK(BM_SoftShadowLights)
+    ->Arg(1)
+    ->Arg(4)
+    ->Arg(8)
+    ->Arg(16)
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(64)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_shadow_30fps, true, render::Shading::ImageBased,
+                  std::nullopt, render::ColourCorrection::None, 32, 30.0)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(96)
     ->UseRealTime();

@@ -43,8 +43,8 @@ int main(int argc, char** argv) {
       location, time_text, glass = "off", pose = "track", occlusion = "baked";
   std::optional<double> north_offset;
   bool window = false, realtime = false;
-  int frames_limit = 0, map_size = 128;
-  double object_height = 0, wait_maps_s = 0, ior = 1.5, fps = 30;
+  int frames_limit = 0, map_size = 128, shadow_lights = 16;
+  double object_height = 0, wait_maps_s = 0, ior = 1.5, fps = 30, target_fps = 30;
   client::TlsOptions tls;
   app.add_option("--server", server, "arlightd HOST:PORT")->required();
   app.add_option("--token", token, "this device's token")->required();
@@ -62,9 +62,18 @@ int main(int argc, char** argv) {
   app.add_option("--normal-map", normal_map, "tangent-space normal map image (needs uvs)");
   app.add_option("--light-map", light_map, "light map image (multiplies diffuse irradiance)");
   app.add_option("--shadow", shadow,
-                 "on: the object casts shadows on the real floor (the marker's plane): the "
-                 "dominant light's shadow map plus a contact shadow, darkening the frame there")
+                 "on: the object casts shadows on the real floor (the marker's plane): soft "
+                 "shadows from the room's lights (or the dominant light's, before maps) plus a "
+                 "contact shadow, darkening the frame there")
       ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  app.add_option("--shadow-lights", shadow_lights,
+                 "at most this many hard shadows blended into the soft one under a map set (the "
+                 "clusters of the room's brightest light, tutorial §6), 1-32")
+      ->capture_default_str();
+  app.add_option("--target-fps", target_fps,
+                 "frame-rate control (tutorial §6.4): as many shadow lights as keep the client's "
+                 "own work per frame within 1/F s; 0: always --shadow-lights")
       ->capture_default_str();
   app.add_option("--shading", shading,
                  "maps (irradiance and reflection maps), hemisphere (two colours from the "
@@ -148,6 +157,8 @@ int main(int argc, char** argv) {
     po.material = parse_material(material_text);
     po.object_height = object_height;
     po.shadow = shadow == "on";
+    po.shadow_lights = shadow_lights;
+    po.target_fps = target_fps;
     std::tie(po.tone, po.colour) = parse_tone_options(tone);
     po.shading = parse_shading(shading);
     po.response = CameraResponse::named(response);

@@ -53,6 +53,10 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
                        {"max_cm", percentile(s.error_cm, 1.0)},
                        {"max_deg", percentile(s.error_deg, 1.0)},
                        {"frames", s.error_cm.size()}};
+  j["shadow_lights"] = {{"median", median(s.shadow_lights)},
+                        {"min", s.shadow_lights.empty() ? 0.0 : percentile(s.shadow_lights, 0.0)},
+                        {"max", percentile(s.shadow_lights, 1.0)},
+                        {"frames", s.shadow_lights.size()}};
   j["lit_by_maps"] = s.lit_by_maps;
   j["lit_by_sh"] = s.lit_by_sh;
   j["exposure_advice"] = {{"received", ls.exposure_advice},

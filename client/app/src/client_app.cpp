@@ -46,6 +46,14 @@ FramePipeline::FramePipeline(PipelineOptions options, const render::Mesh& mesh)
   renderer_.set_response(options_.response);
   renderer_.set_shading(options_.shading);
   renderer_.set_refraction(options_.refraction);
+  if (options_.shadow_lights < 1 || options_.shadow_lights > render::kMaxShadowLights)
+    throw InputError("--shadow-lights: between 1 and " + std::to_string(render::kMaxShadowLights));
+  if (!(options_.target_fps >= 0) || options_.target_fps > 1000)
+    throw InputError("--target-fps: frames a second in [0, 1000] (0: no frame-rate control)");
+  // Evaluations at the true pose are reproducible: their shadow lights do not follow the clock.
+  if (options_.target_fps > 0 && !options_.draw_at_true_pose)
+    light_control_.emplace(1000.0 / options_.target_fps, options_.shadow_lights,
+                           std::min(4, options_.shadow_lights));
 }
 
 FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel& channel,
@@ -111,6 +119,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     shadow.enabled = options_.shadow;
     shadow.light_direction = lighting.dominant_direction;
     shadow.light_colour = lighting.dominant_colour;
+    shadow.lights = light_control_ ? light_control_->lights() : options_.shadow_lights;
     renderer_.set_shadow(shadow);
     renderer_.draw(mesh_, options_.material, model_matrix_);
     report.lit_by = renderer_.lighting_source();
@@ -126,6 +135,10 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   report.tonemap_ms = rt.tonemap_ms + rt.readback_ms;
   // The client's own work per frame (decoding a recording's JPEG and the network apart).
   report.frame_ms = report.track_ms + report.render_ms + report.tonemap_ms;
+  report.shadow_lights = rt.shadow_lights;
+  // Tutorial §6.4: the next frame's shadow lights from this one's time (frames with a shadow
+  // pass; it may have drawn fewer hard shadows than asked, or none, when clusters are broad).
+  if (light_control_ && report.drawn && options_.shadow) light_control_->update(report.frame_ms);
 
   // Pose error against the truth, where it is known.
   if (const auto expected =
@@ -261,6 +274,7 @@ void RunStats::add(const FrameReport& r, double decode) {
   tonemap_ms.push_back(r.tonemap_ms);
   decode_ms.push_back(decode);
   if (r.error_cm) error_cm.push_back(*r.error_cm), error_deg.push_back(*r.error_deg);
+  if (r.shadow_lights > 0) shadow_lights.push_back(r.shadow_lights);
 }
 
 double median(std::vector<double> v) {

@@ -67,6 +67,12 @@ struct PipelineOptions {
   double object_height = 0;  // metres; 0: 1.5 x the marker
   render::Material material;
   bool shadow = true;  // shadows on the real floor (the marker's plane)
+  // Soft shadows from the map set's light clusters (render::ShadowSettings::lights): at most
+  // this many hard shadows, and as many as hold target_fps for the client's own work per frame
+  // (render::LightCountControl, tutorial §6.4); target_fps 0 (or draw_at_true_pose, for
+  // reproducible evaluations): always shadow_lights.
+  int shadow_lights = 16;
+  double target_fps = 30;
   render::ToneMode tone = render::ToneMode::CameraMatched;
   render::ColourCorrection colour = render::ColourCorrection::None;  // dissertation §5.6
   render::Shading shading = render::Shading::ImageBased;
@@ -94,6 +100,7 @@ struct FrameReport {
   render::LightingSource lit_by = render::LightingSource::None;
   double track_ms = 0, render_ms = 0, tonemap_ms = 0;
   double frame_ms = 0;  // the client's own work: tracking + render + tone map and composite
+  int shadow_lights = 0;  // hard shadows blended into the soft one (0: none drawn)
   // Pose error against the truth, for frames where the marker is visible.
   std::optional<double> error_cm, error_deg;
 };
@@ -117,6 +124,7 @@ class FramePipeline {
   track::MarkerTracker tracker_;
   track::WorldFromMarker world_from_marker_;
   track::OrientationEstimator webcam_orientation_;
+  std::optional<render::LightCountControl> light_control_;  // with target_fps > 0
   std::uint64_t sh_version_ = 0, maps_version_ = 0;
   std::optional<Pose> last_pose_;  // smoothed, held through a briefly lost marker
   double last_pose_time_ = -1;
@@ -155,6 +163,7 @@ std::filesystem::path default_bake_cache();
 // Median, 95th percentile and maximum of a run's figures (what arlight-client reports).
 struct RunStats {
   std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg;
+  std::vector<double> shadow_lights;  // of the frames whose shadow was drawn
   std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0;
   std::size_t exposure_requested = 0;  // frames taken at arlightd's exposure advice
   void add(const FrameReport& r, double decode_ms);
