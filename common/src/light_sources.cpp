@@ -63,15 +63,13 @@ LightTree build_light_tree(const EnvMap& map, glm::dvec3 normal, const LightTree
   LightTree tree;
   tree.normal = glm::vec3(normal);
   const auto table = texel_table(map.layout);
-  const int width = map.layout.width();
   std::vector<SourceTexel> texels;
   glm::dvec3 total(0.0);
   for (std::size_t i = 0; i < table->size(); ++i) {
     const glm::dvec3 d(table->x[i], table->y[i], table->z[i]);
     const double c = glm::dot(d, normal);
-    const std::uint32_t index = table->index[i];
-    const glm::dvec3 radiance(
-        map.image.at(int(index % std::uint32_t(width)), int(index / std::uint32_t(width))));
+    const float* px = map.image.data() + std::size_t(table->index[i]) * 3;
+    const glm::dvec3 radiance(px[0], px[1], px[2]);
     if (!(c > 0) || !(luminance(radiance) > 0)) continue;
     const glm::dvec3 e = radiance * (table->solid_angle[i] * c);
     texels.push_back({d, e, luminance(e), table->solid_angle[i], luminance(radiance)});

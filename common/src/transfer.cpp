@@ -197,13 +197,11 @@ ShadowReference::ShadowReference(const EnvMap& world_map, const glm::dmat3& scen
                                  glm::dvec3 normal)
     : normal_(glm::normalize(normal)) {
   const auto table = texel_table(world_map.layout);
-  const auto width = std::uint32_t(world_map.layout.width());
   for (std::size_t i = 0; i < table->size(); ++i) {
     const glm::dvec3 d = scene_from_world * glm::dvec3(table->x[i], table->y[i], table->z[i]);
     const double c = glm::dot(d, normal_);
-    const std::uint32_t index = table->index[i];
-    const double l =
-        luminance(glm::dvec3(world_map.image.at(int(index % width), int(index / width))));
+    const float* px = world_map.image.data() + std::size_t(table->index[i]) * 3;
+    const double l = luminance(double(px[0]), double(px[1]), double(px[2]));
     if (!(c > 0) || !(l > 0)) continue;
     dirs_.push_back(glm::normalize(d));
     weights_.push_back(l * table->solid_angle[i] * c);
