@@ -44,6 +44,7 @@ wire::MapSetComplete done(std::uint32_t set, int maps) {
 
 TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
   MapSetAssembler a;
+  a.expect({10.0, 20.0});
   for (const auto& t : tiles_of(3, 2)) a.add_tile(t);
   const auto set = a.complete(done(3, 2));
   ASSERT_TRUE(set);
@@ -59,6 +60,7 @@ TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
 // and the next whole set is used.
 TEST(MapSetAssembler, ASetMissingItsFirstTilesIsDroppedAndTheNextWholeOneUsed) {
   MapSetAssembler a;
+  a.expect({10.0, 20.0, 30.0});
   const auto tiles = tiles_of(4, 3);
   for (std::size_t i = 5; i < tiles.size(); ++i)
     a.add_tile(tiles[i]);  // map 0 and part of map 1 lost
@@ -70,4 +72,19 @@ TEST(MapSetAssembler, ASetMissingItsFirstTilesIsDroppedAndTheNextWholeOneUsed) {
   const auto set = a.complete(done(6, 3));
   ASSERT_TRUE(set);
   EXPECT_EQ(set->shininess, (std::vector<double>{10.0, 20.0, 30.0}));
+}
+
+// A whole set that answers another request (a resumed session's set in flight for the earlier
+// connection) is not used: not before this connection asked for maps (the eval test's SH-only
+// client was drawn with maps under load), nor with other shininess values.
+TEST(MapSetAssembler, ASetThisConnectionDidNotAskForIsNotUsed) {
+  MapSetAssembler a;
+  for (const auto& t : tiles_of(7, 2)) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(7, 2)));  // no request yet
+  a.expect({10.0, 40.0});
+  for (const auto& t : tiles_of(8, 2)) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(8, 2)));  // 10, 20: not what was asked
+  a.expect({10.0, 20.0});
+  for (const auto& t : tiles_of(9, 2)) a.add_tile(t);
+  EXPECT_TRUE(a.complete(done(9, 2)));
 }

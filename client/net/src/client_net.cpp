@@ -264,6 +264,10 @@ void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int 
 
 void Client::request_maps(const std::vector<double>& shininess, int size, Projection projection,
                           const std::string& method) {
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->assembler.expect(shininess);
+  }
   impl_->send(wire::RequestMaps{std::vector<float>(shininess.begin(), shininess.end()),
                                 std::uint32_t(size), projection, method});
 }

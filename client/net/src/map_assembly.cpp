@@ -5,6 +5,10 @@
 
 namespace arlight::client {
 
+void MapSetAssembler::expect(const std::vector<double>& shininess) {
+  expected_.assign(shininess.begin(), shininess.end());
+}
+
 // The codec has checked the tile's rectangle against its map's size at its level.
 void MapSetAssembler::add_tile(const wire::MapTile& t) {
   if (!EnvLayout::guess_projection(int(t.map_width), int(t.map_height))) return;
@@ -42,11 +46,11 @@ std::optional<MapSet> MapSetAssembler::complete(const wire::MapSetComplete& c) {
   building_.erase(building_.begin(), std::next(it));  // older sets are stale
   // Whole or not at all: a set whose first tiles went to an earlier connection of the session
   // (arlightd streams an in-flight set on to the one that resumed it) lacks maps or texels.
-  if (set.maps.size() != c.maps) return std::nullopt;
+  if (set.maps.size() != c.maps || set.maps.size() != expected_.size()) return std::nullopt;
   for (std::size_t i = 0; i < set.maps.size(); ++i)
     if (set.texels_received[i] !=
             std::size_t(set.maps[i].image.width()) * set.maps[i].image.height() ||
-        !(set.shininess[i] > 0.0))
+        !(set.shininess[i] > 0.0) || float(set.shininess[i]) != expected_[i])
       return std::nullopt;
   set.complete = true;
   set.server_seconds = c.seconds;

@@ -138,6 +138,7 @@ class WebClient {
     return bytes_to_js(wire::encode(f));
   }
   val request_maps() {
+    assembler_.expect(std::vector<double>(kShininess.begin(), kShininess.end()));
     return bytes_to_js(
         wire::encode(wire::RequestMaps{kShininess, kMapSize, Projection::LatLong, "auto"}));
   }

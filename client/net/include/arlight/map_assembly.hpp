@@ -28,6 +28,11 @@ struct MapSet {
 
 class MapSetAssembler {
  public:
+  // The shininess list this connection asked for (RequestMaps). Only a set of exactly these maps
+  // is used, and none before a request: a resumed session's set still in flight for an earlier
+  // connection's request reaches the new connection too (a client that asked for no maps was
+  // then drawn with them).
+  void expect(const std::vector<double>& shininess);
   // A tile whose size disagrees with its set's first tiles, or whose data does not decode, is
   // dropped (the set then never completes its texel count).
   void add_tile(const wire::MapTile& tile);
@@ -37,6 +42,7 @@ class MapSetAssembler {
 
  private:
   std::map<std::uint32_t, MapSet> building_;
+  std::vector<float> expected_;  // as the wire carries them
 };
 
 }  // namespace arlight::client
