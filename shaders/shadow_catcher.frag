@@ -11,8 +11,9 @@
 // plane), else approximated by the ellipsoid inscribed in its bounds. The output holds the camera
 // frame's codes, so the radiance ratio becomes a code ratio through the camera response around
 // 18 % grey (exact for a power-law response). This pass writes those code factors at low
-// resolution (B, G, R, cleared to 1); the renderer reads them back and multiplies them into
-// the camera frame (bilinear upsampling) before uploading it.
+// resolution (B, G, R, cleared to 1); the renderer multiplies them into the camera frame,
+// upsampled bilinearly: read back, on the CPU before the frame's upload (composite()), or on
+// the GPU by blending (shadow_apply.frag, composite_in_place()).
 precision highp float;
 precision highp sampler2D;
 precision highp sampler2DArrayShadow;

@@ -1,5 +1,7 @@
 // The shadow catcher (ShadowSettings): shadows of virtual objects on the real floor, the plane
 // z = 0 of the scene (marker) frame, by differential rendering (tutorial §6.3).
+#include <GLES3/gl3.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -8,6 +10,7 @@
 #include <map>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "arlight/sh.hpp"
 #include "arlight/transfer.hpp"
@@ -465,6 +468,75 @@ SoftShadowScore soft_shadow_score(const EnvMap& room, int lights, cv::Mat* image
   }
   score.mean_error = score.pixels ? sum / score.pixels : 0.0;
   return score;
+}
+
+// The browser's path (composite_in_place: the frame uploaded to camera_texture() as R, G, B,
+// the factors blended into it on the GPU) darkens the same pixels by the same amount as
+// composite() (factors read back, applied to the BGR frame on the CPU): the page and the native
+// client draw one soft shadow.
+TEST(SoftShadow, TheBrowsersPathDarkensTheFloorAsTheNativeOneDoes) {
+  context();
+  const EnvMap room = soft_shadow_room("lamps");
+  Renderer r(W, H);
+  r.set_maps({1.0, 1280.0}, {room, room});
+  View v;
+  v.camera_from_scene = look({0.0, -3.0, 3.5}, {0, 0, 0.3});
+  r.set_camera(v.k, v.camera_from_scene);
+  r.set_world_from_scene(world_from_scene());
+  ShadowSettings s;
+  s.enabled = true;
+  s.lights = 8;
+  r.set_shadow(s);
+  const GpuMesh ball(make_sphere(0.4f, 32, 64));
+  const glm::mat4 model = glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 0.7f));
+  // A frame whose channels differ (B, G, R order mistakes show) and vary across it.
+  cv::Mat frame(H, W, CV_8UC3);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      frame.at<cv::Vec3b>(y, x) = cv::Vec3b(uchar(90 + x / 8), uchar(130 + y / 8), uchar(180));
+
+  r.begin_frame();
+  r.draw(ball, Material{}, model);
+  cv::Mat native;
+  composite(r, frame, {}, native);
+  ASSERT_GE(r.timings().shadow_lights, 2);
+
+  r.begin_frame();
+  r.draw(ball, Material{}, model);
+  cv::Mat rgb;
+  cv::cvtColor(frame, rgb, cv::COLOR_BGR2RGB);
+  glBindTexture(GL_TEXTURE_2D, r.camera_texture());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, W, H, GL_RGB, GL_UNSIGNED_BYTE, rgb.data);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  r.composite_in_place({});
+  EXPECT_EQ(r.timings().shadow_lights, 8);
+  GLuint fbo = 0;
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, r.camera_texture(),
+                         0);
+  cv::Mat rgba(H, W, CV_8UC4);
+  glReadPixels(0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glDeleteFramebuffers(1, &fbo);
+  ASSERT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+  cv::Mat in_place;
+  cv::cvtColor(rgba, in_place, cv::COLOR_RGBA2BGR);
+  maybe_write("shadow_in_place.png", in_place);
+
+  int shadowed = 0, max_diff = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Vec3b a = native.at<cv::Vec3b>(y, x), b = in_place.at<cv::Vec3b>(y, x);
+      const cv::Vec3b f = frame.at<cv::Vec3b>(y, x);
+      for (int c = 0; c < 3; ++c) max_diff = std::max(max_diff, std::abs(int(a[c]) - int(b[c])));
+      if (int(f[1]) - int(b[1]) >= 10 && int(f[2]) - int(b[2]) >= 10) ++shadowed;
+    }
+  std::printf("[shadow] browser's path: %d pixels darkened by >= 10 codes, max difference %d\n",
+              shadowed, max_diff);
+  EXPECT_GT(shadowed, 500);
+  EXPECT_LE(max_diff, 2);
 }
 
 // Tutorial §6's claim: as the hard shadows grow in number the blend converges to the ray-traced

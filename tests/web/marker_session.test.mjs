@@ -129,6 +129,24 @@ test('the page tracks the marker, stands the object on it and refines its focal 
       assert.ok(diff(p.at_corner.composite, p.at_corner.frame) <= 3, `corner ${JSON.stringify(p.at_corner)}`);
       assert.ok(diff(p.at_object.composite, p.at_object.frame) > 20, `object ${JSON.stringify(p.at_object)}`);
     }
+    // The shadow on the page (tutorial §6: the catcher's factors blended into the frame on the
+    // GPU): the floor just in front of the object darker than the camera saw it in every
+    // composite of a tracked frame, and by at least 8 % in the median one (its contact shadow;
+    // the hard shadows, when the room has compact lights, fall elsewhere).
+    const sum = (c) => c[0] + c[1] + c[2];
+    for (const p of probes) {
+      assert.ok(p.at_floor, `no floor pixel: ${JSON.stringify(p)}`);
+      assert.ok(sum(p.at_floor.frame) > 60, `the floor is too dark to see a shadow on: ${JSON.stringify(p.at_floor)}`);
+      assert.ok(sum(p.at_floor.composite) <= 0.98 * sum(p.at_floor.frame), `floor ${JSON.stringify(p.at_floor)}`);
+    }
+    const ratios = probes.map((p) => sum(p.at_floor.composite) / sum(p.at_floor.frame)).sort((a, b) => a - b);
+    console.log(`shadow: the floor in front of the object at ${ratios.map((r) => r.toFixed(2)).join(' ')} of the frame; ` +
+      `hard shadows ${probes.map((p) => p.shadow_lights).join(' ')}; budget ${status.shadow_light_budget} of ` +
+      `${status.max_shadow_lights} at ${status.target_fps} fps`);
+    assert.ok(ratios[Math.floor(ratios.length / 2)] <= 0.92, `median floor ratio ${ratios[Math.floor(ratios.length / 2)]}`);
+    assert.ok(status.shadow_light_budget >= 1 && status.shadow_light_budget <= status.max_shadow_lights);
+    assert.equal(status.max_shadow_lights, 16);
+    assert.equal(status.target_fps, 30);
 
     // The other models: the page fetches them (re-encoded without Draco) and stands them on the
     // marker; a missing one is named and the object stays.

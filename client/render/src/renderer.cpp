@@ -418,9 +418,16 @@ struct Renderer::Impl {
     gl::check_framebuffer("shadow maps (DEPTH_COMPONENT24 layers)");
   }
 
-  // The shadow map and the shadow catcher's factors; when some are below 1, `shadowed` is the
-  // frame with them applied and the result is true.
-  bool draw_shadows(const ImageU8View& frame);
+  // The shadow maps and the shadow catcher's factors into factor_tex (over shadow_rect); false
+  // when there is nothing to shadow.
+  bool draw_shadow_factors();
+  glm::vec4 shadow_rect{0.0f};  // the catcher's rectangle of z = 0: (x0, y0, x1, y1)
+  // The factors read back and multiplied into a copy of the frame: when some are below 1,
+  // `shadowed` is the frame with them applied and the result is true (composite()).
+  bool apply_shadow_on_cpu(const ImageU8View& frame);
+  // The factors multiplied into the output's camera frame by blending (composite_in_place()).
+  void apply_shadow_on_gpu(bool rgb);
+  Program shadow_apply, shadow_apply_rgb;  // shadow_apply.frag, made when first used
   ImageU8 shadowed;
   std::vector<float> across;   // the factor rows upsampled horizontally
   std::vector<int> taps;       // per column of the box: the left factor texel ...
@@ -885,7 +892,7 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   ImageU8View camera = frame;
   if (p.shadow.enabled && !p.casters.empty()) {
     const auto ts = Clock::now();
-    if (p.draw_shadows(frame)) camera = p.shadowed.view();
+    if (p.draw_shadow_factors() && p.apply_shadow_on_cpu(frame)) camera = p.shadowed.view();
     p.timings.shadow_ms = ms_since(ts);
     glBindVertexArray(p.empty_vao);
   }
@@ -933,8 +940,13 @@ void Renderer::composite_in_place(const ToneMapping& tone) {
   // No glFinish: in a browser it is a round trip to the GPU process that stalls the page (the
   // timings are then the time to issue the frame, not to draw it).
   const auto t0 = p.begin_composite(tone, /*wait=*/false);
-  p.timings.shadow_ms = 0,
-  p.timings.shadow_lights = 0;  // the shadow catcher needs the frame on the CPU: composite() only
+  p.timings.shadow_ms = 0, p.timings.shadow_lights = 0;
+  if (p.shadow.enabled && !p.casters.empty()) {
+    const auto ts = Clock::now();
+    if (p.draw_shadow_factors()) p.apply_shadow_on_gpu(true);
+    p.timings.shadow_ms = ms_since(ts);
+    glBindVertexArray(p.empty_vao);
+  }
   p.draw_live_glass(tone, true);
   p.tone_map_and_composite(tone, true);
   p.timings.tonemap_ms = ms_since(t0);
@@ -1109,7 +1121,7 @@ void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
   gl::check("tone mapping and compositing");
 }
 
-bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
+bool Renderer::Impl::draw_shadow_factors() {
   // The casters' union bounds (scene frame).
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const Caster& c : casters) lo = glm::min(lo, c.lo), hi = glm::max(hi, c.hi);
@@ -1204,9 +1216,10 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   // The catcher, in two passes over the rectangle of z = 0: the code factors at low
   // resolution (1 where there is no shadow), then upsampled bilinearly, depth tested against
   // the objects (no depth writes) and multiplied into the output where they are below 1.
+  shadow_rect = glm::vec4(r0, r1);
   const Program& pr = shadow_catcher;
   glUseProgram(pr.id());
-  glUniform4f(pr.uniform("u_rect"), r0.x, r0.y, r1.x, r1.y);
+  glUniform4fv(pr.uniform("u_rect"), 1, glm::value_ptr(shadow_rect));
   glUniformMatrix4fv(pr.uniform("u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
   glUniform1i(pr.uniform("u_light_count"), int(lights.size()));
   if (!lights.empty()) {
@@ -1263,15 +1276,48 @@ bool Renderer::Impl::draw_shadows(const ImageU8View& frame) {
   glClearBufferfv(GL_COLOR, 0, one);
   glBindVertexArray(empty_vao);
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+  glBindVertexArray(0);
+  gl::check("shadow catcher");
+  return true;
+}
 
+void Renderer::Impl::apply_shadow_on_gpu(bool rgb) {
+  Program& pr = rgb ? shadow_apply_rgb : shadow_apply;
+  if (!pr.id()) {
+    pr = rgb ? Program(shader_dir, "shadow_catcher.vert", "shadow_apply.frag", {{"FRAME_RGB", "1"}})
+             : Program(shader_dir, "shadow_catcher.vert", "shadow_apply.frag");
+    glUseProgram(pr.id());
+    glUniform1i(pr.uniform("u_factors"), 0);
+  }
+  glUseProgram(pr.id());
+  glUniform4fv(pr.uniform("u_rect"), 1, glm::value_ptr(shadow_rect));
+  glUniformMatrix4fv(pr.uniform("u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
+  glUniform2f(pr.uniform("u_factor_extent"), float(factor_w * kFactorScale),
+              float(factor_h * kFactorScale));
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, factor_tex.id);
+  glBindFramebuffer(GL_FRAMEBUFFER, out_fbo.id);
+  glViewport(0, 0, w, h);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ZERO, GL_SRC_COLOR);  // frame x factor
+  glBindVertexArray(empty_vao);
+  glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+  glBindVertexArray(0);
+  glDisable(GL_BLEND);
+  gl::check("shadow catcher (applied on the GPU)");
+}
+
+bool Renderer::Impl::apply_shadow_on_cpu(const ImageU8View& frame) {
   // The factors are read back (small) and applied on the CPU over their bounding box:
   // bilinear upsampling (texel centres as GL samples them) and code * factor / 255, exact
   // where the factor is 255.
   factors.resize(std::size_t(factor_w) * factor_h * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glBindFramebuffer(GL_FRAMEBUFFER, factor_fbo.id);
   glReadPixels(0, 0, factor_w, factor_h, GL_RGBA, GL_UNSIGNED_BYTE, factors.data());
-  glBindVertexArray(0);
-  gl::check("shadow catcher");
+  gl::check("reading the shadow factors");
   int x0 = factor_w, y0 = factor_h, x1 = -1, y1 = -1;
   for (int y = 0; y < factor_h; ++y)
     for (int x = 0; x < factor_w; ++x) {

@@ -13,7 +13,11 @@
 //   [&refraction=live|maps]  (what glass shows through it, as arlight-client's --glass)
 //   [&colour=none|match|brightness|contrast]  (as arlight-client's --tone camera,CORRECTION)
 //   [&location=1]  (tick "the sun from my location": the browser still asks its user)
-//   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL: frame_upload.js)
+//   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL:
+//   frame_upload.js)
+//   [&shadowLights=N][&fps=F]  (soft shadows: at most N hard shadows, 1-32, default 16, as many
+//   as hold F frames a second, default 30, 0: always N; arlight-client's --shadow-lights,
+//   --target-fps)
 // window.arlight.status() reports what the page is doing (tests read it).
 import createArlight from './arlight_web.js';
 import { openCamera, FrameGrabber, snapshotFrame } from './camera.js';
@@ -78,7 +82,8 @@ let probeComposite = () => null;
 
 window.arlight = {
   // For tests and for people wondering whether the object is where they think: the object's
-  // centre in the canvas, and at that pixel and at the canvas corner farthest from it, the
+  // centre in the canvas, and at that pixel, at the canvas corner farthest from it and on the
+  // floor just in front of it (its contact shadow; null before it stands on the marker), the
   // composite's RGB beside the camera frame's RGB it was drawn over.
   probe() {
     return probeComposite();
@@ -113,6 +118,11 @@ window.arlight = {
       focal_px: state.focalPx,
       model: object ? object.model : 'sphere',
       model_vertices: object ? object.model_vertices : 0,
+      shadow_lights: object ? object.shadow_lights : 0,
+      shadow_ms: object ? object.shadow_ms : 0,
+      shadow_light_budget: object ? object.shadow_light_budget : 0,
+      max_shadow_lights: object ? object.max_shadow_lights : 0,
+      target_fps: object ? object.target_fps : 0,
       shading: object ? object.shading : 'maps',
       material: object ? object.material : 'plastic',
       refraction: object ? object.refraction : 'live',
@@ -362,6 +372,16 @@ async function start() {
   client.setFov(fov);
   state.focalPx = client.camera().fx;
   client.setMarkerSize(marker.size);
+  if (params.has('shadowLights') || params.has('fps')) {
+    const lights = Number(params.get('shadowLights') || 16), fps = Number(params.get('fps') || 30);
+    if (!Number.isInteger(lights) || lights < 1 || lights > 32) {
+      showError(`shadowLights '${params.get('shadowLights')}': a whole number from 1 to 32`);
+    } else if (!Number.isFinite(fps) || fps < 0) {
+      showError(`fps '${params.get('fps')}': frames a second, 0 for no frame-rate control`);
+    } else {
+      client.setShadowLights(lights, fps);
+    }
+  }
   // The URL's choices for the selects (named like their ids), else the selects' own.
   for (const [id, set] of [['material', (v) => client.setMaterial(v)],
     ['shading', (v) => client.setShading(v)], ['refraction', (v) => client.setRefraction(v)],
@@ -584,7 +604,10 @@ async function start() {
       (state.estimated > 0 ? `, ${(state.estimated * 100).toFixed(0)} % estimated` : '');
     $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
     const p = window.arlight.status();
-    $('s-speed').textContent = `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${p.latency_p50_ms.toFixed(0)} ms`;
+    $('s-speed').textContent =
+        `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${
+            p.latency_p50_ms.toFixed(0)} ms` +
+        (p.shadow_lights > 0 ? `, ${p.shadow_lights} shadow lights` : '');
   };
   // The camera frame into the renderer's texture (frame_upload.js: the <video> or its planes,
   // whichever is faster here), then the composite; one at a time, the newest frame wins.
@@ -603,6 +626,7 @@ async function start() {
     compositing = (async () => {
       state.grabMs = await upload.upload(image, { measure });
       state.renderMs = client.render(t, q[0], q[1], q[2], q[3]);
+      client.frameTook(state.grabMs + state.renderMs);  // the soft shadow's frame-rate control
     })();
     try {
       await compositing;
@@ -651,9 +675,19 @@ async function start() {
       return { x: xi, y: yi, composite: [c[0], c[1], c[2]], frame: [f[0], f[1], f[2]] };
     };
     const corner = [centre[0] < w / 2 ? w - 2 : 1, centre[1] < h / 2 ? h - 2 : 1];
+    const floor = client.floorPixel();  // in front of the object: its contact shadow
     const last = state.tracks[state.tracks.length - 1];
-    return { centre, at_object: px(centre[0], centre[1]), at_corner: px(corner[0], corner[1]), width: w, height: h,
-      media_time: mediaTime, tracked_media_time: last ? last.media_time : null };
+    return {
+      centre,
+      at_object: px(centre[0], centre[1]),
+      at_corner: px(corner[0], corner[1]),
+      at_floor: floor ? px(floor[0], floor[1]) : null,
+      shadow_lights: client.status().shadow_lights,
+      width: w,
+      height: h,
+      media_time: mediaTime,
+      tracked_media_time: last ? last.media_time : null
+    };
   };
   grabber.onFrame(async (info) => {
     state.frameMediaTime = info.mediaTime;

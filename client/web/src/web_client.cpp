@@ -7,6 +7,7 @@
 // Tracking: the page's worker finds the marker with opencv.js (marker_worker.js) and hands its
 // solvePnP result here, where the native client's pose filter and WorldFromMarker
 // (arlight_track_core) turn it into the object's place.
+#include <GLES3/gl3.h>
 #include <emscripten/bind.h>
 #include <emscripten/val.h>
 
@@ -50,6 +51,10 @@ constexpr double kExtrapolateSeconds = 0.5;
 // The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
 // virtual object goes through the same exposure, so it matches the map's scale.
 constexpr double kLockedExposure = 1.0 / 60.0;
+// Soft shadows (tutorial §6.4): at most this many hard shadows, as many as hold the target frame
+// rate (the native client's --shadow-lights and --target-fps defaults).
+constexpr int kDefaultShadowLights = 16;
+constexpr double kDefaultTargetFps = 30.0;
 
 val bytes_to_js(const std::vector<std::uint8_t>& bytes) {
   // A copy: the view into the module's memory would change under the next call.
@@ -280,6 +285,7 @@ class WebClient {
       shadow.enabled = track_.has_value();
       shadow.light_direction = light_direction_;
       shadow.light_colour = light_colour_;
+      shadow.lights = light_control_ ? light_control_->lights() : max_shadow_lights_;
       renderer_.set_shadow(shadow);
       renderer_.draw(mesh_, material_, model_);
     }
@@ -290,7 +296,31 @@ class WebClient {
     renderer_.composite_in_place(tone);
     renderer_.present();
     ++frames_rendered_;
+    // The frame-rate control needs the time the GPU took for the shadows: wait for it (the page
+    // would wait for its next camera frame anyway) while there are shadows to count.
+    if (light_control_ && renderer_.timings().shadow_lights > 0) glFinish();
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+
+  // Soft shadows (tutorial §6, §6.4; arlight-client's --shadow-lights and --target-fps): at most
+  // max_lights hard shadows blended, as many as hold the page at target_fps (0: always
+  // max_lights). Throws for max_lights outside [1, 32] or a negative or non-finite target.
+  void set_shadow_lights(int max_lights, double target_fps) {
+    if (max_lights < 1 || max_lights > render::kMaxShadowLights)
+      throw std::invalid_argument("shadow lights " + std::to_string(max_lights) + ": 1 to " +
+                                  std::to_string(render::kMaxShadowLights));
+    if (!(target_fps >= 0) || !std::isfinite(target_fps))
+      throw std::invalid_argument("target frame rate: a number of frames a second, 0 for none");
+    max_shadow_lights_ = max_lights, target_fps_ = target_fps;
+    light_control_.reset();
+    if (target_fps > 0)
+      light_control_.emplace(1000.0 / target_fps, max_lights, std::min(4, max_lights));
+  }
+
+  // The page's whole frame (the camera frame's upload and render()) took `ms`: the frame-rate
+  // control's measure, counted for the frames that drew a shadow.
+  void frame_took(double ms) {
+    if (light_control_ && renderer_.timings().shadow_lights > 0) light_control_->update(ms);
   }
 
   void set_material(const std::string& name) {
@@ -354,6 +384,34 @@ class WebClient {
     p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
     p.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
     return p;
+  }
+
+  // Where the floor just in front of the object is in the last composite (pixels, row 0 at the
+  // top): the point of the marker plane 1.15 footprint half-widths from the object's centre
+  // towards the camera, inside its contact shadow and never behind the object; null as
+  // object_pixel().
+  val floor_pixel() const {
+    if (!last_camera_from_scene_) return val::null();
+    glm::dvec3 lo(1e30), hi(-1e30);
+    for (int i = 0; i < 8; ++i) {
+      const glm::dvec3 corner(i & 1 ? mesh_bounds_.max.x : mesh_bounds_.min.x,
+                              i & 2 ? mesh_bounds_.max.y : mesh_bounds_.min.y,
+                              i & 4 ? mesh_bounds_.max.z : mesh_bounds_.min.z);
+      const glm::dvec3 q = glm::dvec3(model_ * glm::vec4(glm::vec3(corner), 1.0f));
+      lo = glm::min(lo, q), hi = glm::max(hi, q);
+    }
+    const glm::dvec2 centre = 0.5 * glm::dvec2(lo + hi);
+    const double half = 0.5 * std::max(hi.x - lo.x, hi.y - lo.y);
+    const glm::dvec3 eye = glm::dvec3(glm::inverse(*last_camera_from_scene_)[3]);
+    const glm::dvec2 towards = glm::dvec2(eye) - centre;
+    if (glm::length(towards) < 1e-9) return val::null();  // looking straight down at it
+    const glm::dvec2 p = centre + 1.15 * half * glm::normalize(towards);
+    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(p, 0.0, 1.0);
+    if (c.z >= -1e-3) return val::null();
+    val out = val::array();
+    out.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
+    out.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
+    return out;
   }
 
   // What the last render() drew with, for a renderer elsewhere to draw the same (tests, tools):
@@ -423,6 +481,13 @@ class WebClient {
     s.set("focal_px", camera_.fx);
     s.set("model", model_name_);
     s.set("model_vertices", double(model_vertices_));
+    // The last composite's soft shadow: hard shadows blended (0: none drawn), and the time to
+    // issue it; the count the frame-rate control holds, its limit and its target.
+    s.set("shadow_lights", renderer_.timings().shadow_lights);
+    s.set("shadow_ms", renderer_.timings().shadow_ms);
+    s.set("shadow_light_budget", light_control_ ? light_control_->lights() : max_shadow_lights_);
+    s.set("max_shadow_lights", max_shadow_lights_);
+    s.set("target_fps", target_fps_);
     return s;
   }
 
@@ -449,6 +514,7 @@ class WebClient {
     camera_.width = width, camera_.height = height;
     set_fov(63.0);
     set_marker_size(kDefaultMarkerSize);
+    set_shadow_lights(kDefaultShadowLights, kDefaultTargetFps);
   }
 
   render::GlContext context_;
@@ -492,6 +558,9 @@ class WebClient {
   glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
   SunState sun_state_ = SunState::Unknown;
   glm::vec3 sun_direction_{0.0f};
+  int max_shadow_lights_ = kDefaultShadowLights;
+  double target_fps_ = kDefaultTargetFps;
+  std::optional<render::LightCountControl> light_control_;  // with target_fps_ > 0
 };
 
 EMSCRIPTEN_BINDINGS(arlight_web) {
@@ -511,6 +580,8 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("yuvPlaneTexture", &WebClient::yuv_plane_texture)
       .function("convertYuv", &WebClient::convert_yuv)
       .function("render", &WebClient::render)
+      .function("setShadowLights", &WebClient::set_shadow_lights)
+      .function("frameTook", &WebClient::frame_took)
       .function("setMaterial", &WebClient::set_material)
       .function("setShading", &WebClient::set_shading)
       .function("setRefraction", &WebClient::set_refraction)
@@ -519,6 +590,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
       .function("objectPixel", &WebClient::object_pixel)
+      .function("floorPixel", &WebClient::floor_pixel)
       .function("view", &WebClient::view);
 }
 

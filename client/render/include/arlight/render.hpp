@@ -311,8 +311,10 @@ class Renderer {
   // The browser's way, without the frame ever on the CPU: the page uploads its video frame
   // (R, G, B, the renderer's size, top row first) into camera_texture(), the GL texture the
   // composite is made in, then composite_in_place() tone maps the objects over it there, for
-  // present(). No shadow catcher (it works on the frame's bytes) and no readback. The camera's
-  // response (set_response) decodes the frame for live refraction.
+  // present(), with no readback. The shadow catcher's factors are multiplied into the frame
+  // there by blending (composite() applies the same factors on the CPU, before its upload). The
+  // camera's response (set_response) decodes the frame for live refraction. The timings are
+  // the time to issue the frame's GL calls: no glFinish (a browser would stall on it).
   unsigned camera_texture() const;
   void composite_in_place(const ToneMapping& tone);
   // Shows the last composite in a window context's default framebuffer (then swap_buffers()).
