@@ -17,6 +17,9 @@ in vec4 v_tangent;
 in vec2 v_uv;
 in vec3 v_bent_normal;
 in float v_occlusion;
+#ifdef USE_TRANSFER
+in vec3 v_shadowing;  // ibl.vert: the share of the light the mesh lets in (its SH-9 transfer)
+#endif
 
 uniform ENV_SAMPLER u_irradiance;   // shininess 1: indexed by the normal
 uniform ENV_SAMPLER u_reflection0;  // the two reflection maps around the material's shininess,
@@ -147,9 +150,14 @@ void main() {
 #endif
   vec3 lo = vec3(0.0);
 #ifdef USE_DIFFUSE
-  // Environment lookups in the world frame (Alg. 5.1 lines 2-6). Where the mesh's occlusion of
-  // itself is baked (tutorial §6.1), the light comes along the bent normal (the open directions'
-  // mean; a normal map's tilt kept) and only its open share: the ambient occlusion.
+  // Environment lookups in the world frame (Alg. 5.1 lines 2-6). Where the mesh's transfer is
+  // baked (tutorial §6.1) the irradiance at the normal is scaled by the share of the room's
+  // light the mesh lets in (ibl.vert); where only its occlusion is, the light comes along the
+  // bent normal (the open directions' mean; a normal map's tilt kept) and only its open share:
+  // the ambient occlusion.
+#ifdef USE_TRANSFER
+  vec3 ld = env_sample(u_irradiance, u_world_from_scene * n) * v_shadowing;
+#else
   vec3 d = n;
   if (dot(v_bent_normal, v_bent_normal) > 1e-8)
     d = normalize(n + normalize(v_bent_normal) - normalize(v_normal));
@@ -158,6 +166,7 @@ void main() {
 #else
   vec3 ld = env_sample(u_irradiance, u_world_from_scene * d) * v_occlusion;
 #endif
+#endif  // USE_TRANSFER
 #ifdef USE_LIGHT_MAP
   ld *= texture(u_light_map, v_uv).rgb;  // Alg. 5.2 lines 7-8
 #endif

@@ -17,6 +17,7 @@
 #include <bit>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -482,6 +483,29 @@ std::vector<double> phong_zonal_all(int order, double s) {
   std::vector<double> z(std::size_t(std::max(order, 0)));
   for (int l = 0; l < order; ++l) z[std::size_t(l)] = phong_zonal(l, s);
   return z;
+}
+
+ShCoeffs sh_rotate(const ShCoeffs& coeffs, const glm::dmat3& r) {
+  if (coeffs.order < 1 || coeffs.c.size() != std::size_t(sh_count(coeffs.order)))
+    throw std::invalid_argument("sh_rotate: coefficients do not match their order");
+  // c'_k = integral of L(r w) Y_k(w) dw. The integrand is a polynomial of degree <= 2(N - 1) on
+  // the sphere (rotation keeps each band), so Gauss-Legendre in z with N nodes times 2N uniform
+  // angles in phi integrates it exactly.
+  const int order = coeffs.order, n_phi = 2 * order;
+  const GaussLegendre g = gauss_legendre(order);
+  ShCoeffs out(order);
+  std::vector<double> y(std::size_t(sh_count(order)));
+  for (std::size_t i = 0; i < g.x.size(); ++i) {
+    const double z = g.x[i], s = std::sqrt(std::max(0.0, 1.0 - z * z));
+    for (int j = 0; j < n_phi; ++j) {
+      const double phi = 2.0 * kPi * (j + 0.5) / n_phi;
+      const glm::dvec3 w(s * std::cos(phi), s * std::sin(phi), z);
+      const glm::dvec3 l = sh_evaluate(coeffs, r * w) * (g.w[i] * 2.0 * kPi / n_phi);
+      sh_basis_all(order, w, y);
+      for (std::size_t k = 0; k < y.size(); ++k) out.c[k] += l * y[k];
+    }
+  }
+  return out;
 }
 
 GaussLegendre gauss_legendre(int n) {

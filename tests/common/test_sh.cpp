@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 #include <numbers>
 #include <random>
 
@@ -347,4 +348,30 @@ TEST(GaussLegendre, ExactForPolynomialsOfDegreeBelow2n) {
       ASSERT_NEAR(s, k % 2 ? 0.0 : 2.0 / (k + 1), 1e-13) << n << " " << k;
     }
   }
+}
+
+// A rotated expansion evaluates at w to what the original does at r w, for random rotations
+// and orders 1..5; rotating back restores the coefficients; bad input is refused.
+TEST(ShRotate, EvaluatesTheOriginalAtTheRotatedDirection) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> gauss;
+  for (int order = 1; order <= 5; ++order) {
+    ShCoeffs sh(order);
+    for (glm::dvec3& c : sh.c) c = {gauss(rng), gauss(rng), gauss(rng)};
+    const glm::dvec3 axis = random_dir(rng);
+    const double angle = 0.3 + order;
+    const glm::dmat3 r = glm::dmat3(glm::rotate(glm::dmat4(1.0), angle, axis));
+    const ShCoeffs rotated = sh_rotate(sh, r);
+    for (int i = 0; i < 20; ++i) {
+      const glm::dvec3 w = random_dir(rng);
+      const glm::dvec3 want = sh_evaluate(sh, r * w), got = sh_evaluate(rotated, w);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-12) << "order " << order;
+    }
+    const ShCoeffs back = sh_rotate(rotated, glm::transpose(r));
+    for (std::size_t k = 0; k < sh.c.size(); ++k)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.c[k][c], sh.c[k][c], 1e-12);
+  }
+  ShCoeffs bad(3);
+  bad.c.pop_back();
+  EXPECT_THROW(sh_rotate(bad, glm::dmat3(1.0)), std::invalid_argument);
 }

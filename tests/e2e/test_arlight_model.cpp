@@ -45,8 +45,8 @@ TEST(ArlightModel, BakeReportsTheBunnysOcclusionAndItsTime) {
   EXPECT_NE(missing.output.find("/nonexistent/model.glb"), std::string::npos) << missing.output;
 }
 
-// convert --bake writes the occlusion into the copy (what arlightd serves the page); a plain
-// convert does not.
+// convert --bake writes the occlusion and the transfer into the copy (what arlightd serves the
+// page); a plain convert does not.
 TEST(ArlightModel, ConvertBakeCarriesTheOcclusionInTheCopy) {
   const fs::path dir = fs::temp_directory_path() / "arlight_model_test_convert";
   fs::remove_all(dir);
@@ -61,11 +61,13 @@ TEST(ArlightModel, ConvertBakeCarriesTheOcclusionInTheCopy) {
   EXPECT_TRUE(json::parse(b.output).at("occlusion").get<bool>());
   EXPECT_FALSE(json::parse(p.output).at("ground").get<bool>());
   EXPECT_TRUE(json::parse(b.output).at("ground").get<bool>());
-  // 2,826 bent normals and occlusions of 4 floats each, the floor's 64 x 64 floats, and their
-  // accessors' few hundred bytes.
+  EXPECT_FALSE(json::parse(p.output).at("transfer").get<bool>());
+  EXPECT_TRUE(json::parse(b.output).at("transfer").get<bool>());
+  // 2,826 bent normals and occlusions of 4 floats each and SH-9 transfers of 9 floats each, the
+  // floor's 64 x 64 floats, and their accessors' few hundred bytes.
   const auto extra = fs::file_size(baked) - fs::file_size(plain);
-  EXPECT_GE(extra, 2826u * 16u + 4096u * 4u);
-  EXPECT_LT(extra, 2826u * 16u + 4096u * 4u + 1024u);
+  EXPECT_GE(extra, 2826u * (16u + 36u) + 4096u * 4u);
+  EXPECT_LT(extra, 2826u * (16u + 36u) + 4096u * 4u + 1024u);
 }
 
 // lightmap needs UVs: the bunny has none, and says so without writing anything.

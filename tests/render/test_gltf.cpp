@@ -206,6 +206,26 @@ TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
   baked.occlusion.pop_back();
   EXPECT_THROW(encode_glb(baked), std::invalid_argument);
 
+  // And the SH-9 transfer (_SH_TRANSFER_0..2), coefficient for coefficient; a coefficient out of
+  // range is a bad file, named; one short is refused when writing.
+  Mesh transferred = sphere;
+  for (std::size_t i = 0; i < transferred.positions.size() * kTransferCoefficients; ++i)
+    transferred.transfer.push_back(float(int(i % 23) - 11) / 12.0f);
+  const Mesh transferred_back = load_gltf(encode_glb(transferred), "transfer.glb");
+  ASSERT_EQ(transferred_back.transfer.size(), transferred.transfer.size());
+  for (std::size_t i = 0; i < transferred.transfer.size(); ++i)
+    ASSERT_EQ(transferred_back.transfer[i], transferred.transfer[i]) << i;
+  transferred.transfer[13] = 5.0f;
+  try {
+    load_gltf(encode_glb(transferred), "bad_transfer.glb");
+    FAIL() << "a transfer coefficient of 5 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("_SH_TRANSFER_1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad_transfer.glb"), std::string::npos) << e.what();
+  }
+  transferred.transfer.pop_back();
+  EXPECT_THROW(encode_glb(transferred), std::invalid_argument);
+
   // So does the baked floor (extras.arlight_ground).
   Mesh floored = sphere;
   floored.ground = {{-1.5f, -1.0f}, {1.5f, 2.0f}, 4, {}};

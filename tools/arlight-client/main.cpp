@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
     std::string occlusion_state = "none";
     double bake_ms = 0;
     if (occlusion == "none") {
-      mesh.occlusion.clear(), mesh.ground = {};
+      mesh.occlusion.clear(), mesh.transfer.clear(), mesh.ground = {};
     } else {
       BakedModel baked = bake_model(std::move(mesh), default_bake_cache());
       mesh = std::move(baked.mesh), occlusion_state = baked.state, bake_ms = baked.bake_ms;

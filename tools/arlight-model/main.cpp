@@ -30,6 +30,7 @@ nlohmann::json describe(const render::Mesh& m) {
           {"triangles", m.triangle_count()},
           {"uvs", !m.uvs.empty()},
           {"occlusion", !m.occlusion.empty()},
+          {"transfer", !m.transfer.empty()},
           {"ground", !m.ground.empty()},
           {"bounds", {{"min", v3(m.bounds.min)}, {"max", v3(m.bounds.max)}}}};
 }
@@ -73,9 +74,9 @@ int main(int argc, char** argv) {
   convert->add_option("out", output, "the .glb to write")->required();
   bool convert_bake = false;
   convert->add_flag("--bake", convert_bake,
-                    "bake the model's occlusion of itself into the copy (an _OCCLUSION attribute: "
-                    "bent normal and ambient occlusion per vertex), so that the page, which "
-                    "cannot ray-cast, draws with it");
+                    "bake the model's occlusion of itself into the copy (per vertex: _OCCLUSION, "
+                    "bent normal and ambient occlusion; _SH_TRANSFER_0..2, the SH-9 transfer), so "
+                    "that the page, which cannot ray-cast, draws with it");
   convert->add_option("--directions", bake_options.directions, "rays per vertex for --bake")
       ->check(CLI::Range(16, 1 << 20))
       ->capture_default_str();

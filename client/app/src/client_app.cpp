@@ -214,14 +214,20 @@ BakedModel bake_model(render::Mesh mesh, const std::filesystem::path& cache_dir)
   const auto ms = [&] {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   };
-  if (!mesh.occlusion.empty() && !mesh.ground.empty()) return {std::move(mesh), "file", 0.0};
+  const auto baked = [](const render::Mesh& m) {
+    return m.occlusion.size() == m.vertex_count() &&
+           m.transfer.size() == m.vertex_count() * render::kTransferCoefficients &&
+           !m.ground.empty();
+  };
+  if (baked(mesh)) return {std::move(mesh), "file", 0.0};
   constexpr int kDirections = 1024;  // render::bake_occlusion's default
-  mesh.occlusion.clear(), mesh.ground = {};
+  mesh.occlusion.clear(), mesh.transfer.clear(), mesh.ground = {};
   std::filesystem::path cached;
   if (!cache_dir.empty()) {
     const std::vector<std::uint8_t> geometry = render::encode_glb(mesh);
     char name[64];
-    std::snprintf(name, sizeof name, "%016llx-v1-%d.glb",
+    // v2: with the SH-9 transfer (a v1 file, occlusion only, is not read).
+    std::snprintf(name, sizeof name, "%016llx-v2-%d.glb",
                   static_cast<unsigned long long>(XXH3_64bits(geometry.data(), geometry.size())),
                   kDirections);
     cached = cache_dir / name;
@@ -229,9 +235,9 @@ BakedModel bake_model(render::Mesh mesh, const std::filesystem::path& cache_dir)
     if (std::filesystem::exists(cached, ec)) {
       try {
         render::Mesh back = render::load_gltf(cached);
-        if (back.vertex_count() == mesh.vertex_count() &&
-            back.occlusion.size() == mesh.vertex_count() && !back.ground.empty()) {
-          mesh.occlusion = std::move(back.occlusion), mesh.ground = std::move(back.ground);
+        if (back.vertex_count() == mesh.vertex_count() && baked(back)) {
+          mesh.occlusion = std::move(back.occlusion), mesh.transfer = std::move(back.transfer);
+          mesh.ground = std::move(back.ground);
           return {std::move(mesh), "cached", ms()};
         }
         spdlog::warn("{}: not this model's bake; baking again", cached.string());

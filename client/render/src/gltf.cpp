@@ -18,6 +18,7 @@
 
 #include "arlight/error.hpp"
 #include "arlight/render/mesh.hpp"
+#include "arlight/sh.hpp"
 
 namespace arlight::render {
 
@@ -76,6 +77,52 @@ std::vector<std::uint8_t> base64_decode(std::string_view s, const std::string& w
     if (bits >= 8) bits -= 8, out.push_back(std::uint8_t((acc >> bits) & 0xFF));
   }
   return out;
+}
+
+// The transfer of an unoccluded vertex: the clamped cosine around its normal over pi, whose SH
+// are phong_zonal(l, 1) Y_lm(n) (1, 2/3 and 1/4 for bands 0-2).
+std::vector<float> open_transfer(std::span<const glm::vec3> normals) {
+  const std::vector<double> zonal = phong_zonal_all(3, 1.0);
+  std::vector<float> out(normals.size() * kTransferCoefficients);
+  double y[kTransferCoefficients];
+  for (std::size_t i = 0; i < normals.size(); ++i) {
+    sh_basis_all(3, glm::dvec3(normals[i]), y);
+    for (int l = 0, k = 0; l < 3; ++l)
+      for (int m = -l; m <= l; ++m, ++k)
+        out[i * kTransferCoefficients + std::size_t(k)] = float(zonal[std::size_t(l)] * y[k]);
+  }
+  return out;
+}
+
+// Turns transfers (9 per vertex) with a node's normal matrix: T'(w) = T(R^T w), R the nearest
+// rotation (or reflection) to the normal matrix's direction (its columns made orthonormal).
+void rotate_transfer(std::span<float> transfer, const glm::dmat3& normal_matrix) {
+  glm::dmat3 r = normal_matrix;
+  r[0] = glm::normalize(r[0]);
+  r[1] = glm::normalize(r[1] - glm::dot(r[1], r[0]) * r[0]);
+  r[2] = glm::normalize(r[2] - glm::dot(r[2], r[0]) * r[0] - glm::dot(r[2], r[1]) * r[1]);
+  double off = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < 3; ++k) off = std::max(off, std::abs(r[c][k] - (c == k ? 1.0 : 0.0)));
+  if (off < 1e-9) return;
+  // The 9 x 9 matrix once: column j is the rotated expansion of the j-th basis function.
+  double m[kTransferCoefficients][kTransferCoefficients];
+  for (int j = 0; j < kTransferCoefficients; ++j) {
+    ShCoeffs e(3);
+    e.c[std::size_t(j)].x = 1.0;
+    const ShCoeffs col = sh_rotate(e, glm::transpose(r));
+    for (int k = 0; k < kTransferCoefficients; ++k) m[k][j] = col.c[std::size_t(k)].x;
+  }
+  for (std::size_t i = 0; i + kTransferCoefficients <= transfer.size();
+       i += kTransferCoefficients) {
+    double t[kTransferCoefficients];
+    for (int k = 0; k < kTransferCoefficients; ++k) t[k] = transfer[i + std::size_t(k)];
+    for (int k = 0; k < kTransferCoefficients; ++k) {
+      double v = 0;
+      for (int j = 0; j < kTransferCoefficients; ++j) v += m[k][j] * t[j];
+      transfer[i + std::size_t(k)] = float(v);
+    }
+  }
 }
 
 class GltfReader {
@@ -312,6 +359,7 @@ class GltfReader {
     std::vector<glm::vec3> positions, normals;
     std::vector<glm::vec2> uvs;
     std::vector<glm::vec4> occlusion;  // _OCCLUSION (arlight's baked occlusion, Mesh::occlusion)
+    std::vector<float> transfer;       // _SH_TRANSFER_0..2 (Mesh::transfer: 3 VEC3s, 9 per vertex)
     std::vector<std::uint32_t> indices;
   };
 
@@ -394,6 +442,26 @@ class GltfReader {
           throw InputError(where_ +
                            "_OCCLUSION: an occlusion outside [0, 1] or a bent normal not finite");
     }
+    if (attrs.contains("_SH_TRANSFER_0")) {
+      // Three VEC3 accessors of coefficients 0-2, 3-5 and 6-8; |t_k| <= max |Y_k| < 1.1.
+      std::vector<std::vector<float>> parts;
+      for (const char* name : {"_SH_TRANSFER_0", "_SH_TRANSFER_1", "_SH_TRANSFER_2"}) {
+        if (!attrs.contains(name))
+          throw InputError(where_ + name + " missing beside _SH_TRANSFER_0");
+        parts.push_back(read_accessor(attrs[name].get<std::size_t>(), 3));
+        if (parts.back().size() != parts.front().size())
+          throw InputError(where_ + "the _SH_TRANSFER_ accessors have different counts");
+        for (const float v : parts.back())
+          if (!(std::abs(v) <= 2.0f))
+            throw InputError(where_ + name + ": a coefficient not finite or beyond 2");
+      }
+      const std::size_t n = parts[0].size() / 3;
+      p.transfer.resize(n * kTransferCoefficients);
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t k = 0; k < 3; ++k)
+          for (std::size_t c = 0; c < 3; ++c)
+            p.transfer[i * kTransferCoefficients + 3 * k + c] = parts[k][3 * i + c];
+    }
     if (prim.contains("indices")) {
       p.indices = read_indices(prim["indices"].get<std::size_t>());
     } else {
@@ -414,7 +482,8 @@ class GltfReader {
       const std::size_t n = p.positions.size();
       if (n == 0) throw InputError(where_ + "primitive without positions");
       if ((!p.normals.empty() && p.normals.size() != n) || (!p.uvs.empty() && p.uvs.size() != n) ||
-          (!p.occlusion.empty() && p.occlusion.size() != n))
+          (!p.occlusion.empty() && p.occlusion.size() != n) ||
+          (!p.transfer.empty() && p.transfer.size() != n * kTransferCoefficients))
         throw InputError(where_ + "primitive attributes have different counts");
       if (p.indices.size() % 3 != 0) throw InputError(where_ + "index count is not a multiple of 3");
       for (std::uint32_t i : p.indices)
@@ -432,6 +501,10 @@ class GltfReader {
         mesh_.occlusion.assign(mesh_.positions.size(), open);
       if (!p.occlusion.empty()) has_occlusion_ = true;
       if (has_occlusion_ && p.occlusion.empty()) p.occlusion.assign(n, open);
+      // The transfer likewise; open: the clamped cosine's, which needs the normal (below).
+      if (!p.transfer.empty() && !has_transfer_ && !mesh_.positions.empty())
+        mesh_.transfer = open_transfer(mesh_.normals);
+      if (!p.transfer.empty()) has_transfer_ = true;
       Mesh part;
       part.positions = std::move(p.positions);
       part.indices = std::move(p.indices);
@@ -450,6 +523,17 @@ class GltfReader {
         }
       }
       if (has_uvs_) mesh_.uvs.insert(mesh_.uvs.end(), p.uvs.begin(), p.uvs.end());
+      if (has_transfer_) {
+        const std::size_t first = mesh_.transfer.size();
+        if (p.transfer.empty()) {
+          const std::vector<float> open =
+              open_transfer(std::span(mesh_.normals).subspan(mesh_.normals.size() - n, n));
+          mesh_.transfer.insert(mesh_.transfer.end(), open.begin(), open.end());
+        } else {
+          mesh_.transfer.insert(mesh_.transfer.end(), p.transfer.begin(), p.transfer.end());
+          rotate_transfer(std::span(mesh_.transfer).subspan(first), glm::dmat3(N));
+        }
+      }
       for (std::size_t i = 0; i < part.indices.size(); i += 3) {
         mesh_.indices.push_back(base + part.indices[i]);
         mesh_.indices.push_back(base + part.indices[i + (flip ? 2 : 1)]);
@@ -503,7 +587,7 @@ class GltfReader {
   std::vector<std::vector<std::uint8_t>> buffers_;
   bool on_disk_ = true;  // separate buffer files resolve next to path_
   Mesh mesh_;
-  bool has_uvs_ = false, has_occlusion_ = false;
+  bool has_uvs_ = false, has_occlusion_ = false, has_transfer_ = false;
 };
 
 }  // namespace
@@ -528,9 +612,12 @@ Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name) {
 std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
   const std::size_t n = mesh.positions.size();
   if (n == 0 || mesh.normals.size() != n || (!mesh.uvs.empty() && mesh.uvs.size() != n) ||
-      (!mesh.occlusion.empty() && mesh.occlusion.size() != n) || mesh.indices.size() % 3 != 0)
+      (!mesh.occlusion.empty() && mesh.occlusion.size() != n) ||
+      (!mesh.transfer.empty() && mesh.transfer.size() != n * kTransferCoefficients) ||
+      mesh.indices.size() % 3 != 0)
     throw std::invalid_argument(
-        "encode_glb: positions, normals (and uvs, occlusion) must match, whole triangles");
+        "encode_glb: positions, normals (and uvs, occlusion, transfer) must match, whole "
+        "triangles");
   for (const std::uint32_t i : mesh.indices)
     if (i >= n) throw std::invalid_argument("encode_glb: an index beyond the vertices");
   // The binary chunk: positions, normals, uvs, indices, each 4-byte aligned (they are).
@@ -561,6 +648,16 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
   if (!mesh.occlusion.empty())  // glTF's application-specific attributes start with '_'
     attributes["_OCCLUSION"] =
         append(mesh.occlusion.data(), n * sizeof(glm::vec4), kArrayBuffer, kFloat, n, "VEC4");
+  if (!mesh.transfer.empty()) {
+    // Three VEC3 attributes (glTF has no 9-vector): coefficients 0-2, 3-5, 6-8.
+    std::vector<glm::vec3> part(n);
+    for (int k = 0; k < 3; ++k) {
+      for (std::size_t i = 0; i < n; ++i)
+        part[i] = glm::make_vec3(&mesh.transfer[i * kTransferCoefficients + 3 * std::size_t(k)]);
+      attributes["_SH_TRANSFER_" + std::to_string(k)] =
+          append(part.data(), n * sizeof(glm::vec3), kArrayBuffer, kFloat, n, "VEC3");
+    }
+  }
   const std::size_t indices = append(mesh.indices.data(), mesh.indices.size() * 4, kElementArrayBuffer,
                                      kUint, mesh.indices.size(), "SCALAR");
   json extras = json::object();

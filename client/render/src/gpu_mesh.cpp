@@ -8,7 +8,8 @@
 namespace arlight::render {
 
 // One buffer holding the attribute arrays one after the other (positions, normals, uvs,
-// tangents, occlusion), locations 0-4 as in ibl.vert; absent ones read constant defaults.
+// tangents, occlusion, transfer), locations 0-4 as in ibl.vert and the transfer's three vec3s at
+// 5-7 (interleaved, 9 floats a vertex); absent ones read constant defaults.
 GpuMesh::GpuMesh(const Mesh& mesh) {
   const std::size_t n = mesh.positions.size();
   if (n == 0 || mesh.normals.size() != n || mesh.indices.empty())
@@ -16,13 +17,16 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   has_uvs_ = mesh.uvs.size() == n;
   has_tangents_ = has_uvs_ && mesh.tangents.size() == n;
   has_occlusion_ = mesh.occlusion.size() == n;
+  has_transfer_ = mesh.transfer.size() == n * kTransferCoefficients;
   bounds_ = mesh.bounds;
   index_count_ = mesh.indices.size();
   const std::size_t pos_bytes = n * sizeof(glm::vec3),
                     uv_bytes = has_uvs_ ? n * sizeof(glm::vec2) : 0,
                     tan_bytes = has_tangents_ ? n * sizeof(glm::vec4) : 0,
-                    occ_bytes = has_occlusion_ ? n * sizeof(glm::vec4) : 0;
-  std::vector<std::uint8_t> data(2 * pos_bytes + uv_bytes + tan_bytes + occ_bytes);
+                    occ_bytes = has_occlusion_ ? n * sizeof(glm::vec4) : 0,
+                    transfer_bytes = has_transfer_ ? n * kTransferCoefficients * sizeof(float) : 0;
+  const std::size_t transfer_at = 2 * pos_bytes + uv_bytes + tan_bytes + occ_bytes;
+  std::vector<std::uint8_t> data(transfer_at + transfer_bytes);
   std::memcpy(data.data(), mesh.positions.data(), pos_bytes);
   std::memcpy(data.data() + pos_bytes, mesh.normals.data(), pos_bytes);
   if (uv_bytes) std::memcpy(data.data() + 2 * pos_bytes, mesh.uvs.data(), uv_bytes);
@@ -30,6 +34,7 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   if (occ_bytes)
     std::memcpy(data.data() + 2 * pos_bytes + uv_bytes + tan_bytes, mesh.occlusion.data(),
                 occ_bytes);
+  if (transfer_bytes) std::memcpy(data.data() + transfer_at, mesh.transfer.data(), transfer_bytes);
 
   glGenVertexArrays(1, &vao_);
   glGenBuffers(1, &vbo_);
@@ -37,15 +42,20 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   glBindVertexArray(vao_);
   glBindBuffer(GL_ARRAY_BUFFER, vbo_);
   glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(data.size()), data.data(), GL_STATIC_DRAW);
-  auto attrib = [](GLuint loc, int comps, std::size_t offset) {
+  auto attrib = [](GLuint loc, int comps, std::size_t offset, GLsizei stride = 0) {
     glEnableVertexAttribArray(loc);
-    glVertexAttribPointer(loc, comps, GL_FLOAT, GL_FALSE, 0, reinterpret_cast<const void*>(offset));
+    glVertexAttribPointer(loc, comps, GL_FLOAT, GL_FALSE, stride,
+                          reinterpret_cast<const void*>(offset));
   };
   attrib(0, 3, 0);
   attrib(1, 3, pos_bytes);
   if (has_uvs_) attrib(2, 2, 2 * pos_bytes);
   if (has_tangents_) attrib(3, 4, 2 * pos_bytes + uv_bytes);
   if (has_occlusion_) attrib(4, 4, 2 * pos_bytes + uv_bytes + tan_bytes);
+  if (has_transfer_)
+    for (GLuint k = 0; k < 3; ++k)
+      attrib(5 + k, 3, transfer_at + k * 3 * sizeof(float),
+             GLsizei(kTransferCoefficients * sizeof(float)));
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo_);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(index_count_ * sizeof(std::uint32_t)),
                mesh.indices.data(), GL_STATIC_DRAW);
@@ -77,7 +87,7 @@ GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
     vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
     ground_tex_ = std::exchange(o.ground_tex_, 0), ground_rect_ = o.ground_rect_;
     index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
-    has_occlusion_ = o.has_occlusion_;
+    has_occlusion_ = o.has_occlusion_, has_transfer_ = o.has_transfer_;
     bounds_ = o.bounds_;
   }
   return *this;

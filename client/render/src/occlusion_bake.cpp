@@ -11,12 +11,14 @@ namespace arlight::render {
 
 void bake_occlusion(Mesh& mesh, int directions) {
   const Occluder occluder(mesh.positions, mesh.indices);
-  // Order 1: the bent normal and the occlusion are all the renderer reads.
+  // Order 3: the SH-9 transfer the renderer dots with the room's SH, and the bent normal and
+  // occlusion (what the hemisphere shading and older readers use).
   const Transfer t =
-      bake_transfer(occluder, mesh.positions, mesh.normals, {.directions = directions, .order = 1});
+      bake_transfer(occluder, mesh.positions, mesh.normals, {.directions = directions, .order = 3});
   mesh.occlusion.resize(t.size());
   for (std::size_t i = 0; i < t.size(); ++i)
     mesh.occlusion[i] = glm::vec4(t.bent_normal[i], t.ao[i]);
+  mesh.transfer = t.sh;
 
   // The floor: up-facing points of the plane under the mesh's bounds.
   constexpr int kGround = 64;

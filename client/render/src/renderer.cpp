@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -104,6 +105,7 @@ enum Feature : unsigned {
   kGlass = 128,           // a transmissive material (Material::transmission)
   kLiveRefraction = 256,  // ... showing the camera frame (Refraction::LiveFrame)
   kFrameRgb = 512,        // ... whose copy holds R, G, B (the browser's), not B, G, R
+  kTransfer = 1024,       // the mesh's SH-9 transfer dotted with the room's SH (not hemisphere)
 };
 
 // What draw() took from the renderer's state for a draw it defers to composite().
@@ -128,7 +130,7 @@ struct IblProgram {
   GLint model = -1, normal_matrix = -1, view_proj = -1, reflection_mix = -1, camera_position = -1,
         world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1, sky = -1, ground = -1,
         occlusion = -1, ior = -1, transmission = -1, object_from_scene = -1, ellipsoid_centre = -1,
-        ellipsoid_axes = -1, inv_exposure_gain = -1;
+        ellipsoid_axes = -1, inv_exposure_gain = -1, light_sh = -1;
 };
 
 }  // namespace
@@ -245,6 +247,14 @@ struct Renderer::Impl {
 
   EnvSet maps, sh_maps, black;
   ShCoeffs last_sh;
+  // The room's radiance SH, bands 0-2 (world frame), for the meshes' transfer: the sharpest map's
+  // under a map set (nearest the radiance), else the live SH's; order 0 before any lighting.
+  ShCoeffs room_sh;
+  void set_room_sh(const ShCoeffs& sh) {
+    room_sh = ShCoeffs(3);
+    for (int k = 0; k < std::min(sh_count(3), int(sh.c.size())); ++k)
+      room_sh.c[std::size_t(k)] = sh.c[std::size_t(k)];
+  }
   ReflectionLookup lookup = ReflectionLookup::Interpolate;
 
   glm::mat4 view_proj{1.0f};
@@ -456,12 +466,16 @@ struct Renderer::Impl {
     if (it != ibl.end()) return it->second;
     std::vector<std::pair<std::string, std::string>> defines = {
         {"ENV_PROJECTION", std::to_string(int(projection))}};
-    const std::pair<Feature, const char*> names[] = {
-        {kDiffuse, "USE_DIFFUSE"},           {kAlbedoMap, "USE_ALBEDO"},
-        {kNormalMap, "USE_NORMAL_MAP"},      {kLightMap, "USE_LIGHT_MAP"},
-        {kSpecular, "USE_SPECULAR"},         {kMix, "MIX_REFLECTIONS"},
-        {kHemisphere, "HEMISPHERE"},         {kGlass, "GLASS"},
-        {kLiveRefraction, "LIVE_REFRACTION"}};
+    const std::pair<Feature, const char*> names[] = {{kDiffuse, "USE_DIFFUSE"},
+                                                     {kAlbedoMap, "USE_ALBEDO"},
+                                                     {kNormalMap, "USE_NORMAL_MAP"},
+                                                     {kLightMap, "USE_LIGHT_MAP"},
+                                                     {kSpecular, "USE_SPECULAR"},
+                                                     {kMix, "MIX_REFLECTIONS"},
+                                                     {kHemisphere, "HEMISPHERE"},
+                                                     {kGlass, "GLASS"},
+                                                     {kLiveRefraction, "LIVE_REFRACTION"},
+                                                     {kTransfer, "USE_TRANSFER"}};
     for (auto [bit, name] : names)
       if (features & bit) defines.emplace_back(name, "1");
     if (features & kLiveRefraction)
@@ -482,6 +496,7 @@ struct Renderer::Impl {
     ip.ellipsoid_centre = pr.uniform("u_ellipsoid_centre");
     ip.ellipsoid_axes = pr.uniform("u_ellipsoid_axes");
     ip.inv_exposure_gain = pr.uniform("u_inv_exposure_gain");
+    ip.light_sh = pr.uniform("u_light_sh");
     glUseProgram(pr.id());
     glUniform1i(pr.uniform("u_irradiance"), kIrr);
     glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -639,6 +654,7 @@ void Renderer::set_sh(const ShCoeffs& sh) {
   Impl& p = *p_;
   if (sh.order == p.last_sh.order && sh.c == p.last_sh.c) return;
   p.last_sh = sh;
+  if (p.maps.empty()) p.set_room_sh(sh);
   p.irradiance_sh = sh_convolve(sh, phong_zonal_all(sh.order, 1.0));
   const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, kShMapSize);
   std::vector<EnvMap> maps;
@@ -670,6 +686,7 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
   const std::size_t sharpest =
       std::size_t(std::max_element(shininess.begin(), shininess.end()) - shininess.begin());
   p_->sharpest_map = maps[sharpest];
+  p_->set_room_sh(sh_project(maps[sharpest], 3));
   p_->map_priors.reset(), p_->light_tree.reset();
 }
 
@@ -677,6 +694,10 @@ void Renderer::clear_maps() {
   p_->maps = EnvSet();
   p_->irradiance_map_sh.reset();
   p_->sharpest_map.reset(), p_->map_priors.reset(), p_->light_tree.reset();
+  if (p_->last_sh.order > 0)
+    p_->set_room_sh(p_->last_sh);
+  else
+    p_->room_sh = ShCoeffs();
 }
 
 void Renderer::set_shadow(const ShadowSettings& settings) {
@@ -754,11 +775,12 @@ void Renderer::Impl::issue(const GpuMesh& mesh, const Material& m, const glm::ma
   const bool glass = m.transmissive();
   const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f) && !glass;
   const bool hemisphere = p.shading != Shading::ImageBased;
-  const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
-                            (use_normal ? kNormalMap : 0u) |
-                            (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
-                            ((specular || glass) && a != b && !hemisphere ? kMix : 0u) |
-                            (hemisphere ? kHemisphere : 0u) | (glass ? kGlass | live : 0u);
+  const bool transfer = diffuse && !hemisphere && mesh.has_transfer() && p.room_sh.order > 0;
+  const unsigned features =
+      (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
+      (use_normal ? kNormalMap : 0u) | (diffuse && use_light ? kLightMap : 0u) |
+      (specular ? kSpecular : 0u) | ((specular || glass) && a != b && !hemisphere ? kMix : 0u) |
+      (hemisphere ? kHemisphere : 0u) | (glass ? kGlass | live : 0u) | (transfer ? kTransfer : 0u);
   const IblProgram& u = p.ibl_program(hemisphere ? Projection::LatLong : env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, p.hdr_fbo.id);
   glViewport(0, 0, p.w, p.h);
@@ -800,6 +822,15 @@ void Renderer::Impl::issue(const GpuMesh& mesh, const Material& m, const glm::ma
       glActiveTexture(GL_TEXTURE0 + kResponseInverse);
       glBindTexture(GL_TEXTURE_2D, p.response_inverse.id);
     }
+  }
+  if (transfer) {
+    // The room's SH in the object's frame: L_obj(w) = L_world(world_from_object w).
+    glm::dmat3 world_from_object = glm::dmat3(st.world_from_scene) * glm::dmat3(glm::mat3(model));
+    for (int c = 0; c < 3; ++c) world_from_object[c] = glm::normalize(world_from_object[c]);
+    const ShCoeffs l = sh_rotate(p.room_sh, world_from_object);
+    std::array<glm::vec3, kTransferCoefficients> v;
+    for (std::size_t k = 0; k < v.size(); ++k) v[k] = glm::vec3(l.c[k]);
+    glUniform3fv(u.light_sh, GLsizei(v.size()), glm::value_ptr(v[0]));
   }
   if (hemisphere) {
     const HemispherePriors h = p.hemisphere_priors();

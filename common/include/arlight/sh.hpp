@@ -5,6 +5,7 @@
 // "Order" N means bands l = 0..N-1, N^2 coefficients, coefficient (l, m) at index l(l+1)+m.
 #pragma once
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 #include <span>
 #include <vector>
@@ -68,6 +69,11 @@ Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout);
 // split the directions across cores.
 void sh_evaluate_many(std::span<const ShCoeffs> coeffs, std::span<const glm::dvec3> dirs,
                       std::span<float* const> out);
+
+// The expansion of the rotated function w -> L(r w) (r a rotation): e.g. a world-frame
+// lighting's SH in an object's frame, r = world_from_object. Exact (quadrature over 2 N^2
+// directions, N the order); throws for coefficients that do not match their order.
+ShCoeffs sh_rotate(const ShCoeffs& coeffs, const glm::dmat3& r);
 
 // Multiplies band l by zonal[l] (spherical convolution with a zonal kernel, thesis eq. 2.31,
 // where zonal[l] already includes Lambda_l = sqrt(4 pi / (2l+1))).

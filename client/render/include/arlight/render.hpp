@@ -57,6 +57,7 @@ class GpuMesh {
   bool has_uvs() const { return has_uvs_; }
   bool has_tangents() const { return has_tangents_; }
   bool has_occlusion() const { return has_occlusion_; }
+  bool has_transfer() const { return has_transfer_; }  // Mesh::transfer, attributes 5-7
   // The baked floor occlusion (Mesh::ground) as an R8 texture, and its rectangle; 0 / empty
   // when none was baked.
   unsigned ground_texture() const { return ground_tex_; }
@@ -70,7 +71,7 @@ class GpuMesh {
   unsigned vao_ = 0, vbo_ = 0, ibo_ = 0, ground_tex_ = 0;
   GroundOcclusion ground_rect_;  // min, max and size only
   std::size_t index_count_ = 0;
-  bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false;
+  bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false, has_transfer_ = false;
   Bounds bounds_;
 };
 

@@ -36,6 +36,8 @@ struct GroundOcclusion {
 // uv (0,0) is the top-left of a texture image (as in glTF and image files). Tangents follow
 // glTF / MikkTSpace: xyz along increasing u, w = +-1 with bitangent = w * cross(normal, tangent)
 // pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
+inline constexpr int kTransferCoefficients = 9;  // SH order 3
+
 struct Mesh {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;      // unit, one per position
@@ -45,6 +47,11 @@ struct Mesh {
   // normal (xyz, object frame) and the ambient occlusion (w). The diffuse light is looked up
   // along the bent normal and scaled by the occlusion, so creases darken as the room's light says.
   std::vector<glm::vec4> occlusion;
+  // Empty or kTransferCoefficients per position: each vertex's SH-9 radiance transfer with the
+  // mesh's occlusion of itself (transfer.hpp's Transfer::sh, object frame). The renderer dots it
+  // with the room's SH, so a crease darkens by how much of the light its open side lets in,
+  // not by a uniform share (tutorial §6.1).
+  std::vector<float> transfer;
   GroundOcclusion ground;
   std::vector<std::uint32_t> indices;  // triangles
   Bounds bounds;
