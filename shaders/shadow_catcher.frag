@@ -5,10 +5,11 @@
 // over the lights i whose hard shadows blend into the soft one (tutorial §6.3; the renderer
 // picks them, §6.4): f_i = light i's share of the plane's irradiance, V_i = its visibility from
 // its layer of the shadow maps (one 2x2 bilinear comparison, or 3x3 of them for one or two
-// lights), AO = the cosine-weighted share of the rest (the sky, taken as uniform) hidden by the
-// objects:
-// baked by ray casting where an object has its floor occlusion baked (tutorial §6.1's receiver
-// plane), else approximated by the ellipsoid inscribed in its bounds. The output holds the camera
+// lights), AO = the share of the rest of the light hidden by the objects: where an object's
+// floor transfer is baked (tutorial §6.1's receiver plane), its SH-9 transfer dotted with that
+// rest as the room's SH says it comes (per channel); else the cosine-weighted share of a
+// uniform sky, baked by ray casting or approximated by the ellipsoid inscribed in the object's
+// bounds. The output holds the camera
 // frame's codes, so the radiance ratio becomes a code ratio through the camera response around
 // 18 % grey (exact for a power-law response). This pass writes those code factors at low
 // resolution (B, G, R, cleared to 1); the renderer multiplies them into the camera frame,
@@ -43,6 +44,16 @@ uniform sampler2D u_ground0;       // R: the share of the sky the object hides (
 uniform sampler2D u_ground1;
 uniform sampler2D u_ground2;
 uniform sampler2D u_ground3;
+// Where the object's floor transfer is baked too: the SH-9 transfer of what it hides (3 layers:
+// coefficients 3j..3j+2 in layer j), and the rest of the room's light (what the hard shadows do
+// not carry) as SH in the object's frame over what an open floor point gets from it: their dot
+// product is the share of that light the object hides there, as it comes from where it comes.
+uniform float u_has_ground_transfer[4];
+uniform vec3 u_ground_light[36];  // object k: 9k .. 9k + 8
+uniform highp sampler2DArray u_ground_transfer0;
+uniform highp sampler2DArray u_ground_transfer1;
+uniform highp sampler2DArray u_ground_transfer2;
+uniform highp sampler2DArray u_ground_transfer3;
 
 out vec4 o_factor;
 
@@ -73,26 +84,52 @@ float baked_ground(int k, vec3 p) {
   return textureLod(u_ground3, uv, 0.0).r;
 }
 
-// Cosine-weighted occlusion of the upper hemisphere at p (normal +z) by the objects: baked, or
-// by the ellipsoids. For a sphere of radius r at distance d whose direction makes angle theta
+vec4 ground_transfer(int k, vec3 uvl) {
+  if (k == 0) return textureLod(u_ground_transfer0, uvl, 0.0);
+  if (k == 1) return textureLod(u_ground_transfer1, uvl, 0.0);
+  if (k == 2) return textureLod(u_ground_transfer2, uvl, 0.0);
+  return textureLod(u_ground_transfer3, uvl, 0.0);
+}
+
+// The share of the rest of the light that object k hides at p, per channel (0 outside its
+// baked rectangle).
+vec3 baked_hidden(int k, vec3 p) {
+  vec2 uv = (u_ground_from_scene[k] * vec4(p, 1.0)).xy;
+  if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec3(0.0);
+  vec3 hidden = vec3(0.0);
+  for (int j = 0; j < 3; ++j) {
+    vec3 t = ground_transfer(k, vec3(uv, float(j))).xyz;
+    hidden += t.x * u_ground_light[9 * k + 3 * j] + t.y * u_ground_light[9 * k + 3 * j + 1] +
+              t.z * u_ground_light[9 * k + 3 * j + 2];
+  }
+  return clamp(hidden, 0.0, 1.0);
+}
+
+// Occlusion of the upper hemisphere's light at p (normal +z) by the objects, per channel: by
+// their baked transfer and the room's light, or cosine-weighted (the light taken as uniform)
+// baked or by the ellipsoids. For a sphere of radius r at distance d whose direction makes angle theta
 // with the normal, the projected solid angle over pi is exactly cos(theta) r^2 / d^2 (while the
 // sphere is above the horizon); the ellipsoid uses its normalized distance |q| = |(c - p) / axes|
 // for d / r.
-float ambient_occlusion(vec3 p) {
-  float ao = 0.0;
+vec3 ambient_occlusion(vec3 p) {
+  vec3 ao = vec3(0.0);
   for (int k = 0; k < 4; ++k) {
     if (k >= u_count) break;
+    if (u_has_ground_transfer[k] > 0.5) {
+      ao += baked_hidden(k, p);
+      continue;
+    }
     if (u_has_ground[k] > 0.5) {
-      ao += baked_ground(k, p);
+      ao += vec3(baked_ground(k, p));
       continue;
     }
     vec3 d = u_centre[k] - p;
     vec3 q = d * u_inv_axes[k];
     float cos_t = max(d.z, 0.0) / max(length(d), 1e-6);
     float fade = 1.0 - smoothstep(0.5 * u_ao_reach, u_ao_reach, length(q.xy));
-    ao += cos_t / max(dot(q, q), 1.0) * fade;
+    ao += vec3(cos_t / max(dot(q, q), 1.0) * fade);
   }
-  return min(ao, 1.0);
+  return min(ao, vec3(1.0));
 }
 
 void main() {
@@ -101,11 +138,11 @@ void main() {
     if (i >= u_light_count) break;
     hidden += u_light_fraction[i / 4][i % 4] * (1.0 - visibility(i, v_position));
   }
-  float ao = ambient_occlusion(v_position) * u_ao_strength;
-  float ratio = 1.0 - hidden - (1.0 - u_fraction) * ao;
-  ratio = max(ratio, u_min_ratio);
-  if (ratio > 0.998) discard;  // the pass's target was cleared to 1
+  vec3 ao = ambient_occlusion(v_position) * u_ao_strength;
+  vec3 ratio = 1.0 - hidden - (1.0 - u_fraction) * ao;
+  ratio = max(ratio, vec3(u_min_ratio));
+  if (all(greaterThan(ratio, vec3(0.998)))) discard;  // the pass's target was cleared to 1
   vec3 grey = encode(vec3(0.18));
-  vec3 factor = clamp(encode(vec3(0.18 * ratio)) / max(grey, vec3(1e-6)), 0.0, 1.0);
+  vec3 factor = clamp(encode(0.18 * ratio) / max(grey, vec3(1e-6)), 0.0, 1.0);
   o_factor = vec4(factor.bgr, 1.0);  // the output holds B, G, R
 }

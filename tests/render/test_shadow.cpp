@@ -405,6 +405,10 @@ EnvMap soft_shadow_room(const std::string& name) {
         l = 0.2;
         if (disc(d, {0.5, 1.0, 0.3}, 5.0)) l += 120.0;
         if (disc(d, {-0.6, 0.8, -0.2}, 5.0)) l += 80.0;
+      } else if (name == "constant") {
+        l = 1.0;
+      } else if (name == "horizon") {  // bright around the horizon, dark overhead (a street)
+        l = d.y > 0 ? 0.1 + 2.0 * std::pow(1.0 - d.y, 3.0) : 0.1;
       } else {  // overcast: bright towards the zenith (the CIE overcast sky's 1 + 2 sin)
         l = d.y > 0 ? (1.0 + 2.0 * d.y) / 3.0 : 0.1;
       }
@@ -420,7 +424,10 @@ struct SoftShadowScore {
   int pixels = 0;
   int lights_drawn = 0;
 };
-SoftShadowScore soft_shadow_score(const EnvMap& room, int lights, cv::Mat* image = nullptr) {
+// `standing`: the ball (radius 0.4) stands on the floor with its floor transfer baked
+// (bake_occlusion), else it floats 0.3 above it with none (the ellipsoid's contact shadow).
+SoftShadowScore soft_shadow_score(const EnvMap& room, int lights, cv::Mat* image = nullptr,
+                                  const Mesh* standing = nullptr) {
   Renderer r(W, H);
   r.set_maps({1.0, 1280.0}, {room, room});  // the sharpest map is the room's radiance
   View v;
@@ -432,8 +439,12 @@ SoftShadowScore soft_shadow_score(const EnvMap& room, int lights, cv::Mat* image
   s.lights = lights;
   s.min_ratio = 0.0f, s.max_fraction = 1.0f;
   r.set_shadow(s);
-  const Mesh ball = make_sphere(0.4f, 32, 64);
-  const glm::mat4 model = glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 0.7f));
+  const Mesh ball = standing ? *standing : make_sphere(0.4f, 32, 64);
+  // Standing: object +Y (its bake's up) is scene +Z, its lowest point on z = 0.
+  const glm::mat4 model =
+      standing ? glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 0.4f)),
+                             std::numbers::pi_v<float> / 2, glm::vec3(1, 0, 0))
+               : glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 0.7f));
   const GpuMesh gpu_ball(ball);
   r.begin_frame();
   r.draw(gpu_ball, Material{}, model);
@@ -537,6 +548,45 @@ TEST(SoftShadow, TheBrowsersPathDarkensTheFloorAsTheNativeOneDoes) {
               shadowed, max_diff);
   EXPECT_GT(shadowed, 500);
   EXPECT_LE(max_diff, 2);
+}
+
+// The floor's ambient shadow follows where the light comes from (tutorial §6.1's receiver plane
+// with its SH-9 transfer): a ball standing on the floor, its floor baked, under a sky bright
+// overhead (the ball hides much of its light from the floor beside it) and one bright around
+// the horizon (it hides little). With no compact light in these rooms (N = 1 draws no hard
+// shadow) the whole ratio is the floor's transfer dotted with the room's light: nearer the
+// ray-traced ratio than the cosine-weighted share of a uniform sky (the same bake without its
+// transfer), and the same as that share in a uniform room. N = 8 (broad patches of the sky as
+// hard shadows) is printed for bench/RESULTS.md.
+TEST(SoftShadow, TheFloorsAmbientShadowFollowsWhereTheLightComesFrom) {
+  context();
+  Mesh baked = make_sphere(0.4f, 32, 64);
+  bake_occlusion(baked, 1024);
+  ASSERT_FALSE(baked.ground.hidden_transfer.empty());
+  Mesh uniform = baked;
+  uniform.ground.hidden_transfer.clear();
+  for (const std::string room_name : {"constant", "overcast", "horizon"}) {
+    const EnvMap room = soft_shadow_room(room_name);
+    std::map<int, std::pair<SoftShadowScore, SoftShadowScore>> scores;
+    for (const int n : {1, 8}) {
+      scores[n] = {soft_shadow_score(room, n, nullptr, &baked),
+                   soft_shadow_score(room, n, nullptr, &uniform)};
+      std::printf(
+          "[soft-shadow] %s, a standing ball, N = %d (%d drawn): mean |ratio - ray traced| %.4f "
+          "with the floor's transfer, %.4f with its uniform occlusion (%d px)\n",
+          room_name.c_str(), n, scores[n].first.lights_drawn, scores[n].first.mean_error,
+          scores[n].second.mean_error, scores[n].first.pixels);
+    }
+    const auto& [transfer, cosine] = scores[1];
+    EXPECT_EQ(transfer.lights_drawn, 0) << room_name;
+    EXPECT_GT(transfer.pixels, 1000) << room_name;
+    if (room_name == "constant") {
+      EXPECT_NEAR(transfer.mean_error, cosine.mean_error, 0.001);
+    } else {
+      EXPECT_LT(transfer.mean_error, 0.025) << room_name;
+      EXPECT_LT(transfer.mean_error, 0.9 * cosine.mean_error) << room_name;
+    }
+  }
 }
 
 // Tutorial §6's claim: as the hard shadows grow in number the blend converges to the ray-traced

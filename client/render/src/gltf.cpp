@@ -166,7 +166,8 @@ class GltfReader {
 
  private:
   // arlight's baked floor occlusion (Mesh::ground), in the loaded mesh's frame: the document's
-  // extras.arlight_ground = {min: [x, z], max: [x, z], size: N, accessor: A (N x N floats)}.
+  // extras.arlight_ground = {min: [x, z], max: [x, z], size: N, accessor: A (N x N floats)[,
+  // transfer_accessor: T (N x N x 9 floats, GroundOcclusion::hidden_transfer)]}.
   void read_ground() {
     if (!doc_.contains("extras") || !doc_["extras"].is_object() ||
         !doc_["extras"].contains("arlight_ground"))
@@ -185,7 +186,17 @@ class GltfReader {
                        " values, not size x size");
     for (const float v : occluded)
       if (!(v >= 0.0f && v <= 1.0f)) throw InputError(what + "an occlusion outside [0, 1]");
-    mesh_.ground = {{mn[0], mn[1]}, {mx[0], mx[1]}, size, std::move(occluded)};
+    std::vector<float> hidden;
+    if (g.contains("transfer_accessor")) {
+      hidden = read_accessor(g.at("transfer_accessor").get<std::size_t>(), 1);
+      if (hidden.size() != std::size_t(size) * std::size_t(size) * kTransferCoefficients)
+        throw InputError(what + "the transfer accessor holds " + std::to_string(hidden.size()) +
+                         " values, not size x size x 9");
+      for (const float v : hidden)
+        if (!(std::abs(v) <= 2.0f))
+          throw InputError(what + "a transfer coefficient not finite or beyond 2");
+    }
+    mesh_.ground = {{mn[0], mn[1]}, {mx[0], mx[1]}, size, std::move(occluded), std::move(hidden)};
   }
 
   void parse_glb() {
@@ -671,6 +682,13 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh) {
                                 {"max", {g.max.x, g.max.y}},
                                 {"size", g.size},
                                 {"accessor", a}};
+    if (!g.hidden_transfer.empty()) {
+      if (g.hidden_transfer.size() != g.occluded.size() * kTransferCoefficients)
+        throw std::invalid_argument("encode_glb: the ground's transfer is not size x size x 9");
+      extras["arlight_ground"]["transfer_accessor"] =
+          append(g.hidden_transfer.data(), g.hidden_transfer.size() * sizeof(float), 0, kFloat,
+                 g.hidden_transfer.size(), "SCALAR");
+    }
   }
   json doc = {
       {"asset", {{"version", "2.0"}, {"generator", "arlight"}}},

@@ -74,7 +74,21 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-    ground_rect_ = {mesh.ground.min, mesh.ground.max, mesh.ground.size, {}};
+    ground_rect_ = {mesh.ground.min, mesh.ground.max, mesh.ground.size, {}, {}};
+    const std::size_t n_texels = texels.size();
+    if (mesh.ground.hidden_transfer.size() == n_texels * kTransferCoefficients) {
+      std::vector<float> layers(3 * n_texels * 4, 0.0f);
+      for (std::size_t i = 0; i < n_texels; ++i)
+        for (std::size_t k = 0; k < std::size_t(kTransferCoefficients); ++k)
+          layers[((k / 3) * n_texels + i) * 4 + k % 3] =
+              mesh.ground.hidden_transfer[i * kTransferCoefficients + k];
+      glGenTextures(1, &ground_transfer_tex_);
+      glBindTexture(GL_TEXTURE_2D_ARRAY, ground_transfer_tex_);
+      glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA16F, mesh.ground.size, mesh.ground.size, 3, 0,
+                   GL_RGBA, GL_FLOAT, layers.data());
+      gl::set_sampling(GL_TEXTURE_2D_ARRAY, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+      glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
+    }
   }
   gl::check("uploading a mesh");
 }
@@ -86,6 +100,7 @@ GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
     release();
     vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
     ground_tex_ = std::exchange(o.ground_tex_, 0), ground_rect_ = o.ground_rect_;
+    ground_transfer_tex_ = std::exchange(o.ground_transfer_tex_, 0);
     index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
     has_occlusion_ = o.has_occlusion_, has_transfer_ = o.has_transfer_;
     bounds_ = o.bounds_;
@@ -100,7 +115,8 @@ void GpuMesh::release() {
   if (vbo_) glDeleteBuffers(1, &vbo_);
   if (ibo_) glDeleteBuffers(1, &ibo_);
   if (ground_tex_) glDeleteTextures(1, &ground_tex_);
-  vao_ = vbo_ = ibo_ = ground_tex_ = 0;
+  if (ground_transfer_tex_) glDeleteTextures(1, &ground_transfer_tex_);
+  vao_ = vbo_ = ibo_ = ground_tex_ = ground_transfer_tex_ = 0;
 }
 
 }  // namespace arlight::render

@@ -37,6 +37,7 @@ enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, 
 
 constexpr int kMaxEllipsoids = 4;  // shadow_catcher.frag's u_centre / u_inv_axes / u_ground*
 constexpr int kGroundUnit = 3;     // the catcher's texture units of u_ground0..3
+constexpr int kGroundTransferUnit = 7;  // ... and of u_ground_transfer0..3
 constexpr int kFactorScale = 4;    // shadow factors at 1/4 of the output's width and height
 
 // A mesh drawn this frame, for the shadow pass (its scene-frame bounds and what draws it).
@@ -49,6 +50,8 @@ struct Caster {
   // scene's z = 0, its +Y the scene's +Z), else 0: the catcher then uses the ellipsoid.
   GLuint ground_tex = 0;
   glm::mat4 ground_from_scene{1.0f};  // scene point -> (u, v) of the ground texture
+  GLuint ground_transfer_tex = 0;     // its SH-9 hidden transfer, when baked
+  glm::mat3 world_from_object{1.0f};  // the model's rotation in the lighting's frame
 };
 
 // A set of environment maps of one projection, sorted by shininess.
@@ -312,6 +315,8 @@ struct Renderer::Impl {
   struct ShadowLight {
     glm::vec3 direction;  // unit, scene frame, above the floor
     float fraction;       // its f_i: share of the floor's irradiance
+    glm::vec3 world_direction;
+    glm::vec3 power;  // radiance x solid angle (RGB): its SH is power Y_lm(world_direction)
   };
   // The hard shadows this frame blends: the chosen clusters under a map set, else the dominant
   // light; their fractions sum to at most max_fraction.
@@ -320,9 +325,9 @@ struct Renderer::Impl {
     if (!shadow.enabled) return lights;
     const glm::mat3 scene_from_world = glm::transpose(world_from_scene);
     const glm::vec3 up = world_from_scene * glm::vec3(0, 0, 1);
-    const auto add = [&](glm::vec3 world_direction, float f) {
+    const auto add = [&](glm::vec3 world_direction, float f, glm::vec3 power) {
       const glm::vec3 l = glm::normalize(scene_from_world * world_direction);
-      if (f > 0.0f && l.z > 0.02f) lights.push_back({l, f});
+      if (f > 0.0f && l.z > 0.02f) lights.push_back({l, f, glm::normalize(world_direction), power});
     };
     if (sharpest_map) {
       if (!light_tree || light_tree_share != shadow.source_share ||
@@ -338,16 +343,17 @@ struct Renderer::Impl {
            select_lights(*light_tree, std::clamp(shadow.lights, 1, kMaxShadowLights))) {
         const LightCluster& c = light_tree->nodes[std::size_t(i)];
         if (total > 0.0f && c.spread <= shadow.max_spread)
-          add(c.direction, luminance(c.irradiance) / total);
+          add(c.direction, luminance(c.irradiance) / total,
+              c.irradiance / std::max(glm::dot(c.direction, up), 0.05f));
       }
     } else if (glm::length(shadow.light_direction) > 0.0f) {
-      add(shadow.light_direction, dominant_fraction());
+      add(shadow.light_direction, dominant_fraction(), shadow.light_colour);
     }
     float sum = 0.0f;
     for (const ShadowLight& l : lights) sum += l.fraction;
     const float cap = std::clamp(shadow.max_fraction, 0.0f, 1.0f);
     if (sum > cap)
-      for (ShadowLight& l : lights) l.fraction *= cap / sum;
+      for (ShadowLight& l : lights) l.fraction *= cap / sum, l.power *= cap / sum;
     return lights;
   }
   float shadow_fraction() const {
@@ -388,9 +394,12 @@ struct Renderer::Impl {
       glUseProgram(shadow_catcher.id());
       glUniform1i(shadow_catcher.uniform("u_shadow_maps"), 0);
       glUniform1i(shadow_catcher.uniform("u_response"), 2);
-      for (int k = 0; k < kMaxEllipsoids; ++k)
+      for (int k = 0; k < kMaxEllipsoids; ++k) {
         glUniform1i(shadow_catcher.uniform(("u_ground" + std::to_string(k)).c_str()),
                     kGroundUnit + k);
+        glUniform1i(shadow_catcher.uniform(("u_ground_transfer" + std::to_string(k)).c_str()),
+                    kGroundTransferUnit + k);
+      }
       // The factors at 1/kFactorScale of the output's resolution (shadows are smooth).
       factor_w = (w + kFactorScale - 1) / kFactorScale,
       factor_h = (h + kFactorScale - 1) / kFactorScale;
@@ -894,6 +903,10 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
       to_uv[3][3] = 1.0f;
       c.ground_tex = mesh.ground_texture();
       c.ground_from_scene = to_uv * glm::inverse(model);
+      c.ground_transfer_tex = mesh.ground_transfer_texture();
+      glm::mat3 r = p.world_from_scene * glm::mat3(model);
+      for (int k = 0; k < 3; ++k) r[k] = glm::normalize(r[k]);
+      c.world_from_object = r;
     }
     p.casters.push_back(c);
   }
@@ -1292,6 +1305,54 @@ bool Renderer::Impl::draw_shadow_factors() {
     }
   }
   glUniform1fv(pr.uniform("u_has_ground"), kMaxEllipsoids, has_ground.data());
+  // Where the floor's hidden transfer is baked, the light it hides is the rest of the room's (not
+  // drawn as hard shadows) as it comes: that rest as SH in each object's frame, over what its
+  // open lobe gets (so the transfer dotted with it is the share hidden).
+  std::vector<float> has_transfer(kMaxEllipsoids, 0.0f);
+  std::vector<glm::vec3> ground_light(std::size_t(kMaxEllipsoids) * kTransferCoefficients);
+  ShCoeffs rest = room_sh;
+  if (rest.order > 0)
+    for (const ShadowLight& sl : lights) {
+      double y[kTransferCoefficients];
+      sh_basis_all(3, glm::dvec3(sl.world_direction), y);
+      for (int j = 0; j < kTransferCoefficients; ++j)
+        rest.c[std::size_t(j)] -= glm::dvec3(sl.power) * y[j];
+    }
+  for (int k = 0; k < count && rest.order > 0; ++k) {
+    const Caster& c = casters[std::size_t(k)];
+    glActiveTexture(GLenum(GL_TEXTURE0 + kGroundTransferUnit + k));
+    glBindTexture(GL_TEXTURE_2D_ARRAY, c.ground_transfer_tex);
+    if (!c.ground_tex || !c.ground_transfer_tex) continue;
+    const glm::dmat3 r(c.world_from_object);
+    // The open lobe of an up-facing floor point (object +Y): phong_zonal(l, 1) Y_lm(+Y).
+    const auto open = [](const ShCoeffs& l) {
+      double y[kTransferCoefficients];
+      sh_basis_all(3, {0.0, 1.0, 0.0}, y);
+      glm::dvec3 sum(0.0);
+      for (int j = 0; j < kTransferCoefficients; ++j)
+        sum += l.c[std::size_t(j)] * y[j] * (j == 0 ? 1.0 : j < 4 ? 2.0 / 3.0 : 0.25);
+      return sum;
+    };
+    ShCoeffs light = sh_rotate(rest, r);
+    glm::dvec3 lobe = open(light);
+    // A rest the SH cannot tell from nothing (the lights took it all, or ringing): the room's.
+    const ShCoeffs room = sh_rotate(room_sh, r);
+    const glm::dvec3 room_lobe = open(room);
+    if (!(glm::min(lobe.x, glm::min(lobe.y, lobe.z)) > 0.02 * glm::max(room_lobe.x, 1e-12)))
+      light = room, lobe = room_lobe;
+    if (!(glm::min(lobe.x, glm::min(lobe.y, lobe.z)) > 0.0)) continue;
+    has_transfer[std::size_t(k)] = 1.0f;
+    for (int j = 0; j < kTransferCoefficients; ++j)
+      ground_light[std::size_t(k * kTransferCoefficients + j)] =
+          glm::vec3(light.c[std::size_t(j)] / lobe);
+  }
+  for (int k = count; k < kMaxEllipsoids; ++k) {
+    glActiveTexture(GLenum(GL_TEXTURE0 + kGroundTransferUnit + k));
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+  }
+  glUniform1fv(pr.uniform("u_has_ground_transfer"), kMaxEllipsoids, has_transfer.data());
+  glUniform3fv(pr.uniform("u_ground_light"), GLsizei(ground_light.size()),
+               glm::value_ptr(ground_light[0]));
   glUniformMatrix4fv(pr.uniform("u_ground_from_scene"), kMaxEllipsoids, GL_FALSE,
                      glm::value_ptr(ground_from_scene[0]));
   glActiveTexture(GL_TEXTURE0);

@@ -61,6 +61,9 @@ class GpuMesh {
   // The baked floor occlusion (Mesh::ground) as an R8 texture, and its rectangle; 0 / empty
   // when none was baked.
   unsigned ground_texture() const { return ground_tex_; }
+  // Its SH-9 hidden transfer (GroundOcclusion::hidden_transfer) as a 3-layer RGBA16F array
+  // texture (layer j: coefficients 3j..3j+2), or 0 when none was baked.
+  unsigned ground_transfer_texture() const { return ground_transfer_tex_; }
   const GroundOcclusion& ground_rect() const { return ground_rect_; }
   std::size_t index_count() const { return index_count_; }
   const Bounds& bounds() const { return bounds_; }
@@ -68,7 +71,7 @@ class GpuMesh {
 
  private:
   void release();
-  unsigned vao_ = 0, vbo_ = 0, ibo_ = 0, ground_tex_ = 0;
+  unsigned vao_ = 0, vbo_ = 0, ibo_ = 0, ground_tex_ = 0, ground_transfer_tex_ = 0;
   GroundOcclusion ground_rect_;  // min, max and size only
   std::size_t index_count_ = 0;
   bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false, has_transfer_ = false;
@@ -197,10 +200,12 @@ struct ShadowSettings {
   // unused; under the live SH alone they are the one light. A cluster wider than max_spread
   // (its texels' mean angle from its centre, radians) casts no hard shadow of its own: one hard
   // shadow is a poor stand-in for a broad light (an overcast sky, a uniform room), so its share
-  // joins the AO's, which is exact for a uniform sky.
+  // joins the AO's, which is exact for a uniform sky and, where the floor's transfer is baked,
+  // follows any smooth sky. (0.25 rad let 8 patches of an overcast sky cast hard shadows: 1.9 %
+  // off the ray-traced ratio beside a standing ball, against 0.8 % through its floor's transfer.)
   int lights = 8;
   float source_share = 0.7f;
-  float max_spread = 0.25f;
+  float max_spread = 0.12f;
 };
 inline constexpr int kMaxShadowLights = 32;  // shadow_catcher.frag's MAX_LIGHTS
 

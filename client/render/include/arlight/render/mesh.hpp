@@ -26,18 +26,21 @@ struct Bounds {
 // rectangle [min, max] of x and z (object frame) on the plane y = bounds.min.y, size x size texels
 // (row-major, rows along z) of the cosine-weighted share of the sky the mesh hides from an
 // up-facing floor point (1 - its ambient occlusion). Empty: not baked.
+inline constexpr int kTransferCoefficients = 9;  // SH-9 transfers (order 3, bands 0-2)
 struct GroundOcclusion {
   glm::vec2 min{0.0f}, max{0.0f};
   int size = 0;
   std::vector<float> occluded;
+  // Empty or kTransferCoefficients per texel: the SH-9 transfer of the light the mesh hides from
+  // the floor point (the open cosine lobe's transfer minus the occluded one's; object frame), so
+  // the share hidden follows where the room's light comes from (tutorial §6.1).
+  std::vector<float> hidden_transfer;
   bool empty() const { return size == 0; }
 };
 
 // uv (0,0) is the top-left of a texture image (as in glTF and image files). Tangents follow
 // glTF / MikkTSpace: xyz along increasing u, w = +-1 with bitangent = w * cross(normal, tangent)
 // pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
-inline constexpr int kTransferCoefficients = 9;  // SH order 3
-
 struct Mesh {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;      // unit, one per position
