@@ -3,7 +3,8 @@
 # probe, a simulated phone sweeps the room into arlightd (arlight-sim, arlight-replay), then an
 # orbit of the marker is simulated with references of the bunny ray traced under the true room
 # (arlight-sim --object); arlight-client composites the orbit at the true pose lit by the
-# room's maps (with the bunny's occlusion of itself baked, the default, and without it), by the
+# room's maps (with the bunny's occlusion and transfer baked and 16 shadow lights, the defaults;
+# with one shadow light; without the bake), by the
 # live SH alone (ARCore's SH-9) and by the maps with the dissertation's colour matching, and
 # arlight-eval scores each. Writes OUT/<room>/<lighting>.json and
 # OUT/table.md.
@@ -47,7 +48,8 @@ for probe in "$@"; do
   "$bin/arlight-replay" --server "$server" --token "$token" --recording "$dir/sweep" --maps '' \
     --out "$dir/replay" > "$dir/replay.log"
   session=$(sed -n 's/.*"session_id": *"\([^"]*\)".*/\1/p' "$dir/replay/replay.json")
-  for mode in "maps:--wait-maps 60" "maps without occlusion:--wait-maps 60 --occlusion none" \
+  for mode in "maps:--wait-maps 60" "maps, one shadow light:--wait-maps 60 --shadow-lights 1" \
+    "maps without occlusion:--wait-maps 60 --occlusion none" \
     "sh-9:--maps ''" "maps + colour matching:--wait-maps 60 --tone camera,match"; do
     name=${mode%%:*} flags=${mode#*:} slug=$(echo "${mode%%:*}" | tr -c 'a-z0-9\n' '_')
     eval "\"$bin/arlight-client\" --server $server --token $token --source replay:$dir/orbit \

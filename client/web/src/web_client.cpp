@@ -276,6 +276,7 @@ class WebClient {
                                 Pose{world_from_camera, glm::dvec3(0.0)});
     }
     renderer_.begin_frame();
+    shadow_drawn_ = false;
     if (renderer_.lighting_source() != render::LightingSource::None) {
       last_camera_from_scene_ = matrix_of(inverse(camera_in_scene));
       last_world_from_scene_ = world_from_scene;
@@ -286,6 +287,7 @@ class WebClient {
       shadow.light_direction = light_direction_;
       shadow.light_colour = light_colour_;
       shadow.lights = light_control_ ? light_control_->lights() : max_shadow_lights_;
+      shadow_drawn_ = shadow.enabled;
       renderer_.set_shadow(shadow);
       renderer_.draw(mesh_, material_, model_);
     }
@@ -296,9 +298,9 @@ class WebClient {
     renderer_.composite_in_place(tone);
     renderer_.present();
     ++frames_rendered_;
-    // The frame-rate control needs the time the GPU took for the shadows: wait for it (the page
-    // would wait for its next camera frame anyway) while there are shadows to count.
-    if (light_control_ && renderer_.timings().shadow_lights > 0) glFinish();
+    // The frame-rate control needs the time the GPU took for the shadow: wait for it (the page
+    // would wait for its next camera frame anyway) while there is a shadow to count.
+    if (light_control_ && shadow_drawn_) glFinish();
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
 
@@ -318,9 +320,10 @@ class WebClient {
   }
 
   // The page's whole frame (the camera frame's upload and render()) took `ms`: the frame-rate
-  // control's measure, counted for the frames that drew a shadow.
+  // control's measure, counted for the frames that drew a shadow (with however many hard
+  // shadows the room's clusters gave: a budget too small for a compact cluster draws none).
   void frame_took(double ms) {
-    if (light_control_ && renderer_.timings().shadow_lights > 0) light_control_->update(ms);
+    if (light_control_ && shadow_drawn_) light_control_->update(ms);
   }
 
   void set_material(const std::string& name) {
@@ -559,6 +562,7 @@ class WebClient {
   SunState sun_state_ = SunState::Unknown;
   glm::vec3 sun_direction_{0.0f};
   int max_shadow_lights_ = kDefaultShadowLights;
+  bool shadow_drawn_ = false;  // the last render() drew the shadow catcher
   double target_fps_ = kDefaultTargetFps;
   std::optional<render::LightCountControl> light_control_;  // with target_fps_ > 0
 };
