@@ -806,3 +806,62 @@ TEST(Arlightd, MapSetsFollowTheMapAtTheMapInterval) {
   EXPECT_GE(frequent.sets, 2u);  // the old rule: 1
   EXPECT_GE(double(frequent.sets), 0.5 * seconds / std::max(frequent.set_seconds, 0.1));
 }
+
+// A connection's map request is its own: a client that resumes a session without asking for
+// maps gets no map set computed for the previous connection's request however its frames change
+// the map (the eval's SH-only run was once drawn with one); one that asks gets them.
+TEST(Arlightd, AResumedSessionComputesMapSetsOnlyForItsNewConnectionsRequest) {
+  const fs::path dir = test::fresh_temp_dir("daemon_resume_request");
+  DaemonProcess d(dir / "daemon", {"--map-interval", "0.1"});
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  std::uint64_t seq = 0;
+  const auto send_frames = [&](client::Client& c, int n) {
+    for (int i = 0; i < n; ++i) {
+      const int f = int(seq % rec.frames.size());
+      FrameInfo info = rec.frames[std::size_t(f)];
+      info.timestamp = 0.05 * double(++seq);
+      c.send_jpeg_frame(seq, info, rec.camera.width, rec.camera.height,
+                        recording::read_frame_bytes(rec, f));
+      std::this_thread::sleep_for(50ms);
+    }
+  };
+  // Quiet: no set computed for 1.5 s (the full set that follows a preview included).
+  const auto sets_when_quiet = [&] {
+    double last = metric(d.admin(), "arlight_map_sets_total");
+    for (int i = 0; i < 60; ++i) {
+      std::this_thread::sleep_for(1500ms);
+      const double now = metric(d.admin(), "arlight_map_sets_total");
+      if (now == last) return now;
+      last = now;
+    }
+    ADD_FAILURE() << "map sets never stopped";
+    return last;
+  };
+  std::string session;
+  {
+    client::Client a;
+    session = a.connect("127.0.0.1", d.port(), "arlight-sim", kToken).session_id;
+    a.send_intrinsics(rec.camera);
+    a.request_maps({1.0, 80.0}, 32);
+    send_frames(a, 10);
+    ASSERT_TRUE(a.wait_for([&] { return a.map_sets_completed() >= 1; }, 60s));
+    a.bye();
+  }
+  const double before = sets_when_quiet();
+  ASSERT_GE(before, 1.0);
+  {
+    client::Client b;  // resumes, sends frames that change the map, asks for no maps
+    ASSERT_TRUE(
+        b.connect("127.0.0.1", d.port(), "arlight-sim", kToken, "arlight-test", session).resumed);
+    b.send_intrinsics(rec.camera);
+    send_frames(b, 20);
+    ASSERT_TRUE(b.wait_for([&] { return b.updates_received() >= 20; }, 30s));
+    EXPECT_EQ(sets_when_quiet(), before) << "sets computed for the previous connection's request";
+    b.bye();
+  }
+  client::Client c;  // resumes and asks: its sets come
+  ASSERT_TRUE(
+      c.connect("127.0.0.1", d.port(), "arlight-sim", kToken, "arlight-test", session).resumed);
+  c.request_maps({1.0, 80.0}, 32);
+  EXPECT_TRUE(c.wait_for([&] { return c.map_sets_completed() >= 1; }, 60s));
+}

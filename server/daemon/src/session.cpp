@@ -113,6 +113,11 @@ std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
   tile_coding_ = tile_coding;
   advisor_.reset();
   if (exposure_advice) advisor_.emplace();
+  // A connection's map request is its own (every client sends RequestMaps after its Hello when
+  // it wants maps): a client resuming the session without one gets no more sets computed for
+  // the previous connection's request. A set already running still streams (a client that
+  // reconnected mid-set with the same request can use it; others drop it).
+  request_.reset();
   last_activity_ = Clock::now();
   return ++attachment_;
 }
