@@ -201,23 +201,32 @@ ShadowReference::ShadowReference(const EnvMap& world_map, const glm::dmat3& scen
     const glm::dvec3 d = scene_from_world * glm::dvec3(table->x[i], table->y[i], table->z[i]);
     const double c = glm::dot(d, normal_);
     const float* px = world_map.image.data() + std::size_t(table->index[i]) * 3;
-    const double l = luminance(double(px[0]), double(px[1]), double(px[2]));
-    if (!(c > 0) || !(l > 0)) continue;
+    const glm::dvec3 l = glm::max(glm::dvec3(px[0], px[1], px[2]), glm::dvec3(0.0));
+    if (!(c > 0) || !(l.x + l.y + l.z > 0)) continue;
     dirs_.push_back(glm::normalize(d));
-    weights_.push_back(l * table->solid_angle[i] * c);
+    weights_.push_back(l * (table->solid_angle[i] * c));
     total_ += weights_.back();
   }
 }
 
-double ShadowReference::ratio(const Occluder& occluder, const glm::dvec3& point) const {
-  if (!(total_ > 0)) return 1.0;
+glm::dvec3 ShadowReference::ratio_rgb(const Occluder& occluder, const glm::dvec3& point) const {
   const glm::dvec3 origin = point + 1e-5 * std::max(occluder.radius(), 1e-6) * normal_;
   std::vector<std::uint8_t> hit(dirs_.size());
   occluder.occluded(origin, dirs_, hit);
-  double open = 0;
+  glm::dvec3 open(0.0);
   for (std::size_t i = 0; i < dirs_.size(); ++i)
     if (!hit[i]) open += weights_[i];
-  return open / total_;
+  glm::dvec3 out;
+  for (int c = 0; c < 3; ++c) out[c] = total_[c] > 0 ? open[c] / total_[c] : 1.0;
+  return out;
+}
+
+double ShadowReference::ratio(const Occluder& occluder, const glm::dvec3& point) const {
+  // Luminance is linear: the ratio of the sums' luminances.
+  const double total = luminance(total_.x, total_.y, total_.z);
+  if (!(total > 0)) return 1.0;
+  const glm::dvec3 r = ratio_rgb(occluder, point);
+  return luminance(r.x * total_.x, r.y * total_.y, r.z * total_.z) / total;
 }
 
 std::vector<double> ShadowReference::ratios(const Occluder& occluder,

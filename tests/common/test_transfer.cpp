@@ -109,6 +109,20 @@ TEST(ShadowReference, UniformSkyGivesTheFormFactorAndALampItsVisibility) {
   const ShadowReference one(lamp, scene_from_world, {0, 0, 1});
   EXPECT_EQ(one.ratio(occluder, {0.0, 0.0, 0.0}), 0.0);
   EXPECT_EQ(one.ratio(occluder, {0.7, 0.0, 0.0}), 1.0);
+  // Per channel (the reference renders' coloured shadows): the same red lamp overhead beside a
+  // dim blue sky. Under the ball red is gone and blue keeps the form factor's share; the
+  // luminance ratio is the channels' weighted by the light each brings.
+  EnvMap coloured(layout);
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) coloured.image.set(x, y, glm::vec3(0.0f, 0.0f, 0.5f));
+  coloured.image.set(t.x, t.y, glm::vec3(100.0f, 0.0f, 0.5f));
+  const ShadowReference rgb(coloured, scene_from_world, {0, 0, 1});
+  const glm::dvec3 under = rgb.ratio_rgb(occluder, {0.0, 0.0, 0.0});
+  EXPECT_EQ(under.r, 0.0);
+  EXPECT_EQ(under.g, 1.0);  // no green light at all: nothing to lose
+  EXPECT_NEAR(under.b, 1.0 - double(r) * r / (double(h) * h), 0.005);
+  EXPECT_GT(rgb.ratio(occluder, {0.0, 0.0, 0.0}), 0.0);
+  EXPECT_LT(rgb.ratio(occluder, {0.0, 0.0, 0.0}), under.b);
 }
 
 // In a room of constant radiance the transfer dotted with the room's SH is exactly the ambient

@@ -16,7 +16,7 @@ add_executable(render_tests
 )
 target_include_directories(render_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/render)
 target_link_libraries(render_tests PRIVATE arlight_render arlight_common arlight_warnings
-  GTest::gtest_main opencv_core opencv_imgproc)
+  GTest::gtest_main opencv_core opencv_imgproc nlohmann_json::nlohmann_json)
 target_compile_definitions(render_tests PRIVATE
   ARLIGHT_ASSETS_DIR="${CMAKE_SOURCE_DIR}/data")
 set_target_properties(render_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
 
 #include "arlight/error.hpp"
 #include "arlight/render/mesh.hpp"
@@ -228,7 +229,7 @@ TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
 
   // So does the baked floor (extras.arlight_ground).
   Mesh floored = sphere;
-  floored.ground = {{-1.5f, -1.0f}, {1.5f, 2.0f}, 4, {}};
+  floored.ground = {{-1.5f, -1.0f}, {1.5f, 2.0f}, 4, {}, {}};
   for (int i = 0; i < 16; ++i) floored.ground.occluded.push_back(float(i) / 16.0f);
   const Mesh floored_back = load_gltf(encode_glb(floored), "floored.glb");
   EXPECT_EQ(floored_back.ground.min, floored.ground.min);
@@ -250,4 +251,52 @@ TEST(Gltf, EncodedGlbReadsBackFromMemoryAsTheSameMesh) {
   EXPECT_THROW(encode_glb(broken), std::invalid_argument);
 }
 
+}  // namespace arlight::render
+
+namespace arlight::render {
+namespace {
+
+// A node's rotation turns a primitive's SH-9 transfer with its normals: a transfer leaning
+// towards +z (band 1's z coefficient) under a node turned 90 degrees about +y leans towards +x;
+// band 0 is unchanged and the band-2 norm is kept.
+TEST(Gltf, ANodesRotationTurnsTheTransferWithTheNormals) {
+  Mesh tri;
+  tri.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  tri.normals.assign(3, glm::vec3(0, 0, 1));
+  tri.indices = {0, 1, 2};
+  const std::vector<float> t = {0.28f, 0.0f, 0.33f, 0.0f, 0.1f, 0.0f, 0.12f, 0.0f, -0.05f};
+  for (int v = 0; v < 3; ++v) tri.transfer.insert(tri.transfer.end(), t.begin(), t.end());
+  std::vector<std::uint8_t> glb = encode_glb(tri);
+  // The JSON chunk with a rotation on the node (glTF: [x, y, z, w]), padded to 4 bytes.
+  std::uint32_t json_len;
+  std::memcpy(&json_len, glb.data() + 12, 4);
+  nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
+  doc["nodes"][0]["rotation"] = {0.0, std::sqrt(0.5), 0.0, std::sqrt(0.5)};
+  std::string text = doc.dump();
+  while (text.size() % 4) text += ' ';
+  std::vector<std::uint8_t> out(glb.begin(), glb.begin() + 12);
+  const auto u32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
+  };
+  u32(std::uint32_t(text.size())), u32(0x4E4F534Au);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), glb.begin() + 20 + json_len, glb.end());
+  const std::uint32_t total = std::uint32_t(out.size());
+  std::memcpy(out.data() + 8, &total, 4);
+
+  const Mesh back = load_gltf(out, "rotated.glb");
+  ASSERT_EQ(back.transfer.size(), 27u);
+  EXPECT_NEAR(back.normals[0].x, 1.0f, 1e-6f);  // +z turned to +x
+  const float* r = back.transfer.data();
+  EXPECT_NEAR(r[0], 0.28f, 1e-6f);
+  EXPECT_NEAR(r[1], 0.0f, 1e-6f);   // y
+  EXPECT_NEAR(r[2], 0.0f, 1e-6f);   // z
+  EXPECT_NEAR(r[3], 0.33f, 1e-6f);  // x
+  double before = 0, after = 0;
+  for (int k = 4; k < 9; ++k)
+    before += double(t[std::size_t(k)]) * t[std::size_t(k)], after += double(r[k]) * r[k];
+  EXPECT_NEAR(after, before, 1e-6);
+}
+
+}  // namespace
 }  // namespace arlight::render

@@ -1328,9 +1328,10 @@ bool Renderer::Impl::draw_shadow_factors() {
     const auto open = [](const ShCoeffs& l) {
       double y[kTransferCoefficients];
       sh_basis_all(3, {0.0, 1.0, 0.0}, y);
+      const std::vector<double> zonal = phong_zonal_all(3, 1.0);
       glm::dvec3 sum(0.0);
       for (int j = 0; j < kTransferCoefficients; ++j)
-        sum += l.c[std::size_t(j)] * y[j] * (j == 0 ? 1.0 : j < 4 ? 2.0 / 3.0 : 0.25);
+        sum += l.c[std::size_t(j)] * y[j] * zonal[j < 1 ? 0 : j < 4 ? 1 : 2];
       return sum;
     };
     ShCoeffs light = sh_rotate(rest, r);

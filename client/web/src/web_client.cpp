@@ -379,15 +379,7 @@ class WebClient {
 
   // Where the object's centre is in the last composite (pixels, row 0 at the top), or null when
   // it is behind the camera or nothing was drawn yet.
-  val object_pixel() const {
-    if (!last_camera_from_scene_) return val::null();
-    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(0, 0, 0.5 * object_height_, 1);
-    if (c.z >= -1e-3) return val::null();  // looking down -z
-    val p = val::array();
-    p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
-    p.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
-    return p;
-  }
+  val object_pixel() const { return pixel_of({0.0, 0.0, 0.5 * object_height_}); }
 
   // Where the floor just in front of the object is in the last composite (pixels, row 0 at the
   // top): the point of the marker plane 1.15 footprint half-widths from the object's centre
@@ -408,13 +400,7 @@ class WebClient {
     const glm::dvec3 eye = glm::dvec3(glm::inverse(*last_camera_from_scene_)[3]);
     const glm::dvec2 towards = glm::dvec2(eye) - centre;
     if (glm::length(towards) < 1e-9) return val::null();  // looking straight down at it
-    const glm::dvec2 p = centre + 1.15 * half * glm::normalize(towards);
-    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(p, 0.0, 1.0);
-    if (c.z >= -1e-3) return val::null();
-    val out = val::array();
-    out.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
-    out.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
-    return out;
+    return pixel_of(glm::dvec3(centre + 1.15 * half * glm::normalize(towards), 0.0));
   }
 
   // What the last render() drew with, for a renderer elsewhere to draw the same (tests, tools):
@@ -495,6 +481,18 @@ class WebClient {
   }
 
  private:
+  // A scene point's pixel in the last composite, or null when it is behind the camera or
+  // nothing was drawn yet.
+  val pixel_of(const glm::dvec3& scene_point) const {
+    if (!last_camera_from_scene_) return val::null();
+    const glm::dvec3 c = *last_camera_from_scene_ * glm::dvec4(scene_point, 1.0);
+    if (c.z >= -1e-3) return val::null();  // looking down -z
+    val p = val::array();
+    p.call<void>("push", camera_.cx + camera_.fx * (c.x / -c.z));
+    p.call<void>("push", camera_.cy - camera_.fy * (c.y / -c.z));
+    return p;
+  }
+
   static YuvLayout yuv_layout(const std::string& name) {
     if (name == "NV12") return YuvLayout::Nv12;
     if (name == "I420") return YuvLayout::I420;

@@ -71,24 +71,28 @@ class Occluder {
 Transfer bake_transfer(const Occluder& occluder, std::span<const glm::vec3> points,
                        std::span<const glm::vec3> normals, const TransferOptions& options = {});
 
-// The reference for shadows on a receiver plane (tutorial §6's ray-traced comparison): the
-// ratio of the irradiance a point of the plane gets with the occluder to without it, over every
-// texel of an environment map (no sampling: each texel one ray from its centre),
-//   ratio = sum L w max(0, n.d) V / sum L w max(0, n.d).
-// The map is in the world frame, the occluder and points in the scene frame.
+// The reference for shadows on a receiver plane (tutorial §6's ray-traced comparison; the
+// shadows of arlight-sim's reference renders): the ratio of the irradiance a point of the plane
+// gets with the occluder to without it, over every texel of an environment map (no sampling:
+// each texel one ray from its centre),
+//   ratio = sum L w max(0, n.d) V / sum L w max(0, n.d),
+// per channel, or of the luminance. The map is in the world frame, the occluder and points in
+// the scene frame.
 class ShadowReference {
  public:
-  // Texels of zero radiance or under the plane's horizon are dropped.
+  // Negative radiance (lossy probes) counts as 0; texels without light or under the plane's
+  // horizon are dropped.
   ShadowReference(const EnvMap& world_map, const glm::dmat3& scene_from_world, glm::dvec3 normal);
-  double ratio(const Occluder& occluder, const glm::dvec3& point) const;
-  // The ratio at many points, on all cores.
+  double ratio(const Occluder& occluder, const glm::dvec3& point) const;  // of the luminance
+  glm::dvec3 ratio_rgb(const Occluder& occluder, const glm::dvec3& point) const;
+  // The luminance ratio at many points, on all cores.
   std::vector<double> ratios(const Occluder& occluder, std::span<const glm::dvec3> points) const;
 
  private:
   glm::dvec3 normal_;
-  std::vector<glm::dvec3> dirs_;  // scene frame
-  std::vector<double> weights_;   // lum(L) w cos
-  double total_ = 0;
+  std::vector<glm::dvec3> dirs_;     // scene frame
+  std::vector<glm::dvec3> weights_;  // L w cos, per channel
+  glm::dvec3 total_{0.0};
 };
 
 }  // namespace arlight

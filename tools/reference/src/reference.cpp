@@ -20,6 +20,7 @@
 #include "arlight/error.hpp"
 #include "arlight/recording.hpp"
 #include "arlight/resample.hpp"
+#include "arlight/transfer.hpp"
 #include "arlight/truth.hpp"
 
 namespace arlight::reference {
@@ -31,14 +32,16 @@ constexpr double kPi = std::numbers::pi;
 // texels) of the probe, each texel one direction with its radiance x solid angle.
 constexpr int kDirectionsWidth = 64;
 
+EnvMap room_for_sums(const EnvMap& room) {
+  return resample(room, EnvLayout(Projection::LatLong, kDirectionsWidth, kDirectionsWidth / 2));
+}
+
 struct Direction {
   glm::dvec3 dir;
   glm::dvec3 weighted;  // radiance x solid angle
 };
 
-std::vector<Direction> room_directions(const EnvMap& room) {
-  const EnvMap small =
-      resample(room, EnvLayout(Projection::LatLong, kDirectionsWidth, kDirectionsWidth / 2));
+std::vector<Direction> room_directions(const EnvMap& small) {
   std::vector<Direction> out;
   for (int y = 0; y < small.layout.height(); ++y)
     for (int x = 0; x < small.layout.width(); ++x) {
@@ -84,7 +87,6 @@ struct ReferenceScene::Impl {
   RTCScene scene = nullptr;
   std::vector<glm::vec3> positions, normals;  // world frame
   std::vector<std::uint32_t> indices;
-  glm::dvec3 centre{0.0};
   double radius = 0, epsilon = 0;
   EnvSampler sampler;
   std::vector<Direction> directions;
@@ -110,27 +112,6 @@ struct ReferenceScene::Impl {
     ray.mask = 0xFFFFFFFFu;
     rtcOccluded1(scene, &context, &ray);
     return ray.tfar < 0.0f;  // Embree sets -inf on a hit
-  }
-
-  // Whether a ray can meet the object at all (its bounding sphere).
-  bool may_hit(const glm::dvec3& origin, const glm::dvec3& dir) const {
-    const glm::dvec3 oc = centre - origin;
-    const double along = glm::dot(oc, dir);
-    return along > -radius && glm::dot(oc, oc) - along * along <= radius * radius;
-  }
-
-  // sum L V cos / sum L cos over the upper hemisphere of a floor point, per channel.
-  glm::vec3 floor_ratio(const glm::dvec3& p) const {
-    glm::dvec3 lit(0.0), all(0.0);
-    const glm::dvec3 origin = p + epsilon * floor_normal;
-    for (const Direction& d : directions) {
-      const double c = glm::dot(d.dir, floor_normal);
-      if (c <= 0) continue;
-      all += c * d.weighted;
-      if (!may_hit(origin, d.dir) || !occluded(origin, d.dir)) lit += c * d.weighted;
-    }
-    return glm::vec3(glm::dvec3(all.x > 0 ? lit.x / all.x : 1.0, all.y > 0 ? lit.y / all.y : 1.0,
-                                all.z > 0 ? lit.z / all.z : 1.0));
   }
 
   // kd Ld + ks Ls at a surface point (normal n, the ray arriving along `view`).
@@ -246,7 +227,6 @@ ReferenceScene::ReferenceScene(const PlacedObject& object, const EnvMap& room,
   m.indices = mesh.indices;
   for (const std::uint32_t i : m.indices)
     if (i >= m.positions.size()) throw InputError("reference: a triangle index is out of range");
-  m.centre = 0.5 * (lo + hi);
   m.radius = 0.5 * glm::length(hi - lo);
   m.epsilon = 1e-4 * m.radius;
 
@@ -268,7 +248,8 @@ ReferenceScene::ReferenceScene(const PlacedObject& object, const EnvMap& room,
   rtcReleaseGeometry(geometry);
   rtcCommitScene(m.scene);
 
-  m.directions = room_directions(room);
+  const EnvMap small = room_for_sums(room);
+  m.directions = room_directions(small);
 
   // The floor: the marker's plane (its z axis is the floor's normal), the grid centred on the
   // object's foot.
@@ -278,12 +259,16 @@ ReferenceScene::ReferenceScene(const PlacedObject& object, const EnvMap& room,
   m.grid_half = options.shadow_reach * m.radius;
   const int n = options.shadow_grid;
   m.grid.assign(std::size_t(n) * std::size_t(n), glm::vec3(1.0f));
+  // The floor's ratio per channel over the same directions as the diffuse sums (the tests'
+  // ShadowReference, here in the world frame).
+  const Occluder occluder(m.positions, m.indices);
+  const ShadowReference floor(small, glm::dmat3(1.0), m.floor_normal);
   tbb::parallel_for(0, n, [&](int y) {
     for (int x = 0; x < n; ++x) {
       const double a = ((x + 0.5) / n * 2 - 1) * m.grid_half,
                    b = ((y + 0.5) / n * 2 - 1) * m.grid_half;
       m.grid[std::size_t(y) * std::size_t(n) + std::size_t(x)] =
-          m.floor_ratio(m.floor_origin + a * m.floor_u + b * m.floor_v);
+          glm::vec3(floor.ratio_rgb(occluder, m.floor_origin + a * m.floor_u + b * m.floor_v));
     }
   });
 }
