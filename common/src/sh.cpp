@@ -485,6 +485,16 @@ std::vector<double> phong_zonal_all(int order, double s) {
   return z;
 }
 
+std::vector<double> sh_cosine_lobe(glm::dvec3 n, int order) {
+  std::vector<double> out(std::size_t(sh_count(order)));
+  sh_basis_all(order, n, out);
+  for (int l = 0; l < order; ++l) {
+    const double z = phong_zonal(l, 1.0);
+    for (int m = -l; m <= l; ++m) out[std::size_t(sh_index(l, m))] *= z;
+  }
+  return out;
+}
+
 ShCoeffs sh_rotate(const ShCoeffs& coeffs, const glm::dmat3& r) {
   if (coeffs.order < 1 || coeffs.c.size() != std::size_t(sh_count(coeffs.order)))
     throw std::invalid_argument("sh_rotate: coefficients do not match their order");

@@ -375,3 +375,22 @@ TEST(ShRotate, EvaluatesTheOriginalAtTheRotatedDirection) {
   bad.c.pop_back();
   EXPECT_THROW(sh_rotate(bad, glm::dmat3(1.0)), std::invalid_argument);
 }
+
+// The clamped-cosine lobe's SH dotted with a radiance SH is the irradiance map's value at n
+// (the zonal convolution, thesis eq. 2.33 at s = 1, evaluated there).
+TEST(ShCosineLobe, DottedWithARoomIsItsIrradianceOverPi) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> gauss;
+  ShCoeffs room(3);
+  for (glm::dvec3& c : room.c) c = {gauss(rng), gauss(rng), gauss(rng)};
+  const ShCoeffs irradiance = sh_convolve(room, phong_zonal_all(3, 1.0));
+  for (int i = 0; i < 10; ++i) {
+    const glm::dvec3 n = random_dir(rng);
+    const std::vector<double> lobe = sh_cosine_lobe(n, 3);
+    ASSERT_EQ(lobe.size(), 9u);
+    glm::dvec3 dot(0.0);
+    for (std::size_t k = 0; k < lobe.size(); ++k) dot += room.c[k] * lobe[k];
+    const glm::dvec3 want = sh_evaluate(irradiance, n);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(dot[c], want[c], 1e-12);
+  }
+}

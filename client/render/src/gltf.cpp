@@ -79,18 +79,12 @@ std::vector<std::uint8_t> base64_decode(std::string_view s, const std::string& w
   return out;
 }
 
-// The transfer of an unoccluded vertex: the clamped cosine around its normal over pi, whose SH
-// are phong_zonal(l, 1) Y_lm(n) (1, 2/3 and 1/4 for bands 0-2).
-std::vector<float> open_transfer(std::span<const glm::vec3> normals) {
-  const std::vector<double> zonal = phong_zonal_all(3, 1.0);
-  std::vector<float> out(normals.size() * kTransferCoefficients);
-  double y[kTransferCoefficients];
-  for (std::size_t i = 0; i < normals.size(); ++i) {
-    sh_basis_all(3, glm::dvec3(normals[i]), y);
-    for (int l = 0, k = 0; l < 3; ++l)
-      for (int m = -l; m <= l; ++m, ++k)
-        out[i * kTransferCoefficients + std::size_t(k)] = float(zonal[std::size_t(l)] * y[k]);
-  }
+// The transfers of unoccluded vertices: the clamped cosine around each normal (sh_cosine_lobe).
+std::vector<float> open_transfers(std::span<const glm::vec3> normals) {
+  std::vector<float> out;
+  out.reserve(normals.size() * kTransferCoefficients);
+  for (const glm::vec3& n : normals)
+    for (const double t : sh_cosine_lobe(glm::dvec3(n), 3)) out.push_back(float(t));
   return out;
 }
 
@@ -514,7 +508,7 @@ class GltfReader {
       if (has_occlusion_ && p.occlusion.empty()) p.occlusion.assign(n, open);
       // The transfer likewise; open: the clamped cosine's, which needs the normal (below).
       if (!p.transfer.empty() && !has_transfer_ && !mesh_.positions.empty())
-        mesh_.transfer = open_transfer(mesh_.normals);
+        mesh_.transfer = open_transfers(mesh_.normals);
       if (!p.transfer.empty()) has_transfer_ = true;
       Mesh part;
       part.positions = std::move(p.positions);
@@ -538,7 +532,7 @@ class GltfReader {
         const std::size_t first = mesh_.transfer.size();
         if (p.transfer.empty()) {
           const std::vector<float> open =
-              open_transfer(std::span(mesh_.normals).subspan(mesh_.normals.size() - n, n));
+              open_transfers(std::span(mesh_.normals).subspan(mesh_.normals.size() - n, n));
           mesh_.transfer.insert(mesh_.transfer.end(), open.begin(), open.end());
         } else {
           mesh_.transfer.insert(mesh_.transfer.end(), p.transfer.begin(), p.transfer.end());

@@ -40,12 +40,8 @@ void bake_occlusion(Mesh& mesh, int directions) {
       bake_transfer(occluder, points, up, {.directions = directions, .order = 3});
   g.occluded.resize(floor.size());
   for (std::size_t i = 0; i < floor.size(); ++i) g.occluded[i] = 1.0f - floor.ao[i];
-  // What is hidden: the open lobe's transfer (phong_zonal(l, 1) Y_lm(up)) minus the occluded.
-  double open[kTransferCoefficients];
-  sh_basis_all(3, {0.0, 1.0, 0.0}, open);
-  const std::vector<double> zonal = phong_zonal_all(3, 1.0);
-  for (int l = 0, k = 0; l < 3; ++l)
-    for (int m = -l; m <= l; ++m, ++k) open[k] *= zonal[std::size_t(l)];
+  // What is hidden: the open lobe's transfer minus the occluded.
+  const std::vector<double> open = sh_cosine_lobe({0.0, 1.0, 0.0}, 3);
   g.hidden_transfer.resize(floor.sh.size());
   for (std::size_t i = 0; i < floor.sh.size(); ++i)
     g.hidden_transfer[i] = float(open[i % kTransferCoefficients]) - floor.sh[i];

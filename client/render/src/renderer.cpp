@@ -54,6 +54,13 @@ struct Caster {
   glm::mat3 world_from_object{1.0f};  // the model's rotation in the lighting's frame
 };
 
+// An object's rotation into the lighting's (world) frame: the model's scale taken out.
+glm::mat3 world_from_object(const glm::mat3& world_from_scene, const glm::mat4& model) {
+  glm::mat3 r = world_from_scene * glm::mat3(model);
+  for (int k = 0; k < 3; ++k) r[k] = glm::normalize(r[k]);
+  return r;
+}
+
 // A set of environment maps of one projection, sorted by shininess.
 struct EnvSet {
   Projection projection = Projection::LatLong;
@@ -834,9 +841,8 @@ void Renderer::Impl::issue(const GpuMesh& mesh, const Material& m, const glm::ma
   }
   if (transfer) {
     // The room's SH in the object's frame: L_obj(w) = L_world(world_from_object w).
-    glm::dmat3 world_from_object = glm::dmat3(st.world_from_scene) * glm::dmat3(glm::mat3(model));
-    for (int c = 0; c < 3; ++c) world_from_object[c] = glm::normalize(world_from_object[c]);
-    const ShCoeffs l = sh_rotate(p.room_sh, world_from_object);
+    const ShCoeffs l =
+        sh_rotate(p.room_sh, glm::dmat3(world_from_object(st.world_from_scene, model)));
     std::array<glm::vec3, kTransferCoefficients> v;
     for (std::size_t k = 0; k < v.size(); ++k) v[k] = glm::vec3(l.c[k]);
     glUniform3fv(u.light_sh, GLsizei(v.size()), glm::value_ptr(v[0]));
@@ -904,9 +910,7 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
       c.ground_tex = mesh.ground_texture();
       c.ground_from_scene = to_uv * glm::inverse(model);
       c.ground_transfer_tex = mesh.ground_transfer_texture();
-      glm::mat3 r = p.world_from_scene * glm::mat3(model);
-      for (int k = 0; k < 3; ++k) r[k] = glm::normalize(r[k]);
-      c.world_from_object = r;
+      c.world_from_object = world_from_object(p.world_from_scene, model);
     }
     p.casters.push_back(c);
   }
@@ -1324,14 +1328,10 @@ bool Renderer::Impl::draw_shadow_factors() {
     glBindTexture(GL_TEXTURE_2D_ARRAY, c.ground_transfer_tex);
     if (!c.ground_tex || !c.ground_transfer_tex) continue;
     const glm::dmat3 r(c.world_from_object);
-    // The open lobe of an up-facing floor point (object +Y): phong_zonal(l, 1) Y_lm(+Y).
-    const auto open = [](const ShCoeffs& l) {
-      double y[kTransferCoefficients];
-      sh_basis_all(3, {0.0, 1.0, 0.0}, y);
-      const std::vector<double> zonal = phong_zonal_all(3, 1.0);
+    // What the open lobe of an up-facing floor point (object +Y) gets from a light.
+    const auto open = [up = sh_cosine_lobe({0.0, 1.0, 0.0}, 3)](const ShCoeffs& l) {
       glm::dvec3 sum(0.0);
-      for (int j = 0; j < kTransferCoefficients; ++j)
-        sum += l.c[std::size_t(j)] * y[j] * zonal[j < 1 ? 0 : j < 4 ? 1 : 2];
+      for (std::size_t j = 0; j < up.size(); ++j) sum += l.c[j] * up[j];
       return sum;
     };
     ShCoeffs light = sh_rotate(rest, r);

@@ -85,6 +85,12 @@ ShCoeffs sh_convolve(const ShCoeffs& coeffs, std::span<const double> zonal);
 double phong_zonal(int l, double s);
 std::vector<double> phong_zonal_all(int order, double s);
 
+// The SH of the clamped cosine around unit n over pi, max(0, n.w) / pi: phong_zonal(l, 1)
+// Y_lm(n) (1, 2/3 and 1/4 for bands 0-2), sh_count(order) values. Dotted with a radiance SH it
+// gives the lobe-averaged radiance at n (the irradiance map's value); it is the transfer of a
+// point nothing occludes (transfer.hpp).
+std::vector<double> sh_cosine_lobe(glm::dvec3 n, int order);
+
 // Gauss-Legendre nodes and weights on [-1, 1], exact for polynomials of degree <= 2n-1.
 struct GaussLegendre {
   std::vector<double> x, w;
