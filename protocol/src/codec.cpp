@@ -4,8 +4,10 @@
 // with the daemon and the client.
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <glm/geometric.hpp>
 #include <utility>
+#include <vector>
 
 #include "arlight/wire.hpp"
 #include "arlight_generated.h"
@@ -28,6 +30,16 @@ constexpr std::size_t kMaxDistortion = 5;
 [[noreturn]] void refuse(Fault f, const char* message, const char* field,
                          const std::string& detail) {
   throw DecodeError(f, message, field, detail);
+}
+
+// FlatBuffers' verifier checks a vector's length word (4-byte aligned), not its elements: a
+// [double] or [ImuSample] placed 4 bytes off would be read misaligned (undefined behaviour).
+// The builder always aligns them, so such a message is malformed.
+void require_aligned(const void* elements, std::size_t alignment, const char* message,
+                     const char* field) {
+  if (reinterpret_cast<std::uintptr_t>(elements) % alignment != 0)
+    refuse(Fault::Malformed, message, field,
+           "elements not aligned to " + std::to_string(alignment) + " bytes");
 }
 
 // ---- encode ----
@@ -214,6 +226,7 @@ CameraIntrinsicsMessage read(const fb::CameraIntrinsics& m, const WireLimits& li
     if (d->size() > kMaxDistortion)
       refuse(Fault::WrongSize, name, "distortion",
              std::to_string(d->size()) + " terms; at most 5 (k1, k2, p1, p2, k3)");
+    require_aligned(d->Data(), alignof(double), name, "distortion");
     for (flatbuffers::uoffset_t i = 0; i < d->size(); ++i) k.distortion[i] = d->Get(i);
   }
   return out;
@@ -248,6 +261,7 @@ CameraFrame read_frame(const fb::CameraFrame& m, const WireLimits& limits, const
            "RGB8 data of " + std::to_string(m.data()->size()) + " bytes for " + size + " pixels");
   f.data.assign(m.data()->begin(), m.data()->end());
   if (const auto* imu = m.imu()) {
+    require_aligned(imu->Data(), alignof(fb::ImuSample), name, "imu");
     f.imu.reserve(imu->size());
     for (const fb::ImuSample* s : *imu)
       f.imu.push_back({s->t(), {s->gx(), s->gy(), s->gz()}, {s->ax(), s->ay(), s->az()}});
@@ -592,6 +606,13 @@ std::vector<std::uint8_t> encode(const Message& message) {
 }
 
 Message decode(std::span<const std::uint8_t> payload, const WireLimits& limits) {
+  // The verifier checks alignment relative to the buffer's start, so the start must be aligned
+  // to the widest scalar (a double) for reads to be; copy a payload that is not.
+  std::vector<std::uint8_t> aligned;
+  if (reinterpret_cast<std::uintptr_t>(payload.data()) % alignof(double) != 0) {
+    aligned.assign(payload.begin(), payload.end());
+    payload = aligned;
+  }
   if (payload.size() < 8 || !fb::EnvelopeBufferHasIdentifier(payload.data()))
     refuse(Fault::NotArlight, "", "", "not an arlight message (no ARL1 identifier)");
   if (payload.size() > limits.max_message_bytes)
