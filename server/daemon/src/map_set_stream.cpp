@@ -60,9 +60,12 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     arena.execute([&] {
       const EnvLayout reduced = preview_input_layout(layout);
       const bool reduce = job.preview && reduced.texel_count() < job.input.layout.texel_count();
-      maps = lighting::compute_maps(reduce ? resample(job.input, reduced) : job.input,
-                                    request.shininess, layout,
-                                    lighting::parse_method(request.method), hooks);
+      if (reduce && job.previews)
+        maps = job.previews->update(resample(job.input, reduced), hooks);
+      else
+        maps = lighting::compute_maps(reduce ? resample(job.input, reduced) : job.input,
+                                      request.shininess, layout,
+                                      lighting::parse_method(request.method), hooks);
     });
     const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
                                   int h) {

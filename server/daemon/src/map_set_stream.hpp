@@ -6,11 +6,16 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <stop_token>
 
 #include "arlight/projection.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
+
+namespace arlight::lighting {
+class MapUpdater;
+}
 
 namespace arlight::daemon {
 
@@ -26,6 +31,9 @@ struct MapSetJob {
   // (issue 16 §3: ~3.7x faster at 128², mean error 0.5 %, up to 23 % beside lights, venice);
   // the session follows it with a full one once frames pause.
   bool preview = false;
+  // The session's previews so far, for a preview: it recomputes only what changed since the
+  // last (lighting::MapUpdater). Used by one set at a time; made for `request`.
+  std::shared_ptr<lighting::MapUpdater> previews;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

@@ -118,6 +118,7 @@ std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
   // the previous connection's request. A set already running still streams (a client that
   // reconnected mid-set with the same request can use it; others drop it).
   request_.reset();
+  previews_.reset();
   last_activity_ = Clock::now();
   return ++attachment_;
 }
@@ -290,6 +291,7 @@ std::string Session::request_maps(MapRequest r) {
   }
   std::lock_guard lock(mutex_);
   request_ = std::move(r);
+  previews_.reset();
   maps_forced_ = true;  // a new request is computed at once
   dirty_ = true;
   maybe_start_maps();
@@ -317,8 +319,14 @@ void Session::maybe_start_maps() {
     maps_again_ = true;
     return;
   }
-  if (!maps_forced_ && now - maps_started_ < std::chrono::duration<double>(env_.map_interval_s))
+  const auto interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(env_.map_interval_s));
+  if (!maps_forced_ && now - maps_started_ < interval) {
+    // Deferred by the interval: start it when the interval ends rather than with the next frame
+    // or idle tick after it (those came ~20 ms late: sets every ~120 ms at a 100 ms interval).
+    start_maps_at(maps_started_ + interval);
     return;
+  }
   MapSetJob job{.request = *request_,
                 .input = capture_->environment(),
                 .id = ++map_set_,
@@ -329,6 +337,13 @@ void Session::maybe_start_maps() {
                   std::lock_guard lock(mutex_);
                   return tile_coding_;
                 }};
+  if (job.preview) {
+    if (!previews_)
+      previews_ = std::make_shared<lighting::MapUpdater>(
+          request_->shininess, EnvLayout::for_size(request_->projection, request_->size),
+          lighting::parse_method(request_->method));
+    job.previews = previews_;
+  }
   maps_running_ = true;
   maps_again_ = false;
   maps_forced_ = false;
@@ -340,6 +355,21 @@ void Session::maybe_start_maps() {
   // it); ~Session stops and joins it before any member goes away.
   map_thread_ = std::jthread([this, job = std::move(job)](std::stop_token stop) mutable {
     compute_maps_thread(stop, std::move(job));
+  });
+}
+
+void Session::start_maps_at(Clock::time_point when) {
+  if (maps_timer_armed_ || !env_.workers) return;
+  if (!maps_timer_) maps_timer_ = std::make_unique<boost::asio::steady_timer>(*env_.workers);
+  maps_timer_armed_ = true;
+  maps_timer_->expires_at(when);
+  maps_timer_->async_wait([weak = weak_from_this()](const boost::system::error_code& ec) {
+    if (ec) return;
+    if (const auto self = weak.lock()) {
+      std::lock_guard lock(self->mutex_);
+      self->maps_timer_armed_ = false;
+      self->maybe_start_maps();
+    }
   });
 }
 
@@ -404,6 +434,11 @@ void Session::calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vecto
 }
 
 void Session::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    if (maps_timer_) maps_timer_->cancel();
+    maps_timer_armed_ = false;
+  }
   if (map_thread_.joinable()) {
     map_thread_.request_stop();
     map_thread_.join();

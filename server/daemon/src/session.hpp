@@ -5,6 +5,7 @@
 // dropped), so a flood never queues without bound.
 #pragma once
 
+#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/thread_pool.hpp>
 #include <chrono>
 #include <cstdint>
@@ -134,6 +135,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void process();  // on the worker pool
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   void maybe_start_maps();  // with mutex_ held
+  void start_maps_at(Clock::time_point when);  // with mutex_ held: maybe_start_maps() then
   void compute_maps_thread(std::stop_token stop, MapSetJob job);
   void send(const wire::Message& message);
 
@@ -162,6 +164,7 @@ class Session : public std::enable_shared_from_this<Session> {
   int checkpoint_generation_ = 0;
   Clock::time_point last_activity_ = Clock::now();
   std::optional<MapRequest> request_;
+  std::shared_ptr<lighting::MapUpdater> previews_;  // for request_, made by its first preview
   std::uint32_t map_set_ = 0;
   std::uint64_t maps_frames_ = 0;     // frames merged when the last map set started
   bool maps_forced_ = true;           // a new request: the next set starts whatever changed
@@ -169,6 +172,8 @@ class Session : public std::enable_shared_from_this<Session> {
   bool maps_preview_ = false;         // the last set was a preview (frames were arriving)
   Clock::time_point last_frame_ = Clock::now();
   bool maps_running_ = false, maps_again_ = false;
+  std::unique_ptr<boost::asio::steady_timer> maps_timer_;  // a set the interval deferred
+  bool maps_timer_armed_ = false;
   std::jthread map_thread_;
   std::mutex process_mutex_;             // held while a frame is processed
   mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)

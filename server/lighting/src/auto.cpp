@@ -30,6 +30,7 @@
 // Float precision (accumulate_single_f32) changed no error figure above at the 0.1 % level.
 #include <tbb/parallel_for.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <glm/exponential.hpp>
@@ -114,6 +115,11 @@ class CubeGrid {
   }
 
   int side() const { return side_; }
+  // The stored values (linear until to_log()), to keep between incremental runs.
+  const std::vector<float>& values() const { return values_; }
+  void set_values(const std::vector<float>& v) {
+    if (v.size() == values_.size()) values_ = v, log_ = false;
+  }
 
   // Direction of grid point (i, j) of face f, i and j from 0 to side-1 (border included).
   glm::dvec3 dir(int f, int i, int j) const {
@@ -263,10 +269,12 @@ bool sh_resolves(double s, std::size_t input_texels) {
 struct BrightSplit {
   EnvMap rest;
   PointCells bright;
+  double cap;
   float log_floor;  // 1e-6 x the mean luminance: the darkest value grids interpolate in log
 };
 
-BrightSplit split_bright(const EnvMap& input) {
+// With a valid memory, its cap and floor are held (an incremental run).
+BrightSplit split_bright(const EnvMap& input, const AutoMemory* memory) {
   const auto table = texel_table(input.layout);
   const float* px = input.image.data();
   const auto luminance_at = [](const float* p) {
@@ -277,8 +285,10 @@ BrightSplit split_bright(const EnvMap& input) {
     mean_y += table->solid_angle[i] * luminance_at(px + 3 * std::size_t(table->index[i]));
     total_w += table->solid_angle[i];
   }
-  const double cap = kBrightCap * mean_y / total_w;
-  BrightSplit split{input, {}, float(std::max(1e-30, 1e-6 * mean_y / total_w))};
+  const bool held = memory && memory->valid;
+  const double cap = held ? memory->bright_cap : kBrightCap * mean_y / total_w;
+  BrightSplit split{
+      input, {}, cap, held ? memory->log_floor : float(std::max(1e-30, 1e-6 * mean_y / total_w))};
   EnvMap excess(input.layout);
   for (std::size_t i = 0; i < table->size(); ++i) {
     const std::size_t at = 3 * std::size_t(table->index[i]);
@@ -418,26 +428,62 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
   }
 }
 
+// The smallest cone holding `dirs` (nearby directions: a block of texels or grid points).
+struct Cone {
+  glm::dvec3 centre;
+  double radius;
+};
+Cone bounding_cone(std::span<const glm::dvec3> dirs) {
+  glm::dvec3 sum(0.0);
+  for (const glm::dvec3& d : dirs) sum += d;
+  if (glm::dot(sum, sum) < 1e-24) return {glm::dvec3(0, 0, 1), std::numbers::pi};
+  const glm::dvec3 centre = glm::normalize(sum);
+  double min_cos = 1.0;
+  for (const glm::dvec3& d : dirs) min_cos = std::min(min_cos, glm::dot(centre, d));
+  return {centre, std::acos(std::clamp(min_cos, -1.0, 1.0)) + 1e-9};
+}
+
 }  // namespace
 
-MapSet run_auto(const Job& job) {
-  const auto t_split = std::chrono::steady_clock::now();
-  const BrightSplit split = split_bright(job.input);
-  const double split_seconds = seconds_since(t_split);
-  InputLevels levels(split.rest);
-  const std::size_t out_texels = texel_table(job.output.layout())->size();
+MapSet run_auto(const Job& job, AutoMemory* memory) {
   const int count = int(job.shininess.size());
-  std::vector<EnvMap> maps = blank_maps(job);
+  const bool incremental = memory && memory->valid;
   MapSet result;
   result.seconds.assign(std::size_t(count), 0.0);
   result.plans.assign(std::size_t(count), "");
-  // Wide lobes by SH, first (cheapest, so a consumer gets usable maps early).
+  if (incremental && memory->changed.empty()) {  // nothing changed: the last maps stand
+    result.maps = memory->maps;
+    result.plans.assign(std::size_t(count), "auto: input unchanged, maps kept");
+    memory->recomputed.assign(std::size_t(count), 0.0);
+    return result;
+  }
+  const auto t_split = std::chrono::steady_clock::now();
+  const BrightSplit split = split_bright(job.input, memory);
+  const double split_seconds = seconds_since(t_split);
+  InputLevels levels(split.rest);
+  const std::size_t out_texels = texel_table(job.output.layout())->size();
+  std::vector<EnvMap> maps = incremental ? memory->maps : blank_maps(job);
+  std::vector<double> recomputed(std::size_t(count), 1.0);
+  // Whether a block of output directions must be recomputed: always, unless an incremental
+  // run finds no changed cone within reach of the block's lobe windows (radius `reach`).
+  const auto changed_within = [&](std::span<const glm::dvec3> dirs, double reach) {
+    if (!incremental) return true;
+    const Cone cone = bounding_cone(dirs);
+    const double min_cos =
+        std::cos(std::min(std::numbers::pi, cone.radius + reach + memory->max_radius));
+    for (const glm::dvec3& c : memory->changed)
+      if (glm::dot(c, cone.centre) >= min_cos) return true;
+    return false;
+  };
+  // Wide lobes by SH, first (cheapest, so a consumer gets usable maps early). Their windows
+  // reach most of the sphere: any change recomputes them whole.
   const std::size_t sh_samples =
       std::min<std::size_t>(texel_table(job.input.layout)->size(), kShProjectionTexels);
   std::vector<int> by_sh, direct;
   for (int k : ascending_order(job.shininess))
     (sh_resolves(job.shininess[std::size_t(k)], sh_samples) ? by_sh : direct).push_back(k);
   if (!by_sh.empty()) sh_stage(job, split, by_sh, maps, result);
+  std::vector<std::vector<float>> grids(maps.size());
   // Narrow lobes by direct integration over prefiltered input, widest first.
   for (int k : direct) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -447,8 +493,16 @@ MapSet run_auto(const Job& job) {
     const double one[] = {s};
     const PowerChain chain(one);
     const double min_cos = bounded_cos_threshold(s);
+    // How far from an output direction a changed texel can change its value: the lobe's
+    // window, plus (prefiltered input) a cell's diameter, as a cell's point is its texels' mean.
+    const double reach =
+        std::acos(std::clamp(min_cos, -1.0, 1.0)) + (plan.input_face ? 3.0 / plan.input_face : 0.0);
+    std::atomic<std::size_t> blocks_done = 0, blocks_total = 0;
     // Integrates up to kBlock x kBlock nearby directions; values are written to out[i].
     auto integrate_block = [&](const std::vector<glm::dvec3>& dirs, auto&& write) {
+      ++blocks_total;
+      if (!changed_within(dirs, reach)) return;
+      ++blocks_done;
       BatchIntegrator batch(pts, chain, min_cos);
       std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
       batch.run(dirs, acc.data());
@@ -467,6 +521,7 @@ MapSet run_auto(const Job& job) {
     EnvMap& map = maps[std::size_t(k)];
     if (plan.grid_face) {
       CubeGrid grid(plan.grid_face);
+      if (incremental) grid.set_values(memory->grids[std::size_t(k)]);
       const int blocks = (grid.side() + kBlock - 1) / kBlock;
       job.progress.check();
       tbb::parallel_for(0, 6 * blocks * blocks, [&](int b) {
@@ -485,6 +540,7 @@ MapSet run_auto(const Job& job) {
           out[0] = v.x, out[1] = v.y, out[2] = v.z;
         });
       });
+      if (memory) grids[std::size_t(k)] = grid.values();
       grid.to_log(split.log_floor);
       for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
         job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
@@ -501,6 +557,7 @@ MapSet run_auto(const Job& job) {
             const Tile block{x0, y0, std::min(kBlock, tile.x + tile.width - x0),
                              std::min(kBlock, tile.y + tile.height - y0)};
             const TileTexels texels = job.output.collect(block);
+            if (texels.dirs.empty()) continue;
             integrate_block(texels.dirs, [&](std::size_t q, glm::vec3 v) {
               float* out = map.image.data() + 3 * texels.pixels[q];
               out[0] = v.x, out[1] = v.y, out[2] = v.z;
@@ -510,8 +567,24 @@ MapSet run_auto(const Job& job) {
       });
     }
     const double seconds = seconds_since(t0);
+    recomputed[std::size_t(k)] =
+        double(blocks_done) / double(std::max<std::size_t>(1, blocks_total));
     result.seconds[std::size_t(k)] = seconds + split_seconds / count;
     result.plans[std::size_t(k)] = describe(plan, seconds);
+    if (incremental) {
+      std::ostringstream o;
+      o.precision(3);
+      o << "; incremental: " << 100.0 * recomputed[std::size_t(k)] << " % recomputed";
+      result.plans[std::size_t(k)] += o.str();
+    }
+  }
+  if (memory) {
+    memory->maps = maps;
+    memory->grids = std::move(grids);
+    memory->bright_cap = split.cap;
+    memory->log_floor = split.log_floor;
+    memory->recomputed = std::move(recomputed);
+    memory->valid = true;
   }
   result.maps = std::move(maps);
   return result;

@@ -155,40 +155,52 @@ MethodSpec parse_method(std::string_view text, int default_sh_order, int default
   return spec;
 }
 
-MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
-                    const MethodSpec& method, const Hooks& hooks) {
+namespace detail {
+
+void check_shininess(std::span<const double> shininess) {
   if (shininess.empty()) throw std::invalid_argument("no shininess given");
   for (double s : shininess)
     if (!(s >= 1.0) || !std::isfinite(s))
       throw std::invalid_argument("shininess " + std::to_string(s) + " is not a number >= 1");
+}
+
+MapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
+               const MethodSpec& method, const Hooks& hooks, AutoMemory* memory) {
+  check_shininess(shininess);
   const auto t0 = std::chrono::steady_clock::now();
-  const detail::OutputTexels texels(output);
-  detail::Progress progress(hooks, texels.tiles().size() * shininess.size());
-  const detail::Job job{input, {shininess.begin(), shininess.end()}, texels, method, progress};
+  Progress progress(hooks, texels.tiles().size() * shininess.size());
+  const Job job{input, {shininess.begin(), shininess.end()}, texels, method, progress};
   MapSet result;
   switch (method.method) {
     case Method::Accurate:
-      result = detail::run_direct(job, false);
+      result = run_direct(job, false);
       break;
     case Method::Bounded:
-      result = detail::run_direct(job, true);
+      result = run_direct(job, true);
       break;
     case Method::Mipmap:
-      result = detail::run_mipmap(job);
+      result = run_mipmap(job);
       break;
     case Method::Sh:
-      result = detail::run_sh(job);
+      result = run_sh(job);
       break;
     case Method::Importance:
-      result = detail::run_importance(job);
+      result = run_importance(job);
       break;
     case Method::Auto:
-      result = detail::run_auto(job);
+      result = run_auto(job, memory);
       break;
   }
   result.shininess = job.shininess;
-  result.total_seconds = detail::seconds_since(t0);
+  result.total_seconds = seconds_since(t0);
   return result;
+}
+
+}  // namespace detail
+
+MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
+                    const MethodSpec& method, const Hooks& hooks) {
+  return detail::compute(input, shininess, detail::OutputTexels(output), method, hooks, nullptr);
 }
 
 MapError map_error(const EnvMap& reference, const EnvMap& test) {

@@ -127,6 +127,28 @@ MapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
 MapSet run_mipmap(const Job& job);
 MapSet run_sh(const Job& job);
 MapSet run_importance(const Job& job);
-MapSet run_auto(const Job& job);
+// What method auto keeps from one input to the next when it follows a changing environment
+// (MapUpdater): its last maps and cube grids, the bright split's cap, and where the new input
+// changed. A run with a memory that is not valid computes everything and fills it.
+struct AutoMemory {
+  bool valid = false;
+  double bright_cap = 0.0;  // held: the split of a texel only changes when the texel does
+  float log_floor = 0.0f;
+  std::vector<EnvMap> maps;
+  std::vector<std::vector<float>> grids;  // per map: its cube grid's values (linear), if any
+  // Cones (unit centre, angular radius) holding every input texel that changed since the last
+  // run; max_radius bounds the radii.
+  std::vector<glm::dvec3> changed;
+  double max_radius = 0.0;
+  std::vector<double> recomputed;  // out: the share of each map's output recomputed
+};
+
+MapSet run_auto(const Job& job, AutoMemory* memory = nullptr);
+
+// Throws std::invalid_argument for an empty list or a shininess below 1.
+void check_shininess(std::span<const double> shininess);
+// compute_maps() over prepared output texels, with method auto's memory (may be null).
+MapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
+               const MethodSpec& method, const Hooks& hooks, AutoMemory* memory);
 
 }  // namespace arlight::lighting::detail

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <span>
 #include <stdexcept>
 #include <stop_token>
@@ -85,6 +86,40 @@ struct MapSet {
 // an empty list, Cancelled when hooks.stop is requested.
 MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
                     const MethodSpec& method, const Hooks& hooks = {});
+
+// Maps that follow an environment as it changes (issue 16 §3: map sets at 10 Hz while a phone
+// captures). Each update() takes the environment as it is now, in the same layout as the last
+// one, and with method auto recomputes only what its changes reach:
+// - an input texel counts as changed when one of its channels moved by more than `tolerance`
+//   relative to its value (plus tolerance x 0.1 of the map's mean luminance, so dark noise does
+//   not count) since it last counted; changed texels are grouped in cones;
+// - maps made by direct sums (narrow lobes) recompute only the 8x8 blocks of output texels or
+//   cube-grid points whose lobe windows reach a changed cone, and re-interpolate their grids;
+// - maps made through SH (wide lobes, whose windows reach most of the sphere) are recomputed
+//   whole after any change; the bright split's cap is held from the first update.
+// A map texel not recomputed was computed from an input that differs from today's by at most
+// about 2 x tolerance in its window, so it is within that of a fresh computation. Other methods,
+// a new input layout, and the first update compute everything (as compute_maps). An update that
+// is cancelled or fails leaves the next one to compute everything.
+class MapUpdater {
+ public:
+  MapUpdater(std::vector<double> shininess, const EnvLayout& output, MethodSpec method = {},
+             double tolerance = 0.02);
+  ~MapUpdater();
+  MapUpdater(MapUpdater&&) noexcept;
+  MapUpdater& operator=(MapUpdater&&) noexcept;
+
+  // Throws as compute_maps does.
+  const MapSet& update(const EnvMap& input, const Hooks& hooks = {});
+  // Of the last update: the share of each map's output recomputed (1: all of it) and of the
+  // input's texels that counted as changed.
+  std::span<const double> recomputed() const;
+  double changed() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // Errors of `test` against `reference` (same layout) over every valid texel and channel, as
 // fractions: thesis eq. 6.1 (mean of |a - v| / (a + eps)) and eq. 6.2 (max of the same), with

@@ -1,0 +1,52 @@
+#!/bin/sh
+# Map sets while capturing (issue 16 §3): for each session count, a fresh arlightd, a 3 s
+# warm-up session, then `arlight-load --sessions N --duration 10 --rate 30 --maps` on the
+# 120-frame 640x480 venice recording; prints one table row per run (map sets in 10 s, the
+# median session's and the slowest session's median interval between its map sets while it
+# sends, frames dropped, frame->update p99). With OLD=PATH_TO_ARLIGHTD, each run is made with
+# that daemon first, then with this build's, alternately (the machine is noisy).
+#   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
+set -eu
+build=${1:-build}
+out=${2:-out/bench/load_maps}
+shift 2 2>/dev/null || shift $#
+counts=${*:-1 4 8}
+mkdir -p "$out"
+out=$(cd "$out" && pwd)
+token=load-maps-token-0123456789
+[ -d "$out/rec" ] || "$build/bin/arlight-sim" --env data/probes/venice.exr --out "$out/rec" \
+  --frames 120 --seed 3 > /dev/null
+echo "load $token" > "$out/tokens"
+port=${LOAD_MAPS_PORT:-7988}
+pid=
+trap '[ -n "$pid" ] && kill $pid 2>/dev/null || true' EXIT
+
+run() {  # run DAEMON LABEL SESSIONS
+  rm -rf "$out/data"
+  "$1" --tokens "$out/tokens" --data-dir "$out/data" --listen "127.0.0.1:$port" --admin '' ${ARLIGHTD_FLAGS:-} \
+    > "$out/arlightd.out" 2> "$out/arlightd.log" &
+  pid=$!
+  sleep 1
+  "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
+    --device load --sessions 1 --duration 3 > /dev/null
+  "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
+    --device load --sessions "$3" --duration 10 --rate 30 --maps --json "$out/$2-$3.json" \
+    > /dev/null || true
+  kill $pid
+  wait $pid 2> /dev/null || true
+  pid=
+  python3 - "$out/$2-$3.json" "$2" "$3" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+i = j["map_set_interval_ms"]
+print(f"| {sys.argv[2]} | {sys.argv[3]} | {j['map_sets_completed']} | {i['median']:.0f} ms / "
+      f"{i['worst_session']:.0f} ms | {j['frames_dropped']} | {j['latency_ms']['p99']:.1f} ms |")
+PY
+}
+
+echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped | p99 frame->update |"
+echo "|---|---|---|---|---|---|"
+for n in $counts; do
+  [ -n "${OLD:-}" ] && run "$OLD" old "$n"
+  run "$build/bin/arlightd" new "$n"
+done
