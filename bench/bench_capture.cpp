@@ -17,6 +17,7 @@
 
 #include "arlight/capture.hpp"
 #include "arlight/hdr_io.hpp"
+#include "arlight/lighting.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sim/view.hpp"
 
@@ -90,6 +91,60 @@ void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill) {
   state.counters["aligned_pct"] = 100.0 * double(aligned) / double(ms.size());
   state.counters["coverage_pct"] = 100.0 * session.coverage();
 }
+
+// Issue 16 §3: arlightd's previews while a phone sweeps venice (the turn above, arlightd's
+// capture: a face-192 cube map for 512, the fill). Every third frame (~10 Hz at 30 fps) the
+// map reduced to the preview's face-64 cube gets its 8 maps at 128^2, twice: from scratch
+// (compute_maps, before) and by the session's MapUpdater (recomputing what changed), on every
+// core. Counters: the median ms of each, the median share of input texels changed and of the
+// narrowest map's output recomputed, and the updater's worst mean / max error against the
+// fresh maps over the sweep.
+void BM_PreviewSweep(benchmark::State& state) {
+  const auto& jpegs = frames(0.3);
+  capture::CaptureOptions options;
+  options.layout = capture::capture_layout_for(512);
+  capture::CaptureSession session(CameraIntrinsics::from_fov(640, 480, 60), CameraResponse::srgb(),
+                                  options);
+  const std::vector<double> shininess = {1, 10, 20, 40, 80, 160, 320, 1280};
+  const EnvLayout out = EnvLayout::for_size(Projection::AngleMap, 128);
+  const EnvLayout reduced = EnvLayout::for_size(Projection::Cube, 64);
+  lighting::MapUpdater updater(shininess, out);
+  std::vector<double> full_ms, update_ms, changed, narrowest;
+  double worst_mean = 0.0, worst_max = 0.0;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    for (int f = 0; f < 3; ++f, ++k)
+      session.add_encoded(jpegs[k % kFrames], {0.0, 0.3, 1.0, view(int(k % kFrames))});
+    const EnvMap input = reduce(session.environment(), reduced);
+    const std::vector<float> measured =
+        capture::measured_share(session.layout(), session.weights(), reduced);
+    auto t0 = std::chrono::steady_clock::now();
+    const lighting::MapSet fresh = lighting::compute_maps(input, shininess, out, {});
+    full_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    t0 = std::chrono::steady_clock::now();
+    const lighting::MapSet& maps = updater.update(input, {}, measured);
+    update_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    changed.push_back(updater.changed());
+    narrowest.push_back(updater.recomputed().back());
+    for (std::size_t m = 0; m < shininess.size(); ++m) {
+      const lighting::MapError e = lighting::map_error(fresh.maps[m], maps.maps[m]);
+      worst_mean = std::max(worst_mean, e.mean), worst_max = std::max(worst_max, e.max);
+    }
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["full_ms"] = median(full_ms);
+  state.counters["update_ms"] = median(update_ms);
+  state.counters["changed_pct"] = 100.0 * median(changed);
+  state.counters["s1280_recomputed_pct"] = 100.0 * median(narrowest);
+  state.counters["worst_mean_pct"] = 100.0 * worst_mean;
+  state.counters["worst_max_pct"] = 100.0 * worst_max;
+}
+BENCHMARK(BM_PreviewSweep)->Iterations(42)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Issue 16 §2: the cost of a frame by where the camera looks, in a capture layout. Eight
 // directions of a sweep (ahead, right, behind, left at the horizon; up; down; behind 45 degrees

@@ -88,7 +88,7 @@ void BM_SessionMapSet(benchmark::State& state) {
   const lighting::MethodSpec spec = lighting::parse_method("auto");
   const lighting::MapSet reference = lighting::compute_maps(full, kShininess, out, spec);
   const EnvMap input =
-      face == 192 ? full : resample(full, EnvLayout::for_size(Projection::Cube, face));
+      face == 192 ? full : reduce(full, EnvLayout::for_size(Projection::Cube, face));
   (void)texel_table(input.layout), (void)texel_table(out);
   lighting::MapSet last;
   for (auto _ : state) last = lighting::compute_maps(input, kShininess, out, spec);

@@ -129,4 +129,32 @@ EnvMap resample(const EnvMap& src, const EnvLayout& dst) {
   return out;
 }
 
+EnvMap reduce(const EnvMap& src, const EnvLayout& dst) {
+  const EnvLayout& from = src.layout;
+  if (from.projection() != Projection::Cube || dst.projection() != Projection::Cube ||
+      dst.face_size() > from.face_size() || from.face_size() % dst.face_size() != 0)
+    return resample(src, dst);
+  const int k = from.face_size() / dst.face_size();
+  const auto table = texel_table(from);  // every texel of a cube map is on the sphere
+  std::vector<double> omega(from.texel_count(), 0.0);
+  for (std::size_t i = 0; i < table->size(); ++i) omega[table->index[i]] = table->solid_angle[i];
+  EnvMap out(dst);
+  const float* in = src.image.data();
+  float* o = out.image.data();
+  const std::size_t w = std::size_t(from.width());
+  for (int y = 0; y < dst.height(); ++y)
+    for (int x = 0; x < dst.width(); ++x) {
+      double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0;
+      for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+          const std::size_t p = std::size_t(y * k + j) * w + std::size_t(x * k + i);
+          for (int c = 0; c < 3; ++c) sum[c] += omega[p] * in[3 * p + std::size_t(c)];
+          weight += omega[p];
+        }
+      float* t = o + 3 * (std::size_t(y) * std::size_t(dst.width()) + std::size_t(x));
+      for (int c = 0; c < 3; ++c) t[c] = weight > 0.0 ? float(sum[c] / weight) : 0.0f;
+    }
+  return out;
+}
+
 }  // namespace arlight

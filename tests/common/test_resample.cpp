@@ -161,3 +161,36 @@ TEST(EnvSampler, AngleMapRimDoesNotBleedInTheBlackOutsideTheDisk) {
           5.0f, 1e-5f)
           << a << " level " << level;
 }
+
+// reduce(): a cube map shrunk by a whole factor keeps its power exactly and agrees with
+// resample(); other pairs are resampled.
+TEST(Reduce, AWholeCubeFactorKeepsThePowerAndMatchesResample) {
+  auto f = [](glm::dvec3 d) {
+    const double light =
+        glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
+    return glm::vec3(float(light + 1.0 + 0.5 * std::sin(10 * d.x) * std::cos(8 * d.y)));
+  };
+  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::Cube, 96), f);
+  const EnvLayout small = EnvLayout::for_size(Projection::Cube, 32);
+  const EnvMap reduced = reduce(env, small);
+  EXPECT_NEAR(sphere_mean(reduced) / sphere_mean(env), 1.0, 1e-6);
+  const EnvMap resampled = resample(env, small);
+  const auto t = texel_table(small);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < t->size(); ++i) {
+    const double light =
+        glm::dot(glm::dvec3(t->x[i], t->y[i], t->z[i]), glm::normalize(glm::dvec3(0.3, 0.8, -0.5)));
+    if (light > 0.99) continue;  // the light's rim: each filter spreads it its own way
+    const float a = reduced.image.data()[3 * t->index[i]];
+    const float b = resampled.image.data()[3 * t->index[i]];
+    worst = std::max(worst, std::abs(double(a) - b) / b);
+  }
+  EXPECT_LT(worst, 0.03);
+  // Not a whole factor, or another projection: resample() itself.
+  for (const EnvLayout& other :
+       {EnvLayout::for_size(Projection::Cube, 40), EnvLayout::for_size(Projection::AngleMap, 64)}) {
+    const EnvMap a = reduce(env, other), b = resample(env, other);
+    EXPECT_EQ(a.image.data()[3 * a.layout.texel_count() / 2],
+              b.image.data()[3 * b.layout.texel_count() / 2]);
+  }
+}

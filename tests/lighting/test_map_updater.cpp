@@ -135,3 +135,21 @@ TEST(MapUpdater, OtherMethodsComputeEverything) {
   EXPECT_EQ(updater.recomputed()[1], 1.0);
   EXPECT_THROW(MapUpdater({0.5}, kOutput), std::invalid_argument);
 }
+
+// Texels a capture estimated (its fill) may move kEstimatedTolerance x further before they
+// count: +3 % over the whole room counts where measured, not where estimated.
+TEST(MapUpdater, EstimatedTexelsCountOnlyLargerChanges) {
+  MapUpdater updater(kShininess, kOutput, MethodSpec{}, 0.02);
+  EnvMap env = venice();
+  const std::size_t n = env.layout.texel_count();
+  std::vector<float> measured(n, 0.0f);
+  std::fill(measured.begin(), measured.begin() + std::ptrdiff_t(n / 2), 1.0f);
+  updater.update(env, {}, measured);
+  scale_cap(env, glm::dvec3(0, 0, 1), std::numbers::pi, 1.03f);
+  updater.update(env, {}, measured);
+  EXPECT_LE(updater.changed(), 0.5);  // the measured half, but for its darkest texels
+  EXPECT_GT(updater.changed(), 0.3);
+  updater.update(env, {}, std::vector<float>(n, 1.0f));  // now measured: the rest counts too
+  EXPECT_GT(updater.changed(), 0.3);
+  EXPECT_THROW(updater.update(env, {}, std::vector<float>(3, 1.0f)), std::invalid_argument);
+}

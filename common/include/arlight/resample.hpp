@@ -45,4 +45,10 @@ class EnvSampler {
 // not on the sphere stay 0.
 EnvMap resample(const EnvMap& src, const EnvLayout& dst);
 
+// `src` reduced to `dst` when both are cube maps and dst's face divides src's by a whole factor
+// k: each texel the solid-angle-weighted mean of the k x k texels it covers, so the map's power
+// is kept exactly (a box filter on the stacked faces; ~20x faster than resample(), which it
+// matches to within its sub-sampling). Otherwise resample(src, dst).
+EnvMap reduce(const EnvMap& src, const EnvLayout& dst);
+
 }  // namespace arlight

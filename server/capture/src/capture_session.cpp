@@ -16,6 +16,7 @@
 #include "align.hpp"
 #include "arlight/capture.hpp"
 #include "arlight/pose.hpp"
+#include "arlight/resample.hpp"
 #include "drift_model.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
@@ -734,6 +735,22 @@ void CaptureSession::restore(const Accumulators& acc) {
 
 EnvLayout capture_layout_for(int n) {
   return EnvLayout::for_size(Projection::Cube, std::max(8, (3 * n / 8 + 4) / 8 * 8));
+}
+
+std::vector<float> measured_share(const EnvLayout& layout, std::span<const float> weights,
+                                  const EnvLayout& reduced) {
+  if (weights.size() != layout.texel_count())
+    throw std::invalid_argument("capture: " + std::to_string(weights.size()) +
+                                " weights for a map of " + std::to_string(layout.texel_count()) +
+                                " texels");
+  EnvMap seen(layout);
+  for (std::size_t i = 0; i < weights.size(); ++i)
+    if (weights[i] > 0.0f)
+      for (int c = 0; c < 3; ++c) seen.image.data()[3 * i + std::size_t(c)] = 1.0f;
+  const EnvMap share = arlight::reduce(seen, reduced);
+  std::vector<float> out(reduced.texel_count());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = share.image.data()[3 * i];
+  return out;
 }
 
 Accumulators convert_accumulators(const Accumulators& acc, const EnvLayout& from,

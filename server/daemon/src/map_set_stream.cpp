@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "arlight/capture.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/resample.hpp"
 #include "priority.hpp"
@@ -59,11 +60,14 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     const BackgroundPriority background(arena);
     arena.execute([&] {
       const EnvLayout reduced = preview_input_layout(layout);
-      const bool reduce = job.preview && reduced.texel_count() < job.input.layout.texel_count();
-      if (reduce && job.previews)
-        maps = job.previews->update(resample(job.input, reduced), hooks);
+      const bool smaller = job.preview && reduced.texel_count() < job.input.layout.texel_count();
+      if (smaller && job.previews)
+        maps = job.previews->update(
+            reduce(job.input, reduced), hooks,
+            job.weights.empty() ? std::vector<float>()
+                                : capture::measured_share(job.input.layout, job.weights, reduced));
       else
-        maps = lighting::compute_maps(reduce ? resample(job.input, reduced) : job.input,
+        maps = lighting::compute_maps(smaller ? reduce(job.input, reduced) : job.input,
                                       request.shininess, layout,
                                       lighting::parse_method(request.method), hooks);
     });

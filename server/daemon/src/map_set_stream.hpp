@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <stop_token>
+#include <vector>
 
 #include "arlight/projection.hpp"
 #include "arlight/wire.hpp"
@@ -34,6 +35,8 @@ struct MapSetJob {
   // The session's previews so far, for a preview: it recomputes only what changed since the
   // last (lighting::MapUpdater). Used by one set at a time; made for `request`.
   std::shared_ptr<lighting::MapUpdater> previews;
+  // A preview's: the capture's sum of weights per texel of `input` (0: never seen, estimated).
+  std::vector<float> weights;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

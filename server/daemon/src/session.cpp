@@ -343,6 +343,7 @@ void Session::maybe_start_maps() {
           request_->shininess, EnvLayout::for_size(request_->projection, request_->size),
           lighting::parse_method(request_->method));
     job.previews = previews_;
+    job.weights = capture_->weights();
   }
   maps_running_ = true;
   maps_again_ = false;

@@ -35,10 +35,12 @@
 #include <cmath>
 #include <glm/exponential.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <sstream>
 
@@ -269,12 +271,10 @@ bool sh_resolves(double s, std::size_t input_texels) {
 struct BrightSplit {
   EnvMap rest;
   PointCells bright;
-  double cap;
   float log_floor;  // 1e-6 x the mean luminance: the darkest value grids interpolate in log
 };
 
-// With a valid memory, its cap and floor are held (an incremental run).
-BrightSplit split_bright(const EnvMap& input, const AutoMemory* memory) {
+BrightSplit split_bright(const EnvMap& input) {
   const auto table = texel_table(input.layout);
   const float* px = input.image.data();
   const auto luminance_at = [](const float* p) {
@@ -285,10 +285,8 @@ BrightSplit split_bright(const EnvMap& input, const AutoMemory* memory) {
     mean_y += table->solid_angle[i] * luminance_at(px + 3 * std::size_t(table->index[i]));
     total_w += table->solid_angle[i];
   }
-  const bool held = memory && memory->valid;
-  const double cap = held ? memory->bright_cap : kBrightCap * mean_y / total_w;
-  BrightSplit split{
-      input, {}, cap, held ? memory->log_floor : float(std::max(1e-30, 1e-6 * mean_y / total_w))};
+  const double cap = kBrightCap * mean_y / total_w;
+  BrightSplit split{input, {}, float(std::max(1e-30, 1e-6 * mean_y / total_w))};
   EnvMap excess(input.layout);
   for (std::size_t i = 0; i < table->size(); ++i) {
     const std::size_t at = 3 * std::size_t(table->index[i]);
@@ -443,6 +441,46 @@ Cone bounding_cone(std::span<const glm::dvec3> dirs) {
   return {centre, std::acos(std::clamp(min_cos, -1.0, 1.0)) + 1e-9};
 }
 
+// How far the changes of an incremental run reach for lobe s. A changed texel at angle theta
+// from an output direction moves the output's value by at most cos^s(theta) x its change x
+// (s + 1) / 2 pi (the lobe's integral normalises the sums); bounding the changes by their total,
+// memory.changed_power, an output group whose nearest changed cone lies at theta may be skipped
+// while the sum of those bounds over the runs it skipped (its debt) stays within the tolerance
+// of its darkest value (plus 1 % of the input's mean luminance, so black outputs need not be
+// exact to the last photon). Changes beyond the integrator's window never reach it.
+class ChangeReach {
+ public:
+  ChangeReach(const AutoMemory& memory, double s, double window, double cell_radius)
+      : memory_(memory),
+        s_(s),
+        window_(window),
+        cell_radius_(cell_radius),
+        scale_(memory.changed_power * (s + 1.0) / (2.0 * std::numbers::pi)) {}
+
+  bool must_recompute(std::span<const glm::dvec3> group, float darkest, float& debt) const {
+    const Cone cone = bounding_cone(group);
+    double nearest = -1.0;
+    for (const glm::dvec3& c : memory_.changed)
+      nearest = std::max(nearest, glm::dot(c, cone.centre));
+    // The least angle between an output of the group and a point a changed texel moved.
+    const double theta =
+        std::acos(std::clamp(nearest, -1.0, 1.0)) - cone.radius - memory_.max_radius - cell_radius_;
+    if (theta >= window_) return false;
+    const double bound = theta <= 0.0 ? scale_ : std::pow(std::cos(theta), s_) * scale_;
+    const double budget = memory_.tolerance * (std::max(0.0f, darkest) + 0.01 * memory_.mean);
+    if (double(debt) + bound <= budget) {
+      debt += float(bound);
+      return false;
+    }
+    debt = 0.0f;
+    return true;
+  }
+
+ private:
+  const AutoMemory& memory_;
+  double s_, window_, cell_radius_, scale_;
+};
+
 }  // namespace
 
 MapSet run_auto(const Job& job, AutoMemory* memory) {
@@ -458,23 +496,12 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
     return result;
   }
   const auto t_split = std::chrono::steady_clock::now();
-  const BrightSplit split = split_bright(job.input, memory);
+  const BrightSplit split = split_bright(job.input);
   const double split_seconds = seconds_since(t_split);
   InputLevels levels(split.rest);
   const std::size_t out_texels = texel_table(job.output.layout())->size();
   std::vector<EnvMap> maps = incremental ? memory->maps : blank_maps(job);
   std::vector<double> recomputed(std::size_t(count), 1.0);
-  // Whether a block of output directions must be recomputed: always, unless an incremental
-  // run finds no changed cone within reach of the block's lobe windows (radius `reach`).
-  const auto changed_within = [&](std::span<const glm::dvec3> dirs, double reach) {
-    if (!incremental) return true;
-    const Cone cone = bounding_cone(dirs);
-    const double min_cos =
-        std::cos(std::min(std::numbers::pi, cone.radius + reach + memory->max_radius));
-    for (const glm::dvec3& c : memory->changed)
-      if (glm::dot(c, cone.centre) >= min_cos) return true;
-    return false;
-  };
   // Wide lobes by SH, first (cheapest, so a consumer gets usable maps early). Their windows
   // reach most of the sphere: any change recomputes them whole.
   const std::size_t sh_samples =
@@ -493,16 +520,53 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
     const double one[] = {s};
     const PowerChain chain(one);
     const double min_cos = bounded_cos_threshold(s);
-    // How far from an output direction a changed texel can change its value: the lobe's
-    // window, plus (prefiltered input) a cell's diameter, as a cell's point is its texels' mean.
-    const double reach =
-        std::acos(std::clamp(min_cos, -1.0, 1.0)) + (plan.input_face ? 3.0 / plan.input_face : 0.0);
-    std::atomic<std::size_t> blocks_done = 0, blocks_total = 0;
-    // Integrates up to kBlock x kBlock nearby directions; values are written to out[i].
-    auto integrate_block = [&](const std::vector<glm::dvec3>& dirs, auto&& write) {
-      ++blocks_total;
-      if (!changed_within(dirs, reach)) return;
-      ++blocks_done;
+    // An incremental run recomputes a 4 x 4 group of outputs when the changes could have moved
+    // it by more than the budget since it was last computed (ChangeReach, with the debts of
+    // the groups it skipped, indexed by block x 4 + group).
+    std::optional<ChangeReach> reach;
+    std::vector<float>* debt = nullptr;
+    if (memory) {
+      memory->debt.resize(std::size_t(count));
+      debt = &memory->debt[std::size_t(k)];
+      const std::size_t side = plan.grid_face ? std::size_t(CubeGrid(plan.grid_face).side()) : 0;
+      const std::size_t groups =
+          4 * (plan.grid_face ? 6 * side * side : job.output.layout().texel_count());
+      if (!incremental || debt->size() != groups) debt->assign(groups, 0.0f);
+      if (incremental)
+        reach.emplace(*memory, s, std::acos(std::clamp(min_cos, -1.0, 1.0)),
+                      plan.input_face ? 3.0 / plan.input_face : 0.0);
+    }
+    std::atomic<std::size_t> outputs_done = 0, outputs_total = 0;
+    // Integrates up to kBlock x kBlock nearby directions (local[i]: their places in the block)
+    // into slot(i), the output's RGB (holding its last value in an incremental run). `block`
+    // numbers the block for the debts.
+    auto integrate_block = [&](std::size_t block, const std::vector<glm::dvec3>& all,
+                               const std::vector<glm::ivec2>& local, auto&& slot) {
+      outputs_total += all.size();
+      std::vector<std::size_t> picked;
+      if (reach) {
+        for (int g = 0; g < 4; ++g) {
+          std::vector<std::size_t> in;
+          std::vector<glm::dvec3> group;
+          float darkest = std::numeric_limits<float>::max();
+          for (std::size_t i = 0; i < all.size(); ++i)
+            if (int(local[i].x >= kBlock / 2) + 2 * int(local[i].y >= kBlock / 2) == g) {
+              in.push_back(i), group.push_back(all[i]);
+              const float* v = slot(i);
+              darkest = std::min({darkest, v[0], v[1], v[2]});
+            }
+          if (!group.empty() &&
+              reach->must_recompute(group, darkest, (*debt)[4 * block + std::size_t(g)]))
+            picked.insert(picked.end(), in.begin(), in.end());
+        }
+      } else {
+        picked.resize(all.size());
+        std::iota(picked.begin(), picked.end(), std::size_t(0));
+      }
+      if (picked.empty()) return;
+      outputs_done += picked.size();
+      std::vector<glm::dvec3> dirs;
+      for (std::size_t i : picked) dirs.push_back(all[i]);
       BatchIntegrator batch(pts, chain, min_cos);
       std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
       batch.run(dirs, acc.data());
@@ -513,9 +577,8 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
       for (std::size_t i = 0; i < dirs.size(); ++i) {
         const double* a = acc.data() + 4 * i;
         const double* b = lights.data() + 4 * i;
-        write(i, a[3] > 0.0
-                     ? glm::vec3((a[0] + b[0]) / a[3], (a[1] + b[1]) / a[3], (a[2] + b[2]) / a[3])
-                     : glm::vec3(0.0f));
+        float* out = slot(picked[i]);
+        for (int c = 0; c < 3; ++c) out[c] = a[3] > 0.0 ? float((a[c] + b[c]) / a[3]) : 0.0f;
       }
     };
     EnvMap& map = maps[std::size_t(k)];
@@ -529,16 +592,15 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
         FlushDenormals ftz;
         const int f = b / (blocks * blocks), by = b / blocks % blocks, bx = b % blocks;
         std::vector<glm::dvec3> dirs;
-        std::vector<glm::ivec2> at;
+        std::vector<glm::ivec2> at, local;
         for (int j = by * kBlock; j < std::min(grid.side(), (by + 1) * kBlock); ++j)
           for (int i = bx * kBlock; i < std::min(grid.side(), (bx + 1) * kBlock); ++i) {
             dirs.push_back(grid.dir(f, i, j));
             at.push_back({i, j});
+            local.push_back({i - bx * kBlock, j - by * kBlock});
           }
-        integrate_block(dirs, [&](std::size_t q, glm::vec3 v) {
-          float* out = grid.value(f, at[q].x, at[q].y);
-          out[0] = v.x, out[1] = v.y, out[2] = v.z;
-        });
+        integrate_block(std::size_t(b), dirs, local,
+                        [&](std::size_t q) { return grid.value(f, at[q].x, at[q].y); });
       });
       if (memory) grids[std::size_t(k)] = grid.values();
       grid.to_log(split.log_floor);
@@ -558,17 +620,19 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
                              std::min(kBlock, tile.y + tile.height - y0)};
             const TileTexels texels = job.output.collect(block);
             if (texels.dirs.empty()) continue;
-            integrate_block(texels.dirs, [&](std::size_t q, glm::vec3 v) {
-              float* out = map.image.data() + 3 * texels.pixels[q];
-              out[0] = v.x, out[1] = v.y, out[2] = v.z;
-            });
+            const std::size_t w = std::size_t(job.output.layout().width());
+            std::vector<glm::ivec2> local;
+            for (std::size_t pixel : texels.pixels)
+              local.push_back({int(pixel % w) - x0, int(pixel / w) - y0});
+            integrate_block(std::size_t(y0) * w + std::size_t(x0), texels.dirs, local,
+                            [&](std::size_t q) { return map.image.data() + 3 * texels.pixels[q]; });
           }
         job.progress.tile_done(k, tile);
       });
     }
     const double seconds = seconds_since(t0);
     recomputed[std::size_t(k)] =
-        double(blocks_done) / double(std::max<std::size_t>(1, blocks_total));
+        double(outputs_done) / double(std::max<std::size_t>(1, outputs_total));
     result.seconds[std::size_t(k)] = seconds + split_seconds / count;
     result.plans[std::size_t(k)] = describe(plan, seconds);
     if (incremental) {
@@ -581,8 +645,6 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
   if (memory) {
     memory->maps = maps;
     memory->grids = std::move(grids);
-    memory->bright_cap = split.cap;
-    memory->log_floor = split.log_floor;
     memory->recomputed = std::move(recomputed);
     memory->valid = true;
   }

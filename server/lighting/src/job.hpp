@@ -128,18 +128,24 @@ MapSet run_mipmap(const Job& job);
 MapSet run_sh(const Job& job);
 MapSet run_importance(const Job& job);
 // What method auto keeps from one input to the next when it follows a changing environment
-// (MapUpdater): its last maps and cube grids, the bright split's cap, and where the new input
-// changed. A run with a memory that is not valid computes everything and fills it.
+// (MapUpdater): its last maps and cube grids, and where the new input changed. A run with a
+// memory that is not valid computes everything and fills it. (The bright split is made afresh
+// every run: its cap only decides which part of the input is summed exactly, so outputs kept
+// from a run with another cap differ from recomputed ones by the method's own error at most.)
 struct AutoMemory {
   bool valid = false;
-  double bright_cap = 0.0;  // held: the split of a texel only changes when the texel does
-  float log_floor = 0.0f;
   std::vector<EnvMap> maps;
   std::vector<std::vector<float>> grids;  // per map: its cube grid's values (linear), if any
   // Cones (unit centre, angular radius) holding every input texel that changed since the last
   // run; max_radius bounds the radii.
   std::vector<glm::dvec3> changed;
   double max_radius = 0.0;
+  // Their total change, sum over the changed texels of max_c |change_c| x solid angle.
+  double changed_power = 0.0;
+  // The relative drift a map value may take from the changes it skips before it is recomputed,
+  // and the input's mean luminance (for the dark floor).
+  double tolerance = 0.0, mean = 0.0;
+  std::vector<std::vector<float>> debt;  // per map: the drift bounds of skipped output groups
   std::vector<double> recomputed;  // out: the share of each map's output recomputed
 };
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <numbers>
 #include <optional>
 
@@ -56,7 +57,12 @@ MapUpdater& MapUpdater::operator=(MapUpdater&&) noexcept = default;
 std::span<const double> MapUpdater::recomputed() const { return state_->recomputed; }
 double MapUpdater::changed() const { return state_->changed; }
 
-const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks) {
+const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks,
+                                 std::span<const float> measured) {
+  if (!measured.empty() && measured.size() != input.layout.texel_count())
+    throw std::invalid_argument("MapUpdater: " + std::to_string(measured.size()) +
+                                " measured shares for " +
+                                std::to_string(input.layout.texel_count()) + " texels");
   State& st = *state_;
   detail::AutoMemory& memory = st.memory;
   const bool follow = st.method.method == Method::Auto && memory.valid && st.base &&
@@ -65,6 +71,7 @@ const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks) {
   memory.valid = follow;
   memory.changed.clear();
   memory.max_radius = 0.0;
+  memory.changed_power = 0.0;
   st.changed = 1.0;
   if (follow) {
     const auto table = texel_table(input.layout);
@@ -77,6 +84,7 @@ const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks) {
     }
     mean_y /= 4.0 * std::numbers::pi;
     const double tolerance = st.tolerance, floor = 0.1 * mean_y;
+    memory.tolerance = tolerance, memory.mean = mean_y;
     // The changed texels' directions, summed per cell of a coarse cube grid.
     const EnvLayout cells = EnvLayout::for_size(Projection::Cube, kChangeFace);
     std::vector<glm::dvec3> sum(cells.texel_count(), glm::dvec3(0.0));
@@ -84,14 +92,24 @@ const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks) {
     std::vector<std::size_t> moved;
     for (std::size_t i = 0; i < table->size(); ++i) {
       const std::size_t at = 3 * std::size_t(table->index[i]);
+      const double estimated =
+          measured.empty() ? 0.0 : 1.0 - std::clamp(double(measured[table->index[i]]), 0.0, 1.0);
+      const double texel_tolerance = tolerance * (1.0 + (kEstimatedTolerance - 1.0) * estimated);
       bool changed = false;
       for (int c = 0; c < 3; ++c)
-        changed |= std::abs(double(now[at + c]) - was[at + c]) >
-                   tolerance * (std::max(std::abs(now[at + c]), std::abs(was[at + c])) + floor);
+        changed |=
+            std::abs(double(now[at + c]) - was[at + c]) >
+            texel_tolerance * (std::max(std::abs(now[at + c]), std::abs(was[at + c])) + floor);
       // A texel that is not finite cannot be compared; it counts as changed.
       for (int c = 0; c < 3; ++c) changed |= !std::isfinite(now[at + c]);
       if (!changed) continue;
-      for (int c = 0; c < 3; ++c) was[at + c] = now[at + c];
+      double moved_by = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        moved_by = std::max(moved_by, std::abs(double(now[at + c]) - was[at + c]));
+        was[at + c] = now[at + c];
+      }
+      memory.changed_power += std::isfinite(moved_by) ? moved_by * table->solid_angle[i]
+                                                      : std::numeric_limits<double>::infinity();
       const glm::dvec3 d(table->x[i], table->y[i], table->z[i]);
       const glm::ivec2 t = cells.dir_to_texel(d);
       const std::uint32_t cell = std::uint32_t(t.y * cells.width() + t.x);

@@ -155,6 +155,12 @@ EnvLayout capture_layout_for(int n);
 Accumulators convert_accumulators(const Accumulators& acc, const EnvLayout& from,
                                   const EnvLayout& to);
 
+// The share of each texel of `reduced` that was measured (seen by a frame) rather than estimated
+// by the fill, from a capture's weights() in `layout` (arlight::reduce of the seen mask).
+// Throws std::invalid_argument when the weights do not fit the layout.
+std::vector<float> measured_share(const EnvLayout& layout, std::span<const float> weights,
+                                  const EnvLayout& reduced);
+
 // Why a frame's metadata cannot be used, or empty when it can (exposure and gain positive and
 // finite, orientation a finite unit quaternion within 1e-3).
 std::string check_frame_info(const FrameInfo& info);

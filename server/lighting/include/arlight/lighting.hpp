@@ -96,7 +96,7 @@ MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, cons
 // - maps made by direct sums (narrow lobes) recompute only the 8x8 blocks of output texels or
 //   cube-grid points whose lobe windows reach a changed cone, and re-interpolate their grids;
 // - maps made through SH (wide lobes, whose windows reach most of the sphere) are recomputed
-//   whole after any change; the bright split's cap is held from the first update.
+//   whole after any change.
 // A map texel not recomputed was computed from an input that differs from today's by at most
 // about 2 x tolerance in its window, so it is within that of a fresh computation. Other methods,
 // a new input layout, and the first update compute everything (as compute_maps). An update that
@@ -109,8 +109,13 @@ class MapUpdater {
   MapUpdater(MapUpdater&&) noexcept;
   MapUpdater& operator=(MapUpdater&&) noexcept;
 
-  // Throws as compute_maps does.
-  const MapSet& update(const EnvMap& input, const Hooks& hooks = {});
+  // Throws as compute_maps does. `measured`, when given (one value per texel of the input's
+  // layout, row-major), is the share of each texel that was measured rather than estimated
+  // (a capture's fill): an estimated texel counts as changed only past kEstimatedTolerance x
+  // the tolerance, as an estimate that moves a little says little about the room.
+  const MapSet& update(const EnvMap& input, const Hooks& hooks = {},
+                       std::span<const float> measured = {});
+  static constexpr double kEstimatedTolerance = 2.5;
   // Of the last update: the share of each map's output recomputed (1: all of it) and of the
   // input's texels that counted as changed.
   std::span<const double> recomputed() const;
