@@ -94,11 +94,11 @@ void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill) {
 
 // Issue 16 §3: arlightd's previews while a phone sweeps venice (the turn above, arlightd's
 // capture: a face-192 cube map for 512, the fill). Every third frame (~10 Hz at 30 fps) the
-// map reduced to the preview's face-64 cube gets its 8 maps at 128^2, twice: from scratch
-// (compute_maps, before) and by the session's MapUpdater (recomputing what changed), on every
-// core. Counters: the median ms of each, the median share of input texels changed and of the
-// narrowest map's output recomputed, and the updater's worst mean / max error against the
-// fresh maps over the sweep.
+// map reduced to the preview's face-64 cube (CaptureSession::reduced_environment) gets its 8
+// maps at 128^2, twice: from scratch (compute_maps, before) and by the session's MapUpdater
+// (recomputing what changed), on every core. Counters: the median ms of each, the median share of
+// input texels changed and of the narrowest map's output recomputed, and the updater's worst mean /
+// max error against the fresh maps over the sweep.
 void BM_PreviewSweep(benchmark::State& state) {
   const auto& jpegs = frames(0.3);
   capture::CaptureOptions options;
@@ -115,9 +115,7 @@ void BM_PreviewSweep(benchmark::State& state) {
   for (auto _ : state) {
     for (int f = 0; f < 3; ++f, ++k)
       session.add_encoded(jpegs[k % kFrames], {0.0, 0.3, 1.0, view(int(k % kFrames))});
-    const EnvMap input = reduce(session.environment(), reduced);
-    const std::vector<float> measured =
-        capture::measured_share(session.layout(), session.weights(), reduced);
+    const auto [input, measured] = session.reduced_environment(reduced);
     auto t0 = std::chrono::steady_clock::now();
     const lighting::MapSet fresh = lighting::compute_maps(input, shininess, out, {});
     full_ms.push_back(

@@ -215,3 +215,43 @@ TEST(Fill, TheCaptureSessionsShIsThatOfItsFilledMap) {
   for (std::size_t i = 0; i < s.sh().c.size(); ++i)
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(black.sh().c[i][c], s.measured_sh().c[i][c], 1e-6);
 }
+
+// arlightd's preview input (issue 16 §3): the filled map reduced straight from the
+// accumulators, and the measured share of each texel, agree with reducing the filled map.
+TEST(Fill, TheReducedEnvironmentIsTheReducedFilledMap) {
+  const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 70);
+  CaptureOptions o;
+  o.layout = EnvLayout::for_size(Projection::Cube, 48);
+  o.align = false;
+  CaptureSession s(cam, CameraResponse::srgb(), o);
+  cv::RNG rng(5);
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat frame(120, 160, CV_8UC3);
+    rng.fill(frame, cv::RNG::UNIFORM, cv::Scalar(40, 60, 80), cv::Scalar(200, 220, 240));
+    const glm::dquat q = glm::angleAxis(glm::radians(70.0 * k), glm::dvec3(0, 1, 0));
+    ASSERT_TRUE(s.add_image(frame, {0.0, 0.01, 1.0, q}).used);
+  }
+  const EnvLayout small = EnvLayout::for_size(Projection::Cube, 16);
+  const CaptureSession::Reduced r = s.reduced_environment(small);
+  const EnvMap expected = reduce(s.environment(), small);
+  const std::vector<float> share = measured_share(o.layout, s.weights(), small);
+  ASSERT_EQ(r.measured.size(), small.texel_count());
+  int seen = 0, unseen = 0, mixed = 0;
+  for (std::size_t i = 0; i < small.texel_count(); ++i) {
+    EXPECT_NEAR(r.measured[i], share[i], 1e-5);
+    seen += r.measured[i] == 1.0f, unseen += r.measured[i] == 0.0f;
+    mixed += r.measured[i] > 0.0f && r.measured[i] < 1.0f;
+    for (int c = 0; c < 3; ++c) {
+      const float want = expected.image.data()[3 * i + std::size_t(c)];
+      // The fill is evaluated at the reduced texel's centre rather than at each of its 9.
+      EXPECT_NEAR(r.env.image.data()[3 * i + std::size_t(c)], want, 0.02 * want + 1e-6) << i;
+    }
+  }
+  EXPECT_GT(seen, 100);
+  EXPECT_GT(unseen, 100);
+  EXPECT_GT(mixed, 10);
+  // Not a whole cube factor: the same as reducing the filled map.
+  const EnvLayout other = EnvLayout::for_size(Projection::Cube, 20);
+  const CaptureSession::Reduced q = s.reduced_environment(other);
+  EXPECT_EQ(q.env.image.data()[300], reduce(s.environment(), other).image.data()[300]);
+}

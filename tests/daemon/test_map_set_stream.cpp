@@ -1,5 +1,6 @@
 // The map sets arlightd streams (issue 16 §3): a preview while frames arrive is computed from
-// the map reduced to about twice the output's texels, close to the full set and cheaper.
+// the map reduced to about twice the output's texels, close to the full set and cheaper, and
+// recomputes only what changed since the session's last preview.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -30,11 +31,15 @@ TEST(MapSetStream, APreviewsInputHasAboutTwiceTheOutputsTexels) {
 namespace {
 
 // The maps a streamed set carries, from its full-resolution tiles (Half coding).
-std::vector<EnvMap> stream(const EnvMap& input, const MapRequest& request, bool preview,
-                           double& seconds) {
+std::vector<EnvMap> stream(const EnvMap& input, const MapRequest& request,
+                           std::shared_ptr<lighting::MapUpdater> previews, double& seconds) {
   const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
   std::vector<EnvMap> maps(request.shininess.size(), EnvMap(layout));
-  MapSetJob job{.request = request, .input = input, .id = 1, .preview = preview,
+  MapSetJob job{.request = request,
+                .input = input,
+                .id = 1,
+                .preview = previews != nullptr,
+                .previews = previews,
                 .tile_coding = [] { return wire::TileCoding::Half; }};
   seconds = stream_map_set(job, {}, [&](const wire::Message& m) {
     const auto* t = std::get_if<wire::MapTile>(&m);
@@ -60,9 +65,12 @@ TEST(MapSetStream, APreviewSetIsCloseToTheFullOne) {
       load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
       EnvLayout::for_size(Projection::Cube, 192));  // arlightd's capture layout
   const MapRequest request{.shininess = {1, 80}, .size = 64};
-  double full_s = 0, preview_s = 0;
-  const auto full = stream(venice, request, false, full_s);
-  const auto preview = stream(venice, request, true, preview_s);
+  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
+  const EnvMap reduced = reduce(venice, preview_input_layout(layout));
+  auto previews = std::make_shared<lighting::MapUpdater>(request.shininess, layout);
+  double full_s = 0, preview_s = 0, again_s = 0;
+  const auto full = stream(venice, request, nullptr, full_s);
+  const auto preview = stream(reduced, request, previews, preview_s);
   ASSERT_GT(full_s, 0.0);
   ASSERT_GT(preview_s, 0.0);
   for (std::size_t k = 0; k < full.size(); ++k) {
@@ -71,5 +79,11 @@ TEST(MapSetStream, APreviewSetIsCloseToTheFullOne) {
                 request.shininess[k], 100 * e.mean, 100 * e.max);
     EXPECT_LT(e.mean, 0.01) << request.shininess[k];
     EXPECT_GT(e.mean, 0.0) << "the preview is the full set: was the input reduced?";
+  }
+  // The next preview of an unchanged map recomputes nothing and sends the same maps.
+  const auto again = stream(reduced, request, previews, again_s);
+  for (std::size_t k = 0; k < full.size(); ++k) {
+    EXPECT_EQ(lighting::map_error(preview[k], again[k]).max, 0.0);
+    EXPECT_EQ(previews->recomputed()[k], 0.0);
   }
 }

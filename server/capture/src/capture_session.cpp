@@ -671,6 +671,42 @@ EnvMap CaptureSession::environment() const {
   return impl_->unseen.filled({impl_->weighted_radiance, impl_->weight});
 }
 
+CaptureSession::Reduced CaptureSession::reduced_environment(const EnvLayout& to) const {
+  const EnvLayout& from = impl_->options.layout;
+  if (from.projection() != Projection::Cube || to.projection() != Projection::Cube ||
+      to.face_size() > from.face_size() || from.face_size() % to.face_size() != 0)
+    return {reduce(environment(), to), measured_share(from, impl_->weight, to)};
+  const bool fill = impl_->options.fill != Fill::None;
+  if (fill) impl_->refit_unseen();
+  const int k = from.face_size() / to.face_size();
+  const auto table = texel_table(from);  // every texel of a cube map is on the sphere
+  std::vector<double> omega(from.texel_count(), 0.0);
+  for (std::size_t i = 0; i < table->size(); ++i) omega[table->index[i]] = table->solid_angle[i];
+  Reduced out{EnvMap(to), std::vector<float>(to.texel_count(), 0.0f)};
+  const std::size_t w = std::size_t(from.width());
+  for (int y = 0; y < to.height(); ++y)
+    for (int x = 0; x < to.width(); ++x) {
+      glm::dvec3 seen(0.0);
+      double seen_omega = 0.0, all_omega = 0.0;
+      for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+          const std::size_t t = std::size_t(y * k + j) * w + std::size_t(x * k + i);
+          all_omega += omega[t];
+          if (!(impl_->weight[t] > 0.0f)) continue;
+          seen += omega[t] * glm::dvec3(impl_->texel_radiance(t));
+          seen_omega += omega[t];
+        }
+      const std::size_t at = std::size_t(y) * std::size_t(to.width()) + std::size_t(x);
+      glm::dvec3 value = seen;
+      if (fill && seen_omega < all_omega)
+        value += (all_omega - seen_omega) * impl_->unseen.radiance(to.texel_dir(x, y));
+      value /= all_omega;
+      for (int c = 0; c < 3; ++c) out.env.image.data()[3 * at + std::size_t(c)] = float(value[c]);
+      out.measured[at] = float(seen_omega / all_omega);
+    }
+  return out;
+}
+
 EnvMap CaptureSession::measured_environment() const {
   EnvMap env(impl_->options.layout);
   float* out = env.image.data();

@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
                  "frames of a session that may wait; a newer one drops the oldest (default 2)");
   app.add_option("--map-interval", c.map_interval_s,
                  "seconds between the starts of a session's map sets while its map changes "
-                 "(default 0.1; 0: each as soon as the last is done)");
+                 "(default 0.09: a set at least every 0.1 s; 0: each as soon as the last is done)");
   app.add_option("--tls-cert", tls_cert, "TLS: certificate chain (PEM) for the client port");
   app.add_option("--tls-key", tls_key, "TLS: private key (PEM) of that certificate");
   app.add_option("--web", web,

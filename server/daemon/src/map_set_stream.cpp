@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstring>
 
-#include "arlight/capture.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/resample.hpp"
 #include "priority.hpp"
@@ -59,16 +58,10 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     arena.initialize();
     const BackgroundPriority background(arena);
     arena.execute([&] {
-      const EnvLayout reduced = preview_input_layout(layout);
-      const bool smaller = job.preview && reduced.texel_count() < job.input.layout.texel_count();
-      if (smaller && job.previews)
-        maps = job.previews->update(
-            reduce(job.input, reduced), hooks,
-            job.weights.empty() ? std::vector<float>()
-                                : capture::measured_share(job.input.layout, job.weights, reduced));
+      if (job.previews)
+        maps = job.previews->update(job.input, hooks, job.measured);
       else
-        maps = lighting::compute_maps(smaller ? reduce(job.input, reduced) : job.input,
-                                      request.shininess, layout,
+        maps = lighting::compute_maps(job.input, request.shininess, layout,
                                       lighting::parse_method(request.method), hooks);
     });
     const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,

@@ -24,19 +24,19 @@ inline constexpr int kTileSide = 64;  // level-0 tile side sent to clients
 
 struct MapSetJob {
   MapRequest request;
-  EnvMap input;              // the captured map when the set was started
+  EnvMap input;              // the captured map when the set was started (reduced: a preview)
   std::uint32_t id = 0;      // the set's number in its session
   double coverage = 0;       // of `input`
   std::uint64_t frames = 0;  // merged into `input`
-  // A set while frames still arrive: computed from `input` reduced to preview_input_layout()
-  // (issue 16 §3: ~3.7x faster at 128², mean error 0.5 %, up to 23 % beside lights, venice);
+  // A set while frames still arrive: `input` is the map reduced to preview_input_layout()
+  // (issue 16 §3: ~3.7x faster at 128², mean error 0.5 %, up to 23 % beside lights, venice),
+  // and the maps are recomputed only where it changed since the last preview (`previews`);
   // the session follows it with a full one once frames pause.
   bool preview = false;
-  // The session's previews so far, for a preview: it recomputes only what changed since the
-  // last (lighting::MapUpdater). Used by one set at a time; made for `request`.
+  // A preview's: the session's previews so far (lighting::MapUpdater, made for `request`, used
+  // by one set at a time), and the share of each texel of `input` that was measured.
   std::shared_ptr<lighting::MapUpdater> previews;
-  // A preview's: the capture's sum of weights per texel of `input` (0: never seen, estimated).
-  std::vector<float> weights;
+  std::vector<float> measured;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

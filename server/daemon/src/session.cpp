@@ -327,23 +327,31 @@ void Session::maybe_start_maps() {
     start_maps_at(maps_started_ + interval);
     return;
   }
+  const bool preview = now - last_frame_ < kPreviewPause;
+  const EnvLayout output = EnvLayout::for_size(request_->projection, request_->size);
+  // A preview's input: the map reduced to preview_input_layout() (when that is smaller), with
+  // the share of each texel that was measured; a full set's: the map itself.
+  EnvLayout reduced = preview_input_layout(output);
+  if (reduced.texel_count() >= capture_->layout().texel_count()) reduced = capture_->layout();
+  capture::CaptureSession::Reduced snapshot =
+      preview ? capture_->reduced_environment(reduced)
+              : capture::CaptureSession::Reduced{capture_->environment(), {}};
   MapSetJob job{.request = *request_,
-                .input = capture_->environment(),
+                .input = std::move(snapshot.env),
                 .id = ++map_set_,
                 .coverage = capture_->coverage(),
                 .frames = processed_,
-                .preview = now - last_frame_ < kPreviewPause,
+                .preview = preview,
                 .tile_coding = [this] {
                   std::lock_guard lock(mutex_);
                   return tile_coding_;
                 }};
-  if (job.preview) {
+  if (preview) {
     if (!previews_)
-      previews_ = std::make_shared<lighting::MapUpdater>(
-          request_->shininess, EnvLayout::for_size(request_->projection, request_->size),
-          lighting::parse_method(request_->method));
+      previews_ = std::make_shared<lighting::MapUpdater>(request_->shininess, output,
+                                                         lighting::parse_method(request_->method));
     job.previews = previews_;
-    job.weights = capture_->weights();
+    job.measured = std::move(snapshot.measured);
   }
   maps_running_ = true;
   maps_again_ = false;

@@ -41,7 +41,7 @@ struct SessionEnv {
   int align_every = 4;
   int align_max_width = 160;
   int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest
-  double map_interval_s = 0.1;  // the least time between the starts of a session's map sets
+  double map_interval_s = 0.09;  // the least time between the starts of a session's map sets
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   admin::Counter* frames_received = nullptr;

@@ -73,7 +73,7 @@ struct DaemonConfig {
   // A session's map sets follow its map: a new one starts as soon as a frame has changed the
   // map and the last one is done, but no sooner than this after the last one started (issue 16
   // §3; 0: back to back).
-  double map_interval_s = 0.1;
+  double map_interval_s = 0.09;
   wire::WireLimits limits;
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
