@@ -129,6 +129,7 @@ bench: deps
 	  --json out/bench/colour.json
 	bench/eval_rooms.sh $(BUILD) out/bench/eval data/probes/venice.exr data/probes/lab.exr \
 	  data/probes/park.exr
+	bench/load_maps.sh $(BUILD) out/bench/load_maps 1 4 8
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out
