@@ -342,6 +342,35 @@ TEST(ExrHeader, AnAttributeLargerThanTheFileIsRefusedBeforeOpenExrAllocatesIt) {
   }
 }
 
+// libpng allocates a text chunk at its claimed size: the fuzzer's 279-byte PNG claiming a
+// 1.6 GB tEXt chunk ran it out of memory. It is refused first, naming the chunk; a whole PNG
+// loads.
+TEST(PngChunks, AChunkLongerThanTheFileIsRefusedBeforeLibpngAllocatesIt) {
+  std::ifstream in(std::filesystem::path(ARLIGHT_SOURCE_DIR) /
+                       "tests/fuzz/corpus/hdr_image/"
+                       "oom-png-huge-chunk-c272803cfc32195a2183a46ea8231c6c5b336e37",
+                   std::ios::binary);
+  const std::string input((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(input.size(), 100u);
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "arlight_png_huge_chunk.png";
+  std::ofstream(file, std::ios::binary) << input.substr(1);  // its first byte chose ".png"
+  try {
+    load_envmap(file);
+    FAIL() << "loaded a PNG whose chunk claims 1.6 GB";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("PNG chunk tEXt claims 1610612756 bytes"),
+              std::string::npos)
+        << e.what();
+  }
+  const std::filesystem::path whole =
+      std::filesystem::temp_directory_path() / "arlight_png_whole.png";
+  Image img(8, 4);
+  img.set(3, 2, glm::vec3(0.5f));
+  write_png_preview(whole, img.view(), {});
+  EXPECT_EQ(load_envmap(whole).env.image.width(), 8);
+}
+
 // Tutorial §9: a room whose range no global curve holds — a dim wall with a pattern at 0.01
 // and a lit window with a pattern at 100 (13 stops apart). At the auto exposure Reinhard's
 // global x/(1+x) leaves each side's pattern a few codes; the local operators keep more.
