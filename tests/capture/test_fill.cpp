@@ -22,6 +22,15 @@ EnvMap probe(const char* name, const EnvLayout& layout) {
                   layout);
 }
 
+// Adds a 160x120 frame of random colours, the camera turned `yaw_deg` about +Y; whether it
+// was used.
+bool add_random_frame(CaptureSession& s, cv::RNG& rng, double yaw_deg) {
+  cv::Mat frame(120, 160, CV_8UC3);
+  rng.fill(frame, cv::RNG::UNIFORM, cv::Scalar(40, 60, 80), cv::Scalar(200, 220, 240));
+  const glm::dquat q = glm::angleAxis(glm::radians(yaw_deg), glm::dvec3(0, 1, 0));
+  return s.add_image(frame, {0.0, 0.01, 1.0, q}).used;
+}
+
 // The accumulators of a map whose texels are measured where `seen(dir)` holds (weight 1).
 struct Measured {
   std::vector<float> radiance, weight;
@@ -191,10 +200,7 @@ TEST(Fill, TheCaptureSessionsShIsThatOfItsFilledMap) {
   CaptureSession s(cam, CameraResponse::srgb(), o);
   cv::RNG rng(3);
   for (int k = 0; k < 4; ++k) {
-    cv::Mat frame(120, 160, CV_8UC3);
-    rng.fill(frame, cv::RNG::UNIFORM, cv::Scalar(40, 60, 80), cv::Scalar(200, 220, 240));
-    const glm::dquat q = glm::angleAxis(glm::radians(60.0 * k), glm::dvec3(0, 1, 0));
-    ASSERT_TRUE(s.add_image(frame, {0.0, 0.01, 1.0, q}).used);
+    ASSERT_TRUE(add_random_frame(s, rng, 60.0 * k));
     EXPECT_NEAR(s.estimated_fraction(), 1.0 - s.coverage(), 1e-9);
     const ShCoeffs filled = sh_project(s.environment(), 8);
     const ShCoeffs measured = sh_project(s.measured_environment(), 8);
@@ -225,12 +231,7 @@ TEST(Fill, TheReducedEnvironmentIsTheReducedFilledMap) {
   o.align = false;
   CaptureSession s(cam, CameraResponse::srgb(), o);
   cv::RNG rng(5);
-  for (int k = 0; k < 3; ++k) {
-    cv::Mat frame(120, 160, CV_8UC3);
-    rng.fill(frame, cv::RNG::UNIFORM, cv::Scalar(40, 60, 80), cv::Scalar(200, 220, 240));
-    const glm::dquat q = glm::angleAxis(glm::radians(70.0 * k), glm::dvec3(0, 1, 0));
-    ASSERT_TRUE(s.add_image(frame, {0.0, 0.01, 1.0, q}).used);
-  }
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(add_random_frame(s, rng, 70.0 * k));
   const EnvLayout small = EnvLayout::for_size(Projection::Cube, 16);
   const CaptureSession::Reduced r = s.reduced_environment(small);
   const EnvMap expected = reduce(s.environment(), small);

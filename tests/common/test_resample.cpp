@@ -24,6 +24,16 @@ double sphere_mean(const EnvMap& env) {
 
 const Projection kAll[] = {Projection::AngleMap, Projection::LatLong, Projection::Cube};
 
+const glm::dvec3 kLight = glm::normalize(glm::dvec3(0.3, 0.8, -0.5));
+
+// A small bright light (200 within 0.1 rad of kLight) on 1 + a texture of frequencies (fx, fy).
+EnvMap light_and_texture(const EnvLayout& layout, double fx, double fy) {
+  return test::env_from_function(layout, [&](glm::dvec3 d) {
+    const double light = glm::dot(d, kLight) > 0.995 ? 200.0 : 0.0;
+    return glm::vec3(float(light + 1.0 + 0.5 * std::sin(fx * d.x) * std::cos(fy * d.y)));
+  });
+}
+
 }  // namespace
 
 TEST(Resample, ConstantStaysConstantBetweenEveryPair) {
@@ -103,12 +113,7 @@ TEST(Resample, ShrinkingDoesNotAlias) {
 TEST(Resample, PreservesTheMeanRadianceOfADetailedMap) {
   // A small bright light plus texture: the solid-angle-weighted mean (what irradiance sees)
   // must survive shrinking to within 1 %.
-  auto f = [](glm::dvec3 d) {
-    const double light =
-        glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
-    return glm::vec3(float(light + 1.0 + 0.5 * std::sin(40 * d.x) * std::cos(30 * d.y)));
-  };
-  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::LatLong, 512), f);
+  const EnvMap env = light_and_texture(EnvLayout::for_size(Projection::LatLong, 512), 40, 30);
   const double mean = sphere_mean(env);
   for (Projection to : kAll) {
     const EnvMap out = resample(env, EnvLayout::for_size(to, 32));
@@ -165,12 +170,7 @@ TEST(EnvSampler, AngleMapRimDoesNotBleedInTheBlackOutsideTheDisk) {
 // reduce(): a cube map shrunk by a whole factor keeps its power exactly and agrees with
 // resample(); other pairs are resampled.
 TEST(Reduce, AWholeCubeFactorKeepsThePowerAndMatchesResample) {
-  auto f = [](glm::dvec3 d) {
-    const double light =
-        glm::dot(d, glm::normalize(glm::dvec3(0.3, 0.8, -0.5))) > 0.995 ? 200.0 : 0.0;
-    return glm::vec3(float(light + 1.0 + 0.5 * std::sin(10 * d.x) * std::cos(8 * d.y)));
-  };
-  const EnvMap env = test::env_from_function(EnvLayout::for_size(Projection::Cube, 96), f);
+  const EnvMap env = light_and_texture(EnvLayout::for_size(Projection::Cube, 96), 10, 8);
   const EnvLayout small = EnvLayout::for_size(Projection::Cube, 32);
   const EnvMap reduced = reduce(env, small);
   EXPECT_NEAR(sphere_mean(reduced) / sphere_mean(env), 1.0, 1e-6);
@@ -178,9 +178,8 @@ TEST(Reduce, AWholeCubeFactorKeepsThePowerAndMatchesResample) {
   const auto t = texel_table(small);
   double worst = 0.0;
   for (std::size_t i = 0; i < t->size(); ++i) {
-    const double light =
-        glm::dot(glm::dvec3(t->x[i], t->y[i], t->z[i]), glm::normalize(glm::dvec3(0.3, 0.8, -0.5)));
-    if (light > 0.99) continue;  // the light's rim: each filter spreads it its own way
+    if (glm::dot(glm::dvec3(t->x[i], t->y[i], t->z[i]), kLight) > 0.99)
+      continue;  // the light's rim: each filter spreads it its own way
     const float a = reduced.image.data()[3 * t->index[i]];
     const float b = resampled.image.data()[3 * t->index[i]];
     worst = std::max(worst, std::abs(double(a) - b) / b);

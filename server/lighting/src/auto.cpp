@@ -528,7 +528,8 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
     if (memory) {
       memory->debt.resize(std::size_t(count));
       debt = &memory->debt[std::size_t(k)];
-      const std::size_t side = plan.grid_face ? std::size_t(CubeGrid(plan.grid_face).side()) : 0;
+      const std::size_t side =
+          plan.grid_face ? std::size_t(plan.grid_face + 2 * CubeGrid::kBorder) : 0;
       const std::size_t groups =
           4 * (plan.grid_face ? 6 * side * side : job.output.layout().texel_count());
       if (!incremental || debt->size() != groups) debt->assign(groups, 0.0f);
