@@ -278,6 +278,31 @@ TEST(ArlightSim, SweepCoversTheWholeSphere) {
   EXPECT_LT(covered_fraction(read_recording(orbit).camera, read_truth(orbit)->poses), 0.7);
 }
 
+// poles-first: the same sweep after a look straight up and straight down (what a capture
+// guide would ask first); the plain sweep starts at the horizon and looks up only later.
+TEST(ArlightSim, PolesFirstSweepLooksUpAndDownBeforeTheBandsAndCoversTheSphere) {
+  const auto extremes_of_first_fifth = [](const std::vector<Pose>& poses) {
+    double up = -1, down = 1;
+    for (std::size_t k = 0; k < poses.size() / 5; ++k) {
+      const double y = (poses[k].orientation * glm::dvec3(0, 0, -1)).y;
+      up = std::max(up, y), down = std::min(down, y);
+    }
+    return std::pair{up, down};
+  };
+  const fs::path poles =
+      simulate("sweep_poles", "--frames 300 --size 160x120 --trajectory poles-first");
+  const auto truth = read_truth(poles);
+  ASSERT_TRUE(truth.has_value());
+  EXPECT_GE(covered_fraction(read_recording(poles).camera, truth->poses), 0.995);
+  const auto [up, down] = extremes_of_first_fifth(truth->poses);
+  EXPECT_GT(up, std::cos(1 * kDeg));
+  EXPECT_LT(down, -std::cos(1 * kDeg));
+  const fs::path sweep = simulate("sweep_300", "--frames 300 --size 160x120");
+  const auto [sweep_up, sweep_down] = extremes_of_first_fifth(read_truth(sweep)->poses);
+  EXPECT_LT(sweep_up, std::sin(45 * kDeg));
+  EXPECT_GT(sweep_down, -std::sin(45 * kDeg));
+}
+
 TEST(ArlightSim, GyroDriftTurnsTheRecordedHeadingAndTheImuAgrees) {
   const fs::path out =
       simulate("drift", "--frames 301 --fps 30 --size 64x48 --gyro-drift 0.5 --seed 3");

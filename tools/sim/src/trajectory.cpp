@@ -110,7 +110,13 @@ void Trajectory::build_sweep() {
     return fa != fb ? fa < fb : bands_[a] > bands_[b];
   });
   double yaw = 0;
-  ramp(0, 0, bands_[visit.front()]);
+  if (p_.kind == TrajectoryKind::PolesFirstSweep) {
+    ramp(0, 0, 90);
+    ramp(0, 90, -90);
+    ramp(0, -90, bands_[visit.front()]);
+  } else {
+    ramp(0, 0, bands_[visit.front()]);
+  }
   for (std::size_t k = 0; k < visit.size(); ++k) {
     const double pitch = bands_[visit[k]];
     const double dir = k % 2 == 0 ? -1.0 : 1.0;  // alternate: right first, then left
@@ -194,7 +200,8 @@ Pose Trajectory::at(double t) const {
   t = std::clamp(t, 0.0, std::max(0.0, p_.duration));
   Pose pose;
   switch (p_.kind) {
-    case TrajectoryKind::Sweep: {
+    case TrajectoryKind::Sweep:
+    case TrajectoryKind::PolesFirstSweep: {
       double yaw, pitch;
       sweep_angles(t, yaw, pitch);
       pose.orientation = yaw_pitch_roll(yaw * kDeg, pitch * kDeg);

@@ -15,7 +15,10 @@ namespace arlight::sim {
 
 using recording::Pose;
 
-enum class TrajectoryKind { Sweep, Orbit, Handheld };
+// PolesFirstSweep: the same sweep after a look straight up and straight down (ceiling and
+// floor, sky and ground first): the order a capture guide would ask for, so that the estimate
+// of what is not seen yet (issue 16 §1) has every elevation early.
+enum class TrajectoryKind { Sweep, Orbit, Handheld, PolesFirstSweep };
 
 struct TrajectoryParams {
   TrajectoryKind kind = TrajectoryKind::Sweep;
