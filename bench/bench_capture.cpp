@@ -3,7 +3,9 @@
 // feature alignment. Frames are views of venice rendered here (sRGB, q90 JPEG) while the camera
 // turns, so each frame overlaps the map captured so far as in a real sweep. `fill_ms` is what
 // the fill of the unseen part adds per frame (the daemon's LightingUpdate asks for the filled
-// SH after every frame: a refit and the unseen part's SH), measured beside --fill none.
+// SH after every frame), measured beside --fill none, and beside a refit of the fill's model
+// after every frame (`refit_every_frame`; the default refits after 8 frames or 2 % of new
+// coverage and follows the frames in between). `fill_mean_ms` counts the refits' share.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -53,13 +55,15 @@ const std::vector<std::vector<std::uint8_t>>& frames(double exposure) {
   return jpegs;
 }
 
-void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill) {
+void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill,
+                     int fill_refit_frames = capture::CaptureOptions{}.fill_refit_frames) {
   tbb::global_control one_core(tbb::global_control::max_allowed_parallelism, 1);
   const double exposure = 0.3;  // venice's mean radiance ~0.6 -> mid-grey
   const auto& jpegs = frames(exposure);
   capture::CaptureOptions options;  // 512x512 angle map, SH order 8
   options.align = align;
   options.fill = fill;
+  options.fill_refit_frames = fill_refit_frames;
   capture::CaptureSession session(CameraIntrinsics::from_fov(640, 480, 60), CameraResponse::srgb(),
                                   options);
   std::vector<double> ms, decode, linearize, align_ms, project, sh, fill_ms;
@@ -88,6 +92,9 @@ void BM_CaptureFrame(benchmark::State& state, bool align, capture::Fill fill) {
   state.counters["project_ms"] = median(project);
   state.counters["sh_ms"] = median(sh);
   state.counters["fill_ms"] = median(fill_ms);
+  double fill_sum = 0.0;
+  for (double v : fill_ms) fill_sum += v;
+  state.counters["fill_mean_ms"] = fill_sum / double(fill_ms.size());
   state.counters["aligned_pct"] = 100.0 * double(aligned) / double(ms.size());
   state.counters["coverage_pct"] = 100.0 * session.coverage();
 }
@@ -211,6 +218,9 @@ BENCHMARK_CAPTURE(BM_CaptureByDirection, cube_192_aligned, Projection::Cube, 192
     ->Unit(benchmark::kMillisecond)
     ->Iterations(8 * 32);
 BENCHMARK_CAPTURE(BM_CaptureFrame, no_align, false, capture::Fill::Estimate)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(256);
+BENCHMARK_CAPTURE(BM_CaptureFrame, no_align_refit_every_frame, false, capture::Fill::Estimate, 1)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(256);
 BENCHMARK_CAPTURE(BM_CaptureFrame, no_align_fill_none, false, capture::Fill::None)

@@ -222,6 +222,64 @@ TEST(Fill, TheCaptureSessionsShIsThatOfItsFilledMap) {
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(black.sh().c[i][c], s.measured_sh().c[i][c], 1e-6);
 }
 
+// Between refits of the fill's model (8 frames or 2 % of new coverage by default) the filled
+// SH follows every frame under the last model: it stays the SH of the filled map, equals a
+// refit-every-frame session's right after each refit, and differs from it in between.
+TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
+  // A narrow camera turned by 3 degrees a frame: ~0.1 % of the sphere new each frame.
+  const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 20);
+  CaptureOptions o;
+  o.layout = EnvLayout::for_size(Projection::AngleMap, 128);
+  o.align = false;
+  CaptureOptions every = o, by_coverage = o;
+  every.fill_refit_frames = 1;
+  by_coverage.fill_refit_frames = 1000, by_coverage.fill_refit_coverage = 0.004;
+  CaptureSession lazy(cam, CameraResponse::srgb(), o), eager(cam, CameraResponse::srgb(), every),
+      covered(cam, CameraResponse::srgb(), by_coverage);
+  cv::RNG rng_lazy(7), rng_eager(7), rng_covered(7);
+  int same = 0, differ = 0, covered_same = 0;
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_TRUE(add_random_frame(lazy, rng_lazy, 3.0 * k));
+    ASSERT_TRUE(add_random_frame(eager, rng_eager, 3.0 * k));
+    ASSERT_TRUE(add_random_frame(covered, rng_covered, 3.0 * k));
+    const ShCoeffs filled = sh_project(lazy.environment(), 8);
+    const double scale = std::abs(filled.c[0].y);
+    double diff = 0.0;
+    for (std::size_t i = 0; i < filled.c.size(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(lazy.sh().c[i][c], filled.c[i][c], 5e-3 * scale) << "frame " << k << " " << i;
+        diff = std::max(diff, std::abs(lazy.sh().c[i][c] - eager.sh().c[i][c]));
+      }
+    // The last model is close to a new one (within 3 % of the DC term here, where every frame
+    // is new noise).
+    EXPECT_LE(diff, 0.05 * scale) << "frame " << k;
+    // Refits after frames 0, 8 and 16 (the first fit, then every 8 frames).
+    if (k % 8 == 0) {
+      EXPECT_EQ(diff, 0.0) << "frame " << k;
+      ++same;
+    } else {
+      differ += diff > 0.0;
+    }
+    EXPECT_NEAR(lazy.estimated_fraction(), 1.0 - lazy.coverage(), 1e-9);
+    double covered_diff = 0.0;
+    for (std::size_t i = 0; i < filled.c.size(); ++i)
+      covered_diff = std::max(covered_diff, glm::length(covered.sh().c[i] - eager.sh().c[i]));
+    covered_same += covered_diff == 0.0;
+  }
+  EXPECT_EQ(same, 3);
+  EXPECT_GE(differ, 15);  // the model was kept, not refitted, between
+  // 0.4 % of new coverage refits every few frames, long before 1000 frames.
+  EXPECT_GE(covered_same, 4);
+  EXPECT_LE(covered_same, 15);
+  EXPECT_THROW(CaptureSession(cam, CameraResponse::srgb(),
+                              [&] {
+                                CaptureOptions bad = o;
+                                bad.fill_refit_frames = 0;
+                                return bad;
+                              }()),
+               std::invalid_argument);
+}
+
 // arlightd's preview input (issue 16 §3): the filled map reduced straight from the
 // accumulators, and the measured share of each texel, agree with reducing the filled map.
 TEST(Fill, TheReducedEnvironmentIsTheReducedFilledMap) {

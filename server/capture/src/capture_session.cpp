@@ -164,6 +164,10 @@ struct CaptureSession::Impl {
   mutable UnseenEstimator unseen;
   mutable ShCoeffs filled_sh;
   mutable bool unseen_stale = true;
+  // Since the last fit: frames that changed the map, and the solid angle they saw first.
+  mutable int frames_since_fit = 0;
+  mutable double seen_since_fit = 0.0;
+  std::vector<std::uint32_t> newly_seen;  // a frame's first-measured texels (kept)
   double last_exposure_gain = 0.0;   // estimate_exposure: the last frame's exposure x gain
   std::vector<float> ratio_scratch;  // exposure_ratio()'s samples
   // Per texel, the largest radiance its clipped pixels have proved it to have (a clipped pixel
@@ -203,6 +207,9 @@ struct CaptureSession::Impl {
                                   size_text(k.width, k.height) + ", fx " + std::to_string(k.fx) +
                                   ", fy " + std::to_string(k.fy) + ")");
     if (options.align_every < 1) throw std::invalid_argument("capture: align_every must be >= 1");
+    if (options.fill_refit_frames < 1 || !(options.fill_refit_coverage >= 0.0))
+      throw std::invalid_argument(
+          "capture: fill_refit_frames must be >= 1 and fill_refit_coverage >= 0");
     if (options.sh_order < 3 || options.sh_order > 64)
       throw std::invalid_argument("capture: SH order must be in [3, 64], got " +
                                   std::to_string(options.sh_order));
@@ -241,6 +248,26 @@ struct CaptureSession::Impl {
     const ShCoeffs rest = unseen.unseen_sh(sh.order);
     for (std::size_t k = 0; k < rest.c.size(); ++k) filled_sh.c[k] += rest.c[k];
     unseen_stale = false;
+    frames_since_fit = 0, seen_since_fit = 0.0;
+  }
+
+  // After a frame changed the map: the filled SH follows it under the last model, or the
+  // model is due for a refit (options.fill_refit_*).
+  void follow_unseen(const std::vector<glm::dvec3>& changed_dirs,
+                     const std::vector<glm::dvec3>& changed_values, double newly_seen_omega) {
+    if (options.fill == Fill::None || unseen_stale) return;
+    if (!(unseen.estimated_fraction() > 0.0)) {  // the last fit had nothing to go on
+      unseen_stale = true;
+      return;
+    }
+    ++frames_since_fit, seen_since_fit += newly_seen_omega;
+    if (frames_since_fit >= options.fill_refit_frames ||
+        seen_since_fit >= options.fill_refit_coverage * 4.0 * std::numbers::pi) {
+      unseen_stale = true;
+      return;
+    }
+    sh_accumulate(filled_sh, changed_dirs, changed_values);
+    unseen.remove_from_unseen_sh(filled_sh, newly_seen);
   }
 
   glm::vec3 texel_radiance(std::size_t texel) const {
@@ -504,7 +531,8 @@ struct CaptureSession::Impl {
   void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
     const auto t0 = Clock::now();
     std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
-    changed_dirs.clear(), changed_values.clear();
+    changed_dirs.clear(), changed_values.clear(), newly_seen.clear();
+    double newly_seen_omega = 0.0;
     const TileIndex& ti = *tile_index;
     const std::vector<float>&dir_x = ti.dir_x, &dir_y = ti.dir_y, &dir_z = ti.dir_z;
     for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
@@ -515,7 +543,10 @@ struct CaptureSession::Impl {
       acc[0] += r, acc[1] += g, acc[2] += b;
       weight[texel] += sw;
       const glm::vec3 change = texel_radiance(texel) - before;
-      if (!was_covered) covered_solid_angle += ti.solid_angle[k];
+      if (!was_covered) {
+        covered_solid_angle += ti.solid_angle[k], newly_seen_omega += ti.solid_angle[k];
+        newly_seen.push_back(std::uint32_t(texel));
+      }
       if (change != glm::vec3(0.0f)) {
         changed_dirs.emplace_back(dir_x[k], dir_y[k], dir_z[k]);
         changed_values.push_back(glm::dvec3(change) * ti.solid_angle[k]);
@@ -527,7 +558,8 @@ struct CaptureSession::Impl {
     // linear in L), so the coefficients equal a full projection of the current map.
     const auto t1 = Clock::now();
     sh_accumulate(sh, changed_dirs, changed_values);
-    unseen_stale = true;
+    if (!changed_dirs.empty() || !newly_seen.empty())
+      follow_unseen(changed_dirs, changed_values, newly_seen_omega);
     result.sh_ms = ms_since(t1);
   }
 
@@ -726,7 +758,8 @@ double CaptureSession::coverage() const {
 double CaptureSession::estimated_fraction() const {
   if (impl_->options.fill == Fill::None) return 0.0;
   impl_->refit_unseen();
-  return impl_->unseen.estimated_fraction();
+  // The last fit's, less what was measured since (what remains for its model).
+  return impl_->unseen.estimated_fraction() > 0.0 ? std::max(0.0, 1.0 - coverage()) : 0.0;
 }
 
 const ShCoeffs& CaptureSession::sh() const {

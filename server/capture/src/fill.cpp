@@ -150,6 +150,8 @@ struct UnseenEstimator::Impl {
   }
 
   void fit(const MeasuredTexels& m);
+  // The SH basis at every cell's direction (cached per order).
+  std::shared_ptr<const std::vector<double>> basis_of_cells(int order) const;
   void fit_profile(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
   void fit_residual(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
 };
@@ -338,24 +340,25 @@ double UnseenEstimator::estimated_fraction() const {
   return std::max(0.0, 1.0 - measured_fraction());
 }
 
+std::shared_ptr<const std::vector<double>> UnseenEstimator::Impl::basis_of_cells(int order) const {
+  std::lock_guard lock(cell_basis->mutex);
+  auto& slot = cell_basis->by_order[order];
+  if (!slot) {
+    const auto n = std::size_t(sh_count(order));
+    auto b = std::make_shared<std::vector<double>>(n * cell_dir.size());
+    for (std::size_t c = 0; c < cell_dir.size(); ++c)
+      if (cell_total[c] > 0.0)  // a small map may leave cells without texels
+        sh_basis_all(order, cell_dir[c], std::span<double>(b->data() + c * n, n));
+    slot = std::move(b);
+  }
+  return slot;
+}
+
 ShCoeffs UnseenEstimator::unseen_sh(int order) const {
   ShCoeffs out(order);
   const Impl& m = *impl_;
   if (m.fill == Fill::None || !m.any_seen) return out;
-  std::shared_ptr<const std::vector<double>> basis;
-  {
-    std::lock_guard lock(m.cell_basis->mutex);
-    auto& slot = m.cell_basis->by_order[order];
-    if (!slot) {
-      const auto n = std::size_t(sh_count(order));
-      auto b = std::make_shared<std::vector<double>>(n * m.cell_dir.size());
-      for (std::size_t c = 0; c < m.cell_dir.size(); ++c)
-        if (m.cell_total[c] > 0.0)  // a small map may leave cells without texels
-          sh_basis_all(order, m.cell_dir[c], std::span<double>(b->data() + c * n, n));
-      slot = std::move(b);
-    }
-    basis = slot;
-  }
+  const std::shared_ptr<const std::vector<double>> basis = m.basis_of_cells(order);
   const std::size_t n = out.c.size();
   for (std::size_t c = 0; c < m.cell_total.size(); ++c) {
     const double unseen = m.cell_total[c] - m.cell_seen[c];
@@ -365,6 +368,33 @@ ShCoeffs UnseenEstimator::unseen_sh(int order) const {
     for (std::size_t k = 0; k < n; ++k) out.c[k] += y[k] * l;
   }
   return out;
+}
+
+void UnseenEstimator::remove_from_unseen_sh(ShCoeffs& unseen,
+                                            std::span<const std::uint32_t> texels) const {
+  const Impl& m = *impl_;
+  if (m.fill == Fill::None || !m.any_seen || texels.empty()) return;
+  // Solid angle per cell first: a frame's new texels fall in a few dozen cells.
+  std::vector<std::pair<std::uint32_t, double>> cells;
+  cells.reserve(texels.size());
+  for (const std::uint32_t t : texels) {
+    if (t >= m.texel_cell.size())
+      throw std::invalid_argument("fill: texel " + std::to_string(t) + " is not in the map");
+    if (m.texel_omega[t] > 0.0f) cells.emplace_back(m.texel_cell[t], m.texel_omega[t]);
+  }
+  std::sort(cells.begin(), cells.end());
+  const std::shared_ptr<const std::vector<double>> basis = m.basis_of_cells(unseen.order);
+  const std::size_t n = unseen.c.size();
+  if (basis->size() != n * m.cell_dir.size())
+    throw std::invalid_argument("fill: the SH to update is not of a valid order");
+  for (std::size_t i = 0; i < cells.size();) {
+    const std::uint32_t c = cells[i].first;
+    double omega = 0.0;
+    for (; i < cells.size() && cells[i].first == c; ++i) omega += cells[i].second;
+    const glm::dvec3 l = omega * m.cell_model[c];
+    const double* y = basis->data() + std::size_t(c) * n;
+    for (std::size_t k = 0; k < n; ++k) unseen.c[k] -= y[k] * l;
+  }
 }
 
 EnvMap UnseenEstimator::filled(const MeasuredTexels& m) const {

@@ -35,8 +35,8 @@ struct MapSetJob {
   bool preview = false;
   // A preview's: the session's previews so far (lighting::MapUpdater, made for `request`, used
   // by one set at a time), and the share of each texel of `input` that was measured.
-  std::shared_ptr<lighting::MapUpdater> previews;
-  std::vector<float> measured;
+  std::shared_ptr<lighting::MapUpdater> previews = nullptr;
+  std::vector<float> measured = {};
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

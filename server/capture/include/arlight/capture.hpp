@@ -54,6 +54,14 @@ struct CaptureOptions {
   // measured_sh() those of what was seen, with black elsewhere.
   Fill fill = Fill::Estimate;
   FillOptions fill_options;
+  // The fill's model is refitted (a pass over the whole map, ~2 ms at 512) once
+  // `fill_refit_frames` frames have changed the map or its coverage has grown by
+  // `fill_refit_coverage` of the sphere since the last fit, whichever is first; in between,
+  // sh() follows every frame exactly under the last model (the measured change added, the
+  // model taken off what the frame saw first), and environment() fills with that model.
+  // 1 (or a coverage of 0): refit after every frame.
+  int fill_refit_frames = 8;
+  double fill_refit_coverage = 0.02;
   // The frames' exposure x gain is unknown (most browsers; issue 16 §4): each frame's is
   // estimated relative to the map from where it overlaps what was captured already (a median
   // ratio over well-exposed samples); the first frame's reported value sets the map's scale,

@@ -33,6 +33,7 @@
 // Thread safety: an UnseenEstimator is a value; const members may run concurrently.
 #pragma once
 
+#include <cstdint>
 #include <glm/vec3.hpp>
 #include <memory>
 #include <optional>
@@ -106,6 +107,13 @@ class UnseenEstimator {
   // direction): sh of the measured map (unseen = 0) plus this is the SH of the filled map, to
   // within 0.5 % of its DC term at order 8 (Fill.TheCaptureSessionsShIsThatOfItsFilledMap).
   ShCoeffs unseen_sh(int order) const;
+
+  // Keeps an unseen_sh() of this fit true as the map grows without a refit: `unseen` loses
+  // what the given texels (layout indices, measured since the fit) held of it, each texel's
+  // solid angle at its cell's model value and direction as unseen_sh() integrates them, so
+  // it stays the SH of the model over what is still unseen. Throws std::invalid_argument for
+  // an index outside the layout or an order other than `unseen`'s.
+  void remove_from_unseen_sh(ShCoeffs& unseen, std::span<const std::uint32_t> texels) const;
 
   // The filled map: each measured texel's sum(w L) / sum(w), the model on the others (and 0
   // outside an angle map's disk). All cores.
