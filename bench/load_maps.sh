@@ -3,7 +3,7 @@
 # warm-up session, then `arlight-load --sessions N --duration 10 --rate 30 --maps` on the
 # 120-frame 640x480 venice recording; prints one table row per run (map sets in 10 s, the
 # median session's and the slowest session's median interval between its map sets while it
-# sends, frames dropped, frame->update p99). With OLD=PATH_TO_ARLIGHTD, each run is made with
+# sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD, each run is made with
 # that daemon first, then with this build's, alternately (the machine is noisy).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
@@ -29,23 +29,31 @@ run() {  # run DAEMON LABEL SESSIONS
   sleep 1
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
     --device load --sessions 1 --duration 3 > /dev/null
+  cpu_before=$(cpu_ticks $pid)
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
     --device load --sessions "$3" --duration 10 --rate 30 --maps --json "$out/$2-$3.json" \
     > /dev/null || true
+  cpu=$(( $(cpu_ticks $pid) - cpu_before ))
   kill $pid
   wait $pid 2> /dev/null || true
   pid=
-  python3 - "$out/$2-$3.json" "$2" "$3" <<'PY'
+  python3 - "$out/$2-$3.json" "$2" "$3" "$cpu" "$(getconf CLK_TCK)" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))
 i = j["map_set_interval_ms"]
+cpu = int(sys.argv[4]) / int(sys.argv[5])
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {j['map_sets_completed']} | {i['median']:.0f} ms / "
-      f"{i['worst_session']:.0f} ms | {j['frames_dropped']} | {j['latency_ms']['p99']:.1f} ms |")
+      f"{i['worst_session']:.0f} ms | {j['frames_dropped']} | {j['latency_ms']['p99']:.1f} ms | "
+      f"{cpu:.1f} s |")
 PY
 }
 
-echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped | p99 frame->update |"
-echo "|---|---|---|---|---|---|"
+# The daemon's CPU time so far (user + system), in clock ticks: what it cost, whatever else
+# the machine ran meanwhile (a shared machine's steal time is not in it).
+cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
+
+echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped | p99 frame->update | daemon CPU in the 10 s |"
+echo "|---|---|---|---|---|---|---|"
 for n in $counts; do
   [ -n "${OLD:-}" ] && run "$OLD" old "$n"
   run "$build/bin/arlightd" new "$n"

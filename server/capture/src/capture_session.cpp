@@ -162,7 +162,8 @@ struct CaptureSession::Impl {
   double covered_solid_angle = 0.0;
   // The fill of the unseen part, refitted lazily when the map has changed since.
   mutable UnseenEstimator unseen;
-  mutable ShCoeffs filled_sh;
+  mutable ShCoeffs unseen_part;  // the model's SH over what is unseen
+  mutable ShCoeffs filled_sh;    // sh + unseen_part
   mutable bool unseen_stale = true;
   // Since the last fit: frames that changed the map, and the solid angle they saw first.
   mutable int frames_since_fit = 0;
@@ -244,17 +245,15 @@ struct CaptureSession::Impl {
   void refit_unseen() const {
     if (!unseen_stale) return;
     unseen.fit({weighted_radiance, weight});
-    filled_sh = sh;
-    const ShCoeffs rest = unseen.unseen_sh(sh.order);
-    for (std::size_t k = 0; k < rest.c.size(); ++k) filled_sh.c[k] += rest.c[k];
+    unseen_part = unseen.unseen_sh(sh.order);
+    update_filled_sh();
     unseen_stale = false;
     frames_since_fit = 0, seen_since_fit = 0.0;
   }
 
-  // After a frame changed the map: the filled SH follows it under the last model, or the
-  // model is due for a refit (options.fill_refit_*).
-  void follow_unseen(const std::vector<glm::dvec3>& changed_dirs,
-                     const std::vector<glm::dvec3>& changed_values, double newly_seen_omega) {
+  // After a frame changed the map (the measured SH has followed it): the model's part loses
+  // what the frame saw first, or the model is due for a refit (options.fill_refit_*).
+  void follow_unseen(double newly_seen_omega) {
     if (options.fill == Fill::None || unseen_stale) return;
     if (!(unseen.estimated_fraction() > 0.0)) {  // the last fit had nothing to go on
       unseen_stale = true;
@@ -266,8 +265,13 @@ struct CaptureSession::Impl {
       unseen_stale = true;
       return;
     }
-    sh_accumulate(filled_sh, changed_dirs, changed_values);
-    unseen.remove_from_unseen_sh(filled_sh, newly_seen);
+    unseen.remove_from_unseen_sh(unseen_part, newly_seen);
+    update_filled_sh();
+  }
+
+  void update_filled_sh() const {
+    filled_sh = sh;
+    for (std::size_t k = 0; k < unseen_part.c.size(); ++k) filled_sh.c[k] += unseen_part.c[k];
   }
 
   glm::vec3 texel_radiance(std::size_t texel) const {
@@ -558,8 +562,7 @@ struct CaptureSession::Impl {
     // linear in L), so the coefficients equal a full projection of the current map.
     const auto t1 = Clock::now();
     sh_accumulate(sh, changed_dirs, changed_values);
-    if (!changed_dirs.empty() || !newly_seen.empty())
-      follow_unseen(changed_dirs, changed_values, newly_seen_omega);
+    if (!changed_dirs.empty() || !newly_seen.empty()) follow_unseen(newly_seen_omega);
     result.sh_ms = ms_since(t1);
   }
 

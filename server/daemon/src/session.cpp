@@ -119,6 +119,7 @@ std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
   // reconnected mid-set with the same request can use it; others drop it).
   request_.reset();
   previews_.reset();
+  maps_stopped_ = false;
   last_activity_ = Clock::now();
   return ++attachment_;
 }
@@ -309,7 +310,7 @@ constexpr auto kPreviewPause = std::chrono::milliseconds(500);
 // (MapSetJob::preview: from the map reduced to about twice the output's texels); once they
 // pause for kPreviewPause, a full one follows (from on_idle, or when the running set ends).
 void Session::maybe_start_maps() {
-  if (!request_ || !capture_ || capture_->coverage() <= 0.0) return;
+  if (maps_stopped_ || !request_ || !capture_ || capture_->coverage() <= 0.0) return;
   const auto now = Clock::now();
   // Frames paused after a preview: the full set of the map as it is now is due.
   const bool full_due =
@@ -443,14 +444,21 @@ void Session::calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vecto
 }
 
 void Session::shutdown() {
+  // The map thread is taken out under the lock and joined outside it: maybe_start_maps()
+  // (under the lock) joins and replaces map_thread_, and two joins of one thread hung arlightd
+  // on SIGTERM (a set's follow-up, posted before, joined it while this did). No set starts
+  // after this until a client attaches again.
+  std::jthread running;
   {
     std::lock_guard lock(mutex_);
     if (maps_timer_) maps_timer_->cancel();
     maps_timer_armed_ = false;
+    maps_stopped_ = true;
+    running = std::move(map_thread_);
   }
-  if (map_thread_.joinable()) {
-    map_thread_.request_stop();
-    map_thread_.join();
+  if (running.joinable()) {
+    running.request_stop();
+    running.join();
   }
   std::lock_guard serial(process_mutex_);  // a frame being processed finishes first
 }

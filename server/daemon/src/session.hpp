@@ -174,6 +174,7 @@ class Session : public std::enable_shared_from_this<Session> {
   bool maps_running_ = false, maps_again_ = false;
   std::unique_ptr<boost::asio::steady_timer> maps_timer_;  // a set the interval deferred
   bool maps_timer_armed_ = false;
+  bool maps_stopped_ = false;  // shutdown() ran: no set starts until the next attach()
   std::jthread map_thread_;
   std::mutex process_mutex_;             // held while a frame is processed
   mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
