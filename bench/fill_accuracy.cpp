@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,9 +58,9 @@ struct Sweep {
 };
 
 // A simulated phone's sweep of `probe` (arlight-sim's sensor, auto-exposure and trajectory,
-// rendered frame by frame), captured as arlightd captures it (its layout, alignment, JPEG
-// frames). With `advice` the phone follows arlightd's exposure advice (issue 16 §4), as
-// arlight-client's sim: source and the phone page do; without it, auto-exposure alone.
+// rendered frame by frame), captured into arlightd's layout from JPEG frames. With `advice` the
+// phone follows arlightd's exposure advice (issue 16 §4), as arlight-client's sim: source and the
+// phone page do; without it, auto-exposure alone.
 Sweep sweep_of(const fs::path& probe, int frames, sim::TrajectoryKind trajectory,
                const EnvLayout& layout, const std::vector<double>& levels, bool advice) {
   sim::LiveCameraOptions co;
@@ -80,8 +81,8 @@ Sweep sweep_of(const fs::path& probe, int frames, sim::TrajectoryKind trajectory
   while (const auto f = camera.next()) {
     const capture::FrameResult r =
         session.add_encoded(f->jpeg, {f->time, f->exposure, f->gain, f->orientation});
-    if (advice)
-      if (const auto e = advisor.after_frame(r)) camera.request_exposure(*e);
+    const std::optional<double> asked = advisor.after_frame(r);
+    if (advice && asked) camera.request_exposure(*asked);
     if (!r.used) continue;
     for (; next_level < levels.size() && session.coverage() >= levels[next_level]; ++next_level)
       snap();
