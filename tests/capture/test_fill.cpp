@@ -268,6 +268,8 @@ TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
   }
   EXPECT_EQ(same, 3);
   EXPECT_GE(differ, 15);  // the model was kept, not refitted, between
+  EXPECT_EQ(lazy.fill_fits(), 3u);
+  EXPECT_EQ(eager.fill_fits(), 20u);
   // 0.4 % of new coverage refits every few frames, long before 1000 frames.
   EXPECT_GE(covered_same, 4);
   EXPECT_LE(covered_same, 15);
@@ -278,6 +280,30 @@ TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
                                 return bad;
                               }()),
                std::invalid_argument);
+}
+
+// A map measured everywhere has nothing left to estimate: frames after it never refit the model
+// (arlightd's sessions replay a room long after its sweep), and the filled SH is the measured.
+TEST(Fill, AFullyMeasuredMapIsNeverRefitted) {
+  const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 20);
+  CaptureOptions o;
+  o.layout = EnvLayout::for_size(Projection::Cube, 32);
+  o.align = false;
+  CaptureSession s(cam, CameraResponse::srgb(), o);
+  const std::size_t texels = o.layout.texel_count();
+  s.restore({std::vector<float>(3 * texels, 0.5f), std::vector<float>(texels, 1.0f)});
+  EXPECT_NEAR(s.coverage(), 1.0, 1e-9);
+  EXPECT_EQ(s.estimated_fraction(), 0.0);
+  EXPECT_EQ(s.fill_fits(), 1u);
+  cv::RNG rng(11);
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_TRUE(add_random_frame(s, rng, 7.0 * k));
+    const double scale = std::abs(s.measured_sh().c[0].y);
+    for (std::size_t i = 0; i < s.sh().c.size(); ++i)
+      EXPECT_LE(glm::length(s.sh().c[i] - s.measured_sh().c[i]), 1e-6 * scale)
+          << "frame " << k << " " << i;
+  }
+  EXPECT_EQ(s.fill_fits(), 1u);
 }
 
 // arlightd's preview input (issue 16 §3): the filled map reduced straight from the

@@ -168,6 +168,7 @@ struct CaptureSession::Impl {
   // Since the last fit: frames that changed the map, and the solid angle they saw first.
   mutable int frames_since_fit = 0;
   mutable double seen_since_fit = 0.0;
+  mutable std::size_t fits = 0;
   std::vector<std::uint32_t> newly_seen;  // a frame's first-measured texels (kept)
   double last_exposure_gain = 0.0;   // estimate_exposure: the last frame's exposure x gain
   std::vector<float> ratio_scratch;  // exposure_ratio()'s samples
@@ -245,6 +246,7 @@ struct CaptureSession::Impl {
   void refit_unseen() const {
     if (!unseen_stale) return;
     unseen.fit({weighted_radiance, weight});
+    ++fits;
     unseen_part = unseen.unseen_sh(sh.order);
     update_filled_sh();
     unseen_stale = false;
@@ -255,8 +257,13 @@ struct CaptureSession::Impl {
   // what the frame saw first, or the model is due for a refit (options.fill_refit_*).
   void follow_unseen(double newly_seen_omega) {
     if (options.fill == Fill::None || unseen_stale) return;
-    if (!(unseen.estimated_fraction() > 0.0)) {  // the last fit had nothing to go on
+    if (!(unseen.measured_fraction() > 0.0)) {  // the last fit had nothing to go on
       unseen_stale = true;
+      return;
+    }
+    // All seen at the last fit (to within a fraction of a texel): the model has no part.
+    if (!(unseen.estimated_fraction() > 1e-6)) {
+      update_filled_sh();
       return;
     }
     ++frames_since_fit, seen_since_fit += newly_seen_omega;
@@ -774,6 +781,7 @@ const ShCoeffs& CaptureSession::sh() const {
 const ShCoeffs& CaptureSession::measured_sh() const { return impl_->sh; }
 
 std::size_t CaptureSession::frames_added() const { return impl_->added; }
+std::size_t CaptureSession::fill_fits() const { return impl_->fits; }
 std::size_t CaptureSession::frames_used() const { return impl_->used; }
 
 Accumulators CaptureSession::accumulators() const {

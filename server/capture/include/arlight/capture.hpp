@@ -151,6 +151,8 @@ class CaptureSession {
 
   std::size_t frames_added() const;  // frames offered
   std::size_t frames_used() const;
+  // How many times the fill's model has been fitted (options.fill_refit_*): for benchmarks.
+  std::size_t fill_fits() const;
 
   // The state to checkpoint, and a session restored from it (same camera, layout, order).
   Accumulators accumulators() const;
