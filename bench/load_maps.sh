@@ -23,10 +23,21 @@ trap '[ -n "$pid" ] && kill $pid 2>/dev/null || true' EXIT
 
 run() {  # run DAEMON LABEL SESSIONS
   rm -rf "$out/data"
+  rm -f "$out/arlightd.log"
   "$1" --tokens "$out/tokens" --data-dir "$out/data" --listen "127.0.0.1:$port" --admin '' ${ARLIGHTD_FLAGS:-} \
     > "$out/arlightd.out" 2> "$out/arlightd.log" &
   pid=$!
-  sleep 1
+  # Until it listens (it logs so): a fixed second was once not enough on a loaded machine.
+  tries=0
+  until grep -q listening "$out/arlightd.log" 2> /dev/null; do
+    tries=$((tries + 1))
+    if [ $tries -gt 200 ] || ! kill -0 $pid 2> /dev/null; then
+      echo "load_maps: $1 did not start listening:" >&2
+      cat "$out/arlightd.log" >&2
+      exit 1
+    fi
+    sleep 0.05
+  done
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
     --device load --sessions 1 --duration 3 > /dev/null
   cpu_before=$(cpu_ticks $pid)
@@ -35,7 +46,7 @@ run() {  # run DAEMON LABEL SESSIONS
     > /dev/null || true
   cpu=$(( $(cpu_ticks $pid) - cpu_before ))
   kill $pid
-  wait $pid 2> /dev/null || true
+  wait $pid 2> /dev/null || echo "load_maps: $1 exited with $?" >&2
   pid=
   python3 - "$out/$2-$3.json" "$2" "$3" "$cpu" "$(getconf CLK_TCK)" <<'PY'
 import json, sys
