@@ -31,6 +31,22 @@ bool add_random_frame(CaptureSession& s, cv::RNG& rng, double yaw_deg) {
   return s.add_image(frame, {0.0, 0.01, 1.0, q}).used;
 }
 
+// A capture's options for `layout`, without the alignment (the frames' orientations are exact).
+CaptureOptions unaligned(const EnvLayout& layout) {
+  CaptureOptions o;
+  o.layout = layout;
+  o.align = false;
+  return o;
+}
+
+// The largest difference between two SH's coefficients, over every channel.
+double max_difference(const ShCoeffs& a, const ShCoeffs& b) {
+  double d = 0.0;
+  for (std::size_t i = 0; i < a.c.size(); ++i)
+    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(a.c[i][c] - b.c[i][c]));
+  return d;
+}
+
 // The accumulators of a map whose texels are measured where `seen(dir)` holds (weight 1).
 struct Measured {
   std::vector<float> radiance, weight;
@@ -194,9 +210,7 @@ TEST(Fill, BlackTexelsOfAPlainMapAreFilledAndTheOthersKept) {
 // measured one, and the fill follows every frame.
 TEST(Fill, TheCaptureSessionsShIsThatOfItsFilledMap) {
   const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 70);
-  CaptureOptions o;
-  o.layout = EnvLayout::for_size(Projection::AngleMap, 128);
-  o.align = false;
+  CaptureOptions o = unaligned(EnvLayout::for_size(Projection::AngleMap, 128));
   CaptureSession s(cam, CameraResponse::srgb(), o);
   cv::RNG rng(3);
   for (int k = 0; k < 4; ++k) {
@@ -228,9 +242,7 @@ TEST(Fill, TheCaptureSessionsShIsThatOfItsFilledMap) {
 TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
   // A narrow camera turned by 3 degrees a frame: ~0.1 % of the sphere new each frame.
   const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 20);
-  CaptureOptions o;
-  o.layout = EnvLayout::for_size(Projection::AngleMap, 128);
-  o.align = false;
+  const CaptureOptions o = unaligned(EnvLayout::for_size(Projection::AngleMap, 128));
   CaptureOptions every = o, by_coverage = o;
   every.fill_refit_frames = 1;
   by_coverage.fill_refit_frames = 1000, by_coverage.fill_refit_coverage = 0.004;
@@ -244,14 +256,12 @@ TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
     ASSERT_TRUE(add_random_frame(covered, rng_covered, 3.0 * k));
     const ShCoeffs filled = sh_project(lazy.environment(), 8);
     const double scale = std::abs(filled.c[0].y);
-    double diff = 0.0;
     for (std::size_t i = 0; i < filled.c.size(); ++i)
-      for (int c = 0; c < 3; ++c) {
+      for (int c = 0; c < 3; ++c)
         EXPECT_NEAR(lazy.sh().c[i][c], filled.c[i][c], 5e-3 * scale) << "frame " << k << " " << i;
-        diff = std::max(diff, std::abs(lazy.sh().c[i][c] - eager.sh().c[i][c]));
-      }
-    // The last model is close to a new one (within 3 % of the DC term here, where every frame
+    // The last model is close to a new one (up to ~3 % of the DC term here, where every frame
     // is new noise).
+    const double diff = max_difference(lazy.sh(), eager.sh());
     EXPECT_LE(diff, 0.05 * scale) << "frame " << k;
     // Refits after frames 0, 8 and 16 (the first fit, then every 8 frames).
     if (k % 8 == 0) {
@@ -261,10 +271,7 @@ TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
       differ += diff > 0.0;
     }
     EXPECT_NEAR(lazy.estimated_fraction(), 1.0 - lazy.coverage(), 1e-9);
-    double covered_diff = 0.0;
-    for (std::size_t i = 0; i < filled.c.size(); ++i)
-      covered_diff = std::max(covered_diff, glm::length(covered.sh().c[i] - eager.sh().c[i]));
-    covered_same += covered_diff == 0.0;
+    covered_same += max_difference(covered.sh(), eager.sh()) == 0.0;
   }
   EXPECT_EQ(same, 3);
   EXPECT_GE(differ, 15);  // the model was kept, not refitted, between
@@ -273,22 +280,16 @@ TEST(Fill, BetweenRefitsTheShFollowsEveryFrameUnderTheLastModel) {
   // 0.4 % of new coverage refits every few frames, long before 1000 frames.
   EXPECT_GE(covered_same, 4);
   EXPECT_LE(covered_same, 15);
-  EXPECT_THROW(CaptureSession(cam, CameraResponse::srgb(),
-                              [&] {
-                                CaptureOptions bad = o;
-                                bad.fill_refit_frames = 0;
-                                return bad;
-                              }()),
-               std::invalid_argument);
+  CaptureOptions bad = o;
+  bad.fill_refit_frames = 0;
+  EXPECT_THROW(CaptureSession(cam, CameraResponse::srgb(), bad), std::invalid_argument);
 }
 
 // A map measured everywhere has nothing left to estimate: frames after it never refit the model
 // (arlightd's sessions replay a room long after its sweep), and the filled SH is the measured.
 TEST(Fill, AFullyMeasuredMapIsNeverRefitted) {
   const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 20);
-  CaptureOptions o;
-  o.layout = EnvLayout::for_size(Projection::Cube, 32);
-  o.align = false;
+  const CaptureOptions o = unaligned(EnvLayout::for_size(Projection::Cube, 32));
   CaptureSession s(cam, CameraResponse::srgb(), o);
   const std::size_t texels = o.layout.texel_count();
   s.restore({std::vector<float>(3 * texels, 0.5f), std::vector<float>(texels, 1.0f)});
@@ -310,9 +311,7 @@ TEST(Fill, AFullyMeasuredMapIsNeverRefitted) {
 // accumulators, and the measured share of each texel, agree with reducing the filled map.
 TEST(Fill, TheReducedEnvironmentIsTheReducedFilledMap) {
   const CameraIntrinsics cam = CameraIntrinsics::from_fov(160, 120, 70);
-  CaptureOptions o;
-  o.layout = EnvLayout::for_size(Projection::Cube, 48);
-  o.align = false;
+  const CaptureOptions o = unaligned(EnvLayout::for_size(Projection::Cube, 48));
   CaptureSession s(cam, CameraResponse::srgb(), o);
   cv::RNG rng(5);
   for (int k = 0; k < 3; ++k) ASSERT_TRUE(add_random_frame(s, rng, 70.0 * k));
