@@ -3,8 +3,9 @@
 # warm-up session, then `arlight-load --sessions N --duration 10 --rate 30 --maps` on the
 # 120-frame 640x480 venice recording; prints one table row per run (map sets in 10 s, the
 # median session's and the slowest session's median interval between its map sets while it
-# sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD, each run is made with
-# that daemon first, then with this build's, alternately (the machine is noisy).
+# sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD,
+# each run is made with that daemon first, then with this build's, alternately (the machine is
+# noisy).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
 build=${1:-build}

@@ -110,13 +110,13 @@ void Trajectory::build_sweep() {
     return fa != fb ? fa < fb : bands_[a] > bands_[b];
   });
   double yaw = 0;
-  if (p_.kind == TrajectoryKind::PolesFirstSweep) {
+  double start = 0;                                  // the pitch the first band is reached from
+  if (p_.kind == TrajectoryKind::PolesFirstSweep) {  // straight up, straight down, then on
     ramp(0, 0, 90);
     ramp(0, 90, -90);
-    ramp(0, -90, bands_[visit.front()]);
-  } else {
-    ramp(0, 0, bands_[visit.front()]);
+    start = -90;
   }
+  ramp(0, start, bands_[visit.front()]);
   for (std::size_t k = 0; k < visit.size(); ++k) {
     const double pitch = bands_[visit[k]];
     const double dir = k % 2 == 0 ? -1.0 : 1.0;  // alternate: right first, then left
