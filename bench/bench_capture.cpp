@@ -151,6 +151,35 @@ void BM_PreviewSweep(benchmark::State& state) {
 }
 BENCHMARK(BM_PreviewSweep)->Iterations(42)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// What a session costs arlightd when it starts (on a network thread, at its CameraIntrinsics):
+// a capture session at arlightd's layout and fill, and its first frame, on one core. The
+// layout's tables are made by the first session of the process (before the timing here).
+void BM_CaptureSessionStart(benchmark::State& state) {
+  tbb::global_control one_core(tbb::global_control::max_allowed_parallelism, 1);
+  const auto& jpegs = frames(0.3);
+  capture::CaptureOptions options;
+  options.layout = capture::capture_layout_for(512);
+  options.align_async = true;
+  const CameraIntrinsics camera = CameraIntrinsics::from_fov(640, 480, 60);
+  capture::CaptureSession(camera, CameraResponse::srgb(), options);  // the layout's tables
+  std::vector<double> open_ms, first_ms;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    capture::CaptureSession session(camera, CameraResponse::srgb(), options);
+    const auto t1 = std::chrono::steady_clock::now();
+    session.add_encoded(jpegs[0], {0.0, 0.3, 1.0, view(0)});
+    benchmark::DoNotOptimize(session.sh());
+    const auto t2 = std::chrono::steady_clock::now();
+    open_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    first_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+  }
+  std::sort(open_ms.begin(), open_ms.end());
+  std::sort(first_ms.begin(), first_ms.end());
+  state.counters["open_ms"] = open_ms[open_ms.size() / 2];
+  state.counters["first_frame_ms"] = first_ms[first_ms.size() / 2];
+}
+BENCHMARK(BM_CaptureSessionStart)->Iterations(20)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Issue 16 §2: the cost of a frame by where the camera looks, in a capture layout. Eight
 // directions of a sweep (ahead, right, behind, left at the horizon; up; down; behind 45 degrees
 // up and down): the median ms of each, and max / min over the eight (the target is <= 1.5). In

@@ -2,13 +2,19 @@
 // the map reduced to about twice the output's texels, close to the full set and cheaper, and
 // recomputes only what changed since the session's last preview.
 #include <gtest/gtest.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <thread>
 
 #include "arlight/hdr_io.hpp"
 #include "arlight/lighting.hpp"
 #include "arlight/resample.hpp"
 #include "map_set_stream.hpp"
+#include "priority.hpp"
 
 using namespace arlight;
 using namespace arlight::daemon;
@@ -86,4 +92,37 @@ TEST(MapSetStream, APreviewSetIsCloseToTheFullOne) {
     EXPECT_EQ(lighting::map_error(preview[k], again[k]).max, 0.0);
     EXPECT_EQ(previews->recomputed()[k], 0.0);
   }
+}
+
+// A map set runs on idle cycles: the thread that computes and streams it takes the idle
+// policy (a niced thread kept the core for its slice when a frame's thread woke: the tail of
+// the 8-session load test), and its tiles are sent from that thread.
+TEST(MapSetStream, TheSetsThreadRunsAtTheIdlePolicyAndACheckpointsAtNice10) {
+  const EnvMap room(EnvLayout::for_size(Projection::Cube, 8));
+  const MapRequest request{.shininess = {1}, .size = 16};
+  MapSetJob job{.request = request, .input = room, .id = 1, .tile_coding = [] {
+                  return wire::TileCoding::Half;
+                }};
+  int policy_when_sending = -1, sent = 0;
+  double seconds = -1.0;
+  std::thread([&] {
+    ASSERT_EQ(::sched_getscheduler(0), SCHED_OTHER);
+    seconds = stream_map_set(job, {}, [&](const wire::Message&) {
+      ++sent;
+      policy_when_sending = ::sched_getscheduler(0);
+    });
+  }).join();
+  EXPECT_GT(seconds, 0.0);
+  EXPECT_GT(sent, 1);
+  EXPECT_EQ(policy_when_sending, SCHED_IDLE);
+  EXPECT_EQ(::sched_getscheduler(0), SCHED_OTHER);  // this thread is left as it was
+
+  int policy = -1, nice = -100;
+  std::thread([&] {
+    lower_thread_priority(BackgroundWork::Checkpoint);
+    policy = ::sched_getscheduler(0);
+    nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)));
+  }).join();
+  EXPECT_EQ(policy, SCHED_OTHER);
+  EXPECT_EQ(nice, 10);
 }

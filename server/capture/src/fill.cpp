@@ -17,6 +17,9 @@
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 #include "arlight/error.hpp"
 
@@ -62,6 +65,53 @@ struct Grid {
   int size() const { return zones * sectors; }
 };
 
+// Where each texel of a layout falls on the grid: the same for every estimator of a layout
+// (a pass over every texel, ~10 ms at arlightd's layout, that each session used to repeat when
+// it started).
+struct CellGeometry {
+  // Per texel of the layout, in its own order (fit() streams them): the cell and the solid
+  // angle (0 off the sphere).
+  std::vector<std::uint32_t> texel_cell;
+  std::vector<float> texel_omega;
+  std::vector<double> cell_total;    // solid angle of each cell's texels
+  std::vector<glm::dvec3> cell_dir;  // the solid-angle-weighted mean direction, normalised
+};
+
+std::shared_ptr<const CellGeometry> make_cell_geometry(const EnvLayout& layout, const Grid& grid) {
+  const auto table = texel_table(layout);
+  auto g = std::make_shared<CellGeometry>();
+  g->texel_cell.assign(layout.texel_count(), 0);
+  g->texel_omega.assign(layout.texel_count(), 0.0f);
+  g->cell_total.assign(std::size_t(grid.size()), 0.0);
+  g->cell_dir.assign(std::size_t(grid.size()), glm::dvec3(0.0));
+  for (std::size_t i = 0; i < table->size(); ++i) {
+    const glm::dvec3 d(table->x[i], table->y[i], table->z[i]);
+    const auto c = std::size_t(grid.cell(d));
+    g->texel_cell[table->index[i]] = std::uint32_t(c);
+    g->texel_omega[table->index[i]] = float(table->solid_angle[i]);
+    g->cell_total[c] += table->solid_angle[i];
+    g->cell_dir[c] += table->solid_angle[i] * d;
+  }
+  for (glm::dvec3& d : g->cell_dir)
+    if (glm::dot(d, d) > 0.0) d = glm::normalize(d);
+  return g;
+}
+
+// Cached like texel_table(): the last few layouts and grids asked for (thread-safe).
+std::shared_ptr<const CellGeometry> cell_geometry(const EnvLayout& layout, const Grid& grid) {
+  using Key = std::tuple<int, int, int, int>;
+  static std::mutex mutex;
+  static std::vector<std::pair<Key, std::shared_ptr<const CellGeometry>>> cache;
+  const Key key{int(layout.projection()), layout.width(), layout.height(), grid.zones};
+  std::lock_guard lock(mutex);
+  for (const auto& [k, g] : cache)
+    if (k == key) return g;
+  auto g = make_cell_geometry(layout, grid);
+  if (cache.size() >= 8) cache.erase(cache.begin());
+  cache.emplace_back(key, g);
+  return g;
+}
+
 }  // namespace
 
 struct UnseenEstimator::Impl {
@@ -70,12 +120,7 @@ struct UnseenEstimator::Impl {
   FillOptions options;
   std::shared_ptr<const TexelTable> table;
   Grid grid;
-  // Per texel of the layout, in its own order (fit() streams them): the cell and the solid
-  // angle (0 off the sphere).
-  std::vector<std::uint32_t> texel_cell;
-  std::vector<float> texel_omega;
-  std::vector<double> cell_total;    // solid angle of each cell's texels
-  std::vector<glm::dvec3> cell_dir;  // the solid-angle-weighted mean direction, normalised
+  std::shared_ptr<const CellGeometry> geometry;  // shared by every estimator of this layout
 
   // The fit.
   bool any_seen = false;
@@ -110,21 +155,8 @@ struct UnseenEstimator::Impl {
       throw std::invalid_argument("fill: trend limit must be >= 1 and trend zones >= 2");
     table = texel_table(layout);
     grid = {o.zones, 2 * o.zones};
-    texel_cell.assign(layout.texel_count(), 0);
-    texel_omega.assign(layout.texel_count(), 0.0f);
-    cell_total.assign(std::size_t(grid.size()), 0.0);
-    cell_dir.assign(std::size_t(grid.size()), glm::dvec3(0.0));
-    for (std::size_t i = 0; i < table->size(); ++i) {
-      const glm::dvec3 d(table->x[i], table->y[i], table->z[i]);
-      const auto c = std::size_t(grid.cell(d));
-      texel_cell[table->index[i]] = std::uint32_t(c);
-      texel_omega[table->index[i]] = float(table->solid_angle[i]);
-      cell_total[c] += table->solid_angle[i];
-      cell_dir[c] += table->solid_angle[i] * d;
-    }
-    for (glm::dvec3& d : cell_dir)
-      if (glm::dot(d, d) > 0.0) d = glm::normalize(d);
-    cell_seen.assign(cell_total.size(), 0.0);
+    geometry = cell_geometry(layout, grid);
+    cell_seen.assign(geometry->cell_total.size(), 0.0);
     zone_value.assign(std::size_t(grid.zones), glm::dvec3(0.0));
   }
 
@@ -167,8 +199,8 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
   // angle measured at all; per texel in float, per cell in double. One pass over the texels
   // in the layout's order sums them unclipped; the lights are clipped afterwards, texel by
   // texel, once the quantile is known (~0.8 ms for a 512x512 map on one core).
-  std::vector<double> w(cell_total.size(), 0.0);
-  std::vector<glm::dvec3> rw(cell_total.size(), glm::dvec3(0.0));
+  std::vector<double> w(geometry->cell_total.size(), 0.0);
+  std::vector<glm::dvec3> rw(geometry->cell_total.size(), glm::dvec3(0.0));
   std::fill(cell_seen.begin(), cell_seen.end(), 0.0);
   measured = 0.0;
   // And a histogram of the luminance by solid angle: bins of 1/16 of an octave (the float's
@@ -177,7 +209,7 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
   std::vector<double> histogram(kBins, 0.0);
   texel_luminance.assign(texels, -1.0f);  // -1: not measured, or not a usable value
   for (std::size_t t = 0; t < texels; ++t) {
-    const float sw = m.weight[t], omega = texel_omega[t];
+    const float sw = m.weight[t], omega = geometry->texel_omega[t];
     if (!(sw > 0.0f && sw <= std::numeric_limits<float>::max()) || omega == 0.0f) continue;
     const float* p = &m.weighted_radiance[3 * t];
     const float r = p[0] / sw, g = p[1] / sw, b = p[2] / sw;
@@ -189,7 +221,7 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
     const int bin =
         (int((bits >> 23) & 0xFF) - 127 + kOctaves / 2) * kSub + int((bits >> 19) & 0xF);
     histogram[std::size_t(std::clamp(bin, 0, kBins - 1))] += omega;
-    const std::size_t c = texel_cell[t];
+    const std::size_t c = geometry->texel_cell[t];
     const float wc = omega * std::min(1.0f, sw);
     cell_seen[c] += omega;
     w[c] += wc;
@@ -213,8 +245,8 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
       if (!(y > cap)) continue;
       const float sw = m.weight[t];
       const float* p = &m.weighted_radiance[3 * t];
-      const float excess = texel_omega[t] * std::min(1.0f, sw) * (1.0f - cap / y) / sw;
-      rw[texel_cell[t]] -= glm::dvec3(excess * p[0], excess * p[1], excess * p[2]);
+      const float excess = geometry->texel_omega[t] * std::min(1.0f, sw) * (1.0f - cap / y) / sw;
+      rw[geometry->texel_cell[t]] -= glm::dvec3(excess * p[0], excess * p[1], excess * p[2]);
     }
   }
   double w_all = 0.0;
@@ -227,9 +259,9 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
     fit_profile(w, rw);
     if (options.residual_order > 0) fit_residual(w, rw);
   }
-  cell_model.resize(cell_dir.size());
-  for (std::size_t c = 0; c < cell_dir.size(); ++c)
-    cell_model[c] = cell_total[c] > 0.0 ? model(cell_dir[c]) : glm::dvec3(0.0);
+  cell_model.resize(geometry->cell_dir.size());
+  for (std::size_t c = 0; c < geometry->cell_dir.size(); ++c)
+    cell_model[c] = geometry->cell_total[c] > 0.0 ? model(geometry->cell_dir[c]) : glm::dvec3(0.0);
 }
 
 // Z at every zone (the elevation profile; dissertation §5.4.1's sky and ground colours, one per
@@ -244,7 +276,7 @@ void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
   std::vector<glm::dvec3> zrw(std::size_t(zones), glm::dvec3(0.0));
   for (std::size_t c = 0; c < w.size(); ++c) {
     const auto z = c / std::size_t(grid.sectors);
-    zw[z] += w[c], zrw[z] += rw[c], zt[z] += cell_total[c];
+    zw[z] += w[c], zrw[z] += rw[c], zt[z] += geometry->cell_total[c];
   }
   std::vector<int> seen;
   for (int z = 0; z < zones; ++z)
@@ -294,8 +326,8 @@ void UnseenEstimator::Impl::fit_residual(const std::vector<double>& w,
   auto basis = std::vector<double>(std::size_t(n));
   for (std::size_t c = 0; c < w.size(); ++c) {
     if (!(w[c] > 0.0)) continue;
-    sh_basis_all(order, cell_dir[c], basis);
-    const glm::dvec3 r = rw[c] / w[c] - profile(cell_dir[c].y);
+    sh_basis_all(order, geometry->cell_dir[c], basis);
+    const glm::dvec3 r = rw[c] / w[c] - profile(geometry->cell_dir[c].y);
     for (int i = 0; i < n; ++i) {
       const double wy = w[c] * basis[std::size_t(i)];
       double* row = a.ptr<double>(i);
@@ -345,10 +377,10 @@ std::shared_ptr<const std::vector<double>> UnseenEstimator::Impl::basis_of_cells
   auto& slot = cell_basis->by_order[order];
   if (!slot) {
     const auto n = std::size_t(sh_count(order));
-    auto b = std::make_shared<std::vector<double>>(n * cell_dir.size());
-    for (std::size_t c = 0; c < cell_dir.size(); ++c)
-      if (cell_total[c] > 0.0)  // a small map may leave cells without texels
-        sh_basis_all(order, cell_dir[c], std::span<double>(b->data() + c * n, n));
+    auto b = std::make_shared<std::vector<double>>(n * geometry->cell_dir.size());
+    for (std::size_t c = 0; c < geometry->cell_dir.size(); ++c)
+      if (geometry->cell_total[c] > 0.0)  // a small map may leave cells without texels
+        sh_basis_all(order, geometry->cell_dir[c], std::span<double>(b->data() + c * n, n));
     slot = std::move(b);
   }
   return slot;
@@ -360,8 +392,8 @@ ShCoeffs UnseenEstimator::unseen_sh(int order) const {
   if (m.fill == Fill::None || !m.any_seen) return out;
   const std::shared_ptr<const std::vector<double>> basis = m.basis_of_cells(order);
   const std::size_t n = out.c.size();
-  for (std::size_t c = 0; c < m.cell_total.size(); ++c) {
-    const double unseen = m.cell_total[c] - m.cell_seen[c];
+  for (std::size_t c = 0; c < m.geometry->cell_total.size(); ++c) {
+    const double unseen = m.geometry->cell_total[c] - m.cell_seen[c];
     if (!(unseen > 1e-12)) continue;
     const glm::dvec3 l = unseen * m.cell_model[c];
     const double* y = basis->data() + c * n;
@@ -378,14 +410,15 @@ void UnseenEstimator::remove_from_unseen_sh(ShCoeffs& unseen,
   std::vector<std::pair<std::uint32_t, double>> cells;
   cells.reserve(texels.size());
   for (const std::uint32_t t : texels) {
-    if (t >= m.texel_cell.size())
+    if (t >= m.geometry->texel_cell.size())
       throw std::invalid_argument("fill: texel " + std::to_string(t) + " is not in the map");
-    if (m.texel_omega[t] > 0.0f) cells.emplace_back(m.texel_cell[t], m.texel_omega[t]);
+    if (m.geometry->texel_omega[t] > 0.0f)
+      cells.emplace_back(m.geometry->texel_cell[t], m.geometry->texel_omega[t]);
   }
   std::sort(cells.begin(), cells.end());
   const std::shared_ptr<const std::vector<double>> basis = m.basis_of_cells(unseen.order);
   const std::size_t n = unseen.c.size();
-  if (basis->size() != n * m.cell_dir.size())
+  if (basis->size() != n * m.geometry->cell_dir.size())
     throw std::invalid_argument("fill: the SH to update is not of a valid order");
   for (std::size_t i = 0; i < cells.size();) {
     const std::uint32_t c = cells[i].first;

@@ -142,7 +142,7 @@ struct Daemon::Impl {
         workers(config.workers > 0 ? unsigned(config.workers) : hardware_threads()),
         tls(make_tls_context(config)),
         sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
-    asio::post(disk, [] { lower_thread_priority(kCheckpointNice); });
+    asio::post(disk, [] { lower_thread_priority(BackgroundWork::Checkpoint); });
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
     session_env.fill = config.fill;

@@ -24,7 +24,7 @@ class BackgroundPriority : public tbb::task_scheduler_observer {
     observe(true);
   }
   ~BackgroundPriority() override { observe(false); }
-  void on_scheduler_entry(bool) override { lower_thread_priority(kMapNice); }
+  void on_scheduler_entry(bool) override { lower_thread_priority(BackgroundWork::MapSet); }
 };
 
 }  // namespace
@@ -41,7 +41,7 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
   const auto t0 = Clock::now();
   const MapRequest& request = job.request;
   const std::uint32_t set = job.id;
-  lower_thread_priority(kMapNice);
+  lower_thread_priority(BackgroundWork::MapSet);
   const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
   lighting::Hooks hooks;
   hooks.stop = stop;

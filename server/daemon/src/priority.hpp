@@ -4,14 +4,15 @@
 
 namespace arlight::daemon {
 
-// Lowers the calling thread's scheduling priority to `nice` (Linux: nice values are per
-// thread). It cannot be raised again without privileges, so call it only on threads that do
-// background work for good. Best effort: a refusal is ignored.
-void lower_thread_priority(int nice);
+enum class BackgroundWork {
+  Checkpoint,  // nice 10: checkpoints must keep up (a few ms per session every interval)
+  MapSet,      // SCHED_IDLE: map sets run on idle cycles, and a frame's thread preempts them
+};
 
-// Niceness of the two kinds of background work: checkpoints must keep up (a few ms per session
-// every interval), map sets may wait for idle cycles.
-constexpr int kCheckpointNice = 10;
-constexpr int kMapNice = 19;
+// Lowers the calling thread's scheduling priority for `work` (Linux: policy and nice value are
+// per thread). It cannot be raised again without privileges, so call it only on threads that
+// do background work for good. Best effort: a refusal is ignored (a map set's thread then
+// falls back to nice 19).
+void lower_thread_priority(BackgroundWork work);
 
 }  // namespace arlight::daemon

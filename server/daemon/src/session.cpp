@@ -186,55 +186,65 @@ void Session::submit(FrameJob job) {
   }
 }
 
+// One frame a turn: when the session has another waiting, it goes to the back of the worker
+// pool's queue, behind the frames of the other sessions (a session with two frames waiting
+// used to keep a worker for both while the others' frames waited: the load test's tail).
 void Session::process() {
   std::lock_guard serial(process_mutex_);
-  for (;;) {
-    FrameJob job;
-    {
-      std::lock_guard lock(mutex_);
-      if (pending_.empty() || !capture_) {
-        busy_ = false;
-        return;
-      }
-      job = std::move(pending_.front());
-      pending_.pop_front();
+  FrameJob job;
+  {
+    std::lock_guard lock(mutex_);
+    if (pending_.empty() || !capture_) {
+      busy_ = false;
+      return;
     }
-    const auto t0 = Clock::now();
-    capture::FrameResult r;
-    wire::CameraFrame& frame = job.frame;
-    if (frame.format == wire::PixelFormat::Jpeg) {
-      r = capture_->add_encoded(frame.data, frame.info);
-    } else {
-      cv::Mat rgb(int(frame.height), int(frame.width), CV_8UC3, frame.data.data()), bgr;
-      cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-      r = capture_->add_image(bgr, frame.info);
-    }
-    env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
-    wire::LightingUpdate update;
-    std::optional<wire::ExposureAdvice> advice;
-    {
-      std::lock_guard lock(mutex_);
-      if (r.used) {
-        ++processed_;
-        env_.frames_processed->inc();
-        dirty_ = true;
-      } else {
-        ++skipped_;
-        env_.frames_skipped->inc();
-      }
-      last_sequence_ = std::max(last_sequence_, frame.sequence);
-      update = lighting_update(r, frame.sequence);
-      // Frames of unknown exposure cannot be told one (the client cannot set it either).
-      if (advisor_ && !capture_->options().estimate_exposure)
-        if (const auto e = advisor_->after_frame(r))
-          advice = wire::ExposureAdvice{frame.sequence, *e, float(r.clipped_unmeasured)};
-      maybe_start_maps();
-    }
-    if (advice) send(*advice);  // first: the client's next frame should already follow it
-    send(update);
-    env_.update_latency_seconds->observe(
-        std::chrono::duration<double>(Clock::now() - job.received).count());
+    job = std::move(pending_.front());
+    pending_.pop_front();
   }
+  const auto t0 = Clock::now();
+  capture::FrameResult r;
+  wire::CameraFrame& frame = job.frame;
+  if (frame.format == wire::PixelFormat::Jpeg) {
+    r = capture_->add_encoded(frame.data, frame.info);
+  } else {
+    cv::Mat rgb(int(frame.height), int(frame.width), CV_8UC3, frame.data.data()), bgr;
+    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+    r = capture_->add_image(bgr, frame.info);
+  }
+  env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
+  wire::LightingUpdate update;
+  std::optional<wire::ExposureAdvice> advice;
+  {
+    std::lock_guard lock(mutex_);
+    if (r.used) {
+      ++processed_;
+      env_.frames_processed->inc();
+      dirty_ = true;
+    } else {
+      ++skipped_;
+      env_.frames_skipped->inc();
+    }
+    last_sequence_ = std::max(last_sequence_, frame.sequence);
+    update = lighting_update(r, frame.sequence);
+    // Frames of unknown exposure cannot be told one (the client cannot set it either).
+    if (advisor_ && !capture_->options().estimate_exposure)
+      if (const auto e = advisor_->after_frame(r))
+        advice = wire::ExposureAdvice{frame.sequence, *e, float(r.clipped_unmeasured)};
+  }
+  if (advice) send(*advice);  // first: the client's next frame should already follow it
+  send(update);
+  env_.update_latency_seconds->observe(
+      std::chrono::duration<double>(Clock::now() - job.received).count());
+  {
+    std::lock_guard lock(mutex_);
+    // After the update went: a map set's input (a copy of the map) is not on the frame's path.
+    maybe_start_maps();
+    if (pending_.empty() || !capture_) {
+      busy_ = false;
+      return;
+    }
+  }
+  boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
 }
 
 void Session::set_location(const wire::Location& location) {
