@@ -87,7 +87,8 @@ demo: deps
 	@echo "  Connect your phone: README.md, \"Connect your phone\" (arlightd --web 0.0.0.0:8443)"
 
 # The hardening builds share a second build folder, compiled by clang with AddressSanitizer and
-# UndefinedBehaviorSanitizer and libFuzzer's coverage (no browser client, no benchmarks).
+# UndefinedBehaviorSanitizer, and libFuzzer's coverage in the code that parses the fuzz targets'
+# input (tests/fuzz/fuzz.cmake; no browser client, no benchmarks).
 SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 60
 FUZZ_OUT ?= out/fuzz
