@@ -226,6 +226,7 @@ void Session::process() {
     }
     last_sequence_ = std::max(last_sequence_, frame.sequence);
     update = lighting_update(r, frame.sequence);
+    coverage_ = update.coverage;
     // Frames of unknown exposure cannot be told one (the client cannot set it either).
     if (advisor_ && !capture_->options().estimate_exposure)
       if (const auto e = advisor_->after_frame(r))
@@ -300,6 +301,7 @@ std::string Session::request_maps(MapRequest r) {
   } catch (const InputError& e) {
     return std::string("RequestMaps: ") + e.what();
   }
+  std::lock_guard serial(process_mutex_);  // a set's input is read from the capture
   std::lock_guard lock(mutex_);
   request_ = std::move(r);
   previews_.reset();
@@ -386,6 +388,7 @@ void Session::start_maps_at(Clock::time_point when) {
   maps_timer_->async_wait([weak = weak_from_this()](const boost::system::error_code& ec) {
     if (ec) return;
     if (const auto self = weak.lock()) {
+      std::lock_guard serial(self->process_mutex_);
       std::lock_guard lock(self->mutex_);
       self->maps_timer_armed_ = false;
       self->maybe_start_maps();
@@ -394,6 +397,7 @@ void Session::start_maps_at(Clock::time_point when) {
 }
 
 void Session::on_idle(Clock::time_point) {
+  std::lock_guard serial(process_mutex_);
   std::lock_guard lock(mutex_);
   // A set the interval deferred, or the full one after a preview, when no frame came since
   // to start it.
@@ -412,7 +416,8 @@ void Session::compute_maps_thread(std::stop_token stop, MapSetJob job) {
   if (maps_again_ && !stop.stop_requested()) {
     // Start the next set from a fresh thread: this one cannot join itself.
     boost::asio::post(*env_.workers, [self = shared_from_this()] {
-      std::lock_guard l(self->mutex_);
+      std::lock_guard serial(self->process_mutex_);
+      std::lock_guard lock(self->mutex_);
       self->maybe_start_maps();
     });
   }
@@ -481,6 +486,7 @@ void Session::checkpoint() {
   SessionCheckpoint c;
   int generation;
   {
+    std::lock_guard serial(process_mutex_);  // the accumulators between two frames, not during one
     std::lock_guard lock(mutex_);
     if (!dirty_ || !capture_) return;
     c.accumulators = capture_->accumulators();
@@ -554,6 +560,7 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   s->checkpoint_generation_ = c->generation;
   // A checkpoint of another layout is rewritten in this daemon's at the next checkpoint.
   s->dirty_ = c->capture_layout() != s->capture_->layout();
+  s->coverage_ = s->capture_->coverage();
   return s;
 }
 
@@ -570,7 +577,7 @@ json Session::summary() const {
             {"map_sets", map_set_},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
             {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
-            {"coverage", capture_ ? capture_->coverage() : 0.0},
+            {"coverage", coverage_},
             {"sun", location_ ? sun_state_name(sun_.state) : "unknown"}};
   return j;
 }
@@ -578,6 +585,7 @@ json Session::summary() const {
 std::vector<std::uint8_t> Session::envmap_png() const {
   EnvMap env(EnvLayout::for_size(Projection::AngleMap, 8));
   {
+    std::lock_guard serial(process_mutex_);
     std::lock_guard lock(mutex_);
     if (capture_) env = capture_->environment();
   }

@@ -160,6 +160,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
   bool busy_ = false;             // a process() is queued or running
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
+  double coverage_ = 0.0;  // the capture's, as of the last frame (for summary())
   bool dirty_ = false;
   int checkpoint_generation_ = 0;
   Clock::time_point last_activity_ = Clock::now();
@@ -176,7 +177,9 @@ class Session : public std::enable_shared_from_this<Session> {
   bool maps_timer_armed_ = false;
   bool maps_stopped_ = false;  // shutdown() ran: no set starts until the next attach()
   std::jthread map_thread_;
-  std::mutex process_mutex_;             // held while a frame is processed
+  // Held while a frame is processed, and by all else that reads or changes capture_ (not
+  // thread-safe: even its const reads refit the fill when it is due); taken before mutex_.
+  mutable std::mutex process_mutex_;
   mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
 };
