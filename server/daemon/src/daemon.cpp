@@ -98,7 +98,8 @@ struct Daemon::Impl {
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
   asio::thread_pool workers;
   asio::thread_pool disk{1};  // checkpoints (fsync) stay off the frame workers
-  tcp::acceptor acceptor{io};
+  // On a strand of its own, where its accept handler runs and stop() closes it.
+  tcp::acceptor acceptor{asio::make_strand(io)};
   std::unique_ptr<asio::ssl::context> tls;  // null: plain TCP
   std::unique_ptr<asio::ssl::context> web_tls;
   std::unique_ptr<WebServer> web_server;
@@ -121,7 +122,8 @@ struct Daemon::Impl {
 
   std::mutex stop_mutex;
   std::condition_variable stopped_cv;
-  bool stopped = false;
+  bool stopping = false;  // stop() has begun (it runs once)
+  bool stopped = false;   // and has ended: wait() returns
 
   // Logging of bad input is rate-limited: a flood of garbage must not flood the log.
   std::mutex log_mutex;
@@ -556,14 +558,19 @@ void Daemon::start() {
 void Daemon::stop() {
   Impl& d = *impl_;
   {
-    std::lock_guard lock(d.stop_mutex);
-    if (d.stopped) return;
-    d.stopped = true;
+    std::unique_lock lock(d.stop_mutex);
+    if (d.stopping) {  // another thread stops it (the signals' thread, then ~Daemon)
+      d.stopped_cv.wait(lock, [&d] { return d.stopped; });
+      return;
+    }
+    d.stopping = true;
   }
   d.accepting = false;
-  asio::post(d.io, [&d] {
+  asio::post(d.acceptor.get_executor(), [&d] {
     boost::system::error_code e;
     d.acceptor.close(e);
+  });
+  asio::post(d.io, [&d] {
     d.housekeeping.cancel();
     if (d.admin_server) d.admin_server->stop();
     if (d.web_server) d.web_server->stop();
@@ -588,6 +595,12 @@ void Daemon::stop() {
     if (t.joinable()) t.join();
   d.workers.join();
   d.disk.join();
+  // Only now, and notified under the lock. The flag was set when stop() began: a spurious
+  // wake-up could return wait() and its caller destroy the daemon while the checkpoints were
+  // written; and a notify_all() outside the lock could still run while the caller destroyed
+  // the condition variable (ThreadSanitizer saw it at every SIGTERM).
+  std::lock_guard lock(d.stop_mutex);
+  d.stopped = true;
   d.stopped_cv.notify_all();
 }
 

@@ -95,7 +95,9 @@ class Daemon {
   Daemon& operator=(const Daemon&) = delete;
 
   void start();  // runs the network and worker threads
-  void stop();   // closes everything, checkpoints every session
+  // Closes everything and checkpoints every session; returns once that is done, whichever
+  // thread does it (never call it from the daemon's own threads).
+  void stop();
   void wait();   // until stop() (e.g. from a signal handler thread)
   std::uint16_t port() const;
   std::uint16_t admin_port() const;  // 0 when disabled
