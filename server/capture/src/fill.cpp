@@ -75,6 +75,10 @@ struct CellGeometry {
   std::vector<float> texel_omega;
   std::vector<double> cell_total;    // solid angle of each cell's texels
   std::vector<glm::dvec3> cell_dir;  // the solid-angle-weighted mean direction, normalised
+
+  // The SH basis at every cell's direction, for unseen_sh(order): made once per order.
+  mutable std::mutex basis_mutex;
+  mutable std::map<int, std::shared_ptr<const std::vector<double>>> basis_by_order;
 };
 
 std::shared_ptr<const CellGeometry> make_cell_geometry(const EnvLayout& layout, const Grid& grid) {
@@ -131,14 +135,6 @@ struct UnseenEstimator::Impl {
   ShCoeffs residual;
   std::vector<glm::dvec3> cell_model;  // the model at each cell's direction (unseen_sh)
   std::vector<float> texel_luminance;  // fit()'s scratch, kept to spare the allocation
-
-  // The SH basis at every cell's direction, for unseen_sh(order), made once per order and
-  // shared by copies (it depends on the grid alone).
-  struct BasisCache {
-    std::mutex mutex;
-    std::map<int, std::shared_ptr<const std::vector<double>>> by_order;
-  };
-  std::shared_ptr<BasisCache> cell_basis = std::make_shared<BasisCache>();
 
   Impl(const EnvLayout& l, Fill f, FillOptions o) : layout(l), fill(f), options(o) {
     if (o.zones < 2 || o.zones > 256)
@@ -373,8 +369,8 @@ double UnseenEstimator::estimated_fraction() const {
 }
 
 std::shared_ptr<const std::vector<double>> UnseenEstimator::Impl::basis_of_cells(int order) const {
-  std::lock_guard lock(cell_basis->mutex);
-  auto& slot = cell_basis->by_order[order];
+  std::lock_guard lock(geometry->basis_mutex);
+  auto& slot = geometry->basis_by_order[order];
   if (!slot) {
     const auto n = std::size_t(sh_count(order));
     auto b = std::make_shared<std::vector<double>>(n * geometry->cell_dir.size());
