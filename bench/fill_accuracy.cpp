@@ -267,9 +267,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   std::string trajectory = "sweep";
   app.add_option("--trajectory", trajectory,
-                 "the sweep's order: horizon first (sweep) or a look straight up and down first "
-                 "(poles-first)")
-      ->check(CLI::IsMember({"sweep", "poles-first"}))
+                 "the sweep's order: horizon first (sweep), a look straight up and down first "
+                 "(poles-first), or from straight up down to straight down (top-down)")
+      ->check(CLI::IsMember({"sweep", "poles-first", "top-down"}))
       ->capture_default_str();
   app.add_option("--json", json, "write the figures here");
   capture::FillOptions& fill_options = settings.fill;
@@ -286,10 +286,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--trend-zones", fill_options.trend_zones, "the estimate's trend zones")
       ->capture_default_str();
+  app.add_option("--ground-albedo", fill_options.ground_albedo,
+                 "the estimate's unseen ground albedo (0: continue the seen zones alone)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     settings.layout = capture::capture_layout_for(size);
     if (trajectory == "poles-first") settings.trajectory = sim::TrajectoryKind::PolesFirstSweep;
+    if (trajectory == "top-down") settings.trajectory = sim::TrajectoryKind::TopDownSweep;
     nlohmann::json report = nlohmann::json::array();
     for (const std::string& exposure : exposures)
       run_mode(probes, settings, exposure == "advice", report);

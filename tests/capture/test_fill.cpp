@@ -194,6 +194,47 @@ TEST(Fill, ATwoHemisphereRoomSeenAtTheHorizonIsEstimatedAsItsTwoColours) {
   EXPECT_NEAR(mean.radiance({0, 1, 0}).z, 0.5 * (sky.z + ground.z), 0.02);
 }
 
+// A room swept ceiling first (its whole upper hemisphere and the walls down to 17 degrees
+// below the horizon measured): the unseen floor is a Lambertian ground lit by the ceiling,
+// albedo / pi * E_up, with the lamp's full power (the fit clips it, the ground must not), and
+// leans there from the lowest seen wall. Without the ground (albedo 0) the floor continues the
+// walls; a room seen at the horizon only does not lean (its E_up is mostly a guess).
+TEST(Fill, AFloorNeverSeenUnderAMeasuredCeilingIsLitByItsLamps) {
+  const EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 128);
+  EnvMap room(layout);
+  const float lamp = 20.0f, ceiling = 1.0f, wall = 0.5f;
+  for (int y = 0; y < layout.height(); ++y)
+    for (int x = 0; x < layout.width(); ++x) {
+      const double dy = layout.texel_dir(x, y).y;
+      room.image.set(x, y, glm::vec3(dy > 0.8 ? lamp : dy > 0.0 ? ceiling : wall));
+    }
+  const Measured m = measure(room, [](const glm::dvec3& d) { return d.y > -0.3; });
+  // E_up = 2 pi (lamp (1 - 0.8^2) / 2 + ceiling 0.8^2 / 2).
+  const double e_up = 2.0 * kPi * (lamp * 0.36 / 2.0 + ceiling * 0.64 / 2.0);
+  const FillOptions options;
+  ASSERT_EQ(options.ground_albedo, 0.1);
+  UnseenEstimator e(layout, Fill::Estimate, options);
+  e.fit(m.texels());
+  const double ground = 0.1 / kPi * e_up;  // 0.78: brighter than the walls under a lamp
+  EXPECT_NEAR(e.radiance({0, -1, 0}).y, ground, 0.1 * ground);
+  // Half-way down the ramp from the lowest seen wall, between the two.
+  const double half_way = e.radiance(glm::normalize(glm::dvec3(1.0, -0.55, 0.0))).y;
+  EXPECT_GT(half_way, wall * 1.05);
+  EXPECT_LT(half_way, ground * 0.95);
+  UnseenEstimator continuation(layout, Fill::Estimate, {.ground_albedo = 0.0});
+  continuation.fit(m.texels());
+  EXPECT_NEAR(continuation.radiance({0, -1, 0}).y, wall, 0.1 * wall);
+  // Seen at the horizon only: the floor is the walls' continuation, lean or no lean.
+  const Measured band = measure(room, horizon_band(360.0));
+  UnseenEstimator e_band(layout, Fill::Estimate),
+      c_band(layout, Fill::Estimate, {.ground_albedo = 0.0});
+  e_band.fit(band.texels());
+  c_band.fit(band.texels());
+  EXPECT_NEAR(e_band.radiance({0, -1, 0}).y, c_band.radiance({0, -1, 0}).y, 0.03 * wall);
+  EXPECT_THROW(UnseenEstimator(layout, Fill::Estimate, {.ground_albedo = 1.5}),
+               std::invalid_argument);
+}
+
 TEST(Fill, BlackTexelsOfAPlainMapAreFilledAndTheOthersKept) {
   const EnvLayout layout = EnvLayout::for_size(Projection::LatLong, 32);
   const EnvMap truth = probe("venice.exr", layout);

@@ -303,6 +303,27 @@ TEST(ArlightSim, PolesFirstSweepLooksUpAndDownBeforeTheBandsAndCoversTheSphere) 
   EXPECT_GT(sweep_down, -std::sin(45 * kDeg));
 }
 
+// top-down: straight up first (the ceiling or sky: most of a room's light), then down band by
+// band, never looking up again, straight down at the end; the whole sphere is covered.
+TEST(ArlightSim, TopDownSweepLooksUpFirstThenOnlyDownwardsAndCoversTheSphere) {
+  const fs::path out =
+      simulate("sweep_top_down", "--frames 300 --size 160x120 --trajectory top-down");
+  const auto truth = read_truth(out);
+  ASSERT_TRUE(truth.has_value());
+  EXPECT_GE(covered_fraction(read_recording(out).camera, truth->poses), 0.995);
+  std::vector<double> y;
+  for (const Pose& p : truth->poses) y.push_back((p.orientation * glm::dvec3(0, 0, -1)).y);
+  const auto top = std::size_t(std::max_element(y.begin(), y.end()) - y.begin());
+  EXPECT_GT(y[top], std::cos(1 * kDeg));
+  EXPECT_LT(top, y.size() / 10) << "straight up comes first";
+  for (std::size_t k = top + 1; k < y.size(); ++k)
+    ASSERT_LE(y[k], y[k - 1] + 1e-9) << "frame " << k << " looks up again";
+  EXPECT_LT(y.back(), -std::cos(1 * kDeg));
+  // Half-way through, the upper hemisphere is behind it and the lower one mostly ahead.
+  EXPECT_LT(y[y.size() / 2], 0.5);
+  EXPECT_GT(y[y.size() / 2], -0.5);
+}
+
 TEST(ArlightSim, GyroDriftTurnsTheRecordedHeadingAndTheImuAgrees) {
   const fs::path out =
       simulate("drift", "--frames 301 --fps 30 --size 64x48 --gyro-drift 0.5 --seed 3");

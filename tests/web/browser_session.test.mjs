@@ -53,9 +53,11 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     const pageErrors = [];
     page.on('pageerror', (e) => pageErrors.push(e.message));
     const probes = [];
+    const guides = [];  // the capture guide's row at each poll
     let ticks = 0;
     await playRoom(page, d.url, room, {
       onTick: async (s) => {
+        if (s.started) guides.push(s.guide_elevation_deg);
         if (s.lighting === 'none' || probes.length >= 100 || ++ticks % 8) return;
         const p = await page.evaluate(() => window.arlight.probe());
         if (p) probes.push(p);
@@ -83,6 +85,11 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(status.map_sets >= 1);
     assert.equal(status.lighting, 'maps');
     assert.ok(status.coverage > 0.9, `coverage ${status.coverage}`);
+    // The capture guide asks for the ceiling first (this sweep starts at the horizon), and
+    // points below the horizon, if anywhere, once the upper hemisphere is seen.
+    assert.equal(guides[0], 85);
+    assert.ok(status.guide_elevation_deg === null || status.guide_elevation_deg < 0,
+      `the guide still points at ${status.guide_elevation_deg} degrees`);
     assert.equal(status.last_error, '');
     // The room's irradiance as the session captured it, against the simulator's truth.
     const dc = status.sh[1] / truth[0][1];

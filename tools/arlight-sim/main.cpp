@@ -84,7 +84,8 @@ int main(int argc, char** argv) {
   app.add_option("--size", size, "image size WIDTHxHEIGHT")->capture_default_str();
   app.add_option("--fov", o.hfov_deg, "horizontal field of view, degrees")->capture_default_str();
   app.add_option("--trajectory", trajectory,
-                 "sweep, poles-first (up and down first), orbit or handheld")
+                 "sweep, poles-first (up and down first), top-down (ceiling first), orbit or "
+                 "handheld")
       ->capture_default_str();
   app.add_option("--response", o.response, "camera response: srgb, filmic or a JSON file")
       ->capture_default_str();
@@ -161,9 +162,11 @@ int main(int argc, char** argv) {
       o.trajectory = TrajectoryKind::Handheld;
     else if (trajectory == "poles-first")
       o.trajectory = TrajectoryKind::PolesFirstSweep;
+    else if (trajectory == "top-down")
+      o.trajectory = TrajectoryKind::TopDownSweep;
     else
       throw InputError("--trajectory '" + trajectory +
-                       "': use sweep, poles-first, orbit or handheld");
+                       "': use sweep, poles-first, top-down, orbit or handheld");
     if (auto_exposure != "on" && auto_exposure != "off")
       throw InputError("--auto-exposure '" + auto_exposure + "': use on or off");
     o.auto_exposure = auto_exposure == "on";

@@ -38,8 +38,8 @@ const kJpegQuality = 0.85;
 const kReconnectMs = 1000;
 
 const state = {
-  client: null,      // the WebAssembly WebClient, once the page runs
-  upload: null,      // its FrameUpload
+  client: null,  // the WebAssembly WebClient, once the page runs
+  upload: null,  // its FrameUpload
   connected: false,
   sessionId: params.get('session') || '',  // sent as the Hello's resume_session
   framesSent: 0,
@@ -48,33 +48,34 @@ const state = {
   mapSets: 0,
   trackedFrames: 0,
   trackStatus: 'starting',  // 'tracked', or why not ('no marker in view', a refusal, ...)
-  trackMs: 0,        // the worker's time for the last frame
-  tracks: [],        // the recent tracking results (window.arlight.tracks())
-  sent: [],          // the recent frames sent (window.arlight.sent())
-  intrinsics: 'default',  // or 'refined' (from the marker's views)
-  refinedMediaTime: null,  // the frame shown when the focal length was last refined
+  trackMs: 0,               // the worker's time for the last frame
+  tracks: [],               // the recent tracking results (window.arlight.tracks())
+  sent: [],                 // the recent frames sent (window.arlight.sent())
+  intrinsics: 'default',    // or 'refined' (from the marker's views)
+  refinedMediaTime: null,   // the frame shown when the focal length was last refined
   focalPx: 0,
-  focalError: null,  // the marker views' relative standard error of the focal length
-  tracker: 'loading',  // opencv.js in the worker: 'loading', 'ready' or 'failed'
+  focalError: null,             // the marker views' relative standard error of the focal length
+  tracker: 'loading',           // opencv.js in the worker: 'loading', 'ready' or 'failed'
   trackerReadyMediaTime: null,  // the frame shown when it became ready
-  frameMediaTime: null,  // the media time of the frame shown last (null before the first)
+  frameMediaTime: null,         // the media time of the frame shown last (null before the first)
   tracking: 'preview',  // the object floats ahead of the view; 'marker' once it stands on it
   fps: 0,
   lastError: '',
   lighting: 'none',
   coverage: 0,
+  guideElevation: 85,  // the capture guide's next row (CoverageView.nextElevation)
   estimated: 0,
   renderMs: 0,
-  grabMs: 0,        // the camera frame into the renderer's texture
-  jpegMs: 0,        // encoding the newest frame for arlightd
-  latencies: [],     // ms from sending a frame to the update that reflects it
+  grabMs: 0,      // the camera frame into the renderer's texture
+  jpegMs: 0,      // encoding the newest frame for arlightd
+  latencies: [],  // ms from sending a frame to the update that reflects it
   refused: false,
   started: false,
   orientation: 'none',
-  geolocation: 'off', // off, asked, granted, refused or unavailable (the sun from the location)
-  cameraOpenedAt: 0, // Date.now() when the camera opened (its first frame; tests pace sensors)
-  sh: [],            // bands 0-2 of the live SH, RGB triples
-  readyMs: 0,        // navigation start to the renderer ready (WASM loaded, shaders compiled)
+  geolocation: 'off',  // off, asked, granted, refused or unavailable (the sun from the location)
+  cameraOpenedAt: 0,   // Date.now() when the camera opened (its first frame; tests pace sensors)
+  sh: [],              // bands 0-2 of the live SH, RGB triples
+  readyMs: 0,          // navigation start to the renderer ready (WASM loaded, shaders compiled)
 };
 
 // Set once the page runs: see start().
@@ -139,6 +140,7 @@ window.arlight = {
       lighting: state.lighting,
       coverage: state.coverage,
       estimated: state.estimated,
+      guide_elevation_deg: state.guideElevation,
       render_ms: state.renderMs,
       grab_ms: state.grabMs,
       upload: state.upload ? state.upload.method : 'none',
@@ -214,6 +216,19 @@ class CoverageView {
       if (d[0] * f[0] + d[1] * f[1] + d[2] * f[2] >= this.cosHalf) this.seen[i] = 1;
     });
   }
+  // The capture guide (issue 16 §1): the elevation (degrees, the row's centre) of the highest
+  // row not yet three-quarters seen, null once every row is. A room's light comes mostly from
+  // above (lamps, the sky), and arlightd's estimate of the unseen part is best once the upper
+  // hemisphere is measured: swept from the ceiling down, the irradiance at 60 % coverage is
+  // about twice as close to the truth as swept from the horizon out (bench/RESULTS.md).
+  nextElevation() {
+    for (let r = 0; r < this.rows; ++r) {
+      let seen = 0;
+      for (let c = 0; c < this.cols; ++c) seen += this.seen[r * this.cols + c];
+      if (seen < 0.75 * this.cols) return 90 - ((r + 0.5) * 180) / this.rows;
+    }
+    return null;
+  }
   draw(forward) {
     const { ctx } = this;
     const w = ctx.canvas.width / this.cols;
@@ -224,6 +239,13 @@ class CoverageView {
     this.seen.forEach((s, i) => {
       if (s) ctx.fillRect((i % this.cols) * w, Math.floor(i / this.cols) * h, w, h);
     });
+    const next = this.nextElevation();
+    if (next !== null) {  // the row to sweep next, outlined
+      ctx.strokeStyle = '#e3b341';
+      ctx.lineWidth = 2;
+      ctx.strokeRect(1, (0.5 - next / 180) * ctx.canvas.height - h / 2, ctx.canvas.width - 2, h);
+      ctx.lineWidth = 1;
+    }
     if (forward) {  // where the camera looks now
       const phi = Math.atan2(forward[0], -forward[2]);
       const el = Math.asin(Math.max(-1, Math.min(1, forward[1])));
@@ -598,6 +620,12 @@ async function start() {
   };
   const updatePanel = (q) => {
     coverage.draw(quatRotateVector(q, [0, 0, -1]));
+    state.guideElevation = coverage.nextElevation();
+    $('s-guide').textContent = state.guideElevation === null ? 'all round: done' :
+        state.guideElevation > 75                            ? 'look straight up' :
+        state.guideElevation < -75                           ? 'look straight down' :
+                                     `sweep round at ${state.guideElevation.toFixed(0)}° ${
+                                         state.guideElevation >= 0 ? 'up' : 'down'}`;
     $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
     $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
     $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen` +

@@ -149,6 +149,8 @@ struct UnseenEstimator::Impl {
       throw std::invalid_argument("fill: clip quantile must be in (0, 1]");
     if (!(o.trend_limit >= 1.0 && std::isfinite(o.trend_limit)) || o.trend_zones < 2)
       throw std::invalid_argument("fill: trend limit must be >= 1 and trend zones >= 2");
+    if (!(o.ground_albedo >= 0.0 && o.ground_albedo <= 1.0))
+      throw std::invalid_argument("fill: ground albedo must be in [0, 1]");
     table = texel_table(layout);
     grid = {o.zones, 2 * o.zones};
     geometry = cell_geometry(layout, grid);
@@ -180,7 +182,11 @@ struct UnseenEstimator::Impl {
   void fit(const MeasuredTexels& m);
   // The SH basis at every cell's direction (cached per order).
   std::shared_ptr<const std::vector<double>> basis_of_cells(int order) const;
-  void fit_profile(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
+  void fit_profile(const std::vector<double>& w, const std::vector<glm::dvec3>& rw,
+                   const std::vector<glm::dvec3>& rw_lights);
+  void lean_towards_the_ground(int bottom, const std::vector<double>& zw,
+                               const std::vector<double>& zt,
+                               const std::vector<glm::dvec3>& zrw_lights);
   void fit_residual(const std::vector<double>& w, const std::vector<glm::dvec3>& rw);
 };
 
@@ -234,6 +240,7 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
     }
     return std::ldexp(1.0, kOctaves / 2);
   };
+  std::vector<glm::dvec3> rw_lights = rw;  // before the clip: lights are what lights a floor
   if (fill == Fill::Estimate && options.clip_quantile < 1.0 && measured > 0.0) {
     const auto cap = float(quantile(options.clip_quantile));
     for (std::size_t t = 0; t < texels; ++t) {
@@ -252,7 +259,7 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
   mean = any_seen ? rw_all / w_all : glm::dvec3(0.0);
   residual = ShCoeffs();
   if (fill == Fill::Estimate && any_seen) {
-    fit_profile(w, rw);
+    fit_profile(w, rw, rw_lights);
     if (options.residual_order > 0) fit_residual(w, rw);
   }
   cell_model.resize(geometry->cell_dir.size());
@@ -266,13 +273,15 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
 // the outermost seen zone on either side it continues that zone's value, times the trend of
 // the log luminance over the last `trend_zones` seen zones, limited to a factor `trend_limit`.
 void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
-                                        const std::vector<glm::dvec3>& rw) {
+                                        const std::vector<glm::dvec3>& rw,
+                                        const std::vector<glm::dvec3>& rw_lights) {
   const int zones = grid.zones;
   std::vector<double> zw(std::size_t(zones), 0.0), zt(std::size_t(zones), 0.0);
-  std::vector<glm::dvec3> zrw(std::size_t(zones), glm::dvec3(0.0));
+  std::vector<glm::dvec3> zrw(std::size_t(zones), glm::dvec3(0.0)), zrw_lights = zrw;
   for (std::size_t c = 0; c < w.size(); ++c) {
     const auto z = c / std::size_t(grid.sectors);
-    zw[z] += w[c], zrw[z] += rw[c], zt[z] += geometry->cell_total[c];
+    zw[z] += w[c], zrw[z] += rw[c], zrw_lights[z] += rw_lights[c];
+    zt[z] += geometry->cell_total[c];
   }
   std::vector<int> seen;
   for (int z = 0; z < zones; ++z)
@@ -310,6 +319,50 @@ void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
   for (int z = bottom - 1; z >= 0; --z)
     zone_value[std::size_t(z)] =
         value(bottom) * std::exp(std::clamp(down * (bottom - z), -limit, limit));
+  if (options.ground_albedo > 0.0 && bottom > 0)
+    lean_towards_the_ground(bottom, zw, zt, zrw_lights);
+}
+
+// Below the lowest seen zone the profile leans, over a quarter of the y range, towards a
+// Lambertian ground lit by the upper hemisphere, L = albedo / pi * E_up: the dissertation's
+// lower hemisphere colour (§5.4.1), taken from what lights the floor since the floor itself is
+// not seen. E_up sums the upper zones as measured, their lights unclipped, and the profile
+// where they are unseen; the lean is scaled by the square of the share of the upper hemisphere
+// (cosine-weighted) that was measured, so a ground under an unseen ceiling or sky stays the
+// seen zones' continuation.
+// A room swept ceiling first then has its floor from its lamps or its sky (bench/RESULTS.md).
+void UnseenEstimator::Impl::lean_towards_the_ground(int bottom, const std::vector<double>& zw,
+                                                    const std::vector<double>& zt,
+                                                    const std::vector<glm::dvec3>& zrw_lights) {
+  const int zones = grid.zones;
+  const double zone_omega = 4.0 * std::numbers::pi / zones;
+  glm::dvec3 e_up(0.0);
+  double measured_cos = 0.0, all_cos = 0.0;
+  for (int z = zones / 2; z < zones; ++z) {
+    const double y = (z + 0.5) * 2.0 / zones - 1.0;  // the zone's centre (equal-area: uniform y)
+    const auto zi = std::size_t(z);
+    if (!(zt[zi] > 0.0)) continue;  // a small map may leave zones without texels
+    double seen = 0.0;
+    for (int c = z * grid.sectors; c < (z + 1) * grid.sectors; ++c)
+      seen += cell_seen[std::size_t(c)];
+    measured_cos += y * seen / zt[zi], all_cos += y;
+    const bool measured_zone = zw[zi] > 1e-3 * zt[zi];
+    e_up += (measured_zone ? zrw_lights[zi] / zw[zi] : zone_value[zi]) * y * zone_omega;
+  }
+  const glm::dvec3 ground = options.ground_albedo / std::numbers::pi * e_up;
+  const double ground_luminance = luminance(ground);
+  if (!(ground_luminance > 0.0) || !(all_cos > 0.0)) return;
+  const double ramp = 0.25 * zones;  // zones in a quarter of the y range (2 / zones each)
+  const double share = measured_cos / all_cos;
+  for (int z = bottom - 1; z >= 0; --z) {
+    const double f = std::min(1.0, (bottom - z) / ramp) * share * share;
+    const glm::dvec3 e = zone_value[std::size_t(z)];
+    const double le = std::max(luminance(e), 1e-12);
+    // Geometric in luminance (the continuation and the ground may be far apart), linear in
+    // chromaticity.
+    const double l = std::exp((1.0 - f) * std::log(le) + f * std::log(ground_luminance));
+    zone_value[std::size_t(z)] = ((1.0 - f) * e / le + f * ground / ground_luminance) * l;
+  }
 }
 
 // The residual's least squares on the seen cells: (sum w Y Y^T + ridge D) a = sum w Y r with

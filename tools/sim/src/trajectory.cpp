@@ -102,19 +102,25 @@ void Trajectory::build_sweep() {
   // Horizon first, as people capture panoramas: the bands nearest the horizon (the most
   // texture, so the first part of the map is a good anchor for alignment), then outwards
   // alternating up and down; straight up after the top band, straight down at the end.
+  // Top-down: straight up, then every band from the top down, then straight down.
   // Adjacent bands are joined by U-turns, others by pitch ramps at a fixed yaw.
   std::vector<std::size_t> visit(bands_.size());
   for (std::size_t k = 0; k < visit.size(); ++k) visit[k] = k;
-  std::stable_sort(visit.begin(), visit.end(), [&](std::size_t a, std::size_t b) {
-    const double fa = std::abs(bands_[a]), fb = std::abs(bands_[b]);
-    return fa != fb ? fa < fb : bands_[a] > bands_[b];
-  });
+  const bool top_down = p_.kind == TrajectoryKind::TopDownSweep;
+  if (!top_down)
+    std::stable_sort(visit.begin(), visit.end(), [&](std::size_t a, std::size_t b) {
+      const double fa = std::abs(bands_[a]), fb = std::abs(bands_[b]);
+      return fa != fb ? fa < fb : bands_[a] > bands_[b];
+    });
   double yaw = 0;
   double start = 0;                                  // the pitch the first band is reached from
   if (p_.kind == TrajectoryKind::PolesFirstSweep) {  // straight up, straight down, then on
     ramp(0, 0, 90);
     ramp(0, 90, -90);
     start = -90;
+  } else if (top_down) {  // straight up first, then the bands from the top down
+    ramp(0, 0, 90);
+    start = 90;
   }
   ramp(0, start, bands_[visit.front()]);
   for (std::size_t k = 0; k < visit.size(); ++k) {
@@ -123,7 +129,7 @@ void Trajectory::build_sweep() {
     segs.push_back({1, yaw, pitch, yaw + 360.0 * dir, pitch, 0, 0, 0});
     yaw += 360.0 * dir;
     double from = pitch;
-    if (visit[k] == 0) {  // the top band: look straight up before going on
+    if (visit[k] == 0 && !top_down) {  // the top band: look straight up before going on
       ramp(yaw, from, 90);
       from = 90;
     }
@@ -201,7 +207,8 @@ Pose Trajectory::at(double t) const {
   Pose pose;
   switch (p_.kind) {
     case TrajectoryKind::Sweep:
-    case TrajectoryKind::PolesFirstSweep: {
+    case TrajectoryKind::PolesFirstSweep:
+    case TrajectoryKind::TopDownSweep: {
       double yaw, pitch;
       sweep_angles(t, yaw, pitch);
       pose.orientation = yaw_pitch_roll(yaw * kDeg, pitch * kDeg);

@@ -13,7 +13,9 @@
 //          outermost seen zone it continues that zone's colour, rising or falling with the
 //          trend of the last seen zones (at most a factor `trend_limit`), so the ceiling or
 //          sky of a room swept at the horizon is its upper edge's colour, and the floor its
-//          lower edge's.
+//          lower edge's. Further below, the floor leans towards a Lambertian ground of albedo
+//          `ground_albedo` lit by the upper hemisphere (albedo / pi * E_up), as far as E_up
+//          was measured: a room swept ceiling first gets its floor from its lamps or sky.
 //   a_lm   a least-squares fit of SH of order N to what Z leaves over on the seen directions,
 //          weighted by solid angle x confidence, with a Tikhonov penalty ridge * (1 + l(l+1))
 //          that pulls the fit towards Z where the data say little (the unseen side).
@@ -64,6 +66,9 @@ struct FillOptions {
   double clip_quantile = 0.9;
   double trend_limit = 2.0;  // how far beyond the seen zones Z may rise or fall (a factor)
   int trend_zones = 4;       // seen zones the trend is fitted to
+  // The albedo of the unseen ground the profile leans towards below the lowest seen zone
+  // (albedo / pi times the upper hemisphere's irradiance; 0 = the continuation alone).
+  double ground_albedo = 0.1;
   int residual_order = 3;    // N: SH bands 0..N-1 of the residual; 0 = the profile alone
   double ridge = 1.0;        // Tikhonov weight, in steradians (the fit's weights sum to <= 4 pi)
 };
@@ -80,7 +85,7 @@ class UnseenEstimator {
  public:
   // Throws std::invalid_argument for options out of range: zones in [2, 256], residual order
   // in [0, 8], ridge > 0 when residual_order > 0, clip_quantile in (0, 1], trend_limit >= 1,
-  // trend_zones >= 2.
+  // trend_zones >= 2, ground_albedo in [0, 1].
   UnseenEstimator(const EnvLayout& layout, Fill fill, FillOptions options = {});
   ~UnseenEstimator();
   UnseenEstimator(const UnseenEstimator&);

@@ -18,7 +18,10 @@ using recording::Pose;
 // PolesFirstSweep: the same sweep after a look straight up and straight down (ceiling and
 // floor, sky and ground first): the order a capture guide would ask for, so that the estimate
 // of what is not seen yet (issue 16 §1) has every elevation early.
-enum class TrajectoryKind { Sweep, Orbit, Handheld, PolesFirstSweep };
+// TopDownSweep: straight up, then the bands from the top down, then straight down: the
+// ceiling or sky (where a room's light mostly comes from) first, the floor last; the order the
+// phone page's guide asks for.
+enum class TrajectoryKind { Sweep, Orbit, Handheld, PolesFirstSweep, TopDownSweep };
 
 struct TrajectoryParams {
   TrajectoryKind kind = TrajectoryKind::Sweep;
