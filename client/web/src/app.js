@@ -229,7 +229,8 @@ class CoverageView {
     }
     return null;
   }
-  draw(forward) {
+  // `next`: the guide's row (nextElevation(), or null: none drawn).
+  draw(forward, next) {
     const { ctx } = this;
     const w = ctx.canvas.width / this.cols;
     const h = ctx.canvas.height / this.rows;
@@ -239,7 +240,6 @@ class CoverageView {
     this.seen.forEach((s, i) => {
       if (s) ctx.fillRect((i % this.cols) * w, Math.floor(i / this.cols) * h, w, h);
     });
-    const next = this.nextElevation();
     if (next !== null) {  // the row to sweep next, outlined
       ctx.strokeStyle = '#e3b341';
       ctx.lineWidth = 2;
@@ -619,8 +619,9 @@ async function start() {
     }
   };
   const updatePanel = (q) => {
-    coverage.draw(quatRotateVector(q, [0, 0, -1]));
-    state.guideElevation = coverage.nextElevation();
+    // A session continued from another page (#session=ID) may be seen all round already.
+    state.guideElevation = state.coverage >= 0.99 ? null : coverage.nextElevation();
+    coverage.draw(quatRotateVector(q, [0, 0, -1]), state.guideElevation);
     $('s-guide').textContent = state.guideElevation === null ? 'all round: done' :
         state.guideElevation > 75                            ? 'look straight up' :
         state.guideElevation < -75                           ? 'look straight down' :
