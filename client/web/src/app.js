@@ -256,6 +256,14 @@ class CoverageView {
   }
 }
 
+// What the guide's row asks of the user, in words.
+function guideText(elevation) {
+  if (elevation === null) return 'all round: done';
+  if (elevation > 75) return 'look straight up';
+  if (elevation < -75) return 'look straight down';
+  return `sweep round at ${Math.abs(elevation).toFixed(0)}° ${elevation >= 0 ? 'up' : 'down'}`;
+}
+
 // Marker tracking in its worker (marker_worker.js): one frame at a time, the newest offered wins;
 // every frame while the marker is tracked, a few a second while it is not (a search costs as much
 // as a frame's tracking, and the rest of the page needs the cores). Started first thing on Start:
@@ -622,11 +630,7 @@ async function start() {
     // A session continued from another page (#session=ID) may be seen all round already.
     state.guideElevation = state.coverage >= 0.99 ? null : coverage.nextElevation();
     coverage.draw(quatRotateVector(q, [0, 0, -1]), state.guideElevation);
-    $('s-guide').textContent = state.guideElevation === null ? 'all round: done' :
-        state.guideElevation > 75                            ? 'look straight up' :
-        state.guideElevation < -75                           ? 'look straight down' :
-                                     `sweep round at ${state.guideElevation.toFixed(0)}° ${
-                                         state.guideElevation >= 0 ? 'up' : 'down'}`;
+    $('s-guide').textContent = guideText(state.guideElevation);
     $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
     $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
     $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen` +
