@@ -35,6 +35,7 @@
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
 #include "arlight/sim/live_camera.hpp"
+#include "arlight/sim/trajectory.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
@@ -292,8 +293,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     settings.layout = capture::capture_layout_for(size);
-    if (trajectory == "poles-first") settings.trajectory = sim::TrajectoryKind::PolesFirstSweep;
-    if (trajectory == "top-down") settings.trajectory = sim::TrajectoryKind::TopDownSweep;
+    settings.trajectory = sim::trajectory_from_name(trajectory);
     nlohmann::json report = nlohmann::json::array();
     for (const std::string& exposure : exposures)
       run_mode(probes, settings, exposure == "advice", report);

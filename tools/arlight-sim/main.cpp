@@ -154,19 +154,7 @@ int main(int argc, char** argv) {
     if (!(o.fps > 0) || o.fps > 10000) throw InputError("--fps: must be > 0 (and <= 10000)");
     if (!(o.hfov_deg > 1 && o.hfov_deg < 179))
       throw InputError("--fov: must be in (1, 179) degrees");
-    if (trajectory == "sweep")
-      o.trajectory = TrajectoryKind::Sweep;
-    else if (trajectory == "orbit")
-      o.trajectory = TrajectoryKind::Orbit;
-    else if (trajectory == "handheld")
-      o.trajectory = TrajectoryKind::Handheld;
-    else if (trajectory == "poles-first")
-      o.trajectory = TrajectoryKind::PolesFirstSweep;
-    else if (trajectory == "top-down")
-      o.trajectory = TrajectoryKind::TopDownSweep;
-    else
-      throw InputError("--trajectory '" + trajectory +
-                       "': use sweep, poles-first, top-down, orbit or handheld");
+    o.trajectory = trajectory_from_name(trajectory);
     if (auto_exposure != "on" && auto_exposure != "off")
       throw InputError("--auto-exposure '" + auto_exposure + "': use on or off");
     o.auto_exposure = auto_exposure == "on";

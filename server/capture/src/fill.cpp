@@ -51,6 +51,10 @@ Fill fill_from_name(std::string_view name, std::string_view what) {
 
 namespace {
 
+// A zone of the profile counts as seen when at least 0.1 % of its solid angle (`total`) was
+// measured (its weight `measured`: solid angle x confidence).
+bool zone_seen(double measured, double total) { return measured > 1e-3 * total; }
+
 // The coarse grid: `zones` equal-area zones of elevation (uniform in y, Archimedes) times
 // 2 * zones sectors of azimuth, so every cell has the same solid angle.
 struct Grid {
@@ -285,7 +289,7 @@ void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
   }
   std::vector<int> seen;
   for (int z = 0; z < zones; ++z)
-    if (zw[std::size_t(z)] > 1e-3 * zt[std::size_t(z)]) seen.push_back(z);
+    if (zone_seen(zw[std::size_t(z)], zt[std::size_t(z)])) seen.push_back(z);
   if (seen.empty()) {
     std::fill(zone_value.begin(), zone_value.end(), mean);
     return;
@@ -303,7 +307,7 @@ void UnseenEstimator::Impl::fit_profile(const std::vector<double>& w,
     double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (int k = 0; k < options.trend_zones; ++k) {
       const int z = edge - step * k;
-      if (z < 0 || z >= zones || !(zw[std::size_t(z)] > 1e-3 * zt[std::size_t(z)])) break;
+      if (z < 0 || z >= zones || !zone_seen(zw[std::size_t(z)], zt[std::size_t(z)])) break;
       const double wz = zw[std::size_t(z)], x = -double(k);
       const double y = std::log(std::max(luminance(value(z)), 1e-12));
       sw += wz, sx += wz * x, sy += wz * y, sxx += wz * x * x, sxy += wz * x * y;
@@ -346,8 +350,7 @@ void UnseenEstimator::Impl::lean_towards_the_ground(int bottom, const std::vecto
     for (int c = z * grid.sectors; c < (z + 1) * grid.sectors; ++c)
       seen += cell_seen[std::size_t(c)];
     measured_cos += y * seen / zt[zi], all_cos += y;
-    const bool measured_zone = zw[zi] > 1e-3 * zt[zi];
-    e_up += (measured_zone ? zrw_lights[zi] / zw[zi] : zone_value[zi]) * y * zone_omega;
+    e_up += (zone_seen(zw[zi], zt[zi]) ? zrw_lights[zi] / zw[zi] : zone_value[zi]) * y * zone_omega;
   }
   const glm::dvec3 ground = options.ground_albedo / std::numbers::pi * e_up;
   const double ground_luminance = luminance(ground);

@@ -5,7 +5,9 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <numbers>
+#include <string>
 
+#include "arlight/error.hpp"
 #include "noise.hpp"
 
 namespace arlight::sim {
@@ -30,6 +32,16 @@ double angle_between(const glm::dquat& a, const glm::dquat& b) {
 }
 
 }  // namespace
+
+TrajectoryKind trajectory_from_name(std::string_view name) {
+  if (name == "sweep") return TrajectoryKind::Sweep;
+  if (name == "poles-first") return TrajectoryKind::PolesFirstSweep;
+  if (name == "top-down") return TrajectoryKind::TopDownSweep;
+  if (name == "orbit") return TrajectoryKind::Orbit;
+  if (name == "handheld") return TrajectoryKind::Handheld;
+  throw InputError("--trajectory '" + std::string(name) +
+                   "': use sweep, poles-first, top-down, orbit or handheld");
+}
 
 double vertical_fov_deg(double hfov_deg, int width, int height) {
   return 2.0 * std::atan(std::tan(0.5 * hfov_deg * kDeg) * height / width) / kDeg;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
+#include <string_view>
 #include <vector>
 
 #include "arlight/truth.hpp"
@@ -22,6 +23,10 @@ using recording::Pose;
 // ceiling or sky (where a room's light mostly comes from) first, the floor last; the order the
 // phone page's guide asks for.
 enum class TrajectoryKind { Sweep, Orbit, Handheld, PolesFirstSweep, TopDownSweep };
+
+// The kind a command line names: sweep, poles-first, top-down, orbit or handheld. InputError
+// "--trajectory '<name>': use ..." for anything else.
+TrajectoryKind trajectory_from_name(std::string_view name);
 
 struct TrajectoryParams {
   TrajectoryKind kind = TrajectoryKind::Sweep;
