@@ -63,6 +63,15 @@ std::vector<T> to_rgba(const std::vector<T>& src, std::size_t texels, int channe
 
 }  // namespace
 
+gl::Texture upload_pixel_texture(std::array<std::uint8_t, 4> rgba) {
+  gl::Texture tex;
+  tex.create();
+  glBindTexture(GL_TEXTURE_2D, tex.id);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  gl::set_sampling(GL_TEXTURE_2D, GL_NEAREST, GL_REPEAT, GL_REPEAT);
+  return tex;
+}
+
 gl::Texture upload_material_texture(const TextureImage& image) {
   const std::size_t texels = std::size_t(image.width) * image.height;
   const bool is_float = !image.f32.empty();

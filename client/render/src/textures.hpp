@@ -1,6 +1,9 @@
 // Internal: uploads of environment maps, material textures and the camera-response table.
 #pragma once
 
+#include <array>
+#include <cstdint>
+
 #include "arlight/projection.hpp"
 #include "arlight/render/material.hpp"
 #include "arlight/response.hpp"
@@ -15,6 +18,9 @@ GLenum env_target(Projection p);
 // bilinear, no mipmaps (the maps are already filtered by their lobes). Lat-long wraps in u and
 // clamps in v; angle maps clamp; cube maps sample seamlessly across faces (ES 3 always does).
 void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height);
+
+// A 1 x 1 RGBA8 texture of one colour, nearest, repeating: a material's missing texture.
+gl::Texture upload_pixel_texture(std::array<std::uint8_t, 4> rgba);
 
 // Uploads a material texture as RGBA8 / SRGB8_ALPHA8 (8-bit) or RGBA16F (float), with mipmaps,
 // trilinear, repeating.
