@@ -1,0 +1,133 @@
+// The connection to arlightd: a WebSocket to the page's own origin (/ws) carrying the protocol
+// the module encodes and decodes (WebClient.hello, .frame, .receive, ...). Each time it opens:
+// Hello (resuming state.sessionId), the intrinsics, a map request; after a drop, the same again a
+// second later, unless arlightd refused the device, the protocol or the session (then for good).
+// Frames go one at a time, encoded as JPEG off the main thread (jpeg_encoder.js), and only while
+// little waits in the socket: a frame offered meanwhile is skipped, and a newer one goes instead.
+import { JpegEncoder } from './jpeg_encoder.js';
+import { showError, state } from './status.js';
+
+// Sending: at most this much may wait in the WebSocket before a newer frame replaces the next.
+const kMaxBuffered = 256 * 1024;
+const kJpegQuality = 0.85;
+const kReconnectMs = 1000;
+const kLatenciesKept = 2000;
+const kSentKept = 1000;  // state.sent
+
+export class Connection {
+  /**
+   * @param {object} client the WebClient (the protocol's codec)
+   * @param {{device: string, token: string}} credentials the URL's (params.js)
+   */
+  constructor(client, { device, token }) {
+    this.client = client;
+    this.device = device;
+    this.token = token;
+    this.ws = null;
+    this.refused = false;     // for good: no reconnecting
+    this.sequence = 0;        // the last frame's
+    this.sentAt = new Map();  // frame sequence -> performance.now() when it went
+    this.encoding = false;    // a frame on its way
+    this.encoder = new JpegEncoder();
+    this.onWelcome = () => {};    // after every Welcome (the page sends its location)
+    this.onFrameSent = () => {};  // (q): a frame went with orientation q
+  }
+
+  /** Connects (and reconnects after a drop, until refused). */
+  open() {
+    const ws = new WebSocket(`wss://${location.host}/ws`);
+    this.ws = ws;
+    ws.binaryType = 'arraybuffer';
+    ws.onopen = () => {
+      ws.send(this.client.hello(this.device, this.token, state.sessionId));
+      ws.send(this.client.intrinsics());
+      ws.send(this.client.requestMaps());
+    };
+    ws.onmessage = (event) => this.receive(new Uint8Array(event.data));
+    ws.onclose = () => {
+      state.connected = false;
+      if (!this.refused) setTimeout(() => this.open(), kReconnectMs);
+    };
+  }
+
+  /** `message()`'s bytes, if the socket is open and it has any; nothing otherwise. */
+  sendIfOpen(message) {
+    if (!this.ws || this.ws.readyState !== WebSocket.OPEN) return;
+    const bytes = message();
+    if (bytes) this.ws.send(bytes);
+  }
+
+  /** The camera's intrinsics (after the field of view or the focal length changed). */
+  sendIntrinsics() {
+    this.sendIfOpen(() => this.client.intrinsics());
+  }
+
+  /**
+   * The frame just composited, with orientation `q` (camera -> world, [w, x, y, z]): sent (`take`
+   * gives a transferable copy of it) unless the page is not connected, a frame is still being
+   * encoded, or more than kMaxBuffered waits in the socket. Returns at once.
+   */
+  offerFrame(q, take, mediaTime) {
+    const { ws } = this;
+    if (state.connected && !this.encoding && ws.readyState === WebSocket.OPEN &&
+        ws.bufferedAmount <= kMaxBuffered) this.sendFrame(q, take, mediaTime);
+  }
+
+  // `take` is called before the first await: the frame it copies is closed once the caller is done.
+  async sendFrame(q, take, mediaTime) {
+    this.encoding = true;
+    try {
+      const t0 = performance.now();
+      // The frame drawn for the composite, encoded off the main thread.
+      const jpeg = await this.encoder.encode(await take(), kJpegQuality);
+      state.jpegMs = performance.now() - t0;
+      const seq = ++this.sequence;
+      this.ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
+      this.sentAt.set(seq, performance.now());
+      state.framesSent = seq;
+      state.sent.push({ media_time: mediaTime, orientation: q });
+      if (state.sent.length > kSentKept) state.sent.shift();
+      this.onFrameSent(q);
+    } catch (e) {
+      showError(`frame: ${e.message || e}`);
+    } finally {
+      this.encoding = false;
+    }
+  }
+
+  // One message from arlightd, decoded by the client; what it says into the page's state.
+  receive(bytes) {
+    const name = this.client.receive(bytes);
+    const s = this.client.status();
+    if (name === 'Welcome') {
+      state.connected = true;
+      state.sessionId = s.session_id;
+      this.onWelcome();
+    } else if (name === 'LightingUpdate') {
+      state.updates = s.updates;
+      state.sh = s.sh;
+      state.framesProcessed = s.frames_processed;
+      state.coverage = s.coverage;
+      state.estimated = s.estimated;
+      this.reflected(s.last_sequence);
+    } else if (name === 'MapSetComplete') {
+      state.mapSets = s.map_sets;
+    } else if (name === 'Error') {
+      showError(`refused: ${s.last_error}`);
+      if (/^(Unauthorized|Unsupported|SessionNotFound)/.test(s.last_error)) this.refused = true;
+    } else if (name.startsWith('refused')) {
+      showError(name);
+      this.ws.close();
+    }
+    state.lighting = s.lighting;
+  }
+
+  // An update reflects the frames up to `sequence`: the latency of that frame.
+  reflected(sequence) {
+    const t = this.sentAt.get(sequence);
+    if (t === undefined) return;
+    state.latencies.push(performance.now() - t);
+    if (state.latencies.length > kLatenciesKept) state.latencies.shift();
+    for (const k of this.sentAt.keys()) if (k <= sequence) this.sentAt.delete(k);
+  }
+}

@@ -1,0 +1,115 @@
+// What the page is doing: its state, each field written by the module named above it, and
+// report(), the summary of it that window.arlight.status() returns (test_hooks.js; tests and
+// independent checks read its fields by name) and the status panel shows (status_panel.js).
+// showError puts a message on the page; the last one stays (status().last_error).
+
+export const state = {
+  // app.js: the page's start and what it opened
+  started: false,
+  client: null,     // the WebAssembly WebClient, once the page runs
+  upload: null,     // its FrameUpload
+  cameraOpenedAt: 0,  // Date.now() when the camera opened (its first frame; tests pace sensors)
+  readyMs: 0,       // navigation start to the renderer ready (WASM loaded, shaders compiled)
+  // app.js's frame loop and compositor.js
+  frameMediaTime: null,  // the media time of the frame shown last (null before the first)
+  fps: 0,
+  renderMs: 0,
+  grabMs: 0,        // the camera frame into the renderer's texture
+  // connection.js
+  connected: false,
+  sessionId: '',    // sent as the Hello's resume_session (app.js sets the URL's &session=)
+  framesSent: 0,
+  updates: 0,
+  framesProcessed: 0,
+  mapSets: 0,
+  lighting: 'none',
+  coverage: 0,
+  estimated: 0,
+  sh: [],           // bands 0-2 of the live SH, RGB triples
+  jpegMs: 0,        // encoding the newest frame for arlightd
+  latencies: [],    // ms from sending a frame to the update that reflects it
+  sent: [],         // the recent frames sent (window.arlight.sent())
+  // marker_tracking.js
+  trackedFrames: 0,
+  trackStatus: 'starting',  // 'tracked', or why not ('no marker in view', a refusal, ...)
+  trackMs: 0,               // the worker's time for the last frame
+  tracks: [],               // the recent tracking results (window.arlight.tracks())
+  tracker: 'loading',       // opencv.js in the worker: 'loading', 'ready' or 'failed'
+  trackerReadyMediaTime: null,  // the frame shown when it became ready
+  tracking: 'preview',  // the object floats ahead of the view; 'marker' once it stands on it
+  intrinsics: 'default',    // or 'refined' (from the marker's views)
+  refinedMediaTime: null,   // the frame shown when the focal length was last refined
+  focalError: null,         // the marker views' relative standard error of the focal length
+  // controls.js (FieldOfView)
+  focalPx: 0,
+  // status_panel.js
+  guideElevation: 85,  // the capture guide's next row (CoverageView.nextElevation)
+  // sensors.js
+  orientation: 'none',
+  // geolocation.js
+  geolocation: 'off',  // off, asked, granted, refused or unavailable (the sun from the location)
+  // showError
+  lastError: '',
+};
+
+export function showError(message) {
+  state.lastError = message;
+  document.getElementById('error').textContent = message;
+}
+
+/** The page's status: every field keeps its name and meaning (tests read them). */
+export function report() {
+  const sorted = [...state.latencies].sort((a, b) => a - b);
+  const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
+  const object = state.client ? state.client.status() : null;
+  return {
+    connected: state.connected,
+    session_id: state.sessionId,
+    frames_sent: state.framesSent,
+    updates: state.updates,
+    frames_processed: state.framesProcessed,
+    map_sets: state.mapSets,
+    tracked_frames: state.trackedFrames,
+    track_status: state.trackStatus,
+    track_ms: state.trackMs,
+    intrinsics: state.intrinsics,
+    intrinsics_refined_media_time: state.refinedMediaTime,
+    focal_px: state.focalPx,
+    model: object ? object.model : 'sphere',
+    model_vertices: object ? object.model_vertices : 0,
+    shadow_lights: object ? object.shadow_lights : 0,
+    shadow_ms: object ? object.shadow_ms : 0,
+    shadow_light_budget: object ? object.shadow_light_budget : 0,
+    max_shadow_lights: object ? object.max_shadow_lights : 0,
+    target_fps: object ? object.target_fps : 0,
+    shading: object ? object.shading : 'maps',
+    material: object ? object.material : 'plastic',
+    refraction: object ? object.refraction : 'live',
+    colour: object ? object.colour : 'none',
+    sun: object ? object.sun : 'unknown',
+    sun_direction: object ? object.sun_direction : [0, 0, 0],
+    geolocation: state.geolocation,
+    focal_error: state.focalError,
+    tracker: state.tracker,
+    tracker_ready_media_time: state.trackerReadyMediaTime,
+    tracking: state.tracking,
+    fps: state.fps,
+    last_error: state.lastError,
+    lighting: state.lighting,
+    coverage: state.coverage,
+    estimated: state.estimated,
+    guide_elevation_deg: state.guideElevation,
+    render_ms: state.renderMs,
+    grab_ms: state.grabMs,
+    upload: state.upload ? state.upload.method : 'none',
+    ready_ms: state.readyMs,
+    jpeg_ms: state.jpegMs,
+    latency_p50_ms: pick(0.5),
+    latency_p99_ms: pick(0.99),
+    orientation: state.orientation,
+    started: state.started,
+    camera_opened_at: state.cameraOpenedAt,
+    frame_media_time: state.frameMediaTime,
+    sh: state.sh,
+  };
+}

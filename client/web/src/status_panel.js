@@ -1,0 +1,32 @@
+// The status panel beside the view (#status, #coverage): the connection, the frames, the
+// lighting, the capture guide, the marker and the speed, in words, once a second.
+import { quatRotateVector } from './orientation.js';
+import { report, state } from './status.js';
+
+const $ = (id) => document.getElementById(id);
+
+// What the guide's row asks of the user, in words.
+function guideText(elevation) {
+  if (elevation === null) return 'all round: done';
+  if (elevation > 75) return 'look straight up';
+  if (elevation < -75) return 'look straight down';
+  return `sweep round at ${Math.abs(elevation).toFixed(0)}° ${elevation >= 0 ? 'up' : 'down'}`;
+}
+
+/** The panel now; `coverage` the CoverageView, `q` the orientation of the frame shown. */
+export function updatePanel(coverage, q) {
+  // A session continued from another page (#session=ID) may be seen all round already.
+  state.guideElevation = state.coverage >= 0.99 ? null : coverage.nextElevation();
+  coverage.draw(quatRotateVector(q, [0, 0, -1]), state.guideElevation);
+  $('s-guide').textContent = guideText(state.guideElevation);
+  $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
+  $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
+  $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen` +
+    (state.estimated > 0 ? `, ${(state.estimated * 100).toFixed(0)} % estimated` : '');
+  $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
+  const p = report();
+  $('s-speed').textContent =
+      `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${
+          p.latency_p50_ms.toFixed(0)} ms` +
+      (p.shadow_lights > 0 ? `, ${p.shadow_lights} shadow lights` : '');
+}
