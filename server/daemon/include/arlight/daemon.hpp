@@ -78,13 +78,14 @@ struct DaemonConfig {
   std::size_t max_send_queue_bytes = 64u << 20;  // a client slower than this is disconnected
 };
 
-// Reads a JSON config file (keys: listen, admin, admin_token_file, admin_protect_all, data_dir, tokens, threads, max_sessions,
-// idle_timeout_s, hello_timeout_s, max_connections, max_unauthenticated,
-// max_connections_per_address, checkpoint_interval_s, map_size, fill, align_every, workers,
-// queue_depth, map_interval_s, tls_cert, tls_key, web, web_root, web_device, web_url_host) over `config`.
-// InputError names the file and key.
+// Reads a JSON config file over `config`: its keys are the options' (server/daemon/src/
+// options.cpp: listen, admin, data_dir, tokens, threads, map_size, fill, web, ...). InputError
+// names the file and key.
 void load_config_file(const std::filesystem::path& path, DaemonConfig& config);
-
+// The checks arlightd makes of its whole config before it starts (InputError naming the
+// option): a tokens file, the queue depth in [1, 64], the map interval in [0, 3600] s, positive
+// timeouts and connection limits.
+void check_config(const DaemonConfig& config);
 
 class Daemon {
  public:
