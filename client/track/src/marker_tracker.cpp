@@ -76,6 +76,17 @@ struct MarkerTracker::Impl {
   double prior_t = 0;
   cv::Mat gray, small;
   double detect_scale = 1;
+
+  // The steps of track(), in order.
+  struct Detection {
+    std::vector<cv::Point2f> corners;  // ours, at the scale it was found at
+    double scale = 1;
+  };
+  std::optional<Detection> detect(double timestamp, std::string& seen);
+  std::vector<cv::Point2d> corner_points(const Detection& d, TrackResult& r, cv::Mat& dist);
+  std::optional<std::pair<cv::Vec3d, cv::Vec3d>> solve(const std::vector<cv::Point2d>& image_pts,
+                                                       const cv::Mat& dist, double timestamp,
+                                                       TrackResult& r, bool& used_prior);
 };
 
 MarkerTracker::MarkerTracker(const CameraIntrinsics& camera, const MarkerSpec& marker,
@@ -119,6 +130,117 @@ void MarkerTracker::reset() {
   impl_->prior.reset();
 }
 
+// Finds our marker: on the reduced copy, or, not found there but seen a moment ago (small or
+// oblique, its modules too thin at the reduced size), at full resolution around where it was.
+// `seen` lists the ids in view.
+std::optional<MarkerTracker::Impl::Detection> MarkerTracker::Impl::detect(double timestamp,
+                                                                          std::string& seen) {
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> ids;
+  if (detect_scale < 1) {
+    cv::resize(gray, small, cv::Size(), detect_scale, detect_scale, cv::INTER_AREA);
+    cv::aruco::detectMarkers(small, dictionary, corners, ids, params);
+  } else {
+    cv::aruco::detectMarkers(gray, dictionary, corners, ids, params);
+  }
+  for (const int id : ids) seen += (seen.empty() ? "" : ", ") + std::to_string(id);
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    if (ids[i] == marker.id) return Detection{corners[i], detect_scale};
+  if (!(detect_scale < 1 && prior && timestamp - prior_t <= options.prior_max_age_s))
+    return std::nullopt;
+  cv::Rect2d box = cv::boundingRect(prior_corners);
+  const double grow = 0.5 * std::max(box.width, box.height);
+  box = cv::Rect2d(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+  const cv::Rect roi = cv::Rect(box) & cv::Rect(0, 0, gray.cols, gray.rows);
+  std::vector<std::vector<cv::Point2f>> near;
+  std::vector<int> near_ids;
+  if (roi.area() > 0) cv::aruco::detectMarkers(gray(roi), dictionary, near, near_ids, params);
+  for (std::size_t i = 0; i < near_ids.size(); ++i)
+    if (near_ids[i] == marker.id) {
+      for (cv::Point2f& p : near[i]) p += cv::Point2f(float(roi.x), float(roi.y));
+      return Detection{near[i], 1.0};
+    }
+  return std::nullopt;
+}
+
+// The corners at full resolution for solvePnP (r.corners: as seen, in the distorted image),
+// with the lens model solvePnP must apply to them in `dist`.
+std::vector<cv::Point2d> MarkerTracker::Impl::corner_points(const Detection& d, TrackResult& r,
+                                                            cv::Mat& dist) {
+  // Back to full resolution (pixel centres are integers: an edge at -0.5 stays at -0.5), then
+  // cornerSubPix there, with a window inside the one-module black border.
+  std::vector<cv::Point2f> px = d.corners;
+  for (cv::Point2f& p : px)
+    p = (p + cv::Point2f(0.5f, 0.5f)) * float(1.0 / d.scale) - cv::Point2f(0.5f, 0.5f);
+  const double side = 0.25 * (cv::norm(px[1] - px[0]) + cv::norm(px[2] - px[1]) +
+                              cv::norm(px[3] - px[2]) + cv::norm(px[0] - px[3]));
+  const int win = std::clamp(int(side / 6.0 * 0.4), 2, 6);
+  cv::cornerSubPix(gray, px, cv::Size(win, win), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 0.01));
+
+  // Edge-line corners in the ideal pinhole image: solvePnP then needs no distortion model.
+  std::vector<cv::Point2d> image_pts;
+  std::array<cv::Point2d, 4> detected;
+  for (int c = 0; c < 4; ++c) detected[std::size_t(c)] = px[std::size_t(c)];
+  std::optional<detail::RefinedCorners> refined;
+  if (options.edge_refinement)
+    refined = detail::refine_corners(gray, detected,
+                                     {k, this->dist, options.srgb, 1.5 / d.scale + 1.0});
+  for (int c = 0; c < 4; ++c) {
+    const cv::Point2d p = refined ? refined->distorted[std::size_t(c)] : detected[std::size_t(c)];
+    r.corners[std::size_t(c)] = {p.x, p.y};
+    image_pts.push_back(refined ? refined->undistorted[std::size_t(c)] : p);
+  }
+  // (A separate Mat: assigning zeros to a header sharing this->dist would zero the lens model.)
+  dist = refined ? cv::Mat(cv::Mat::zeros(1, 5, CV_64F)) : this->dist;
+  r.edge_refined = refined.has_value();
+  return image_pts;
+}
+
+// IPPE for squares: up to two poses, sorted by reprojection error; of two nearly as good, the
+// one nearer the previous pose. Then refined (Levenberg-Marquardt) when asked.
+std::optional<std::pair<cv::Vec3d, cv::Vec3d>> MarkerTracker::Impl::solve(
+    const std::vector<cv::Point2d>& image_pts, const cv::Mat& dist, double timestamp,
+    TrackResult& r, bool& used_prior) {
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::Mat errors;
+  const int n = cv::solvePnPGeneric(object, image_pts, k, dist, rvecs, tvecs, false,
+                                    cv::SOLVEPNP_IPPE_SQUARE, cv::noArray(), cv::noArray(),
+                                    errors);
+  if (n < 1) return std::nullopt;
+  std::vector<std::pair<cv::Vec3d, cv::Vec3d>> sol;
+  std::vector<double> err;
+  for (int i = 0; i < n; ++i) {
+    sol.emplace_back(cv::Vec3d(rvecs[std::size_t(i)]), cv::Vec3d(tvecs[std::size_t(i)]));
+    err.push_back(
+        reprojection_rms(object, image_pts, sol.back().first, sol.back().second, k, dist));
+  }
+  std::size_t best = (n > 1 && err[1] < err[0]) ? 1 : 0;
+  used_prior = false;
+  if (n > 1) {
+    const std::size_t other = 1 - best;
+    r.alternative_px = err[other];
+    // Nearly equal errors: a marker seen nearly head-on or small, where the two poses are
+    // mirror images about the line of sight. The previous pose (if recent) decides.
+    r.ambiguous = err[other] < options.ambiguity_ratio * err[best] + 0.2;
+    if (r.ambiguous && prior && timestamp - prior_t <= options.prior_max_age_s) {
+      used_prior = true;
+      auto dist_to_prior = [&](std::size_t i) {
+        const Pose p = pose_from_opencv({sol[i].first[0], sol[i].first[1], sol[i].first[2]},
+                                        {sol[i].second[0], sol[i].second[1], sol[i].second[2]});
+        return angle_deg(p.orientation, prior->orientation);
+      };
+      if (dist_to_prior(other) < dist_to_prior(best)) best = other;
+    }
+  }
+  cv::Vec3d rvec = sol[best].first, tvec = sol[best].second;
+  if (options.refine_lm)
+    cv::solvePnPRefineLM(object, image_pts, k, dist, rvec, tvec,
+                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20,
+                                          1e-10));
+  return std::pair{rvec, tvec};
+}
+
 TrackResult MarkerTracker::track(const cv::Mat& image, double timestamp) {
   Impl& m = *impl_;
   TrackResult r;
@@ -141,113 +263,18 @@ TrackResult MarkerTracker::track(const cv::Mat& image, double timestamp) {
     return r;
   };
 
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<int> ids;
-  if (m.detect_scale < 1) {
-    cv::resize(m.gray, m.small, cv::Size(), m.detect_scale, m.detect_scale, cv::INTER_AREA);
-    cv::aruco::detectMarkers(m.small, m.dictionary, corners, ids, m.params);
-  } else {
-    cv::aruco::detectMarkers(m.gray, m.dictionary, corners, ids, m.params);
-  }
-  auto find_ours = [&] {
-    for (std::size_t i = 0; i < ids.size(); ++i)
-      if (ids[i] == m.marker.id) return int(i);
-    return -1;
-  };
-  int found = find_ours();
-  double scale = m.detect_scale;
-  // Not found on the small copy but seen a moment ago (small or oblique, its modules too thin
-  // at the reduced size): look again at full resolution around where it was.
-  if (found < 0 && scale < 1 && m.prior && timestamp - m.prior_t <= m.options.prior_max_age_s) {
-    cv::Rect2d box = cv::boundingRect(m.prior_corners);
-    const double grow = 0.5 * std::max(box.width, box.height);
-    box = cv::Rect2d(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
-    const cv::Rect roi = cv::Rect(box) & cv::Rect(0, 0, m.gray.cols, m.gray.rows);
-    std::vector<std::vector<cv::Point2f>> near;
-    std::vector<int> near_ids;
-    if (roi.area() > 0) cv::aruco::detectMarkers(m.gray(roi), m.dictionary, near, near_ids, m.params);
-    for (std::size_t i = 0; i < near_ids.size(); ++i)
-      if (near_ids[i] == m.marker.id) {
-        for (cv::Point2f& p : near[i]) p += cv::Point2f(float(roi.x), float(roi.y));
-        corners = {near[i]};
-        ids = {m.marker.id};
-        found = 0;
-        scale = 1;
-        break;
-      }
-  }
   std::string seen;
-  for (const int id : ids) seen += (seen.empty() ? "" : ", ") + std::to_string(id);
-  if (found < 0)
-    return lost(ids.empty() ? "no marker in view"
-                            : "marker " + std::to_string(m.marker.id) + " not in view (saw " +
-                                  seen + ")");
-
-  // Back to full resolution (pixel centres are integers: an edge at -0.5 stays at -0.5), then
-  // cornerSubPix there, with a window inside the one-module black border.
-  std::vector<cv::Point2f> px = corners[std::size_t(found)];
-  for (cv::Point2f& p : px)
-    p = (p + cv::Point2f(0.5f, 0.5f)) * float(1.0 / scale) - cv::Point2f(0.5f, 0.5f);
-  const double side = 0.25 * (cv::norm(px[1] - px[0]) + cv::norm(px[2] - px[1]) +
-                              cv::norm(px[3] - px[2]) + cv::norm(px[0] - px[3]));
-  const int win = std::clamp(int(side / 6.0 * 0.4), 2, 6);
-  cv::cornerSubPix(m.gray, px, cv::Size(win, win), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 0.01));
-
-  // Edge-line corners in the ideal pinhole image: solvePnP then needs no distortion model.
-  std::vector<cv::Point2d> image_pts;
-  std::array<cv::Point2d, 4> detected;
-  for (int c = 0; c < 4; ++c) detected[std::size_t(c)] = px[std::size_t(c)];
-  std::optional<detail::RefinedCorners> refined;
-  if (m.options.edge_refinement)
-    refined = detail::refine_corners(m.gray, detected,
-                                     {m.k, m.dist, m.options.srgb, 1.5 / scale + 1.0});
-  for (int c = 0; c < 4; ++c) {
-    const cv::Point2d p = refined ? refined->distorted[std::size_t(c)] : detected[std::size_t(c)];
-    r.corners[std::size_t(c)] = {p.x, p.y};
-    image_pts.push_back(refined ? refined->undistorted[std::size_t(c)] : p);
-  }
-  // (A separate Mat: assigning zeros to a header sharing m.dist would zero the lens model.)
-  const cv::Mat dist = refined ? cv::Mat(cv::Mat::zeros(1, 5, CV_64F)) : m.dist;
-  r.edge_refined = refined.has_value();
-
-  // IPPE for squares: up to two poses, sorted by reprojection error.
-  std::vector<cv::Mat> rvecs, tvecs;
-  cv::Mat errors;
-  const int n = cv::solvePnPGeneric(m.object, image_pts, m.k, dist, rvecs, tvecs, false,
-                                    cv::SOLVEPNP_IPPE_SQUARE, cv::noArray(), cv::noArray(),
-                                    errors);
-  if (n < 1) return lost("no pose for the detected corners");
-  std::vector<std::pair<cv::Vec3d, cv::Vec3d>> sol;
-  std::vector<double> err;
-  for (int i = 0; i < n; ++i) {
-    sol.emplace_back(cv::Vec3d(rvecs[std::size_t(i)]), cv::Vec3d(tvecs[std::size_t(i)]));
-    err.push_back(reprojection_rms(m.object, image_pts, sol.back().first, sol.back().second,
-                                   m.k, dist));
-  }
-  std::size_t best = (n > 1 && err[1] < err[0]) ? 1 : 0;
+  const std::optional<Impl::Detection> found = m.detect(timestamp, seen);
+  if (!found)
+    return lost(seen.empty() ? "no marker in view"
+                             : "marker " + std::to_string(m.marker.id) + " not in view (saw " +
+                                   seen + ")");
+  cv::Mat dist;
+  const std::vector<cv::Point2d> image_pts = m.corner_points(*found, r, dist);
   bool used_prior = false;
-  if (n > 1) {
-    const std::size_t other = 1 - best;
-    r.alternative_px = err[other];
-    // Nearly equal errors: a marker seen nearly head-on or small, where the two poses are
-    // mirror images about the line of sight. The previous pose (if recent) decides.
-    r.ambiguous = err[other] < m.options.ambiguity_ratio * err[best] + 0.2;
-    if (r.ambiguous && m.prior && timestamp - m.prior_t <= m.options.prior_max_age_s) {
-      used_prior = true;
-      auto dist_to_prior = [&](std::size_t i) {
-        const Pose p = pose_from_opencv({sol[i].first[0], sol[i].first[1], sol[i].first[2]},
-                                        {sol[i].second[0], sol[i].second[1], sol[i].second[2]});
-        return angle_deg(p.orientation, m.prior->orientation);
-      };
-      if (dist_to_prior(other) < dist_to_prior(best)) best = other;
-    }
-  }
-  cv::Vec3d rvec = sol[best].first, tvec = sol[best].second;
-  if (m.options.refine_lm)
-    cv::solvePnPRefineLM(m.object, image_pts, m.k, dist, rvec, tvec,
-                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20,
-                                          1e-10));
+  const auto pose = m.solve(image_pts, dist, timestamp, r, used_prior);
+  if (!pose) return lost("no pose for the detected corners");
+  const auto& [rvec, tvec] = *pose;
   r.reprojection_px = reprojection_rms(m.object, image_pts, rvec, tvec, m.k, dist);
   if (!(r.reprojection_px <= m.options.max_reprojection_px) || tvec[2] <= 0)
     return lost("marker " + std::to_string(m.marker.id) + " refused: reprojection error " +

@@ -481,6 +481,166 @@ class ChangeReach {
   double s_, window_, cell_radius_, scale_;
 };
 
+// One narrow lobe by direct sums (step 3 above), on its cube grid or at every output texel. An
+// incremental run recomputes a 4 x 4 group of outputs only when the changes could have moved it
+// by more than the budget since it was last computed (ChangeReach, with the debts of the groups
+// it skipped, indexed by block x 4 + group).
+class DirectLobe {
+ public:
+  DirectLobe(const Job& job, const BrightSplit& split, InputLevels& levels,
+             std::size_t out_texels, AutoMemory* memory, int k)
+      : job_(job),
+        split_(split),
+        k_(k),
+        s_(job.shininess[std::size_t(k)]),
+        plan_(make_plan(s_, job.spec.tuning, levels.full_spacing(), out_texels)),
+        pts_(plan_.input_face ? levels.aggregated(plan_.input_face) : levels.full()),
+        chain_(std::span<const double>(&s_, 1)),
+        min_cos_(bounded_cos_threshold(s_)),
+        incremental_(memory && memory->valid),
+        memory_(memory) {
+    if (!memory) return;
+    memory->debt.resize(job.shininess.size());
+    debt_ = &memory->debt[std::size_t(k)];
+    const std::size_t side =
+        plan_.grid_face ? std::size_t(plan_.grid_face + 2 * CubeGrid::kBorder) : 0;
+    const std::size_t groups =
+        4 * (plan_.grid_face ? 6 * side * side : job.output.layout().texel_count());
+    if (!incremental_ || debt_->size() != groups) debt_->assign(groups, 0.0f);
+    if (incremental_)
+      reach_.emplace(*memory, s_, std::acos(std::clamp(min_cos_, -1.0, 1.0)),
+                     plan_.input_face ? 3.0 / plan_.input_face : 0.0);
+  }
+
+  // Computes `map` (holding its last values in an incremental run); with a memory, the cube
+  // grid's values are kept in grid_values for the next run.
+  void run(EnvMap& map, std::vector<float>& grid_values) {
+    if (plan_.grid_face)
+      run_on_grid(map, grid_values);
+    else
+      run_on_texels(map);
+  }
+  const Plan& plan() const { return plan_; }
+  // The share of the outputs this run recomputed.
+  double recomputed() const {
+    return double(outputs_done_) / double(std::max<std::size_t>(1, outputs_total_));
+  }
+
+ private:
+  // Integrates up to kBlock x kBlock nearby directions (local[i]: their places in the block)
+  // into slot(i), the output's RGB (holding its last value in an incremental run). `block`
+  // numbers the block for the debts.
+  template <class Slot>
+  void integrate_block(std::size_t block, const std::vector<glm::dvec3>& all,
+                       const std::vector<glm::ivec2>& local, Slot&& slot) {
+    outputs_total_ += all.size();
+    std::vector<std::size_t> picked;
+    if (reach_) {
+      for (int g = 0; g < 4; ++g) {
+        std::vector<std::size_t> in;
+        std::vector<glm::dvec3> group;
+        float darkest = std::numeric_limits<float>::max();
+        for (std::size_t i = 0; i < all.size(); ++i)
+          if (int(local[i].x >= kBlock / 2) + 2 * int(local[i].y >= kBlock / 2) == g) {
+            in.push_back(i), group.push_back(all[i]);
+            const float* v = slot(i);
+            darkest = std::min({darkest, v[0], v[1], v[2]});
+          }
+        if (!group.empty() &&
+            reach_->must_recompute(group, darkest, (*debt_)[4 * block + std::size_t(g)]))
+          picked.insert(picked.end(), in.begin(), in.end());
+      }
+    } else {
+      picked.resize(all.size());
+      std::iota(picked.begin(), picked.end(), std::size_t(0));
+    }
+    if (picked.empty()) return;
+    outputs_done_ += picked.size();
+    std::vector<glm::dvec3> dirs;
+    for (std::size_t i : picked) dirs.push_back(all[i]);
+    BatchIntegrator batch(pts_, chain_, min_cos_);
+    std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
+    batch.run(dirs, acc.data());
+    if (split_.bright.size() > 0) {
+      BatchIntegrator exact(split_.bright, chain_, bounded_cos_threshold(s_));
+      exact.run(dirs, lights.data());
+    }
+    for (std::size_t i = 0; i < dirs.size(); ++i) {
+      const double* a = acc.data() + 4 * i;
+      const double* b = lights.data() + 4 * i;
+      float* out = slot(picked[i]);
+      for (int c = 0; c < 3; ++c) out[c] = a[3] > 0.0 ? float((a[c] + b[c]) / a[3]) : 0.0f;
+    }
+  }
+
+  // On the plan's cube grid, then read at each output texel (Catmull-Rom of log radiance).
+  void run_on_grid(EnvMap& map, std::vector<float>& grid_values) {
+    CubeGrid grid(plan_.grid_face);
+    if (incremental_) grid.set_values(memory_->grids[std::size_t(k_)]);
+    const int blocks = (grid.side() + kBlock - 1) / kBlock;
+    job_.progress.check();
+    tbb::parallel_for(0, 6 * blocks * blocks, [&](int b) {
+      job_.progress.check();
+      FlushDenormals ftz;
+      const int f = b / (blocks * blocks), by = b / blocks % blocks, bx = b % blocks;
+      std::vector<glm::dvec3> dirs;
+      std::vector<glm::ivec2> at, local;
+      for (int j = by * kBlock; j < std::min(grid.side(), (by + 1) * kBlock); ++j)
+        for (int i = bx * kBlock; i < std::min(grid.side(), (bx + 1) * kBlock); ++i) {
+          dirs.push_back(grid.dir(f, i, j));
+          at.push_back({i, j});
+          local.push_back({i - bx * kBlock, j - by * kBlock});
+        }
+      integrate_block(std::size_t(b), dirs, local,
+                      [&](std::size_t q) { return grid.value(f, at[q].x, at[q].y); });
+    });
+    if (memory_) grid_values = grid.values();
+    grid.to_log(split_.log_floor);
+    for_each_tile(job_.output.tiles(), job_.progress, [&](const Tile& tile) {
+      job_.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
+        const glm::vec3 v = grid.sample(d);
+        float* out = map.image.data() + 3 * pixel;
+        out[0] = v.x, out[1] = v.y, out[2] = v.z;
+      });
+      job_.progress.tile_done(k_, tile);
+    });
+  }
+
+  // At every output texel, kBlock x kBlock texels at a time.
+  void run_on_texels(EnvMap& map) {
+    const std::size_t w = std::size_t(job_.output.layout().width());
+    for_each_tile(job_.output.tiles(), job_.progress, [&](const Tile& tile) {
+      for (int y0 = tile.y; y0 < tile.y + tile.height; y0 += kBlock)
+        for (int x0 = tile.x; x0 < tile.x + tile.width; x0 += kBlock) {
+          const Tile block{x0, y0, std::min(kBlock, tile.x + tile.width - x0),
+                           std::min(kBlock, tile.y + tile.height - y0)};
+          const TileTexels texels = job_.output.collect(block);
+          if (texels.dirs.empty()) continue;
+          std::vector<glm::ivec2> local;
+          for (std::size_t pixel : texels.pixels)
+            local.push_back({int(pixel % w) - x0, int(pixel / w) - y0});
+          integrate_block(std::size_t(y0) * w + std::size_t(x0), texels.dirs, local,
+                          [&](std::size_t q) { return map.image.data() + 3 * texels.pixels[q]; });
+        }
+      job_.progress.tile_done(k_, tile);
+    });
+  }
+
+  const Job& job_;
+  const BrightSplit& split_;
+  int k_;
+  double s_;
+  Plan plan_;
+  const PointCells& pts_;
+  PowerChain chain_;
+  double min_cos_;
+  bool incremental_;
+  AutoMemory* memory_;
+  std::optional<ChangeReach> reach_;
+  std::vector<float>* debt_ = nullptr;
+  std::atomic<std::size_t> outputs_done_ = 0, outputs_total_ = 0;
+};
+
 }  // namespace
 
 MapSet run_auto(const Job& job, AutoMemory* memory) {
@@ -514,128 +674,12 @@ MapSet run_auto(const Job& job, AutoMemory* memory) {
   // Narrow lobes by direct integration over prefiltered input, widest first.
   for (int k : direct) {
     const auto t0 = std::chrono::steady_clock::now();
-    const double s = job.shininess[std::size_t(k)];
-    const Plan plan = make_plan(s, job.spec.tuning, levels.full_spacing(), out_texels);
-    const PointCells& pts = plan.input_face ? levels.aggregated(plan.input_face) : levels.full();
-    const double one[] = {s};
-    const PowerChain chain(one);
-    const double min_cos = bounded_cos_threshold(s);
-    // An incremental run recomputes a 4 x 4 group of outputs when the changes could have moved
-    // it by more than the budget since it was last computed (ChangeReach, with the debts of
-    // the groups it skipped, indexed by block x 4 + group).
-    std::optional<ChangeReach> reach;
-    std::vector<float>* debt = nullptr;
-    if (memory) {
-      memory->debt.resize(std::size_t(count));
-      debt = &memory->debt[std::size_t(k)];
-      const std::size_t side =
-          plan.grid_face ? std::size_t(plan.grid_face + 2 * CubeGrid::kBorder) : 0;
-      const std::size_t groups =
-          4 * (plan.grid_face ? 6 * side * side : job.output.layout().texel_count());
-      if (!incremental || debt->size() != groups) debt->assign(groups, 0.0f);
-      if (incremental)
-        reach.emplace(*memory, s, std::acos(std::clamp(min_cos, -1.0, 1.0)),
-                      plan.input_face ? 3.0 / plan.input_face : 0.0);
-    }
-    std::atomic<std::size_t> outputs_done = 0, outputs_total = 0;
-    // Integrates up to kBlock x kBlock nearby directions (local[i]: their places in the block)
-    // into slot(i), the output's RGB (holding its last value in an incremental run). `block`
-    // numbers the block for the debts.
-    auto integrate_block = [&](std::size_t block, const std::vector<glm::dvec3>& all,
-                               const std::vector<glm::ivec2>& local, auto&& slot) {
-      outputs_total += all.size();
-      std::vector<std::size_t> picked;
-      if (reach) {
-        for (int g = 0; g < 4; ++g) {
-          std::vector<std::size_t> in;
-          std::vector<glm::dvec3> group;
-          float darkest = std::numeric_limits<float>::max();
-          for (std::size_t i = 0; i < all.size(); ++i)
-            if (int(local[i].x >= kBlock / 2) + 2 * int(local[i].y >= kBlock / 2) == g) {
-              in.push_back(i), group.push_back(all[i]);
-              const float* v = slot(i);
-              darkest = std::min({darkest, v[0], v[1], v[2]});
-            }
-          if (!group.empty() &&
-              reach->must_recompute(group, darkest, (*debt)[4 * block + std::size_t(g)]))
-            picked.insert(picked.end(), in.begin(), in.end());
-        }
-      } else {
-        picked.resize(all.size());
-        std::iota(picked.begin(), picked.end(), std::size_t(0));
-      }
-      if (picked.empty()) return;
-      outputs_done += picked.size();
-      std::vector<glm::dvec3> dirs;
-      for (std::size_t i : picked) dirs.push_back(all[i]);
-      BatchIntegrator batch(pts, chain, min_cos);
-      std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
-      batch.run(dirs, acc.data());
-      if (split.bright.size() > 0) {
-        BatchIntegrator exact(split.bright, chain, bounded_cos_threshold(s));
-        exact.run(dirs, lights.data());
-      }
-      for (std::size_t i = 0; i < dirs.size(); ++i) {
-        const double* a = acc.data() + 4 * i;
-        const double* b = lights.data() + 4 * i;
-        float* out = slot(picked[i]);
-        for (int c = 0; c < 3; ++c) out[c] = a[3] > 0.0 ? float((a[c] + b[c]) / a[3]) : 0.0f;
-      }
-    };
-    EnvMap& map = maps[std::size_t(k)];
-    if (plan.grid_face) {
-      CubeGrid grid(plan.grid_face);
-      if (incremental) grid.set_values(memory->grids[std::size_t(k)]);
-      const int blocks = (grid.side() + kBlock - 1) / kBlock;
-      job.progress.check();
-      tbb::parallel_for(0, 6 * blocks * blocks, [&](int b) {
-        job.progress.check();
-        FlushDenormals ftz;
-        const int f = b / (blocks * blocks), by = b / blocks % blocks, bx = b % blocks;
-        std::vector<glm::dvec3> dirs;
-        std::vector<glm::ivec2> at, local;
-        for (int j = by * kBlock; j < std::min(grid.side(), (by + 1) * kBlock); ++j)
-          for (int i = bx * kBlock; i < std::min(grid.side(), (bx + 1) * kBlock); ++i) {
-            dirs.push_back(grid.dir(f, i, j));
-            at.push_back({i, j});
-            local.push_back({i - bx * kBlock, j - by * kBlock});
-          }
-        integrate_block(std::size_t(b), dirs, local,
-                        [&](std::size_t q) { return grid.value(f, at[q].x, at[q].y); });
-      });
-      if (memory) grids[std::size_t(k)] = grid.values();
-      grid.to_log(split.log_floor);
-      for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
-        job.output.for_each(tile, [&](std::size_t pixel, glm::dvec3 d) {
-          const glm::vec3 v = grid.sample(d);
-          float* out = map.image.data() + 3 * pixel;
-          out[0] = v.x, out[1] = v.y, out[2] = v.z;
-        });
-        job.progress.tile_done(k, tile);
-      });
-    } else {
-      for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
-        for (int y0 = tile.y; y0 < tile.y + tile.height; y0 += kBlock)
-          for (int x0 = tile.x; x0 < tile.x + tile.width; x0 += kBlock) {
-            const Tile block{x0, y0, std::min(kBlock, tile.x + tile.width - x0),
-                             std::min(kBlock, tile.y + tile.height - y0)};
-            const TileTexels texels = job.output.collect(block);
-            if (texels.dirs.empty()) continue;
-            const std::size_t w = std::size_t(job.output.layout().width());
-            std::vector<glm::ivec2> local;
-            for (std::size_t pixel : texels.pixels)
-              local.push_back({int(pixel % w) - x0, int(pixel / w) - y0});
-            integrate_block(std::size_t(y0) * w + std::size_t(x0), texels.dirs, local,
-                            [&](std::size_t q) { return map.image.data() + 3 * texels.pixels[q]; });
-          }
-        job.progress.tile_done(k, tile);
-      });
-    }
+    DirectLobe lobe(job, split, levels, out_texels, memory, k);
+    lobe.run(maps[std::size_t(k)], grids[std::size_t(k)]);
     const double seconds = seconds_since(t0);
-    recomputed[std::size_t(k)] =
-        double(outputs_done) / double(std::max<std::size_t>(1, outputs_total));
+    recomputed[std::size_t(k)] = lobe.recomputed();
     result.seconds[std::size_t(k)] = seconds + split_seconds / count;
-    result.plans[std::size_t(k)] = describe(plan, seconds);
+    result.plans[std::size_t(k)] = describe(lobe.plan(), seconds);
     if (incremental) {
       std::ostringstream o;
       o.precision(3);
