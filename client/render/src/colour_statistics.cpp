@@ -4,7 +4,7 @@
 #include <string>
 
 #include "arlight/render/colour.hpp"
-#include "tone_mapping.hpp"
+#include "log_luminance.hpp"
 
 namespace arlight::render {
 

@@ -4,6 +4,9 @@
 // full-screen triangle all its passes share.
 #pragma once
 
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+
 #include "gl.hpp"
 
 namespace arlight::render {
@@ -34,6 +37,14 @@ struct RenderTargets {
   gl::Framebuffer hdr_fbo, out_fbo;
   gl::Texture hdr_tex, mask_tex, out_tex;
   gl::Renderbuffer depth;
+};
+
+// The camera and the lighting's frame a draw is made with (the material and shadow passes); a
+// draw deferred to composite() (live glass) keeps the ones it was made with.
+struct DrawState {
+  glm::mat4 view_proj;
+  glm::vec3 camera_position;
+  glm::mat3 world_from_scene;
 };
 
 // A w x h texture of one level with nearest sampling, clamped: the passes' targets.

@@ -15,6 +15,7 @@ namespace {
 
 // Texture units.
 enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, kResponseInverse };
+static_assert(kFrame == IblPass::kFrameUnit);
 
 // Features of an ibl.frag variant (bits of its cache key, above the projection's 2 bits).
 enum Feature : unsigned {
@@ -118,7 +119,7 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
 
 void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model,
                    const DrawState& st, const SceneLighting& lighting, const RenderTargets& targets,
-                   const LiveFrame* live) {
+                   const LiveFrameInputs* live) {
   const EnvSet& env = lighting.maps();
   const auto [a, b, t] = env.pick(m.shininess, lookup);
   const bool use_normal = m.normal_map && mesh.has_tangents();

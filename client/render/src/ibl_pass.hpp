@@ -15,17 +15,9 @@
 
 namespace arlight::render {
 
-// What a draw takes from the renderer's state when it is issued: a draw deferred to composite()
-// (live glass) keeps the camera and frame it was made with.
-struct DrawState {
-  glm::mat4 view_proj;
-  glm::vec3 camera_position;
-  glm::mat3 world_from_scene;
-};
-
 // The camera frame live glass refracts (Refraction::LiveFrame): a copy of the output's frame,
 // R, G, B (the browser's) or B, G, R, and what turns its codes back into radiance.
-struct LiveFrame {
+struct LiveFrameInputs {
   GLuint frame_copy;
   bool frame_rgb;
   GLuint response_inverse;
@@ -42,13 +34,16 @@ class IblPass {
   explicit IblPass(const std::filesystem::path& shader_dir);
   ~IblPass();
 
+  // The texture unit ibl.frag samples LiveFrameInputs::frame_copy from.
+  static constexpr GLint kFrameUnit = 6;
+
   Shading shading = Shading::ImageBased;
   ReflectionLookup lookup = ReflectionLookup::Interpolate;
 
   // Draws the mesh into targets.hdr_fbo, depth tested; `live` for glass showing the frame.
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model,
             const DrawState& state, const SceneLighting& lighting, const RenderTargets& targets,
-            const LiveFrame* live = nullptr);
+            const LiveFrameInputs* live = nullptr);
 
  private:
   struct Variant;

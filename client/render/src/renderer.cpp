@@ -15,12 +15,12 @@
 #include "composite_pass.hpp"
 #include "fullscreen_pass.hpp"
 #include "gl.hpp"
-#include "glass_pass.hpp"
 #include "ibl_pass.hpp"
+#include "live_glass.hpp"
+#include "log_luminance.hpp"
 #include "scene_lighting.hpp"
 #include "shadow_pass.hpp"
 #include "textures.hpp"
-#include "tone_mapping.hpp"
 
 namespace arlight::render {
 
@@ -108,8 +108,8 @@ glm::mat4 projection_from_intrinsics(const CameraIntrinsics& k, int width, int h
 struct Renderer::Impl {
   Impl(int width, int height, const std::filesystem::path& shader_dir)
       : ibl(shader_dir),
-        composite(shader_dir),
         log_luminance(shader_dir, width, height),
+        composite(shader_dir),
         targets(width, height),
         shadow(shader_dir, width, height),
         colour(shader_dir) {
@@ -119,9 +119,11 @@ struct Renderer::Impl {
     gl::check("creating the renderer");
   }
 
+  Clock::time_point frame_start = Clock::now();
+  // Made in this order: shader errors show up at construction, the common variants' first.
   IblPass ibl;
-  CompositePass composite;
   LogLuminance log_luminance;
+  CompositePass composite;
   FullscreenPass fullscreen;
   RenderTargets targets;
   SceneLighting lighting;
@@ -136,13 +138,11 @@ struct Renderer::Impl {
   Refraction refraction = Refraction::Maps;
 
   FrameTimings timings;
-  Clock::time_point frame_start = Clock::now();
   std::vector<std::uint8_t> rgba;  // readback buffer
   bool composited = false;
   bool frame_rgb = false;  // what the last composite left in the output
 
   DrawState draw_state() const { return {view_proj, camera_position, world_from_scene}; }
-  ShadowView shadow_view() const { return {view_proj, camera_position, world_from_scene}; }
   Clock::time_point begin_composite(const ToneMapping& tone, bool wait);
   void upload_frame(const ImageU8View& camera);
   void tone_map_and_composite(const ToneMapping& tone, bool rgb);
@@ -262,13 +262,14 @@ void Renderer::composite(const ImageU8View& frame, const ToneMapping& tone,
   ImageU8View camera = frame;
   if (p.shadow.active()) {
     const auto ts = Clock::now();
-    if (p.shadow.draw_factors(p.shadow_view(), p.lighting, p.response_lut.id, p.fullscreen,
+    if (p.shadow.draw_factors(p.draw_state(), p.lighting, p.response_lut.id, p.fullscreen,
                               p.timings.shadow_lights) &&
         p.shadow.apply_on_cpu(frame))
       camera = p.shadow.shadowed().view();
     p.timings.shadow_ms = ms_since(ts);
   }
   p.upload_frame(camera);
+  p.timings.refraction_ms = 0;  // a glass draw that throws leaves no stale figure
   p.timings.refraction_ms =
       p.glass.draw(p.targets, tone, false, p.ibl, p.lighting, p.response_inverse.id);
   p.tone_map_and_composite(tone, false);
@@ -289,11 +290,12 @@ void Renderer::composite_in_place(const ToneMapping& tone) {
   p.timings.shadow_ms = 0, p.timings.shadow_lights = 0;
   if (p.shadow.active()) {
     const auto ts = Clock::now();
-    if (p.shadow.draw_factors(p.shadow_view(), p.lighting, p.response_lut.id, p.fullscreen,
+    if (p.shadow.draw_factors(p.draw_state(), p.lighting, p.response_lut.id, p.fullscreen,
                               p.timings.shadow_lights))
       p.shadow.apply_on_gpu(p.targets, p.view_proj, true, p.fullscreen);
     p.timings.shadow_ms = ms_since(ts);
   }
+  p.timings.refraction_ms = 0;  // a glass draw that throws leaves no stale figure
   p.timings.refraction_ms =
       p.glass.draw(p.targets, tone, true, p.ibl, p.lighting, p.response_inverse.id);
   p.tone_map_and_composite(tone, true);

@@ -19,9 +19,9 @@ float dominant_fraction(const ShadowSettings& shadow, const SceneLighting& light
   return std::clamp(f, 0.0f, std::clamp(shadow.max_fraction, 0.0f, 1.0f));
 }
 
-std::vector<ShadowLight> ShadowLights::choose(const ShadowSettings& shadow,
-                                              const SceneLighting& lighting,
-                                              const glm::mat3& world_from_scene) const {
+std::vector<ShadowLight> ShadowLightChooser::choose(const ShadowSettings& shadow,
+                                                    const SceneLighting& lighting,
+                                                    const glm::mat3& world_from_scene) const {
   std::vector<ShadowLight> lights;
   if (!shadow.enabled) return lights;
   const glm::mat3 scene_from_world = glm::transpose(world_from_scene);
@@ -59,8 +59,8 @@ std::vector<ShadowLight> ShadowLights::choose(const ShadowSettings& shadow,
   return lights;
 }
 
-float ShadowLights::fraction(const ShadowSettings& settings, const SceneLighting& lighting,
-                             const glm::mat3& world_from_scene) const {
+float ShadowLightChooser::fraction(const ShadowSettings& settings, const SceneLighting& lighting,
+                                   const glm::mat3& world_from_scene) const {
   float sum = 0.0f;
   for (const ShadowLight& l : choose(settings, lighting, world_from_scene)) sum += l.fraction;
   return sum;

@@ -1,7 +1,7 @@
 // Internal: which hard shadows the shadow catcher blends (ShadowSettings, tutorial §6). Under a
 // map set, the light clusters of its sharpest map (build_light_tree, select_lights) built for
 // the floor's normal; under the live SH alone, the dominant light arlightd sends, with its
-// share f of the floor's irradiance. No GL: the choice is the lighting's and the settings'.
+// share f of the floor's irradiance. No GL calls: the choice is the lighting's and the settings'.
 #pragma once
 
 #include <optional>
@@ -20,7 +20,7 @@ struct ShadowLight {
   glm::vec3 power;  // radiance x solid angle (RGB): its SH is power Y_lm(world_direction)
 };
 
-class ShadowLights {
+class ShadowLightChooser {
  public:
   // The hard shadows this frame blends; their fractions sum to at most settings.max_fraction.
   // Empty when shadows are off.

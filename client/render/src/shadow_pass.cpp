@@ -83,7 +83,7 @@ void ShadowPass::add_caster(const GpuMesh& mesh, const glm::mat4& model,
 }
 
 void ShadowPass::ensure_resources(int layers) {
-  if (!depth_.id()) {
+  if (!factor_fbo_.id) {  // made last below: a failed compile is tried again next frame
     depth_ = Program(shader_dir_, "shadow_depth.vert", "shadow_depth.frag");
     catcher_ = Program(shader_dir_, "shadow_catcher.vert", "shadow_catcher.frag");
     glUseProgram(catcher_.id());
@@ -132,7 +132,7 @@ void ShadowPass::ensure_resources(int layers) {
   gl::check_framebuffer("shadow maps (DEPTH_COMPONENT24 layers)");
 }
 
-bool ShadowPass::draw_factors(const ShadowView& view, const SceneLighting& lighting,
+bool ShadowPass::draw_factors(const DrawState& view, const SceneLighting& lighting,
                               GLuint response_lut, const FullscreenPass& fullscreen,
                               int& light_count) {
   // The casters' union bounds (scene frame).
@@ -224,7 +224,7 @@ void ShadowPass::render_depth_layers(const std::vector<glm::mat4>& light_view_pr
 // objects (no depth writes) and multiplied into the output where they are below 1 (apply_*).
 void ShadowPass::draw_catcher(const std::vector<ShadowLight>& lights,
                               const std::vector<glm::mat4>& shadow_from_scene,
-                              const ShadowView& view, const ShCoeffs& room_sh, GLuint response_lut,
+                              const DrawState& view, const ShCoeffs& room_sh, GLuint response_lut,
                               const FullscreenPass& fullscreen) {
   const Program& pr = catcher_;
   glUseProgram(pr.id());

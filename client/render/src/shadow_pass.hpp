@@ -16,13 +16,6 @@
 
 namespace arlight::render {
 
-// What the shadow pass needs of this frame's camera and lighting.
-struct ShadowView {
-  glm::mat4 view_proj;
-  glm::vec3 camera_position;  // scene frame
-  glm::mat3 world_from_scene;
-};
-
 class ShadowPass {
  public:
   ShadowPass(const std::filesystem::path& shader_dir, int width, int height);
@@ -41,7 +34,7 @@ class ShadowPass {
 
   // The depth layers and the catcher's factors; false when there is nothing to shadow.
   // `light_count` is set to the hard shadows blended.
-  bool draw_factors(const ShadowView& view, const SceneLighting& lighting, GLuint response_lut,
+  bool draw_factors(const DrawState& view, const SceneLighting& lighting, GLuint response_lut,
                     const FullscreenPass& fullscreen, int& light_count);
   // The factors read back and multiplied into a copy of the frame: true when some are below 1,
   // and shadowed() then holds the frame with them applied.
@@ -71,13 +64,13 @@ class ShadowPass {
   void render_depth_layers(const std::vector<glm::mat4>& light_view_proj);
   void set_ground_uniforms(const std::vector<ShadowLight>& lights, const ShCoeffs& room_sh);
   void draw_catcher(const std::vector<ShadowLight>& lights,
-                    const std::vector<glm::mat4>& shadow_from_scene, const ShadowView& view,
+                    const std::vector<glm::mat4>& shadow_from_scene, const DrawState& view,
                     const ShCoeffs& room_sh, GLuint response_lut, const FullscreenPass& fullscreen);
 
   std::filesystem::path shader_dir_;
   int w_, h_;
   ShadowSettings settings_;
-  ShadowLights lights_;
+  ShadowLightChooser lights_;
   std::vector<Caster> casters_;
   Program depth_, catcher_, apply_, apply_rgb_;  // made when first used
   gl::Texture shadow_tex_, factor_tex_;          // shadow_tex_: one depth layer per light

@@ -1,4 +1,4 @@
-#include "glass_pass.hpp"
+#include "live_glass.hpp"
 
 #include <chrono>
 
@@ -18,11 +18,11 @@ double LiveGlass::draw(const RenderTargets& targets, const ToneMapping& tone, bo
   }
   // The output holds the frame now (uploaded, or the page's); the glass samples a copy of it.
   glBindFramebuffer(GL_FRAMEBUFFER, targets.out_fbo.id);
-  glActiveTexture(GL_TEXTURE0);
+  glActiveTexture(GL_TEXTURE0 + IblPass::kFrameUnit);
   glBindTexture(GL_TEXTURE_2D, frame_copy_.id);
   glCopyTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 0, 0, targets.w, targets.h);
-  const LiveFrame live{frame_copy_.id, rgb, response_inverse,
-                       float(1.0 / (tone.exposure * tone.gain))};
+  const LiveFrameInputs live{frame_copy_.id, rgb, response_inverse,
+                             float(1.0 / (tone.exposure * tone.gain))};
   for (const Deferred& d : deferred_)
     ibl.draw(*d.mesh, d.material, d.model, d.state, lighting, targets, &live);
   deferred_.clear();

@@ -1,4 +1,4 @@
-#include "tone_mapping.hpp"
+#include "log_luminance.hpp"
 
 #include <algorithm>
 #include <cmath>
