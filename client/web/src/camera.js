@@ -150,6 +150,112 @@ function firstFrame(video, timeoutMs) {
   });
 }
 
+/** Throws where the page is not a secure context, so the browser hides the camera. */
+function requireSecureContext() {
+  if (globalThis.isSecureContext === false) {
+    const origin = globalThis.location ? globalThis.location.origin : 'this page';
+    throw new InsecureContextError(
+      `the camera needs a secure context (https:// or http://localhost); ${origin} is not one`,
+    );
+  }
+}
+
+/**
+ * The browser's `navigator.mediaDevices`, or a throw where it has no getUserMedia.
+ * @returns {MediaDevices}
+ */
+function requireMediaDevices() {
+  const mediaDevices = globalThis.navigator ? globalThis.navigator.mediaDevices : undefined;
+  if (!mediaDevices || typeof mediaDevices.getUserMedia !== 'function') {
+    throw new CameraUnsupportedError('this browser has no navigator.mediaDevices.getUserMedia');
+  }
+  return mediaDevices;
+}
+
+/**
+ * Asks for a video-only stream, preferably from the rear camera at the given size (`ideal`, so
+ * any camera and any size still do).
+ * @param {MediaDevices} mediaDevices
+ * @param {number} width
+ * @param {number} height
+ * @returns {Promise<MediaStream>}
+ * @throws {CameraError} the rejection mapped by cameraErrorFrom
+ */
+async function requestCameraStream(mediaDevices, width, height) {
+  try {
+    return await mediaDevices.getUserMedia({
+      video: {
+        facingMode: { ideal: 'environment' },
+        width: { ideal: width },
+        height: { ideal: height },
+      },
+      audio: false,
+    });
+  } catch (e) {
+    throw cameraErrorFrom(e);
+  }
+}
+
+/**
+ * The stream's video track; where it has none, stops its other tracks and throws.
+ * @param {MediaStream} stream
+ * @returns {MediaStreamTrack}
+ */
+function requireVideoTrack(stream) {
+  const track = stream.getVideoTracks()[0];
+  if (!track) {
+    for (const t of stream.getTracks()) t.stop();
+    throw new CameraNotFoundError('getUserMedia returned a stream without a video track');
+  }
+  return track;
+}
+
+/**
+ * A detached, muted, inline `<video>` element set to play the stream.
+ * @param {MediaStream} stream
+ * @returns {HTMLVideoElement}
+ */
+function createCameraVideo(stream) {
+  const video = document.createElement('video');
+  video.muted = true;
+  video.defaultMuted = true;
+  video.playsInline = true;
+  video.setAttribute('playsinline', ''); // older iOS Safari reads the attribute only
+  video.setAttribute('muted', '');
+  video.autoplay = true;
+  video.srcObject = stream;
+  return video;
+}
+
+/**
+ * Stops the stream's tracks and detaches it from the video.
+ * @param {MediaStream} stream
+ * @param {HTMLVideoElement} video
+ */
+function stopCamera(stream, video) {
+  for (const t of stream.getTracks()) t.stop();
+  video.pause();
+  video.srcObject = null;
+}
+
+/**
+ * Starts the video and waits for its first frame; on failure calls `stop` and throws.
+ * @param {HTMLVideoElement} video
+ * @param {number} timeoutMs
+ * @param {() => void} stop
+ * @returns {Promise<void>}
+ * @throws {CameraError} firstFrame's timeout as is, a play() rejection mapped by cameraErrorFrom
+ */
+async function playUntilFirstFrame(video, timeoutMs, stop) {
+  try {
+    await video.play();
+    await firstFrame(video, timeoutMs);
+  } catch (e) {
+    stop();
+    throw e instanceof CameraError ? e : cameraErrorFrom(e);
+  }
+}
+
 /**
  * @typedef {object} ExposureLock
  * @property {boolean} locked whether the exposure no longer follows the scene
@@ -157,6 +263,102 @@ function firstFrame(video, timeoutMs) {
  *   setting, which is in units of 100 µs), or null where the browser does not report it
  * @property {string} reason how it was locked, or why it could not be
  */
+
+/**
+ * The track's current exposure time in seconds, or null where the browser does not report it.
+ * @param {MediaStreamTrack} track
+ * @returns {number|null}
+ */
+function exposureSeconds(track) {
+  const s = track.getSettings();
+  return typeof s.exposureTime === 'number' ? s.exposureTime * 1e-4 : null;
+}
+
+/**
+ * Applies one exposure mode; the lock where the track then reports that mode, else null with
+ * the reason pushed onto `failures`.
+ * @param {MediaStreamTrack} track
+ * @param {{exposureMode: string, exposureTime?: number}} constraint
+ * @param {string[]} failures
+ * @returns {Promise<ExposureLock|null>}
+ */
+async function tryExposureMode(track, constraint, failures) {
+  const mode = constraint.exposureMode;
+  try {
+    await track.applyConstraints({ advanced: [constraint] });
+    if (track.getSettings().exposureMode === mode) {
+      return { locked: true, exposureTime: exposureSeconds(track), reason: `exposureMode ${mode}` };
+    }
+    failures.push(`${mode} was not applied`);
+  } catch (e) {
+    failures.push(`${mode} failed (${e && e.name ? e.name : e})`);
+  }
+  return null;
+}
+
+/**
+ * What the camera says about its exposure modes, for an unlocked ExposureLock's `reason`.
+ * @param {string[]|null} modes
+ * @param {MediaTrackCapabilities|null} capabilities
+ * @returns {string}
+ */
+function exposureModesNote(modes, capabilities) {
+  if (modes) return `modes: ${modes.join(', ') || 'none'}`;
+  return capabilities ? 'the camera reports no exposureMode capability' : 'capabilities unknown';
+}
+
+/**
+ * Locks the track's exposure: manual at the time the auto exposure has reached, else
+ * single-shot; where neither takes, leaves it (back) on continuous.
+ * @param {MediaStreamTrack} track
+ * @param {MediaTrackCapabilities|null} capabilities as read when the camera was opened
+ * @returns {Promise<ExposureLock>}
+ */
+async function lockTrackExposure(track, capabilities) {
+  if (track.readyState !== 'live') {
+    return { locked: false, exposureTime: null, reason: 'the camera is closed' };
+  }
+  if (typeof track.applyConstraints !== 'function') {
+    return { locked: false, exposureTime: null, reason: 'applyConstraints is not supported' };
+  }
+  const modes = capabilities && Array.isArray(capabilities.exposureMode)
+    ? capabilities.exposureMode
+    : null;
+  const failures = [];
+
+  // 1. manual: hold the exposure time the auto exposure has reached (where it is reported).
+  if (!modes || modes.includes('manual')) {
+    const current = track.getSettings().exposureTime;
+    const manual = typeof current === 'number'
+      ? { exposureMode: 'manual', exposureTime: current }
+      : { exposureMode: 'manual' };
+    const lock = await tryExposureMode(track, manual, failures);
+    if (lock) return lock;
+  } else {
+    failures.push('no manual exposure mode');
+  }
+
+  // 2. single-shot: one auto exposure, then held.
+  if (modes && modes.includes('single-shot')) {
+    const lock = await tryExposureMode(track, { exposureMode: 'single-shot' }, failures);
+    if (lock) return lock;
+  }
+
+  // 3. Not lockable: make sure the exposure keeps adapting rather than stuck half-way.
+  if (modes && modes.includes('continuous')) {
+    try {
+      await track.applyConstraints({ advanced: [{ exposureMode: 'continuous' }] });
+    } catch {
+      // Nothing more to try; report the failures gathered above.
+    }
+  }
+  return {
+    locked: false,
+    exposureTime: exposureSeconds(track),
+    reason: `exposure stays automatic: ${failures.join('; ')} `
+      + `(${exposureModesNote(modes, capabilities)})`,
+  };
+}
 
 /**
  * @typedef {object} Camera
@@ -186,132 +388,17 @@ function firstFrame(video, timeoutMs) {
  * @throws {CameraError} a subclass naming the reason (see the file comment)
  */
 export async function openCamera({ width = 640, height = 480, timeoutMs = 10000 } = {}) {
-  if (globalThis.isSecureContext === false) {
-    const origin = globalThis.location ? globalThis.location.origin : 'this page';
-    throw new InsecureContextError(
-      `the camera needs a secure context (https:// or http://localhost); ${origin} is not one`,
-    );
-  }
-  const mediaDevices = globalThis.navigator ? globalThis.navigator.mediaDevices : undefined;
-  if (!mediaDevices || typeof mediaDevices.getUserMedia !== 'function') {
-    throw new CameraUnsupportedError('this browser has no navigator.mediaDevices.getUserMedia');
-  }
-
-  /** @type {MediaStream} */
-  let stream;
-  try {
-    stream = await mediaDevices.getUserMedia({
-      video: {
-        facingMode: { ideal: 'environment' },
-        width: { ideal: width },
-        height: { ideal: height },
-      },
-      audio: false,
-    });
-  } catch (e) {
-    throw cameraErrorFrom(e);
-  }
-
-  const track = stream.getVideoTracks()[0];
-  if (!track) {
-    for (const t of stream.getTracks()) t.stop();
-    throw new CameraNotFoundError('getUserMedia returned a stream without a video track');
-  }
-
-  const video = document.createElement('video');
-  video.muted = true;
-  video.defaultMuted = true;
-  video.playsInline = true;
-  video.setAttribute('playsinline', ''); // older iOS Safari reads the attribute only
-  video.setAttribute('muted', '');
-  video.autoplay = true;
-  video.srcObject = stream;
-
-  const stop = () => {
-    for (const t of stream.getTracks()) t.stop();
-    video.pause();
-    video.srcObject = null;
-  };
-
-  try {
-    await video.play();
-    await firstFrame(video, timeoutMs);
-  } catch (e) {
-    stop();
-    throw e instanceof CameraError ? e : cameraErrorFrom(e);
-  }
+  requireSecureContext();
+  const mediaDevices = requireMediaDevices();
+  const stream = await requestCameraStream(mediaDevices, width, height);
+  const track = requireVideoTrack(stream);
+  const video = createCameraVideo(stream);
+  const stop = () => stopCamera(stream, video);
+  await playUntilFirstFrame(video, timeoutMs, stop);
 
   const settings = typeof track.getSettings === 'function' ? track.getSettings() : {};
   const capabilities =
     typeof track.getCapabilities === 'function' ? track.getCapabilities() : null;
-
-  /** @returns {Promise<ExposureLock>} */
-  async function lockExposure() {
-    if (track.readyState !== 'live') {
-      return { locked: false, exposureTime: null, reason: 'the camera is closed' };
-    }
-    const seconds = () => {
-      const s = track.getSettings();
-      return typeof s.exposureTime === 'number' ? s.exposureTime * 1e-4 : null;
-    };
-    if (typeof track.applyConstraints !== 'function') {
-      return { locked: false, exposureTime: null, reason: 'applyConstraints is not supported' };
-    }
-    const modes = capabilities && Array.isArray(capabilities.exposureMode)
-      ? capabilities.exposureMode
-      : null;
-    const failures = [];
-
-    // 1. manual: hold the exposure time the auto exposure has reached (where it is reported).
-    if (!modes || modes.includes('manual')) {
-      const current = track.getSettings().exposureTime;
-      const manual = typeof current === 'number'
-        ? { exposureMode: 'manual', exposureTime: current }
-        : { exposureMode: 'manual' };
-      try {
-        await track.applyConstraints({ advanced: [manual] });
-        if (track.getSettings().exposureMode === 'manual') {
-          return { locked: true, exposureTime: seconds(), reason: 'exposureMode manual' };
-        }
-        failures.push('manual was not applied');
-      } catch (e) {
-        failures.push(`manual failed (${e && e.name ? e.name : e})`);
-      }
-    } else {
-      failures.push('no manual exposure mode');
-    }
-
-    // 2. single-shot: one auto exposure, then held.
-    if (modes && modes.includes('single-shot')) {
-      try {
-        await track.applyConstraints({ advanced: [{ exposureMode: 'single-shot' }] });
-        if (track.getSettings().exposureMode === 'single-shot') {
-          return { locked: true, exposureTime: seconds(), reason: 'exposureMode single-shot' };
-        }
-        failures.push('single-shot was not applied');
-      } catch (e) {
-        failures.push(`single-shot failed (${e && e.name ? e.name : e})`);
-      }
-    }
-
-    // 3. Not lockable: make sure the exposure keeps adapting rather than stuck half-way.
-    if (modes && modes.includes('continuous')) {
-      try {
-        await track.applyConstraints({ advanced: [{ exposureMode: 'continuous' }] });
-      } catch {
-        // Nothing more to try; report the failures gathered above.
-      }
-    }
-    return {
-      locked: false,
-      exposureTime: seconds(),
-      reason: `exposure stays automatic: ${failures.join('; ')} (${
-        modes ? `modes: ${modes.join(', ') || 'none'}`
-          : capabilities ? 'the camera reports no exposureMode capability'
-            : 'capabilities unknown'})`,
-    };
-  }
-
   return {
     video,
     width: settings.width || video.videoWidth,
@@ -320,7 +407,7 @@ export async function openCamera({ width = 640, height = 480, timeoutMs = 10000 
     stream,
     settings,
     capabilities,
-    lockExposure,
+    lockExposure: () => lockTrackExposure(track, capabilities),
     close: stop,
   };
 }
