@@ -31,6 +31,10 @@ constexpr double kUnknownExposure = 1.0 / 30;
 
 PipelineOptions with_defaults(PipelineOptions o) {
   if (o.object_height <= 0) o.object_height = 1.5 * o.marker.size_m;
+  if (o.shadow_lights < 1 || o.shadow_lights > render::kMaxShadowLights)
+    throw InputError("--shadow-lights: between 1 and " + std::to_string(render::kMaxShadowLights));
+  if (!(o.target_fps >= 0) || o.target_fps > 1000)
+    throw InputError("--target-fps: frames a second in [0, 1000] (0: no frame-rate control)");
   return o;
 }
 
@@ -42,18 +46,15 @@ FramePipeline::FramePipeline(PipelineOptions options, const render::Mesh& mesh)
       mesh_(mesh),
       model_matrix_(render::standing_on_marker(mesh.bounds, float(options_.object_height))),
       tracker_(options_.camera, options_.marker),
-      webcam_orientation_(options_.camera) {
+      webcam_orientation_(options_.camera),
+      // Evaluations at the true pose are reproducible: their shadow lights do not follow the
+      // clock.
+      shadow_budget_(options_.shadow_lights,
+                     options_.draw_at_true_pose ? 0.0 : options_.target_fps),
+      placement_({.hold_s = kPoseHoldSeconds}) {
   renderer_.set_response(options_.response);
   renderer_.set_shading(options_.shading);
   renderer_.set_refraction(options_.refraction);
-  if (options_.shadow_lights < 1 || options_.shadow_lights > render::kMaxShadowLights)
-    throw InputError("--shadow-lights: between 1 and " + std::to_string(render::kMaxShadowLights));
-  if (!(options_.target_fps >= 0) || options_.target_fps > 1000)
-    throw InputError("--target-fps: frames a second in [0, 1000] (0: no frame-rate control)");
-  // Evaluations at the true pose are reproducible: their shadow lights do not follow the clock.
-  if (options_.target_fps > 0 && !options_.draw_at_true_pose)
-    light_control_.emplace(1000.0 / options_.target_fps, options_.shadow_lights,
-                           std::min(4, options_.shadow_lights));
 }
 
 FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel& channel,
@@ -76,12 +77,13 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     world_from_scene = track::webcam_world_from_marker();
   }
   if (options_.draw_at_true_pose) {
-    last_pose_ = options_.true_pose ? options_.true_pose(f.index) : std::nullopt;
-    last_pose_time_ = f.timestamp;
+    if (const auto truth = options_.true_pose ? options_.true_pose(f.index) : std::nullopt)
+      placement_.tracked(f.timestamp, *truth);
+    else
+      placement_.forget();
     world_from_scene = options_.true_world_from_marker;
   } else if (tr.tracked) {
-    last_pose_ = tr.smoothed;
-    last_pose_time_ = f.timestamp;
+    placement_.tracked(f.timestamp, tr.smoothed);
   }
   report.tracked = tr.tracked;
   report.track_status = tr.tracked ? "tracked" : tr.status;
@@ -109,18 +111,13 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
 
   // Render where the marker is (held briefly through a lost frame), tone map, composite.
   renderer_.begin_frame();
-  const bool pose_fresh = last_pose_ && f.timestamp - last_pose_time_ <= kPoseHoldSeconds;
+  const std::optional<Pose> pose = placement_.camera_in_marker(f.timestamp);
   report.drawn =
-      pose_fresh && world_from_scene && renderer_.lighting_source() != render::LightingSource::None;
+      pose && world_from_scene && renderer_.lighting_source() != render::LightingSource::None;
   if (report.drawn) {
-    renderer_.set_camera(options_.camera, track::view_matrix(*last_pose_));
+    renderer_.set_camera(options_.camera, track::view_matrix(*pose));
     renderer_.set_world_from_scene(*world_from_scene);
-    render::ShadowSettings shadow;  // the dominant light is in the world frame
-    shadow.enabled = options_.shadow;
-    shadow.light_direction = lighting.dominant_direction;
-    shadow.light_colour = lighting.dominant_colour;
-    shadow.lights = light_control_ ? light_control_->lights() : options_.shadow_lights;
-    renderer_.set_shadow(shadow);
+    renderer_.set_shadow(shadow_budget_.settings(options_.shadow, lighting));
     renderer_.draw(mesh_, options_.material, model_matrix_);
     report.lit_by = renderer_.lighting_source();
   }
@@ -138,7 +135,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   report.shadow_lights = rt.shadow_lights;
   // Tutorial §6.4: the next frame's shadow lights from this one's time (frames with a shadow
   // pass; it may have drawn fewer hard shadows than asked, or none, when clusters are broad).
-  if (light_control_ && report.drawn && options_.shadow) light_control_->update(report.frame_ms);
+  shadow_budget_.frame_took(report.frame_ms, report.drawn && options_.shadow);
 
   // Pose error against the truth, where it is known.
   if (const auto expected =

@@ -52,22 +52,14 @@ bool LightingLink::connect_once() {
   auto c = std::make_shared<client::Client>();
   c->on_update = [this](const client::LightingUpdate& u) {
     std::lock_guard lock(mutex_);
-    lighting_.sh = u.sh;
-    ++lighting_.sh_version;
-    lighting_.dominant_direction = u.dominant_direction;
-    lighting_.dominant_colour = u.dominant_colour;
-    lighting_.coverage = u.coverage;
-    lighting_.estimated = u.estimated;
-    lighting_.sun_state = u.sun_state;
-    lighting_.sun_direction = u.sun_direction;
+    lighting_.apply(u);
     ++stats_.updates;
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;
   };
   c->on_map_set_complete = [this](const client::MapSet& m) {
     std::lock_guard lock(mutex_);
-    lighting_.maps = std::make_shared<const client::MapSet>(m);
-    ++lighting_.maps_version;
+    lighting_.apply(std::make_shared<const client::MapSet>(m));
     ++stats_.map_sets;
     changed_.notify_all();
   };

@@ -43,13 +43,10 @@ struct Client::Impl {
   mutable std::mutex mutex;  // state below
   std::condition_variable changed;
   bool open = false;
-  std::optional<Welcome> welcome;
-  std::optional<LightingUpdate> last_update;
+  LightingState state;  // what the server's messages built (the one dispatch of them)
+  std::optional<LightingUpdate> last_update;  // state's, with the time it arrived
+  // The server's Error, or why the connection failed (Network, Protocol).
   std::optional<std::pair<std::string, std::string>> error;
-  std::uint64_t updates = 0, completed = 0;
-  MapSetAssembler assembler;
-  std::optional<MapSet> last_complete;
-  std::optional<CalibrationResult> calibration;
   Client* owner = nullptr;
 
   // From any thread: queues the message (waits while too much is queued).
@@ -90,6 +87,7 @@ struct Client::Impl {
     return h;
   }
 
+  // The state takes the message; the callbacks run after the lock is released, on copies.
   void handle(wire::Message&& message) {
     std::function<void(const LightingUpdate&)> update_cb;
     std::function<void(const MapSet&)> maps_cb;
@@ -99,33 +97,30 @@ struct Client::Impl {
     std::optional<MapSet> maps_copy;
     {
       std::lock_guard lock(mutex);
-      if (auto* w = std::get_if<wire::Welcome>(&message)) {
-        welcome = std::move(*w);
-      } else if (auto* e = std::get_if<wire::Error>(&message)) {
-        error = {wire::error_code_name(e->code), e->message};
-      } else if (auto* m = std::get_if<wire::LightingUpdate>(&message)) {
-        LightingUpdate u;
-        static_cast<wire::LightingUpdate&>(u) = std::move(*m);
-        u.received = Clock::now();
-        last_update = u;
-        ++updates;
-        update_cb = owner->on_update;
-        update_copy = std::move(u);
-      } else if (auto* t = std::get_if<wire::MapTile>(&message)) {
-        assembler.add_tile(*t);
-      } else if (auto* c = std::get_if<wire::MapSetComplete>(&message)) {
-        if (auto set = assembler.complete(*c)) {
-          last_complete = std::move(*set);
-          ++completed;
-          maps_cb = owner->on_map_set_complete;
-          maps_copy = *last_complete;
+      switch (state.receive(std::move(message))) {
+        case LightingState::Change::Error:
+          error = state.error();
+          break;
+        case LightingState::Change::Update: {
+          LightingUpdate u;
+          static_cast<wire::LightingUpdate&>(u) = *state.last_update();
+          u.received = Clock::now();
+          last_update = u;
+          update_cb = owner->on_update;
+          update_copy = std::move(u);
+          break;
         }
-      } else if (auto* r = std::get_if<wire::CalibrationResult>(&message)) {
-        calibration = std::move(*r);
-      } else if (auto* a = std::get_if<wire::ExposureAdvice>(&message)) {
-        advice_cb = owner->on_exposure_advice;
-        advice_copy = *a;
-      }  // Progress, Pong: nothing to keep; client-to-server messages are ignored
+        case LightingState::Change::MapSet:
+          maps_cb = owner->on_map_set_complete;
+          maps_copy = *state.lighting().maps;
+          break;
+        case LightingState::Change::ExposureAdvice:
+          advice_cb = owner->on_exposure_advice;
+          advice_copy = state.exposure_advice();
+          break;
+        default:
+          break;
+      }
       changed.notify_all();
     }
     if (advice_cb && advice_copy) advice_cb(*advice_copy);
@@ -232,8 +227,8 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, d.capabilities,
                      resume_session});
   std::unique_lock lock(d.mutex);
-  d.changed.wait_for(lock, timeout, [&] { return d.welcome || d.error || !d.open; });
-  if (d.welcome) return *d.welcome;
+  d.changed.wait_for(lock, timeout, [&] { return d.state.welcome() || d.error || !d.open; });
+  if (d.state.welcome()) return *d.state.welcome();
   const auto err = d.error.value_or(std::pair<std::string, std::string>{"Network", "no Welcome"});
   lock.unlock();
   close();
@@ -266,7 +261,7 @@ void Client::request_maps(const std::vector<double>& shininess, int size, Projec
                           const std::string& method) {
   {
     std::lock_guard lock(impl_->mutex);
-    impl_->assembler.expect(shininess);
+    impl_->state.expect_maps(shininess);
   }
   impl_->send(wire::RequestMaps{std::vector<float>(shininess.begin(), shininess.end()),
                                 std::uint32_t(size), projection, method});
@@ -321,7 +316,8 @@ std::optional<LightingUpdate> Client::last_update() const {
 }
 std::optional<MapSet> Client::last_complete_maps() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->last_complete;
+  const auto& maps = impl_->state.lighting().maps;
+  return maps ? std::optional<MapSet>(*maps) : std::nullopt;
 }
 std::optional<std::pair<std::string, std::string>> Client::server_error() const {
   std::lock_guard lock(impl_->mutex);
@@ -329,7 +325,7 @@ std::optional<std::pair<std::string, std::string>> Client::server_error() const 
 }
 std::optional<CalibrationResult> Client::calibration_result() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->calibration;
+  return impl_->state.calibration();
 }
 bool Client::connected() const {
   std::lock_guard lock(impl_->mutex);
@@ -337,11 +333,11 @@ bool Client::connected() const {
 }
 std::uint64_t Client::updates_received() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->updates;
+  return impl_->state.updates();
 }
 std::uint64_t Client::map_sets_completed() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->completed;
+  return impl_->state.map_sets();
 }
 
 wire::Location make_location(const GeoLocation& where, double utc_seconds,

@@ -1,6 +1,7 @@
 // The browser client's C++ (compiled to WebAssembly with emscripten, bound with embind): the
-// protocol codec, the map-set assembly and the renderer are the project's own, unchanged; this
-// file is the page's API over them. JavaScript owns what only a browser has (camera, sensors,
+// protocol codec, the client core (the lighting state the server's messages build, the map-set
+// assembly: client/net), the placement and shadow budget (client/app) and the renderer are the
+// project's own, the native client's; this file is the page's API over them (embind glue). JavaScript owns what only a browser has (camera, sensors,
 // the WebSocket) and moves bytes: messages to send come out of here encoded, messages received
 // go in here to be decoded and turned into lighting, and the camera frame is composited with the
 // object into the page's canvas by the same renderer and shaders as the native client.
@@ -19,7 +20,8 @@
 #include <vector>
 
 #include "arlight/error.hpp"
-#include "arlight/map_assembly.hpp"
+#include "arlight/lighting_state.hpp"
+#include "arlight/placement.hpp"
 #include "arlight/pose.hpp"
 #include "arlight/render.hpp"
 #include "arlight/track/pose_filter.hpp"
@@ -38,19 +40,12 @@ namespace {
 // offers, small enough for a phone (lat-long 2N x N).
 const std::vector<float> kShininess = {1, 10, 40, 160, 640};
 constexpr int kMapSize = 128;
-// Until the marker is found the object floats this many of its heights ahead of the camera and
-// half a height below the view's centre, upright in the world: it follows the view, so the
-// room's light on it shows from the first frame wherever the phone points.
-constexpr double kPreviewDistance = 4.0, kPreviewDrop = 0.5;
 // The object stands this many marker sides tall, as in the native client (client_app.hpp).
 constexpr double kObjectHeightPerMarker = 1.5;
 constexpr double kDefaultMarkerSize = 0.2;  // metres: the native client's default marker
 // How far ahead of the newest tracked frame the camera's position is extrapolated (the pose
 // filter's reset time: beyond it the marker counts as lost).
 constexpr double kExtrapolateSeconds = 0.5;
-// The exposure arlightd assumes for a client that cannot report it (daemon/connection.hpp): the
-// virtual object goes through the same exposure, so it matches the map's scale.
-constexpr double kLockedExposure = 1.0 / 60.0;
 // Soft shadows (tutorial §6.4): at most this many hard shadows, as many as hold the target frame
 // rate (the native client's --shadow-lights and --target-fps defaults).
 constexpr int kDefaultShadowLights = 16;
@@ -59,6 +54,12 @@ constexpr double kDefaultTargetFps = 30.0;
 val bytes_to_js(const std::vector<std::uint8_t>& bytes) {
   // A copy: the view into the module's memory would change under the next call.
   return val::global("Uint8Array").new_(emscripten::typed_memory_view(bytes.size(), bytes.data()));
+}
+
+val vector_to_js(const glm::vec3& v) {
+  val a = val::array();
+  for (int i = 0; i < 3; ++i) a.call<void>("push", v[i]);
+  return a;
 }
 
 val pose_to_js(const Pose& p) {
@@ -70,12 +71,6 @@ val pose_to_js(const Pose& p) {
   out.set("position", position);
   out.set("orientation", orientation);
   return out;
-}
-
-glm::dmat4 matrix_of(const Pose& p) {
-  glm::dmat4 m = glm::mat4_cast(p.orientation);
-  m[3] = glm::dvec4(p.position, 1.0);
-  return m;
 }
 
 render::Material material_named(const std::string& name) {
@@ -133,7 +128,7 @@ class WebClient {
     wire::CameraFrame f;
     f.sequence = std::uint64_t(sequence);
     f.info.timestamp = timestamp;
-    f.info.exposure = kLockedExposure;  // exposure:unknown: the daemon locks it anyway
+    f.info.exposure = wire::kLockedExposureSeconds;  // exposure:unknown: the daemon locks it
     f.info.gain = 1.0;
     f.info.orientation = glm::normalize(glm::dquat(qw, qx, qy, qz));
     f.format = wire::PixelFormat::Jpeg;
@@ -143,7 +138,7 @@ class WebClient {
     return bytes_to_js(wire::encode(f));
   }
   val request_maps() {
-    assembler_.expect(std::vector<double>(kShininess.begin(), kShininess.end()));
+    state_.expect_maps(std::vector<double>(kShininess.begin(), kShininess.end()));
     return bytes_to_js(
         wire::encode(wire::RequestMaps{kShininess, kMapSize, Projection::LatLong, "auto"}));
   }
@@ -153,7 +148,8 @@ class WebClient {
   // is north-referenced when it comes from the absolute orientation sensor (a compass).
   val location(double latitude, double longitude, double altitude, double utc_seconds,
                bool north_referenced) {
-    if (!welcome_ || !wire::has_capability(welcome_->capabilities, wire::kServerCapabilityLocation))
+    const auto& welcome = state_.welcome();
+    if (!welcome || !wire::has_capability(welcome->capabilities, wire::kServerCapabilityLocation))
       return val::null();
     wire::Location l;
     l.where = {latitude, longitude, std::isfinite(altitude) ? altitude : 0.0};
@@ -175,33 +171,21 @@ class WebClient {
       last_error_ = std::string("bad message from the server: ") + e.what();
       return "refused: " + last_error_;
     }
-    if (auto* w = std::get_if<wire::Welcome>(&m)) {
-      welcome_ = *w;
-    } else if (auto* e = std::get_if<wire::Error>(&m)) {
-      last_error_ = std::string(wire::error_code_name(e->code)) + ": " + e->message;
-    } else if (auto* u = std::get_if<wire::LightingUpdate>(&m)) {
-      ++updates_;
-      last_sequence_ = u->frame_sequence;
-      coverage_ = u->coverage;
-      estimated_ = u->estimated;
-      if (u->frame_exposure > 0.0) frame_exposure_ = u->frame_exposure;
-      frames_processed_ = u->frames_processed;
-      if (!maps_) renderer_.set_sh(u->sh);
-      sh_ = u->sh;
-      light_direction_ = u->dominant_direction;
-      light_colour_ = u->dominant_colour;
-      sun_state_ = u->sun_state;
-      sun_direction_ = u->sun_direction;
-    } else if (auto* t = std::get_if<wire::MapTile>(&m)) {
-      assembler_.add_tile(*t);
-    } else if (auto* c = std::get_if<wire::MapSetComplete>(&m)) {
-      if (auto set = assembler_.complete(*c)) {
-        renderer_.set_maps(set->shininess, set->maps);
-        maps_ = true;
-        ++map_sets_;
-      }
+    const std::string name = wire::message_name(m);
+    switch (state_.receive(std::move(m))) {
+      case client::LightingState::Change::Error:
+        last_error_ = state_.error()->first + ": " + state_.error()->second;
+        break;
+      case client::LightingState::Change::Update:
+        if (!state_.lighting().maps) renderer_.set_sh(*state_.lighting().sh);
+        break;
+      case client::LightingState::Change::MapSet:
+        renderer_.set_maps(state_.lighting().maps->shininess, state_.lighting().maps->maps);
+        break;
+      default:
+        break;
     }
-    return wire::message_name(m);
+    return name;
   }
 
   // ---- tracking ----
@@ -219,13 +203,13 @@ class WebClient {
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
     const Pose smoothed = filter_.update(raw, timestamp);
     world_from_marker_.add(timestamp, world_from_camera, raw.orientation);
-    track_ = Track{smoothed, world_from_camera, timestamp, filter_.velocity()};
+    placement_.tracked(timestamp, smoothed, filter_.velocity(), world_from_camera);
     ++tracked_frames_;
     val out = val::object();
     out.set("raw", pose_to_js(raw));
     out.set("smoothed", pose_to_js(smoothed));
     val velocity = val::array();
-    for (int i = 0; i < 3; ++i) velocity.call<void>("push", track_->velocity[i]);
+    for (int i = 0; i < 3; ++i) velocity.call<void>("push", filter_.velocity()[i]);
     out.set("velocity", velocity);
     return out;
   }
@@ -250,57 +234,36 @@ class WebClient {
   double render(double timestamp, double qw, double qx, double qy, double qz) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
-    Pose camera_in_scene;
-    glm::dquat world_from_scene;
-    if (track_) {
-      // On the marker: the newest tracked pose (the worker's result trails the shown frame),
-      // turned by the rotation the orientation sensor measured since its frame and moved on by
-      // the pose filter's velocity. After the marker is lost the object stays there, turned by
-      // the sensor alone, until it is seen again.
-      const glm::dquat since = glm::conjugate(track_->world_from_camera) * world_from_camera;
-      const double ahead = timestamp - track_->timestamp;
-      const bool extrapolate = ahead > 0 && ahead <= kExtrapolateSeconds;
-      camera_in_scene = {
-          glm::normalize(track_->camera_in_marker.orientation * since),
-          track_->camera_in_marker.position + (extrapolate ? ahead : 0.0) * track_->velocity};
-      world_from_scene = world_from_marker_.world_from_marker().value_or(
-          track_->world_from_camera * glm::conjugate(track_->camera_in_marker.orientation));
-    } else {
-      // The preview: the object's frame has +Z up (world +Y), +X world +X, +Y world -Z
-      // (right-handed, as a marker's frame), its origin ahead of the camera.
-      const glm::dmat3 axes(glm::dvec3(1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, 1, 0));
-      world_from_scene = glm::quat_cast(axes);
-      const glm::dvec3 origin =
-          world_from_camera * (object_height_ * glm::dvec3(0, -kPreviewDrop, -kPreviewDistance));
-      camera_in_scene = compose(inverse(Pose{world_from_scene, origin}),
-                                Pose{world_from_camera, glm::dvec3(0.0)});
-    }
+    // On the marker: the newest tracked pose (the worker's result trails the shown frame),
+    // turned by the rotation the orientation sensor measured since its frame and moved on by
+    // the pose filter's velocity. After the marker is lost the object stays there, turned by
+    // the sensor alone, until it is seen again. Before any marker: the preview.
+    const auto on_marker = placement_.camera_in_marker(timestamp, world_from_camera);
+    const auto [camera_in_scene, world_from_scene] =
+        on_marker ? std::pair{*on_marker, world_from_marker()}
+                  : client_app::preview_placement(world_from_camera, object_height_);
     renderer_.begin_frame();
     shadow_drawn_ = false;
     if (renderer_.lighting_source() != render::LightingSource::None) {
-      last_camera_from_scene_ = matrix_of(inverse(camera_in_scene));
+      last_camera_from_scene_ = track::view_matrix(camera_in_scene);
       last_world_from_scene_ = world_from_scene;
       renderer_.set_camera(camera_, *last_camera_from_scene_);
       renderer_.set_world_from_scene(world_from_scene);
-      render::ShadowSettings shadow;  // on the real floor: only where a marker says it is
-      shadow.enabled = track_.has_value();
-      shadow.light_direction = light_direction_;
-      shadow.light_colour = light_colour_;
-      shadow.lights = light_control_ ? light_control_->lights() : max_shadow_lights_;
-      shadow_drawn_ = shadow.enabled;
-      renderer_.set_shadow(shadow);
+      // On the real floor: only where a marker says it is.
+      shadow_drawn_ = placement_.has_track();
+      renderer_.set_shadow(shadow_.settings(shadow_drawn_, state_.lighting()));
       renderer_.draw(mesh_, material_, model_);
     }
     // The camera's exposure as arlightd estimated it for the newest frame it processed (the
     // browser cannot say; its auto-exposure moves as the phone turns), in the map's units.
-    render::ToneMapping tone{render::ToneMode::CameraMatched, frame_exposure_, 1.0};
+    render::ToneMapping tone{render::ToneMode::CameraMatched, frame_exposure(), 1.0};
     tone.colour = colour_;
     renderer_.composite_in_place(tone);
     renderer_.present();
     ++frames_rendered_;
     // The frame-rate control needs the time the GPU took for the shadow: wait for it (the page
     // would wait for its next camera frame anyway) while there is a shadow to count.
-    if (light_control_ && shadow_drawn_) glFinish();
+    if (shadow_.target_fps() > 0 && shadow_drawn_) glFinish();
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
 
@@ -313,17 +276,14 @@ class WebClient {
                                   std::to_string(render::kMaxShadowLights));
     if (!(target_fps >= 0) || !std::isfinite(target_fps))
       throw std::invalid_argument("target frame rate: a number of frames a second, 0 for none");
-    max_shadow_lights_ = max_lights, target_fps_ = target_fps;
-    light_control_.reset();
-    if (target_fps > 0)
-      light_control_.emplace(1000.0 / target_fps, max_lights, std::min(4, max_lights));
+    shadow_ = client_app::ShadowBudget(max_lights, target_fps);
   }
 
   // The page's whole frame (the camera frame's upload and render()) took `ms`: the frame-rate
   // control's measure, counted for the frames that drew a shadow (with however many hard
   // shadows the room's clusters gave: a budget too small for a compact cluster draws none).
   void frame_took(double ms) {
-    if (light_control_ && shadow_drawn_) light_control_->update(ms);
+    shadow_.frame_took(ms, shadow_drawn_);
   }
 
   void set_material(const std::string& name) {
@@ -422,7 +382,7 @@ class WebClient {
     out.set("camera_from_scene", matrix(*last_camera_from_scene_));
     out.set("model", matrix(model_));
     out.set("world_from_scene", q);
-    out.set("exposure", frame_exposure_);
+    out.set("exposure", frame_exposure());
     out.set("material", material_name_);
     out.set("shading", std::string(render::shading_name(renderer_.shading())));
     out.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
@@ -431,17 +391,19 @@ class WebClient {
   }
 
   val status() const {
+    const client::Lighting& l = state_.lighting();
+    const auto& welcome = state_.welcome();
     val s = val::object();
-    s.set("connected", welcome_.has_value());
-    s.set("session_id", welcome_ ? welcome_->session_id : std::string());
-    s.set("server_version", welcome_ ? welcome_->server_version : std::string());
-    s.set("updates", double(updates_));
-    s.set("last_sequence", double(last_sequence_));
-    s.set("frames_processed", double(frames_processed_));
-    s.set("map_sets", double(map_sets_));
-    s.set("coverage", coverage_);
-    s.set("estimated", estimated_);
-    s.set("frame_exposure", frame_exposure_);
+    s.set("connected", welcome.has_value());
+    s.set("session_id", welcome ? welcome->session_id : std::string());
+    s.set("server_version", welcome ? welcome->server_version : std::string());
+    s.set("updates", double(state_.updates()));
+    s.set("last_sequence", double(l.frame_sequence));
+    s.set("frames_processed", double(l.frames_processed));
+    s.set("map_sets", double(state_.map_sets()));
+    s.set("coverage", l.coverage);
+    s.set("estimated", l.estimated);
+    s.set("frame_exposure", frame_exposure());
     s.set("frames_encoded", double(frames_sent_));
     s.set("frames_rendered", double(frames_rendered_));
     const auto source = renderer_.lighting_source();
@@ -452,21 +414,17 @@ class WebClient {
     s.set("material", material_name_);
     s.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
     s.set("colour", std::string(render::colour_correction_name(colour_)));
-    s.set("sun", std::string(sun_state_name(sun_state_)));
-    val sun = val::array();
-    for (int i = 0; i < 3; ++i) sun.call<void>("push", sun_direction_[i]);
-    s.set("sun_direction", sun);
+    s.set("sun", std::string(sun_state_name(l.sun_state)));
+    s.set("sun_direction", vector_to_js(l.sun_direction));
     s.set("last_error", last_error_);
     // Bands 0-2 of the live SH (RGB triples, index l(l+1)+m): the room's irradiance.
     val sh = val::array();
-    for (int k = 0; k < 9 && sh_ && k < int(sh_->c.size()); ++k)
-      for (int ch = 0; ch < 3; ++ch) sh.call<void>("push", sh_->c[std::size_t(k)][ch]);
+    for (int k = 0; k < 9 && l.sh && k < int(l.sh->c.size()); ++k)
+      for (int ch = 0; ch < 3; ++ch) sh.call<void>("push", l.sh->c[std::size_t(k)][ch]);
     s.set("sh", sh);
-    val light = val::array();
-    for (int i = 0; i < 3; ++i) light.call<void>("push", light_direction_[i]);
-    s.set("light_direction", light);
+    s.set("light_direction", vector_to_js(l.dominant_direction));
     s.set("tracked_frames", double(tracked_frames_));
-    s.set("tracking", std::string(track_ ? "marker" : "preview"));
+    s.set("tracking", std::string(placement_.has_track() ? "marker" : "preview"));
     s.set("focal_px", camera_.fx);
     s.set("model", model_name_);
     s.set("model_vertices", double(model_vertices_));
@@ -474,13 +432,26 @@ class WebClient {
     // issue it; the count the frame-rate control holds, its limit and its target.
     s.set("shadow_lights", renderer_.timings().shadow_lights);
     s.set("shadow_ms", renderer_.timings().shadow_ms);
-    s.set("shadow_light_budget", light_control_ ? light_control_->lights() : max_shadow_lights_);
-    s.set("max_shadow_lights", max_shadow_lights_);
-    s.set("target_fps", target_fps_);
+    s.set("shadow_light_budget", shadow_.lights());
+    s.set("max_shadow_lights", shadow_.max_lights());
+    s.set("target_fps", shadow_.target_fps());
     return s;
   }
 
  private:
+  // The marker's rotation into the world: the estimate over its sightings, or the newest one's.
+  glm::dquat world_from_marker() const {
+    if (const auto w = world_from_marker_.world_from_marker()) return *w;
+    return placement_.world_from_marker_of_track().value_or(glm::dquat(1.0, 0.0, 0.0, 0.0));
+  }
+
+  // The exposure arlightd took the newest frame at (the browser cannot say; its auto-exposure
+  // moves as the phone turns), in the map's units; the locked one until an update says.
+  double frame_exposure() const {
+    const double e = state_.lighting().frame_exposure;
+    return e > 0 ? e : wire::kLockedExposureSeconds;
+  }
+
   // A scene point's pixel in the last composite, or null when it is behind the camera or
   // nothing was drawn yet.
   val pixel_of(const glm::dvec3& scene_point) const {
@@ -531,14 +502,9 @@ class WebClient {
   double object_height_ = 0;
   int width_, height_;
   CameraIntrinsics camera_;
-  // The newest tracked pose (smoothed, camera -> marker), the orientation and time of its frame.
-  struct Track {
-    Pose camera_in_marker;
-    glm::dquat world_from_camera;
-    double timestamp;
-    glm::dvec3 velocity;  // of the camera in the marker frame, m/s
-  };
-  std::optional<Track> track_;
+  // The newest tracked pose (smoothed, camera -> marker), carried on to the frame shown.
+  client_app::MarkerPlacement placement_{{.hold_s = std::numeric_limits<double>::infinity(),
+                                          .extrapolate_s = kExtrapolateSeconds}};
   track::PoseFilter filter_;
   // One sample is enough to light the object; the window then averages the tracker's noise.
   track::WorldFromMarker world_from_marker_{track::WorldFromMarkerOptions{.min_samples = 1}};
@@ -546,23 +512,11 @@ class WebClient {
   std::optional<glm::dmat4> last_camera_from_scene_;
   glm::dquat last_world_from_scene_{1.0, 0.0, 0.0, 0.0};
   std::optional<YuvFrame> yuv_;
-  std::optional<ShCoeffs> sh_;
-  client::MapSetAssembler assembler_;
-  std::optional<wire::Welcome> welcome_;
+  client::LightingState state_;  // what arlightd's messages built
   std::string last_error_;
-  std::uint64_t updates_ = 0, last_sequence_ = 0, frames_processed_ = 0, map_sets_ = 0,
-                frames_sent_ = 0, frames_rendered_ = 0;
-  double coverage_ = 0;
-  double estimated_ = 0;  // fraction of the sphere arlightd estimated rather than measured
-  double frame_exposure_ = kLockedExposure;  // the newest frame's exposure, from arlightd
-  bool maps_ = false;
-  glm::vec3 light_direction_{0.0f}, light_colour_{0.0f};
-  SunState sun_state_ = SunState::Unknown;
-  glm::vec3 sun_direction_{0.0f};
-  int max_shadow_lights_ = kDefaultShadowLights;
+  std::uint64_t frames_sent_ = 0, frames_rendered_ = 0;
+  client_app::ShadowBudget shadow_{kDefaultShadowLights, kDefaultTargetFps};
   bool shadow_drawn_ = false;  // the last render() drew the shadow catcher
-  double target_fps_ = kDefaultTargetFps;
-  std::optional<render::LightCountControl> light_control_;  // with target_fps_ > 0
 };
 
 EMSCRIPTEN_BINDINGS(arlight_web) {

@@ -162,6 +162,9 @@ inline constexpr const char* kCapabilityTilesHalf = "tiles:half";       // accep
 // The client cannot report exposure or gain (most browsers): the server treats its frames as
 // taken at one locked exposure, whatever CameraFrame.exposure and gain say.
 inline constexpr const char* kCapabilityExposureUnknown = "exposure:unknown";
+// ... that one exposure: 1/60 s at gain 1, what a phone camera in a lit room locks to (any
+// fixed value gives the same relative map). Such a client sends it in CameraFrame.exposure.
+inline constexpr double kLockedExposureSeconds = 1.0 / 60.0;
 // The client can take a frame at an exposure it is told (ExposureAdvice): only such clients
 // are sent the advice.
 inline constexpr const char* kCapabilityExposureAdvice = "exposure:advice";

@@ -204,7 +204,7 @@ void Connection::handle_frame(wire::CameraFrame&& m) {
     // Whatever the client wrote there: the first frame is taken at one locked exposure, which
     // sets the map's scale; the capture estimates every later frame's from its overlap with
     // the map (CaptureOptions::estimate_exposure).
-    m.info.exposure = kLockedExposureSeconds;
+    m.info.exposure = wire::kLockedExposureSeconds;
     m.info.gain = 1.0;
   }
   session_->submit(FrameJob{std::move(m), Clock::now()});

@@ -17,10 +17,6 @@
 
 namespace arlight::daemon {
 
-// The exposure assumed for the frames of a client that cannot report it (1/60 s, gain 1: what
-// a phone camera in a lit room locks to; any fixed value gives the same relative map).
-inline constexpr double kLockedExposureSeconds = 1.0 / 60.0;
-
 // What a connection needs from the daemon.
 struct ConnectionEnv {
   wire::WireLimits limits;

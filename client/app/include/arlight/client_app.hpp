@@ -17,6 +17,7 @@
 #include "arlight/camera.hpp"
 #include "arlight/frame.hpp"
 #include "arlight/lighting_link.hpp"
+#include "arlight/placement.hpp"
 #include "arlight/pose.hpp"
 #include "arlight/render.hpp"
 #include "arlight/render/opencv.hpp"
@@ -124,10 +125,9 @@ class FramePipeline {
   track::MarkerTracker tracker_;
   track::WorldFromMarker world_from_marker_;
   track::OrientationEstimator webcam_orientation_;
-  std::optional<render::LightCountControl> light_control_;  // with target_fps > 0
+  ShadowBudget shadow_budget_;
   std::uint64_t sh_version_ = 0, maps_version_ = 0;
-  std::optional<Pose> last_pose_;  // smoothed, held through a briefly lost marker
-  double last_pose_time_ = -1;
+  MarkerPlacement placement_;  // the smoothed pose, held through a briefly lost marker
 };
 
 // Flag values every client takes, with errors naming the flag.

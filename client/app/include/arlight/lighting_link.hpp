@@ -37,19 +37,8 @@ struct LinkOptions {
   std::optional<wire::Location> location;
 };
 
-// The newest lighting: live SH (from every LightingUpdate) and the newest complete map set.
-// Versions increase with every change so the renderer re-uploads only what changed.
-struct Lighting {
-  std::uint64_t sh_version = 0, maps_version = 0;
-  std::optional<ShCoeffs> sh;
-  std::shared_ptr<const client::MapSet> maps;
-  glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
-  glm::vec3 dominant_colour{0.0f};
-  double coverage = 0;   // fraction of the sphere measured
-  double estimated = 0;  // fraction estimated by arlightd from what was measured
-  SunState sun_state = SunState::Unknown;  // what arlightd knows of the sun (with a location)
-  glm::vec3 sun_direction{0.0f};           // world frame, towards it
-};
+// The newest lighting (the client core's: arlight/lighting_state.hpp), kept across reconnections.
+using client::Lighting;
 
 // A reconnection that resumed the session: what the server's Welcome said it had kept, and
 // the coverage of the first update after it (a fail-over check: never below the checkpoint's).

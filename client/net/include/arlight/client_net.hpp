@@ -20,7 +20,7 @@
 
 #include "arlight/camera.hpp"
 #include "arlight/frame.hpp"
-#include "arlight/map_assembly.hpp"
+#include "arlight/lighting_state.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/sh.hpp"
 #include "arlight/wire.hpp"

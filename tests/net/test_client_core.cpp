@@ -1,8 +1,11 @@
-// Map sets as their tiles arrive (client/net MapSetAssembler): only whole sets are used.
+// The client core (client/net): map sets as their tiles arrive (MapSetAssembler: only whole sets
+// are used), and the lighting state the server's messages build (LightingState, which both
+// clients' receive paths call).
 #include <gtest/gtest.h>
 
 #include <vector>
 
+#include "arlight/lighting_state.hpp"
 #include "arlight/map_assembly.hpp"
 
 using namespace arlight;
@@ -87,4 +90,51 @@ TEST(MapSetAssembler, ASetThisConnectionDidNotAskForIsNotUsed) {
   a.expect({10.0, 20.0});
   for (const auto& t : tiles_of(9, 2)) a.add_tile(t);
   EXPECT_TRUE(a.complete(done(9, 2)));
+}
+
+TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
+  using Change = LightingState::Change;
+  LightingState state;
+  wire::Welcome welcome;
+  welcome.session_id = "s1";
+  EXPECT_EQ(state.receive(std::move(welcome)), Change::Welcome);
+  EXPECT_EQ(state.welcome()->session_id, "s1");
+  wire::LightingUpdate u;
+  u.frame_sequence = 5, u.frames_processed = 4, u.coverage = 0.25f, u.frame_exposure = 0.02;
+  u.sh = ShCoeffs(3);
+  u.sh.c[0] = glm::dvec3(1.0);
+  u.dominant_direction = {0, 1, 0};
+  EXPECT_EQ(state.receive(wire::LightingUpdate(u)), Change::Update);
+  const Lighting& l = state.lighting();
+  EXPECT_EQ(l.sh_version, 1u);
+  EXPECT_EQ(l.sh->c[0], glm::dvec3(1.0));
+  EXPECT_EQ(l.frame_sequence, 5u);
+  EXPECT_EQ(l.frames_processed, 4u);
+  EXPECT_FLOAT_EQ(float(l.coverage), 0.25f);
+  EXPECT_DOUBLE_EQ(l.frame_exposure, 0.02);
+  EXPECT_EQ(l.dominant_direction, glm::vec3(0, 1, 0));
+  // A frame not used says exposure 0: the last one stands.
+  u.frame_sequence = 6, u.frame_exposure = 0;
+  state.receive(wire::LightingUpdate(u));
+  EXPECT_EQ(l.frame_sequence, 6u);
+  EXPECT_DOUBLE_EQ(l.frame_exposure, 0.02);
+  EXPECT_EQ(state.updates(), 2u);
+  // Tiles change nothing until their set completes; a set not asked for is not used.
+  for (const auto& t : tiles_of(1, 2))
+    EXPECT_EQ(state.receive(wire::MapTile(t)), Change::Nothing);
+  EXPECT_EQ(state.receive(done(1, 2)), Change::Nothing);
+  EXPECT_FALSE(l.maps);
+  state.expect_maps({10.0, 20.0});
+  for (const auto& t : tiles_of(2, 2)) state.receive(wire::MapTile(t));
+  EXPECT_EQ(state.receive(done(2, 2)), Change::MapSet);
+  ASSERT_TRUE(l.maps);
+  EXPECT_EQ(l.maps->id, 2u);
+  EXPECT_EQ(l.maps_version, 1u);
+  EXPECT_EQ(state.map_sets(), 1u);
+  EXPECT_EQ(l.sh_version, 2u);  // the set left the SH as it was
+  EXPECT_EQ(state.receive(wire::Error{wire::ErrorCode::Busy, "slow"}), Change::Error);
+  EXPECT_EQ(state.error()->second, "slow");
+  EXPECT_EQ(state.receive(wire::ExposureAdvice{.exposure = 0.004}), Change::ExposureAdvice);
+  EXPECT_DOUBLE_EQ(state.exposure_advice()->exposure, 0.004);
+  EXPECT_EQ(state.receive(wire::Pong{}), Change::Nothing);
 }
