@@ -239,18 +239,6 @@ void Client::send_intrinsics(const CameraIntrinsics& k) {
   impl_->send(wire::CameraIntrinsicsMessage{k});
 }
 
-namespace {
-wire::CameraFrame jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                             std::span<const std::uint8_t> jpeg) {
-  wire::CameraFrame f;
-  f.sequence = sequence;
-  f.info = info;
-  f.format = wire::PixelFormat::Jpeg;
-  f.width = std::uint32_t(width), f.height = std::uint32_t(height);
-  f.data.assign(jpeg.begin(), jpeg.end());
-  return f;
-}
-}  // namespace
 
 void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                              std::span<const std::uint8_t> jpeg) {
@@ -263,8 +251,7 @@ void Client::request_maps(const std::vector<double>& shininess, int size, Projec
     std::lock_guard lock(impl_->mutex);
     impl_->state.expect_maps(shininess);
   }
-  impl_->send(wire::RequestMaps{std::vector<float>(shininess.begin(), shininess.end()),
-                                std::uint32_t(size), projection, method});
+  impl_->send(map_request(shininess, size, projection, method));
 }
 
 void Client::send_calibration_set(const std::string& method, int width, int height,
@@ -338,18 +325,6 @@ std::uint64_t Client::updates_received() const {
 std::uint64_t Client::map_sets_completed() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->state.map_sets();
-}
-
-wire::Location make_location(const GeoLocation& where, double utc_seconds,
-                             std::optional<double> north_offset_deg) {
-  if (north_offset_deg && !(std::abs(*north_offset_deg) <= 180.0))
-    throw std::invalid_argument("the north offset must be in [-180, 180] degrees");
-  wire::Location l;
-  l.where = where;
-  l.utc_seconds = utc_seconds;
-  l.north_referenced = north_offset_deg.has_value();
-  l.north_offset_deg = north_offset_deg.value_or(0.0);
-  return l;
 }
 
 }  // namespace arlight::client

@@ -6,6 +6,12 @@
 
 namespace arlight::web {
 
+YuvLayout yuv_layout_named(const std::string& name) {
+  if (name == "NV12") return YuvLayout::Nv12;
+  if (name == "I420") return YuvLayout::I420;
+  throw std::invalid_argument("frame layout '" + name + "': NV12 or I420");
+}
+
 namespace {
 
 // Y'CbCr -> R'G'B' for the luma weights (Kr, Kb) of a matrix (ITU-R BT.601, BT.709, BT.2020;

@@ -17,6 +17,8 @@
 namespace arlight::web {
 
 enum class YuvLayout { Nv12, I420 };
+// "NV12" or "I420" (WebCodecs' names); std::invalid_argument for another.
+YuvLayout yuv_layout_named(const std::string& name);
 
 class YuvFrame {
  public:

@@ -20,6 +20,7 @@
 
 #include "arlight/camera.hpp"
 #include "arlight/frame.hpp"
+#include "arlight/client_messages.hpp"
 #include "arlight/lighting_state.hpp"
 #include "arlight/projection.hpp"
 #include "arlight/sh.hpp"
@@ -124,11 +125,5 @@ class Client {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-// The Location message for a place and a UTC time (seconds since 1970), north-referenced when
-// the frames' heading is known against a compass (`north_offset_deg`, eastward from true
-// north); std::invalid_argument for an offset outside [-180, 180].
-wire::Location make_location(const GeoLocation& where, double utc_seconds,
-                             std::optional<double> north_offset_deg);
 
 }  // namespace arlight::client

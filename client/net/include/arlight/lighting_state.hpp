@@ -27,8 +27,8 @@ struct Lighting {
   std::shared_ptr<const MapSet> maps;
   glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
   glm::vec3 dominant_colour{0.0f};
-  double coverage = 0;   // fraction of the sphere measured
-  double estimated = 0;  // fraction estimated by arlightd from what was measured
+  double coverage = 0;                     // fraction of the sphere measured
+  double estimated = 0;                    // fraction estimated by arlightd from what was measured
   SunState sun_state = SunState::Unknown;  // what arlightd knows of the sun (with a location)
   glm::vec3 sun_direction{0.0f};           // world frame, towards it
   // The newest update's frame: its sequence, the frames the session has merged by then, and

@@ -1,0 +1,39 @@
+// The page's API (web_client.hpp) bound for JavaScript: the names app.js and its modules call.
+#include <emscripten/bind.h>
+
+#include "web_client.hpp"
+
+namespace arlight::web {
+
+EMSCRIPTEN_BINDINGS(arlight_web) {
+  emscripten::class_<WebClient>("WebClient")
+      .constructor<std::string, int, int>()
+      .function("hello", &WebClient::hello)
+      .function("setFov", &WebClient::set_fov)
+      .function("setFocal", &WebClient::set_focal)
+      .function("camera", &WebClient::camera)
+      .function("setMarkerSize", &WebClient::set_marker_size)
+      .function("markerSeen", &WebClient::marker_seen)
+      .function("intrinsics", &WebClient::intrinsics)
+      .function("frame", &WebClient::frame)
+      .function("requestMaps", &WebClient::request_maps)
+      .function("receive", &WebClient::receive)
+      .function("cameraTexture", &WebClient::camera_texture)
+      .function("yuvPlaneTexture", &WebClient::yuv_plane_texture)
+      .function("convertYuv", &WebClient::convert_yuv)
+      .function("render", &WebClient::render)
+      .function("setShadowLights", &WebClient::set_shadow_lights)
+      .function("frameTook", &WebClient::frame_took)
+      .function("setMaterial", &WebClient::set_material)
+      .function("setShading", &WebClient::set_shading)
+      .function("setRefraction", &WebClient::set_refraction)
+      .function("setColour", &WebClient::set_colour)
+      .function("location", &WebClient::location)
+      .function("setModel", &WebClient::set_model)
+      .function("status", &WebClient::status)
+      .function("objectPixel", &WebClient::object_pixel)
+      .function("floorPixel", &WebClient::floor_pixel)
+      .function("view", &WebClient::view);
+}
+
+}  // namespace arlight::web
