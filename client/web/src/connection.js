@@ -95,31 +95,24 @@ export class Connection {
     }
   }
 
-  // One message from arlightd, decoded by the client; what it says into the page's state.
+  // One message from arlightd, into the client core (which keeps what it says: status.js reads
+  // it from there); here only what the connection does about it.
   receive(bytes) {
     const name = this.client.receive(bytes);
-    const s = this.client.status();
     if (name === 'Welcome') {
       state.connected = true;
-      state.sessionId = s.session_id;
+      state.sessionId = this.client.status().session_id;
       this.onWelcome();
     } else if (name === 'LightingUpdate') {
-      state.updates = s.updates;
-      state.sh = s.sh;
-      state.framesProcessed = s.frames_processed;
-      state.coverage = s.coverage;
-      state.estimated = s.estimated;
-      this.reflected(s.last_sequence);
-    } else if (name === 'MapSetComplete') {
-      state.mapSets = s.map_sets;
+      this.reflected(this.client.lastSequence());
     } else if (name === 'Error') {
-      showError(`refused: ${s.last_error}`);
-      if (/^(Unauthorized|Unsupported|SessionNotFound)/.test(s.last_error)) this.refused = true;
+      const error = this.client.status().last_error;
+      showError(`refused: ${error}`);
+      if (/^(Unauthorized|Unsupported|SessionNotFound)/.test(error)) this.refused = true;
     } else if (name.startsWith('refused')) {
       showError(name);
       this.ws.close();
     }
-    state.lighting = s.lighting;
   }
 
   // An update reflects the frames up to `sequence`: the latency of that frame.

@@ -19,13 +19,6 @@ export const state = {
   connected: false,
   sessionId: '',    // sent as the Hello's resume_session (app.js sets the URL's &session=)
   framesSent: 0,
-  updates: 0,
-  framesProcessed: 0,
-  mapSets: 0,
-  lighting: 'none',
-  coverage: 0,
-  estimated: 0,
-  sh: [],           // bands 0-2 of the live SH, RGB triples
   jpegMs: 0,        // encoding the newest frame for arlightd
   latencies: [],    // ms from sending a frame to the update that reflects it
   sent: [],         // the recent frames sent (window.arlight.sent())
@@ -57,37 +50,50 @@ export function showError(message) {
   document.getElementById('error').textContent = message;
 }
 
+// What the client core built from arlightd's messages (updates, map sets, coverage, the live SH:
+// web_status.cpp), read from the WebAssembly client when asked, not copied on every message;
+// before the page runs, nothing yet.
+const kNoClient = {
+  updates: 0, frames_processed: 0, map_sets: 0, lighting: 'none', coverage: 0, estimated: 0,
+  sh: [], model: 'sphere', model_vertices: 0, shadow_lights: 0, shadow_ms: 0,
+  shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
+  material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
+};
+export function clientStatus() {
+  return state.client ? state.client.status() : kNoClient;
+}
+
 /** The page's status: every field keeps its name and meaning (tests read them). */
 export function report() {
   const sorted = [...state.latencies].sort((a, b) => a - b);
   const pick = (p) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))] : 0);
-  const object = state.client ? state.client.status() : null;
+  const object = clientStatus();
   return {
     connected: state.connected,
     session_id: state.sessionId,
     frames_sent: state.framesSent,
-    updates: state.updates,
-    frames_processed: state.framesProcessed,
-    map_sets: state.mapSets,
+    updates: object.updates,
+    frames_processed: object.frames_processed,
+    map_sets: object.map_sets,
     tracked_frames: state.trackedFrames,
     track_status: state.trackStatus,
     track_ms: state.trackMs,
     intrinsics: state.intrinsics,
     intrinsics_refined_media_time: state.refinedMediaTime,
     focal_px: state.focalPx,
-    model: object ? object.model : 'sphere',
-    model_vertices: object ? object.model_vertices : 0,
-    shadow_lights: object ? object.shadow_lights : 0,
-    shadow_ms: object ? object.shadow_ms : 0,
-    shadow_light_budget: object ? object.shadow_light_budget : 0,
-    max_shadow_lights: object ? object.max_shadow_lights : 0,
-    target_fps: object ? object.target_fps : 0,
-    shading: object ? object.shading : 'maps',
-    material: object ? object.material : 'plastic',
-    refraction: object ? object.refraction : 'live',
-    colour: object ? object.colour : 'none',
-    sun: object ? object.sun : 'unknown',
-    sun_direction: object ? object.sun_direction : [0, 0, 0],
+    model: object.model,
+    model_vertices: object.model_vertices,
+    shadow_lights: object.shadow_lights,
+    shadow_ms: object.shadow_ms,
+    shadow_light_budget: object.shadow_light_budget,
+    max_shadow_lights: object.max_shadow_lights,
+    target_fps: object.target_fps,
+    shading: object.shading,
+    material: object.material,
+    refraction: object.refraction,
+    colour: object.colour,
+    sun: object.sun,
+    sun_direction: object.sun_direction,
     geolocation: state.geolocation,
     focal_error: state.focalError,
     tracker: state.tracker,
@@ -95,9 +101,9 @@ export function report() {
     tracking: state.tracking,
     fps: state.fps,
     last_error: state.lastError,
-    lighting: state.lighting,
-    coverage: state.coverage,
-    estimated: state.estimated,
+    lighting: object.lighting,
+    coverage: object.coverage,
+    estimated: object.estimated,
     guide_elevation_deg: state.guideElevation,
     render_ms: state.renderMs,
     grab_ms: state.grabMs,
@@ -110,6 +116,6 @@ export function report() {
     started: state.started,
     camera_opened_at: state.cameraOpenedAt,
     frame_media_time: state.frameMediaTime,
-    sh: state.sh,
+    sh: object.sh,
   };
 }

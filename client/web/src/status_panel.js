@@ -1,7 +1,7 @@
 // The status panel beside the view (#status, #coverage): the connection, the frames, the
 // lighting, the capture guide, the marker and the speed, in words, once a second.
 import { quatRotateVector } from './orientation.js';
-import { report, state } from './status.js';
+import { clientStatus, report, state } from './status.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -15,14 +15,15 @@ function guideText(elevation) {
 
 /** The panel now; `coverage` the CoverageView, `q` the orientation of the frame shown. */
 export function updatePanel(coverage, q) {
+  const lighting = clientStatus();
   // A session continued from another page (#session=ID) may be seen all round already.
-  state.guideElevation = state.coverage >= 0.99 ? null : coverage.nextElevation();
+  state.guideElevation = lighting.coverage >= 0.99 ? null : coverage.nextElevation();
   coverage.draw(quatRotateVector(q, [0, 0, -1]), state.guideElevation);
   $('s-guide').textContent = guideText(state.guideElevation);
   $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
-  $('s-frames').textContent = `${state.framesSent} sent, ${state.framesProcessed} in the map`;
-  $('s-lighting').textContent = `${state.lighting}, ${state.mapSets} map sets, ${(state.coverage * 100).toFixed(0)} % seen` +
-    (state.estimated > 0 ? `, ${(state.estimated * 100).toFixed(0)} % estimated` : '');
+  $('s-frames').textContent = `${state.framesSent} sent, ${lighting.frames_processed} in the map`;
+  $('s-lighting').textContent = `${lighting.lighting}, ${lighting.map_sets} map sets, ${(lighting.coverage * 100).toFixed(0)} % seen` +
+    (lighting.estimated > 0 ? `, ${(lighting.estimated * 100).toFixed(0)} % estimated` : '');
   $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
   const p = report();
   $('s-speed').textContent =

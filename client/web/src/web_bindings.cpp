@@ -18,6 +18,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("frame", &WebClient::frame)
       .function("requestMaps", &WebClient::request_maps)
       .function("receive", &WebClient::receive)
+      .function("lastSequence", &WebClient::last_sequence)
       .function("cameraTexture", &WebClient::camera_texture)
       .function("yuvPlaneTexture", &WebClient::yuv_plane_texture)
       .function("convertYuv", &WebClient::convert_yuv)

@@ -60,6 +60,8 @@ class WebClient {
 
   // ---- messages received: the message's name, or "refused: why" (the page then closes) ----
   std::string receive(const val& bytes);
+  // The newest LightingUpdate's frame sequence (what status() says, without the rest of it).
+  double last_sequence() const { return double(state_.lighting().frame_sequence); }
 
   // ---- tracking ----
   // The marker seen in the frame taken at `timestamp` (seconds, the page's clock): solvePnP's
