@@ -10,19 +10,13 @@
 
 #include "arlight/error.hpp"
 #include "options.hpp"
+#include "support/run_tool.hpp"
 
 using namespace arlight;
 using namespace arlight::daemon;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("arlight_options_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // The config a command line gives, as arlightd parses it.
 DaemonConfig parse(std::vector<std::string> args) {
@@ -61,12 +55,11 @@ TEST(DaemonOptions, EveryOptionHasAFlagOrAKeyAndNoneIsNamedTwice) {
   // The example config's keys are all options.
   std::ifstream in(fs::path(ARLIGHT_SOURCE_DIR) / "deploy" / "arlightd.example.json");
   const nlohmann::json example = nlohmann::json::parse(in);
-  for (const auto& [key, value] : example.items())
-    EXPECT_TRUE(keys.count(key)) << key;
+  for (const auto& [key, value] : example.items()) EXPECT_TRUE(keys.count(key)) << key;
 }
 
 TEST(DaemonOptions, FlagsOverrideTheConfigFileAndTheRestOfTheFileStands) {
-  const fs::path dir = fresh_dir("override");
+  const fs::path dir = test::fresh_temp_dir("options_override");
   std::ofstream(dir / "c.json") << R"({"tokens": "/etc/t", "queue_depth": 5, "workers": 3,
       "checkpoint_interval_s": 0.25, "map_size": 256, "fill": "mean", "admin": ""})";
   const DaemonConfig file_only = parse({"--config", (dir / "c.json").string()});
@@ -114,7 +107,7 @@ TEST(DaemonOptions, BadValuesNameTheirFlagOrKey) {
             std::string::npos);
   EXPECT_NE(error_of({"--tokens", "t", "--max-connections", "0"}).find("connection limits"),
             std::string::npos);
-  const fs::path dir = fresh_dir("bad");
+  const fs::path dir = test::fresh_temp_dir("options_bad");
   std::ofstream(dir / "c.json") << R"({"tokens": "t", "threads": "many"})";
   const std::string e = error_of({"--config", (dir / "c.json").string()});
   EXPECT_NE(e.find("c.json': threads: "), std::string::npos) << e;

@@ -8,6 +8,7 @@
 
 #include "arlight/atomic_file.hpp"
 #include "arlight/client_net.hpp"
+#include "arlight/connection_flags.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/number_list.hpp"
@@ -39,13 +40,8 @@ int main(int argc, char** argv) {
   app.add_option("--resume", resume, "continue this session id");
   app.add_option("--out", out, "folder for replay.json and maps/")->capture_default_str();
   app.add_option("--json", json_path, "also write the summary here");
-  client::TlsOptions tls;
-  app.add_flag("--tls", tls.enabled, "connect with TLS (trusting the system's CAs)");
-  app.add_option("--tls-ca", tls.ca_file, "connect with TLS, trusting this PEM CA/certificate");
-  bool websocket = false;
-  app.add_flag("--websocket", websocket,
-               "connect to arlightd's web port (--server HOST:WEBPORT) over wss://.../ws, as the "
-               "browser client does (with --tls-ca for a self-signed certificate)");
+  tools::ConnectionFlags connection;
+  connection.add_to(app);
   app.add_option("--timeout", timeout_s, "seconds to wait for updates and the map set")
       ->capture_default_str();
   try {
@@ -62,8 +58,7 @@ int main(int argc, char** argv) {
     const std::chrono::milliseconds timeout(std::int64_t(timeout_s * 1000));
 
     client::Client c;
-    c.use_tls(tls);
-    c.use_websocket(websocket);
+    connection.apply(c);
     const client::Welcome w = c.connect(host, port, device.empty() ? rec.device_id : device, token,
                                         "arlight-replay", resume);
     std::printf("session %s%s\n", w.session_id.c_str(), w.resumed ? " (resumed)" : "");

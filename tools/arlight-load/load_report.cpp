@@ -1,0 +1,130 @@
+#include "load_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace arlight::load {
+
+namespace {
+
+// The median interval between a session's consecutive map sets that completed while it was
+// still sending (the map changing): issue 16 §3's figure. 0 with fewer than two.
+double median_map_set_interval(const std::vector<double>& map_set_ms, double duration_s) {
+  std::vector<double> intervals;
+  for (std::size_t k = 1; k < map_set_ms.size(); ++k)
+    if (map_set_ms[k] <= 1000.0 * duration_s)
+      intervals.push_back(map_set_ms[k] - map_set_ms[k - 1]);
+  return percentile(intervals, 50);
+}
+
+}  // namespace
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double k = p / 100.0 * double(v.size() - 1);
+  const std::size_t i = std::size_t(std::floor(k));
+  const std::size_t j = std::min(v.size() - 1, i + 1);
+  return v[i] + (v[j] - v[i]) * (k - double(i));
+}
+
+nlohmann::json report_json(const std::vector<SessionReport>& reports, const std::string& phases,
+                           double rate, double duration) {
+  const int sessions = int(reports.size());
+  nlohmann::json j;
+  std::vector<double> all;
+  std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+  std::vector<double> map_set_intervals;  // each session's median, of those with two or more
+  int failed = 0;
+  j["errors"] = nlohmann::json::array();
+  j["per_session"] = nlohmann::json::array();
+  nlohmann::json outages = nlohmann::json::array();
+  double worst_lost_s = 0;  // frames lost in one outage of one session, in seconds of frames
+  for (std::size_t s = 0; s < reports.size(); ++s) {
+    const SessionReport& r = reports[s];
+    sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
+    all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
+    if (const double i = median_map_set_interval(r.map_set_ms, duration); i > 0.0)
+      map_set_intervals.push_back(i);
+    if (r.failed) {
+      ++failed;
+      j["errors"].push_back("session " + std::to_string(s) + ": " + r.error);
+    }
+    j["per_session"].push_back(
+        {{"frames_sent", r.sent},
+         {"frames_processed", r.processed},
+         {"frames_dropped", r.dropped},
+         {"map_sets_completed", r.map_sets},
+         {"map_set_ms", r.map_set_ms},
+         {"map_set_interval_ms_median", median_map_set_interval(r.map_set_ms, duration)},
+         {"latency_ms_p50", percentile(r.latency_ms, 50)},
+         {"latency_ms_p99", percentile(r.latency_ms, 99)},
+         {"failed", r.failed}});
+    for (const Outage& o : r.outages) {
+      outages.push_back({{"session", s},
+                         {"at_s", o.at_s},
+                         {"seconds", o.seconds},
+                         {"frames_not_sent", o.not_sent},
+                         {"frames_lost_after_checkpoint", o.lost_after_checkpoint}});
+      worst_lost_s = std::max(worst_lost_s, double(o.not_sent + o.lost_after_checkpoint) / rate);
+    }
+  }
+  j["outages"] = outages;
+  j["worst_outage_frames_lost_s"] = worst_lost_s;
+  j["sessions"] = sessions;
+  j["phases"] = phases;
+  j["failed"] = failed;
+  j["frames_sent"] = sent;
+  j["frames_processed"] = processed;
+  j["frames_dropped"] = dropped;
+  j["latency_ms"] = {
+      {"p50", percentile(all, 50)}, {"p95", percentile(all, 95)}, {"p99", percentile(all, 99)}};
+  j["map_sets_completed"] = map_sets;
+  // While the sessions were sending: the median over sessions of each one's median interval
+  // between map sets, and the slowest session's.
+  j["map_set_interval_ms"] = {
+      {"median", percentile(map_set_intervals, 50)},
+      {"worst_session", map_set_intervals.empty() ? 0.0
+                                                  : *std::max_element(map_set_intervals.begin(),
+                                                                      map_set_intervals.end())}};
+  j["rate"] = rate;
+  j["duration_s"] = duration;
+  return j;
+}
+
+std::string trace_csv(const std::vector<SessionReport>& reports) {
+  std::string csv = "session,sequence,sent_ms,latency_ms\n";
+  char line[96];
+  for (std::size_t s = 0; s < reports.size(); ++s)
+    for (std::size_t k = 0; k < reports[s].sent_ms.size(); ++k) {
+      const double ms = reports[s].frame_latency_ms[k];
+      std::snprintf(line, sizeof line, std::isnan(ms) ? "%zu,%zu,%.3f,\n" : "%zu,%zu,%.3f,%.3f\n",
+                    s, k + 1, reports[s].sent_ms[k], ms);
+      csv += line;
+    }
+  return csv;
+}
+
+void print_summary(const nlohmann::json& j) {
+  const auto count = [&](const char* key) {
+    return static_cast<unsigned long long>(j[key].get<std::uint64_t>());
+  };
+  const nlohmann::json& latency = j["latency_ms"];
+  std::printf(
+      "%d sessions (%d failed): %llu frames sent, %llu processed, %llu dropped; "
+      "latency p50 %.1f ms, p95 %.1f ms, p99 %.1f ms; %llu map sets\n",
+      j["sessions"].get<int>(), j["failed"].get<int>(), count("frames_sent"),
+      count("frames_processed"), count("frames_dropped"), latency["p50"].get<double>(),
+      latency["p95"].get<double>(), latency["p99"].get<double>(), count("map_sets_completed"));
+  if (j["map_set_interval_ms"]["median"].get<double>() > 0.0)
+    std::printf("map sets while sending: every %.0f ms (median session), %.0f ms (slowest)\n",
+                j["map_set_interval_ms"]["median"].get<double>(),
+                j["map_set_interval_ms"]["worst_session"].get<double>());
+  if (!j["outages"].empty())
+    std::printf("%zu outages survived; the worst lost %.2f s of frames\n", j["outages"].size(),
+                j["worst_outage_frames_lost_s"].get<double>());
+  for (const auto& e : j["errors"]) std::fprintf(stderr, "%s\n", e.get<std::string>().c_str());
+}
+
+}  // namespace arlight::load

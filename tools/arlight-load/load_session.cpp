@@ -1,0 +1,140 @@
+#include "load_session.hpp"
+
+#include <cmath>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "arlight/client_net.hpp"
+
+namespace arlight::load {
+
+namespace {
+
+// A loss the session may survive: the network went, or the daemon is momentarily full (a
+// restarted daemon that has not reloaded everyone yet, or a hand-over in progress).
+bool retryable(const client::ClientError& e) { return e.code() == "Network" || e.code() == "Busy"; }
+
+}  // namespace
+
+void run_session(const SessionPlan& plan, const recording::Recording& rec,
+                 const std::vector<std::vector<std::uint8_t>>& jpegs,
+                 const std::vector<std::size_t>& usable, Clock::time_point start,
+                 SessionReport& report) {
+  try {
+    std::mutex m;
+    std::uint64_t answered = 0;  // the newest sequence an update has reflected
+    Clock::time_point first;
+    const auto open = [&](const std::string& resume) {
+      auto c = std::make_unique<client::Client>();
+      plan.connection.apply(*c);
+      c->on_update = [&](const client::LightingUpdate& u) {
+        std::lock_guard lock(m);
+        // Updates come in sequence order; the frames skipped over were dropped.
+        if (u.frame_sequence > answered && u.frame_sequence <= report.sent_ms.size()) {
+          answered = u.frame_sequence;
+          const double ms = std::chrono::duration<double, std::milli>(u.received - start).count() -
+                            report.sent_ms[u.frame_sequence - 1];
+          report.latency_ms.push_back(ms);
+          report.frame_latency_ms[u.frame_sequence - 1] = ms;
+        }
+        report.processed = u.frames_processed;
+        report.dropped = u.frames_dropped;
+      };
+      c->on_map_set_complete = [&](const client::MapSet&) {
+        std::lock_guard lock(m);
+        report.map_set_ms.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - first).count());
+      };
+      const client::Welcome w =
+          c->connect(plan.host, plan.port, plan.device, plan.token, "arlight-load", resume);
+      if (!resume.empty() && !w.resumed)
+        throw client::ClientError("SessionNotFound", "the daemon did not resume " + resume);
+      c->send_intrinsics(rec.camera);
+      if (plan.maps) c->request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
+      return std::pair{std::move(c), w};
+    };
+    auto [c, welcome] = open("");
+    const std::string session_id = welcome.session_id;
+    std::uint64_t map_sets_before = 0;  // of the connections before this one
+    const auto period = std::chrono::duration<double>(1.0 / plan.rate);
+    // This session's frames start `phase` of a frame period late (see --phases).
+    first = Clock::now() + std::chrono::duration_cast<Clock::duration>(period * plan.phase);
+    std::optional<Clock::time_point> lost_since;
+    Outage outage;
+    Clock::time_point next_attempt;
+    for (std::uint64_t k = 0;; ++k) {
+      const auto due = first + std::chrono::duration_cast<Clock::duration>(period * double(k));
+      if (due - first > std::chrono::duration<double>(plan.duration)) break;
+      std::this_thread::sleep_until(due);
+      if (!lost_since) {
+        const auto e = c->server_error();
+        if (e || !c->connected()) {
+          const client::ClientError err(e ? e->first : "Network",
+                                        e ? e->second : "connection lost");
+          if (plan.reconnect_s <= 0 || !retryable(err)) throw err;
+          lost_since = Clock::now(), next_attempt = Clock::now();
+          outage = {std::chrono::duration<double>(*lost_since - start).count(), 0, 0, 0};
+          map_sets_before += c->map_sets_completed();
+        }
+      }
+      if (lost_since && Clock::now() >= next_attempt) {
+        try {
+          auto [fresh, w] = open(session_id);
+          std::lock_guard lock(m);
+          // Frames lost in earlier outages are in neither count: they do not count again.
+          std::uint64_t kept = w.frames_processed + report.dropped;
+          for (const Outage& o : report.outages) kept += o.lost_after_checkpoint;
+          outage.lost_after_checkpoint = report.sent > kept ? report.sent - kept : 0;
+          outage.seconds = std::chrono::duration<double>(Clock::now() - *lost_since).count();
+          report.outages.push_back(outage);
+          c = std::move(fresh);
+          lost_since.reset();
+        } catch (const client::ClientError& e) {
+          if (!retryable(e)) throw;
+          if (Clock::now() - *lost_since > std::chrono::duration<double>(plan.reconnect_s))
+            throw client::ClientError(e.code(), "no daemon resumed the session within " +
+                                                    std::to_string(plan.reconnect_s) +
+                                                    " s: " + e.what());
+          next_attempt = Clock::now() + std::chrono::milliseconds(100);
+        }
+      }
+      if (lost_since) {
+        ++outage.not_sent;
+        continue;
+      }
+      const std::size_t i = usable[(k + plan.first_frame) % usable.size()];
+      const auto& f = rec.frames[i];
+      {
+        std::lock_guard lock(m);
+        report.sent_ms.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+        report.frame_latency_ms.push_back(std::nan(""));
+        ++report.sent;
+      }
+      try {
+        c->send_jpeg_frame(report.sent, {double(k) / plan.rate, f.exposure, f.gain, f.orientation},
+                           rec.camera.width, rec.camera.height, jpegs[i]);
+      } catch (const client::ClientError&) {  // noticed before the next frame
+      }
+    }
+    if (lost_since) throw client::ClientError("Network", "the session ended without a daemon");
+    // Let the last updates arrive.
+    c->wait_for(
+        [&] {
+          std::lock_guard lock(m);
+          std::uint64_t lost = 0;  // in outages: never to be answered
+          for (const Outage& o : report.outages) lost += o.lost_after_checkpoint;
+          return report.processed + report.dropped + lost >= report.sent;
+        },
+        std::chrono::seconds(5));
+    if (const auto e = c->server_error()) throw client::ClientError(e->first, e->second);
+    report.map_sets = map_sets_before + c->map_sets_completed();
+    c->bye();
+  } catch (const std::exception& e) {
+    report.failed = true;
+    report.error = e.what();
+  }
+}
+
+}  // namespace arlight::load

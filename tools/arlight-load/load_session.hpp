@@ -1,0 +1,60 @@
+// arlight-load's sessions: each replays a recording to arlightd at a rate for a while, as a phone
+// would, and records what came back (latencies, map sets, drops, the outages it survived).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "arlight/connection_flags.hpp"
+#include "arlight/recording.hpp"
+
+namespace arlight::load {
+
+using Clock = std::chrono::steady_clock;
+
+// One time a session lost its daemon and resumed (--reconnect).
+struct Outage {
+  double at_s = 0, seconds = 0;  // when it was noticed (since the start) and how long it lasted
+  std::uint64_t not_sent = 0;    // frames due while there was no daemon
+  // Frames the lost daemon had been sent but not checkpointed: sent until the loss, minus what
+  // the resumed session holds (the Welcome's frames_processed) and had dropped.
+  std::uint64_t lost_after_checkpoint = 0;
+};
+
+struct SessionReport {
+  bool failed = false;
+  std::string error;
+  std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+  std::vector<double> latency_ms;
+  std::vector<double> map_set_ms;  // from the first frame to each completed map set
+  // Per frame (index = sequence - 1): when it was sent (ms since the run started) and its
+  // latency (NaN: no update reflects it, i.e. it was dropped or never answered).
+  std::vector<double> sent_ms, frame_latency_ms;
+  std::vector<Outage> outages;
+};
+
+// What to send: where, as whom, how fast, for how long, from which frame and phase.
+struct SessionPlan {
+  std::string host, device, token;
+  std::uint16_t port = 0;
+  double rate = 30, duration = 10;
+  bool maps = false;
+  double phase = 0;
+  std::size_t first_frame = 0;
+  tools::ConnectionFlags connection;  // TLS, WebSocket
+  // How long a session may be without its daemon before it counts as failed (0: any loss
+  // fails it); while it is, it reconnects (at once, then every 100 ms) and resumes.
+  double reconnect_s = 0;
+};
+
+// Runs one session to its end (frames sent at plan.rate for plan.duration, then the last
+// updates awaited); a failure is recorded in the report, not thrown. `usable` lists the
+// recording's frames with a JPEG (jpegs[i]); `start` is the run's common clock origin.
+void run_session(const SessionPlan& plan, const recording::Recording& rec,
+                 const std::vector<std::vector<std::uint8_t>>& jpegs,
+                 const std::vector<std::size_t>& usable, Clock::time_point start,
+                 SessionReport& report);
+
+}  // namespace arlight::load
