@@ -124,11 +124,11 @@ void BM_PreviewSweep(benchmark::State& state) {
       session.add_encoded(jpegs[k % kFrames], {0.0, 0.3, 1.0, view(int(k % kFrames))});
     const auto [input, measured] = session.reduced_environment(reduced);
     auto t0 = std::chrono::steady_clock::now();
-    const lighting::MapSet fresh = lighting::compute_maps(input, shininess, out, {});
+    const lighting::ComputedMapSet fresh = lighting::compute_maps(input, shininess, out, {});
     full_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     t0 = std::chrono::steady_clock::now();
-    const lighting::MapSet& maps = updater.update(input, {}, measured);
+    const lighting::ComputedMapSet& maps = updater.update(input, {}, measured);
     update_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     changed.push_back(updater.changed());

@@ -21,7 +21,7 @@
 #include "arlight/render.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
-#include "arlight/sim.hpp"
+#include "arlight/sim/simulate.hpp"
 #include "arlight/source.hpp"
 #include "arlight/track.hpp"
 
@@ -88,7 +88,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   if (glass) options.material = render::glass(1.5f, 1280.0f), options.refraction = *glass;
   client_app::FramePipeline pipeline(
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
-  auto maps = std::make_shared<client::MapSet>();
+  auto maps = std::make_shared<client::ReceivedMapSet>();
   maps->shininess = fx.shininess, maps->maps = fx.maps, maps->complete = true;
   client_app::Lighting fixed;
   fixed.maps = maps, fixed.maps_version = 1;

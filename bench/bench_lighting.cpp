@@ -29,7 +29,7 @@ const EnvMap& probe(const std::string& name) {
 }
 
 struct Reference {
-  lighting::MapSet maps;
+  lighting::ComputedMapSet maps;
   double seconds = 0.0;
 };
 std::map<std::string, Reference>& references() {
@@ -42,7 +42,7 @@ void BM_Maps(benchmark::State& state, const std::string& probe_name, const std::
   const lighting::MethodSpec spec = lighting::parse_method(method);
   // Warm the per-layout texel tables so every method is timed on the same footing.
   (void)texel_table(env.layout);
-  lighting::MapSet last;
+  lighting::ComputedMapSet last;
   for (auto _ : state) last = lighting::compute_maps(env, kShininess, env.layout, spec);
   const double seconds = last.total_seconds;
   if (spec.method == lighting::Method::Accurate) references()[probe_name] = {last, seconds};
@@ -86,11 +86,11 @@ void BM_SessionMapSet(benchmark::State& state) {
   const EnvLayout out = EnvLayout::for_size(Projection::AngleMap, int(state.range(0)));
   const int face = int(state.range(1));
   const lighting::MethodSpec spec = lighting::parse_method("auto");
-  const lighting::MapSet reference = lighting::compute_maps(full, kShininess, out, spec);
+  const lighting::ComputedMapSet reference = lighting::compute_maps(full, kShininess, out, spec);
   const EnvMap input =
       face == 192 ? full : reduce(full, EnvLayout::for_size(Projection::Cube, face));
   (void)texel_table(input.layout), (void)texel_table(out);
-  lighting::MapSet last;
+  lighting::ComputedMapSet last;
   for (auto _ : state) last = lighting::compute_maps(input, kShininess, out, spec);
   double worst_mean = 0.0, worst_max = 0.0;
   for (std::size_t k = 0; k < kShininess.size(); ++k) {

@@ -11,11 +11,10 @@
 #include <fstream>
 #include <limits>
 #include <mutex>
-#include <opencv2/core.hpp>
-#include <opencv2/core/utils/logger.hpp>
-#include <opencv2/photo.hpp>
 #include <random>
+#include <span>
 #include <sstream>
+#include <stdexcept>
 #include <string_view>
 #include <system_error>
 
@@ -331,89 +330,38 @@ double auto_exposure_stops(ConstImageView img) {
   return n ? std::log2(0.18) - log_sum / double(n) / std::log(2.0) : 0.0;
 }
 
-const char* preview_tone_name(PreviewTone tone) {
-  switch (tone) {
-    case PreviewTone::Global:
-      return "global";
-    case PreviewTone::Drago:
-      return "drago";
-    case PreviewTone::Reinhard:
-      return "reinhard";
-    case PreviewTone::Mantiuk:
-      return "mantiuk";
-  }
-  return "?";
-}
-
-PreviewTone parse_preview_tone(const std::string& name) {
-  for (const PreviewTone t :
-       {PreviewTone::Global, PreviewTone::Drago, PreviewTone::Reinhard, PreviewTone::Mantiuk})
-    if (name == preview_tone_name(t)) return t;
-  throw InputError("tone '" + name + "': use global, drago, reinhard or mantiuk");
+std::uint8_t srgb_code(float display_linear) {
+  const float v = std::isnan(display_linear) ? 0.0f : std::clamp(display_linear, 0.0f, 1.0f);
+  return std::uint8_t(std::lround(255.0f * std::clamp(linear_to_srgb(v), 0.0f, 1.0f)));
 }
 
 std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOptions& options) {
   const double scale =
       std::exp2(options.exposure_stops ? *options.exposure_stops : auto_exposure_stops(img));
   std::vector<std::uint8_t> px(std::size_t(img.width) * img.height * 3);
-  const auto exposed = [&](int x, int y, int c) {
-    const float v = float(img.pixel(x, y)[c] * scale);
-    if (std::isinf(v)) return std::numeric_limits<float>::max();
-    return v > 0.0f ? v : 0.0f;  // also NaN
-  };
-  const auto store = [&](int x, int y, int c, float display_linear) {
-    px[(std::size_t(y) * img.width + x) * 3 + c] =
-        std::uint8_t(std::lround(255.0f * std::clamp(linear_to_srgb(display_linear), 0.0f, 1.0f)));
-  };
-  if (options.tone == PreviewTone::Global) {
-    for (int y = 0; y < img.height; ++y)
-      for (int x = 0; x < img.width; ++x)
-        for (int c = 0; c < 3; ++c) {
-          const float v = exposed(x, y, c);
-          store(x, y, c, v == std::numeric_limits<float>::max() ? 1.0f : v / (1.0f + v));
-        }
-    return px;
-  }
-  // OpenCV's operators take linear BGR and return [0, 1] with their gamma (1: linear here).
-  cv::Mat hdr(img.height, img.width, CV_32FC3), ldr;
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x)
-      for (int c = 0; c < 3; ++c)
-        hdr.at<cv::Vec3f>(y, x)[2 - c] = std::min(exposed(x, y, c), 1e30f) + 1e-9f;
-  cv::Ptr<cv::Tonemap> op;
-  switch (options.tone) {
-    case PreviewTone::Drago:
-      op = cv::createTonemapDrago(1.0f, 1.0f, 0.85f);
-      break;
-    case PreviewTone::Reinhard:
-      op = cv::createTonemapReinhard(1.0f, 0.0f, 1.0f, 0.0f);
-      break;
-    default:
-      op = cv::createTonemapMantiuk(1.0f, 0.7f, 1.0f);
-      break;
-  }
-  // OpenCV 4.6's Drago and Mantiuk print a notice about their own multi-channel matrix
-  // expressions on every call; keep it off the user's terminal.
-  static const bool quiet = [] {
-    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-    return true;
-  }();
-  (void)quiet;
-  op->process(hdr, ldr);
   for (int y = 0; y < img.height; ++y)
     for (int x = 0; x < img.width; ++x)
       for (int c = 0; c < 3; ++c) {
-        const float v = ldr.at<cv::Vec3f>(y, x)[2 - c];
-        store(x, y, c, std::isfinite(v) ? v : 0.0f);
+        const float v = float(img.pixel(x, y)[c] * scale);
+        // Infinity shows white; negatives (lossy probes) and NaN black.
+        const float display = std::isinf(v) ? (v > 0 ? 1.0f : 0.0f) : v > 0.0f ? v / (1.0f + v) : 0.0f;
+        px[(std::size_t(y) * img.width + x) * 3 + c] = srgb_code(display);
       }
   return px;
 }
 
-void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
-  const std::vector<std::uint8_t> px = preview_pixels(img, options);
-  OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
+void write_png_rgb(const fs::path& path, int width, int height, std::span<const std::uint8_t> rgb) {
+  if (width <= 0 || height <= 0 || rgb.size() != std::size_t(width) * std::size_t(height) * 3)
+    throw std::invalid_argument("write_png_rgb: " + std::to_string(rgb.size()) +
+                                " bytes for a " + std::to_string(width) + "x" +
+                                std::to_string(height) + " RGB image");
+  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
-  write_atomically(path, spec, px.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(img.width));
+  write_atomically(path, spec, rgb.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(width));
+}
+
+void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {
+  write_png_rgb(path, img.width, img.height, preview_pixels(img, options));
 }
 
 }  // namespace arlight

@@ -11,7 +11,7 @@
 #include "arlight/resample.hpp"
 #include "arlight/sh.hpp"
 #include "arlight/truth.hpp"
-#include "track/sim_cache.hpp"
+#include "support/sim_cache.hpp"
 
 namespace arlight {
 namespace {
@@ -133,7 +133,7 @@ TEST(ClientApp, MapsReplaceTheShAndNoLightingDrawsNothing) {
   }
   FramePipeline pipeline(options(fx), client_app::load_model("sphere"));
   const EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 32);
-  auto maps = std::make_shared<client::MapSet>();
+  auto maps = std::make_shared<client::ReceivedMapSet>();
   maps->shininess = {1, 40};
   maps->maps = {EnvMap(layout), EnvMap(layout)};
   for (EnvMap& m : maps->maps) std::fill(m.image.data(), m.image.data() + 3 * 32 * 32, 0.5f);

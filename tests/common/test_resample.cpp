@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "arlight/resample.hpp"
-#include "env_fixtures.hpp"
+#include "../support/env_fixtures.hpp"
 
 using namespace arlight;
 

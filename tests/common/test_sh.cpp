@@ -9,7 +9,7 @@
 #include <random>
 
 #include "arlight/sh.hpp"
-#include "env_fixtures.hpp"
+#include "../support/env_fixtures.hpp"
 
 using namespace arlight;
 

@@ -1,5 +1,5 @@
 // Runs the real arlight-sim binary and checks its recordings against their ground truth; unit
-// tests of the truth/ reader and writer (protocol/include/arlight/truth.hpp).
+// tests of the truth/ reader and writer (sim/truth/include/arlight/truth.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -192,9 +192,9 @@ TEST(ArlightdWeb, BrowserSessionOverWssMatchesTheSameFramesOverTcp) {
           return m && m->frames == kFrames;
         },
         60s));
-    return c.last_complete_maps().value_or(client::MapSet{});
+    return c.last_complete_maps().value_or(client::ReceivedMapSet{});
   };
-  const client::MapSet web = run(true), tcp = run(false);
+  const client::ReceivedMapSet web = run(true), tcp = run(false);
   ASSERT_EQ(web.maps.size(), 2u);
   ASSERT_EQ(tcp.maps.size(), 2u);
   for (std::size_t k = 0; k < 2; ++k) {

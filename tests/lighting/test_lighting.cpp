@@ -7,7 +7,7 @@
 #include <numbers>
 #include <stop_token>
 
-#include "../common/env_fixtures.hpp"
+#include "../support/env_fixtures.hpp"
 #include "arlight/error.hpp"
 #include "arlight/hdr_io.hpp"
 #include "arlight/lighting.hpp"
@@ -87,7 +87,7 @@ TEST_P(EveryMethod, ConstantEnvironmentGivesTheConstantInEveryMap) {
     const EnvMap env = test::env_from_function(in_l, [&](glm::dvec3) { return c; });
     for (Projection out_p : {Projection::AngleMap, Projection::LatLong, Projection::Cube}) {
       const EnvLayout out_l = EnvLayout::for_size(out_p, 16);
-      const MapSet set = compute_maps(env, kThesisShininess, out_l, parse_method(GetParam()));
+      const ComputedMapSet set = compute_maps(env, kThesisShininess, out_l, parse_method(GetParam()));
       ASSERT_EQ(set.maps.size(), kThesisShininess.size());
       for (std::size_t k = 0; k < set.maps.size(); ++k) {
         const auto t = texel_table(out_l);
@@ -116,7 +116,7 @@ TEST(Lobe, OneBrightTexelGivesTheLobesShape) {
   for (const char* method : {"accurate", "bounded", "auto"})
     for (double s : {1.0, 20.0, 200.0}) {
       const double one[] = {s};
-      const MapSet set = compute_maps(env, one, l, parse_method(method));
+      const ComputedMapSet set = compute_maps(env, one, l, parse_method(method));
       const double peak = set.maps[0].image.at(at.x, at.y).x;
       ASSERT_GT(peak, 0.0);
       for_valid(set.maps[0], [&](float v, glm::dvec3 d) {
@@ -137,7 +137,7 @@ TEST(Sh, ZonalCoefficientsReproduceTheIrradianceOfALinearEnvironment) {
       l, [&](glm::dvec3 d) { return glm::vec3(float(1.0 + glm::dot(b, d))); });
   const double one[] = {1.0};
   for (const char* method : {"sh:2", "sh:8", "accurate", "auto"}) {
-    const MapSet set =
+    const ComputedMapSet set =
         compute_maps(env, one, EnvLayout::for_size(Projection::Cube, 12), parse_method(method));
     for_valid(set.maps[0], [&](float v, glm::dvec3 n) {
       ASSERT_NEAR(v, 1.0 + 2.0 / 3.0 * glm::dot(b, n), 2e-3) << method;
@@ -150,7 +150,7 @@ TEST(Mipmap, LevelsFollowEquations41To43) {
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 512);
   const EnvMap env = smooth_env(l);
   const double s[] = {1, 8, 10, 1280};
-  const MapSet set =
+  const ComputedMapSet set =
       compute_maps(env, s, EnvLayout::for_size(Projection::AngleMap, 16), parse_method("mipmap"));
   EXPECT_NE(set.plans[0].find("level 7.0"), std::string::npos) << set.plans[0];
   EXPECT_NE(set.plans[1].find("level 7.0"), std::string::npos) << set.plans[1];
@@ -166,13 +166,13 @@ TEST(Agreement, MethodsAgreeWithAccurateOnSmoothInput) {
     const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, size);
     const EnvMap env = smooth_env(l);
     const double s[] = {1, 10, 80, 640};
-    const MapSet ref = compute_maps(env, s, l, parse_method("accurate"));
+    const ComputedMapSet ref = compute_maps(env, s, l, parse_method("accurate"));
     struct Expect {
       const char* method;
       double mean, max;  // per shininess: tolerances as fractions
     };
     for (const Expect& e : {Expect{"bounded", 1e-4, 1e-3}, Expect{"auto", 0.005, 0.05}}) {
-      const MapSet set = compute_maps(env, s, l, parse_method(e.method));
+      const ComputedMapSet set = compute_maps(env, s, l, parse_method(e.method));
       for (std::size_t k = 0; k < 4; ++k) {
         const MapError err = map_error(ref.maps[k], set.maps[k]);
         EXPECT_LE(err.mean, e.mean) << e.method << " size " << size << " s=" << s[k];
@@ -181,12 +181,12 @@ TEST(Agreement, MethodsAgreeWithAccurateOnSmoothInput) {
     }
     // SH resolves the lobes its order can hold (order 24: s <= ~20), and importance sampling
     // converges with samples.
-    const MapSet sh = compute_maps(env, s, l, parse_method("sh:24"));
+    const ComputedMapSet sh = compute_maps(env, s, l, parse_method("sh:24"));
     for (std::size_t k = 0; k < 2; ++k)
       EXPECT_LE(map_error(ref.maps[k], sh.maps[k]).max, 0.01)
           << "sh:24 size " << size << " s=" << s[k];
-    const MapSet few = compute_maps(env, s, l, parse_method("importance:8"));
-    const MapSet many = compute_maps(env, s, l, parse_method("importance:512"));
+    const ComputedMapSet few = compute_maps(env, s, l, parse_method("importance:8"));
+    const ComputedMapSet many = compute_maps(env, s, l, parse_method("importance:512"));
     for (std::size_t k = 0; k < 4; ++k) {
       const double e_few = map_error(ref.maps[k], few.maps[k]).mean;
       const double e_many = map_error(ref.maps[k], many.maps[k]).mean;
@@ -202,10 +202,10 @@ TEST(Agreement, JointMapsEqualMapsComputedAlone) {
   const EnvLayout l = EnvLayout::for_size(Projection::Cube, 10);
   const EnvMap env = smooth_env(l);
   const std::vector<double> s = {1, 2.5, 10, 30, 45.5, 1280};
-  const MapSet joint = compute_maps(env, s, l, parse_method("accurate"));
+  const ComputedMapSet joint = compute_maps(env, s, l, parse_method("accurate"));
   for (std::size_t k = 0; k < s.size(); ++k) {
     const double one[] = {s[k]};
-    const MapSet alone = compute_maps(env, one, l, parse_method("accurate"));
+    const ComputedMapSet alone = compute_maps(env, one, l, parse_method("accurate"));
     EXPECT_LE(map_error(alone.maps[0], joint.maps[k]).max, 1e-5) << "s=" << s[k];
   }
 }
@@ -217,8 +217,8 @@ TEST(Agreement, OutputProjectionDoesNotChangeTheAnswer) {
   const double s[] = {1, 40};
   const EnvLayout cube = EnvLayout::for_size(Projection::Cube, 16);
   for (const char* method : {"accurate", "auto", "sh:16"}) {
-    const MapSet direct = compute_maps(env, s, cube, parse_method(method));
-    const MapSet ll =
+    const ComputedMapSet direct = compute_maps(env, s, cube, parse_method(method));
+    const ComputedMapSet ll =
         compute_maps(env, s, EnvLayout::for_size(Projection::LatLong, 128), parse_method(method));
     for (std::size_t k = 0; k < 2; ++k) {
       const EnvMap via = resample(ll.maps[k], cube);
@@ -234,10 +234,10 @@ TEST(RealProbe, ThesisTable61PatternHoldsAndAutoMeetsItsTarget) {
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing";
   const EnvLayout l = EnvLayout::for_size(Projection::AngleMap, 128);
   const EnvMap env = resample(load_envmap(path).env, l);
-  const MapSet ref = compute_maps(env, kThesisShininess, l, parse_method("accurate"));
-  const MapSet mm = compute_maps(env, kThesisShininess, l, parse_method("mipmap"));
-  const MapSet sh = compute_maps(env, kThesisShininess, l, parse_method("sh:35"));
-  const MapSet au = compute_maps(env, kThesisShininess, l, parse_method("auto"));
+  const ComputedMapSet ref = compute_maps(env, kThesisShininess, l, parse_method("accurate"));
+  const ComputedMapSet mm = compute_maps(env, kThesisShininess, l, parse_method("mipmap"));
+  const ComputedMapSet sh = compute_maps(env, kThesisShininess, l, parse_method("sh:35"));
+  const ComputedMapSet au = compute_maps(env, kThesisShininess, l, parse_method("auto"));
   std::vector<MapError> e_mm, e_sh;
   for (std::size_t k = 0; k < kThesisShininess.size(); ++k) {
     e_mm.push_back(map_error(ref.maps[k], mm.maps[k]));
@@ -309,7 +309,7 @@ TEST(MapError, MeanAndMaxOfRelativeDifferences) {
 TEST(Compute, BlackEnvironmentGivesBlackMaps) {
   const EnvMap env(EnvLayout::for_size(Projection::AngleMap, 64));
   for (const char* method : kAllMethods) {
-    const MapSet set = compute_maps(env, kThesisShininess, EnvLayout::for_size(Projection::Cube, 8),
+    const ComputedMapSet set = compute_maps(env, kThesisShininess, EnvLayout::for_size(Projection::Cube, 8),
                                     parse_method(method));
     for (const EnvMap& m : set.maps)
       for (float v : m.image.storage()) ASSERT_EQ(v, 0.0f) << method;

@@ -48,8 +48,8 @@ const EnvLayout kOutput = EnvLayout::for_size(Projection::AngleMap, 64);
 
 TEST(MapUpdater, TheFirstUpdateIsAFullComputation) {
   MapUpdater updater(kShininess, kOutput);
-  const MapSet& first = updater.update(venice());
-  const MapSet fresh = compute_maps(venice(), kShininess, kOutput, MethodSpec{});
+  const ComputedMapSet& first = updater.update(venice());
+  const ComputedMapSet fresh = compute_maps(venice(), kShininess, kOutput, MethodSpec{});
   for (std::size_t k = 0; k < kShininess.size(); ++k) {
     EXPECT_EQ(map_error(fresh.maps[k], first.maps[k]).max, 0.0) << "s = " << kShininess[k];
     EXPECT_EQ(updater.recomputed()[k], 1.0);
@@ -64,9 +64,9 @@ TEST(MapUpdater, ALocalChangeRecomputesOnlyWhatItReaches) {
   updater.update(env);
   const double share = scale_cap(env, glm::normalize(glm::dvec3(0.6, 0.2, -0.7)), 0.25, 50.0f);
   ASSERT_GT(share, 0.01);
-  const MapSet& after = updater.update(env);
+  const ComputedMapSet& after = updater.update(env);
   EXPECT_NEAR(updater.changed(), share, 1e-9);
-  const MapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
+  const ComputedMapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
   for (std::size_t k = 0; k < kShininess.size(); ++k) {
     const MapError e = map_error(fresh.maps[k], after.maps[k]);
     SCOPED_TRACE("s = " + std::to_string(kShininess[k]));
@@ -90,18 +90,18 @@ TEST(MapUpdater, ALocalChangeRecomputesOnlyWhatItReaches) {
 TEST(MapUpdater, SmallChangesAddUpUntilTheyCount) {
   MapUpdater updater(kShininess, kOutput, MethodSpec{}, 0.02);
   EnvMap env = venice();
-  const MapSet first = updater.update(env);
+  const ComputedMapSet first = updater.update(env);
   scale_cap(env, glm::dvec3(0, 0, 1), std::numbers::pi, 1.012f);
-  const MapSet& kept = updater.update(env);
+  const ComputedMapSet& kept = updater.update(env);
   EXPECT_EQ(updater.changed(), 0.0);
   for (std::size_t k = 0; k < kShininess.size(); ++k) {
     EXPECT_EQ(updater.recomputed()[k], 0.0);
     EXPECT_EQ(map_error(first.maps[k], kept.maps[k]).max, 0.0);
   }
   scale_cap(env, glm::dvec3(0, 0, 1), std::numbers::pi, 1.012f);
-  const MapSet& moved = updater.update(env);
+  const ComputedMapSet& moved = updater.update(env);
   EXPECT_GT(updater.changed(), 0.3);
-  const MapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
+  const ComputedMapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
   for (std::size_t k = 0; k < kShininess.size(); ++k)
     EXPECT_LT(map_error(fresh.maps[k], moved.maps[k]).mean, 0.01) << "s = " << kShininess[k];
 }
@@ -116,8 +116,8 @@ TEST(MapUpdater, ACancelledUpdateLeavesTheNextToComputeEverything) {
   Hooks hooks;
   hooks.stop = stop.get_token();
   EXPECT_THROW(updater.update(env, hooks), Cancelled);
-  const MapSet& after = updater.update(env);
-  const MapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
+  const ComputedMapSet& after = updater.update(env);
+  const ComputedMapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
   for (std::size_t k = 0; k < kShininess.size(); ++k) {
     EXPECT_EQ(updater.recomputed()[k], 1.0);
     EXPECT_EQ(map_error(fresh.maps[k], after.maps[k]).max, 0.0);
@@ -129,8 +129,8 @@ TEST(MapUpdater, OtherMethodsComputeEverything) {
   EnvMap env = venice();
   updater.update(env);
   scale_cap(env, glm::dvec3(1, 0, 0), 0.2, 1.5f);
-  const MapSet& after = updater.update(env);
-  const MapSet fresh = compute_maps(env, std::vector<double>{1, 80}, kOutput, parse_method("sh:8"));
+  const ComputedMapSet& after = updater.update(env);
+  const ComputedMapSet fresh = compute_maps(env, std::vector<double>{1, 80}, kOutput, parse_method("sh:8"));
   EXPECT_EQ(map_error(fresh.maps[1], after.maps[1]).max, 0.0);
   EXPECT_EQ(updater.recomputed()[1], 1.0);
   EXPECT_THROW(MapUpdater({0.5}, kOutput), std::invalid_argument);

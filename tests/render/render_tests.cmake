@@ -13,6 +13,8 @@ add_executable(render_tests
   render/test_colour.cpp
   render/test_occlusion.cpp
   render/test_light_count_control.cpp
+  render/test_transfer.cpp
+  render/test_light_sources.cpp
 )
 target_include_directories(render_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/render)
 target_link_libraries(render_tests PRIVATE arlight_render arlight_common arlight_warnings

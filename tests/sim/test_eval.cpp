@@ -1,4 +1,4 @@
-// The image-quality figures (tools/eval): PSNR and SSIM in masks against values worked out by
+// The image-quality figures (sim/eval): PSNR and SSIM in masks against values worked out by
 // hand, and the visible-differences predictor's behaviour (what a viewer sees and what is
 // hidden by the image's own contrast).
 #include <gtest/gtest.h>

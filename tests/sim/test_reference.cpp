@@ -1,4 +1,4 @@
-// The ray-traced reference (tools/reference): a sphere standing on the floor in a uniform room,
+// The ray-traced reference (sim/reference): a sphere standing on the floor in a uniform room,
 // where the object's radiance and its shadow have closed forms.
 #include <gtest/gtest.h>
 

@@ -6,7 +6,7 @@
 #include <numbers>
 #include <random>
 
-#include "track/sim_cache.hpp"
+#include "support/sim_cache.hpp"
 #include "track/truth_stats.hpp"
 
 using namespace arlight;

@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "arlight/error.hpp"
-#include "track/sim_cache.hpp"
+#include "support/sim_cache.hpp"
 #include "track/truth_stats.hpp"
 
 using namespace arlight;

@@ -1,8 +1,7 @@
-# The thin client's sources (client/source) and tracking (client/track), against arlight-sim's
-# ground truth. Included from tests/CMakeLists.txt; paths relative to this file.
+# The thin client's tracking (client/track), against arlight-sim's ground truth. Included from
+# tests/CMakeLists.txt; paths relative to this file.
 include(GoogleTest)
 add_executable(track_tests
-  ${CMAKE_CURRENT_LIST_DIR}/test_source.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_pose.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_tracker.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_orientation.cpp)

@@ -13,6 +13,7 @@
 #include "arlight/error.hpp"
 #include "arlight/geo.hpp"
 #include "arlight/number_list.hpp"
+#include "arlight/sim_source.hpp"
 #include "report.hpp"
 
 using namespace arlight;
@@ -33,6 +34,7 @@ nlohmann::json sun_json(const Lighting& l) {
 
 int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("arlight-client"));
+  source::register_sim_source();  // --source sim:PROBE.exr (the laboratory's simulated phone)
   CLI::App app{
       "arlight-client: tracks a marker, lights a virtual object with arlightd's "
       "lighting and composites it into the camera frames"};

@@ -41,7 +41,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec,
         report.processed = u.frames_processed;
         report.dropped = u.frames_dropped;
       };
-      c->on_map_set_complete = [&](const client::MapSet&) {
+      c->on_map_set_complete = [&](const client::ReceivedMapSet&) {
         std::lock_guard lock(m);
         report.map_set_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - first).count());

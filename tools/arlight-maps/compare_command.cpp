@@ -101,7 +101,7 @@ int run_compare(const CompareOptions& o) {
   Reference ref;
   if (o.no_cache || !load_reference(ref_dir, layout, shininess.size(), ref)) {
     ProgressBar bar("accurate");
-    lighting::MapSet set = lighting::compute_maps(input, shininess, layout,
+    lighting::ComputedMapSet set = lighting::compute_maps(input, shininess, layout,
                                                   lighting::parse_method("accurate"), bar.hooks());
     ref.maps = std::move(set.maps);
     ref.seconds = set.total_seconds;
@@ -127,7 +127,7 @@ int run_compare(const CompareOptions& o) {
       row.seconds = ref.seconds, row.cached = ref.cached, row.maps = ref.maps;
     } else {
       ProgressBar bar(names[m]);
-      lighting::MapSet set =
+      lighting::ComputedMapSet set =
           lighting::compute_maps(input, shininess, layout, methods[m], bar.hooks());
       row.seconds = set.total_seconds;
       row.maps = std::move(set.maps);

@@ -33,7 +33,7 @@ int run_compute(const ComputeOptions& o) {
   const EnvLayout layout = EnvLayout::for_size(parse_projection_arg(o.projection), o.size);
   const EnvMap input = load_working_map(o.input, layout, o.fill);
 
-  lighting::MapSet set;
+  lighting::ComputedMapSet set;
   {
     ProgressBar bar(method.name());
     set = lighting::compute_maps(input, shininess, layout, method, bar.hooks());

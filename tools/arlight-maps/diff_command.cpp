@@ -50,8 +50,8 @@ int run_diff(const DiffOptions& o) {
     scale = ref_mean / test_mean;
     for (float& v : test_env.image.storage()) v = float(v * scale);
   }
-  const lighting::MapSet ref = lighting::compute_maps(ref_env, shininess, layout, method);
-  const lighting::MapSet test = lighting::compute_maps(test_env, shininess, layout, method);
+  const lighting::ComputedMapSet ref = lighting::compute_maps(ref_env, shininess, layout, method);
+  const lighting::ComputedMapSet test = lighting::compute_maps(test_env, shininess, layout, method);
   nlohmann::json j;
   j["method"] = method.name();
   j["reference"] = o.reference;

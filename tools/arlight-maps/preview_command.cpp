@@ -5,6 +5,7 @@
 #include <string>
 
 #include "arlight/hdr_io.hpp"
+#include "arlight/tone_preview.hpp"
 #include "commands.hpp"
 
 namespace arlight::maps {
@@ -28,7 +29,7 @@ Runner add_preview_command(CLI::App& app) {
   return [o] {
     const PreviewTone tone = parse_preview_tone(o->tone);
     const LoadedImage image = load_image(o->input);
-    write_png_preview(o->out, image.image.view(), {o->exposure, tone});
+    write_tone_preview(o->out, image.image.view(), {o->exposure, tone});
     std::printf("arlight-maps: wrote %s (%s tone mapping)\n", o->out.c_str(),
                 preview_tone_name(tone));
     return 0;

@@ -17,7 +17,7 @@
 #include "arlight/hdr_io.hpp"
 #include "arlight/number_list.hpp"
 #include "arlight/reference.hpp"
-#include "arlight/sim.hpp"
+#include "arlight/sim/simulate.hpp"
 
 namespace {
 

@@ -57,9 +57,9 @@ bool LightingLink::connect_once() {
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;
   };
-  c->on_map_set_complete = [this](const client::MapSet& m) {
+  c->on_map_set_complete = [this](const client::ReceivedMapSet& m) {
     std::lock_guard lock(mutex_);
-    lighting_.apply(std::make_shared<const client::MapSet>(m));
+    lighting_.apply(std::make_shared<const client::ReceivedMapSet>(m));
     ++stats_.map_sets;
     changed_.notify_all();
   };

@@ -90,11 +90,11 @@ struct Client::Impl {
   // The state takes the message; the callbacks run after the lock is released, on copies.
   void handle(wire::Message&& message) {
     std::function<void(const LightingUpdate&)> update_cb;
-    std::function<void(const MapSet&)> maps_cb;
+    std::function<void(const ReceivedMapSet&)> maps_cb;
     std::function<void(const wire::ExposureAdvice&)> advice_cb;
     std::optional<wire::ExposureAdvice> advice_copy;
     std::optional<LightingUpdate> update_copy;
-    std::optional<MapSet> maps_copy;
+    std::optional<ReceivedMapSet> maps_copy;
     {
       std::lock_guard lock(mutex);
       switch (state.receive(std::move(message))) {
@@ -301,10 +301,10 @@ std::optional<LightingUpdate> Client::last_update() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->last_update;
 }
-std::optional<MapSet> Client::last_complete_maps() const {
+std::optional<ReceivedMapSet> Client::last_complete_maps() const {
   std::lock_guard lock(impl_->mutex);
   const auto& maps = impl_->state.lighting().maps;
-  return maps ? std::optional<MapSet>(*maps) : std::nullopt;
+  return maps ? std::optional<ReceivedMapSet>(*maps) : std::nullopt;
 }
 std::optional<std::pair<std::string, std::string>> Client::server_error() const {
   std::lock_guard lock(impl_->mutex);

@@ -16,7 +16,7 @@ void Lighting::apply(const wire::LightingUpdate& u) {
   if (u.frame_exposure > 0.0) frame_exposure = u.frame_exposure;  // 0: a frame not used
 }
 
-void Lighting::apply(std::shared_ptr<const MapSet> set) {
+void Lighting::apply(std::shared_ptr<const ReceivedMapSet> set) {
   maps = std::move(set);
   ++maps_version;
 }
@@ -43,7 +43,7 @@ LightingState::Change LightingState::receive(wire::Message&& message) {
   if (auto* c = std::get_if<wire::MapSetComplete>(&message)) {
     auto set = assembler_.complete(*c);
     if (!set) return Change::Nothing;
-    lighting_.apply(std::make_shared<const MapSet>(std::move(*set)));
+    lighting_.apply(std::make_shared<const ReceivedMapSet>(std::move(*set)));
     ++map_sets_;
     return Change::MapSet;
   }

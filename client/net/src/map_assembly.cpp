@@ -12,7 +12,7 @@ void MapSetAssembler::expect(const std::vector<double>& shininess) {
 // The codec has checked the tile's rectangle against its map's size at its level.
 void MapSetAssembler::add_tile(const wire::MapTile& t) {
   if (!EnvLayout::guess_projection(int(t.map_width), int(t.map_height))) return;
-  MapSet& set = building_[t.map_set];
+  ReceivedMapSet& set = building_[t.map_set];
   set.id = t.map_set;
   const std::size_t index = t.map_index;
   if (set.maps.size() <= index) {
@@ -39,10 +39,10 @@ void MapSetAssembler::add_tile(const wire::MapTile& t) {
   set.texels_received[index] += std::size_t(w * h);
 }
 
-std::optional<MapSet> MapSetAssembler::complete(const wire::MapSetComplete& c) {
+std::optional<ReceivedMapSet> MapSetAssembler::complete(const wire::MapSetComplete& c) {
   const auto it = building_.find(c.map_set);
   if (it == building_.end()) return std::nullopt;
-  MapSet set = std::move(it->second);
+  ReceivedMapSet set = std::move(it->second);
   building_.erase(building_.begin(), std::next(it));  // older sets are stale
   // Whole or not at all: a set whose first tiles went to an earlier connection of the session
   // (arlightd streams an in-flight set on to the one that resumed it) lacks maps or texels.

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -79,28 +80,26 @@ enum class ExrPixel { Half, Float };
 void write_exr(const std::filesystem::path& path, ConstImageView img,
                const ImageMetadata& metadata = {}, ExrPixel pixel = ExrPixel::Half);
 
-// How a preview compresses the range (tutorial §9): Global is Reinhard's x / (1 + x) per
-// channel; the others are OpenCV's local operators (photo module), which keep detail in both
-// the lamps and the shadows of a room whose range a global curve cannot hold: Drago et al. 2003
-// (adaptive logarithm, bias 0.85), Reinhard & Devlin 2005 (photoreceptor, adapting to each
-// pixel's own light: light_adapt 1), Mantiuk et al. 2006 (contrast domain, scale 0.7).
-enum class PreviewTone { Global, Drago, Reinhard, Mantiuk };
-const char* preview_tone_name(PreviewTone tone);
-// "global", "drago", "reinhard", "mantiuk"; InputError naming the value otherwise.
-PreviewTone parse_preview_tone(const std::string& name);
-
 struct PreviewOptions {
   // Exposure in stops; std::nullopt picks it so the log-average luminance maps to 0.18.
   std::optional<double> exposure_stops;
-  PreviewTone tone = PreviewTone::Global;
 };
 
 // Exposure (stops) that maps the log-average luminance of the non-black pixels to 0.18.
 double auto_exposure_stops(ConstImageView img);
 
-// 8-bit sRGB pixels (RGB, row-major) for people to look at: exposure, then the tone curve
-// (PreviewTone), then the sRGB curve.
+// 8-bit sRGB pixels (RGB, row-major) for people to look at: exposure, then Reinhard's global
+// x / (1 + x) per channel (tutorial §9), then the sRGB curve. The tools' local operators, which
+// keep detail where a global curve cannot, are tools/preview's (OpenCV's photo module).
 std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOptions& options = {});
+
+// A display-linear value in [0, 1] (clamped; NaN counts as 0) as an 8-bit sRGB code.
+std::uint8_t srgb_code(float display_linear);
+
+// 8-bit RGB pixels (width x height, row-major) as a PNG file, written atomically like write_exr.
+// Throws std::invalid_argument when the pixel count disagrees with the size.
+void write_png_rgb(const std::filesystem::path& path, int width, int height,
+                   std::span<const std::uint8_t> rgb);
 
 // preview_pixels() as a PNG file, written atomically like write_exr.
 void write_png_preview(const std::filesystem::path& path, ConstImageView img,

@@ -113,11 +113,11 @@ Resolved resolve(std::string_view target) {
   return {Route::kNotFound, {}};
 }
 
-// One client connection: read a request header, answer, repeat while kept alive. Every step
+// One admin HTTP connection: read a request header, answer, repeat while kept alive. Every step
 // runs on the connection's strand; pending operations hold a shared_ptr to it.
-class Connection : public std::enable_shared_from_this<Connection> {
+class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
  public:
-  Connection(tcp::socket&& socket, std::shared_ptr<HandlerState> handlers,
+  HttpConnection(tcp::socket&& socket, std::shared_ptr<HandlerState> handlers,
              std::shared_ptr<const AccessCheck> access,
              std::shared_ptr<const std::atomic<bool>> stopping)
       : stream_(std::move(socket)),
@@ -128,7 +128,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
 
   void run() {
     net::dispatch(stream_.get_executor(),
-                  beast::bind_front_handler(&Connection::do_read, shared_from_this()));
+                  beast::bind_front_handler(&HttpConnection::do_read, shared_from_this()));
   }
 
  private:
@@ -138,7 +138,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     parser_->body_limit(0);  // no route takes a body
     stream_.expires_after(kIoTimeout);
     http::async_read_header(stream_, buffer_, *parser_,
-                            beast::bind_front_handler(&Connection::on_read, shared_from_this()));
+                            beast::bind_front_handler(&HttpConnection::on_read, shared_from_this()));
   }
 
   void on_read(beast::error_code ec, std::size_t) {
@@ -277,7 +277,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     response_ = std::make_shared<Response>(std::move(res));
     stream_.expires_after(kIoTimeout);
     http::async_write(stream_, *response_,
-                      beast::bind_front_handler(&Connection::on_write, shared_from_this(), close));
+                      beast::bind_front_handler(&HttpConnection::on_write, shared_from_this(), close));
   }
 
   void on_write(bool close, beast::error_code ec, std::size_t) {
@@ -330,7 +330,7 @@ struct AdminServer::Impl : std::enable_shared_from_this<Impl> {
   }
 
   void on_accept(beast::error_code ec, tcp::socket socket) {
-    if (!ec) std::make_shared<Connection>(std::move(socket), handlers, access, stopping)->run();
+    if (!ec) std::make_shared<HttpConnection>(std::move(socket), handlers, access, stopping)->run();
     std::lock_guard lock(mutex);
     if (stopped || ec == net::error::operation_aborted) return;
     if (ec) {

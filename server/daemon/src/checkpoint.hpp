@@ -18,18 +18,11 @@
 #include "arlight/camera.hpp"
 #include "arlight/capture.hpp"
 #include "arlight/projection.hpp"
+#include "map_request.hpp"
 
 namespace arlight::daemon {
 
 inline constexpr int kCheckpointVersion = 2;
-
-// A client's standing request for map sets.
-struct MapRequest {
-  std::vector<double> shininess;
-  int size = 128;
-  Projection projection = Projection::AngleMap;
-  std::string method = "auto";
-};
 
 struct SessionCheckpoint {
   std::string id, device_id;

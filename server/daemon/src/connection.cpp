@@ -22,7 +22,7 @@ std::string peer_address(const std::string& peer) {
   return colon == std::string::npos ? peer : peer.substr(0, colon);
 }
 
-Connection::Connection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env)
+ClientConnection::ClientConnection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env)
     : stream_(std::make_shared<wire::MessageStream>(
           std::move(transport),
           wire::MessageStream::Options{env.limits, env.max_send_queue_bytes})),
@@ -32,7 +32,7 @@ Connection::Connection(std::unique_ptr<wire::Transport> transport, const Connect
 
 // The stream's handlers hold this connection until the stream ends (MessageStream lets go of
 // them then); the session only holds it weakly, through its sink.
-void Connection::start() {
+void ClientConnection::start() {
   auto self = shared_from_this();
   wire::MessageStream::Handlers h;
   h.on_message = [self](wire::Message&& m) { self->handle(std::move(m)); };
@@ -53,14 +53,14 @@ void Connection::start() {
   asio::post(stream_->executor(), [self] { self->arm_deadline(to_clock(self->env_.hello_timeout)); });
 }
 
-void Connection::arm_deadline(Clock::duration after) {
+void ClientConnection::arm_deadline(Clock::duration after) {
   deadline_.expires_after(after);
   deadline_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
     if (!ec) self->deadline_passed();
   });
 }
 
-void Connection::deadline_passed() {
+void ClientConnection::deadline_passed() {
   if (closing_) return;
   if (!session_) {
     if (env_.hello_timeouts) env_.hello_timeouts->inc();
@@ -76,18 +76,18 @@ void Connection::deadline_passed() {
                                      " s; closing (the session stays for a resume)");
 }
 
-void Connection::close() {
+void ClientConnection::close() {
   asio::post(stream_->executor(), [self = shared_from_this()] {
     self->stream_->close();
     self->detach();
   });
 }
 
-void Connection::detach() {
+void ClientConnection::detach() {
   if (session_) session_->detach(attachment_);  // the session stays for a resume
 }
 
-void Connection::fail(wire::ErrorCode code, const std::string& message) {
+void ClientConnection::fail(wire::ErrorCode code, const std::string& message) {
   if (closing_) return;
   if (env_.log) env_.log(stream_->peer() + ": " + message);
   stream_->send(wire::Error{code, message});
@@ -96,7 +96,7 @@ void Connection::fail(wire::ErrorCode code, const std::string& message) {
   detach();
 }
 
-void Connection::handle(wire::Message&& message) {
+void ClientConnection::handle(wire::Message&& message) {
   if (closing_) return;
   last_message_ = Clock::now();
   const char* name = wire::message_name(message);
@@ -134,7 +134,7 @@ void Connection::handle(wire::Message&& message) {
   return fail(wire::ErrorCode::OutOfOrder, std::string(name) + " is a server-to-client message");
 }
 
-void Connection::handle_hello(const wire::Hello& m) {
+void ClientConnection::handle_hello(const wire::Hello& m) {
   if (m.protocol_version != wire::kProtocolVersion)
     return fail(wire::ErrorCode::Unsupported, "protocol version " +
                                                   std::to_string(m.protocol_version) +
@@ -145,7 +145,7 @@ void Connection::handle_hello(const wire::Hello& m) {
   session_ = env_.open_session(m, code, why);
   if (!session_) return fail(code, why);
   std::weak_ptr<wire::MessageStream> weak = stream_;
-  std::weak_ptr<Connection> weak_self = shared_from_this();
+  std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   attachment_ = session_->attach(
       [weak](std::vector<std::uint8_t> envelope) {
         if (auto stream = weak.lock()) stream->send(std::move(envelope));
@@ -166,7 +166,7 @@ void Connection::handle_hello(const wire::Hello& m) {
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
 }
 
-void Connection::handle_intrinsics(const CameraIntrinsics& c) {
+void ClientConnection::handle_intrinsics(const CameraIntrinsics& c) {
   // The codec bounded the size by the pixel limit; the optics are checked here.
   const bool finite =
       std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy);
@@ -177,7 +177,7 @@ void Connection::handle_intrinsics(const CameraIntrinsics& c) {
   if (!why.empty()) return fail(wire::ErrorCode::BadMessage, "CameraIntrinsics: " + why);
 }
 
-void Connection::handle_calibration(wire::CalibrationSet&& set) {
+void ClientConnection::handle_calibration(wire::CalibrationSet&& set) {
   if (set.frames.size() < 2)
     return fail(wire::ErrorCode::BadMessage, "CalibrationSet: 2 to 16 frames");
   std::vector<std::vector<std::uint8_t>> jpegs;
@@ -196,7 +196,7 @@ void Connection::handle_calibration(wire::CalibrationSet&& set) {
                       set.method.empty() ? "robertson" : set.method);
 }
 
-void Connection::handle_frame(wire::CameraFrame&& m) {
+void ClientConnection::handle_frame(wire::CameraFrame&& m) {
   if (!session_->has_camera())
     return fail(wire::ErrorCode::OutOfOrder, "CameraFrame before CameraIntrinsics");
   // The codec checked the size against the limits and RGB8 data against the size.

@@ -39,9 +39,12 @@ struct ConnectionEnv {
 // "address" of an "address:port" peer ("[v6]:port" keeps the brackets).
 std::string peer_address(const std::string& peer);
 
-class Connection : public std::enable_shared_from_this<Connection> {
+// One protocol client's connection (a phone's page over /ws, arlight-client, arlight-load): its
+// Hello and session, the messages it sends, the deadlines. (The admin port's connections are
+// arlight_admin's HttpConnection.)
+class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
  public:
-  Connection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env);
+  ClientConnection(std::unique_ptr<wire::Transport> transport, const ConnectionEnv& env);
   void start();
   void close();  // from any thread
   // From any thread: where it comes from, and whether its Hello was accepted.

@@ -118,7 +118,7 @@ struct Daemon::Impl {
   std::mutex sessions_mutex;
   std::map<std::string, std::shared_ptr<Session>> sessions;
   std::mutex connections_mutex;
-  std::vector<std::weak_ptr<Connection>> connections;
+  std::vector<std::weak_ptr<ClientConnection>> connections;
 
   std::mutex stop_mutex;
   std::condition_variable stopped_cv;
@@ -465,7 +465,7 @@ struct Daemon::Impl {
   // Over a connection limit it is closed before anything is read from it.
   void adopt(std::unique_ptr<wire::Transport> transport) {
     const std::string address = peer_address(transport->peer());
-    std::shared_ptr<Connection> c;
+    std::shared_ptr<ClientConnection> c;
     std::string refused;
     {
       std::lock_guard lock(connections_mutex);
@@ -489,7 +489,7 @@ struct Daemon::Impl {
         refused = "the limit of " + std::to_string(config.max_connections_per_address) +
                   " connections from one address";
       } else {
-        c = std::make_shared<Connection>(std::move(transport), connection_env);
+        c = std::make_shared<ClientConnection>(std::move(transport), connection_env);
         connections.push_back(c);
       }
     }

@@ -52,7 +52,7 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     send(wire::Progress{set, std::uint32_t(t.done), std::uint32_t(t.total)});
   };
   try {
-    lighting::MapSet maps;
+    lighting::ComputedMapSet maps;
     // Below the live path: the frames of every session come first.
     tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
     arena.initialize();

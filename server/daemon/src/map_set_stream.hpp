@@ -12,7 +12,7 @@
 
 #include "arlight/projection.hpp"
 #include "arlight/wire.hpp"
-#include "checkpoint.hpp"
+#include "map_request.hpp"
 
 namespace arlight::lighting {
 class MapUpdater;

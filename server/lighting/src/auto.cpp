@@ -308,7 +308,7 @@ BrightSplit split_bright(const EnvMap& input) {
 // are evaluated at every output texel (interpolation across the kink of a bright light's
 // terminator would show).
 void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& ks,
-              std::vector<EnvMap>& maps, MapSet& result) {
+              std::vector<EnvMap>& maps, ComputedMapSet& result) {
   const EnvMap& rest = split.rest;
   const PointCells& bright = split.bright;
   const auto table = texel_table(job.input.layout);
@@ -643,10 +643,10 @@ class DirectLobe {
 
 }  // namespace
 
-MapSet run_auto(const Job& job, AutoMemory* memory) {
+ComputedMapSet run_auto(const Job& job, AutoMemory* memory) {
   const int count = int(job.shininess.size());
   const bool incremental = memory && memory->valid;
-  MapSet result;
+  ComputedMapSet result;
   result.seconds.assign(std::size_t(count), 0.0);
   result.plans.assign(std::size_t(count), "");
   if (incremental && memory->changed.empty()) {  // nothing changed: the last maps stand

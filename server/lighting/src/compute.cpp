@@ -50,9 +50,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-MapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
+ComputedMapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
                     std::vector<std::string> plans) {
-  MapSet result;
+  ComputedMapSet result;
   const double share = seconds_since(t0) / double(std::max<std::size_t>(1, maps.size()));
   result.seconds.assign(maps.size(), share);
   result.maps = std::move(maps);
@@ -164,13 +164,13 @@ void check_shininess(std::span<const double> shininess) {
       throw std::invalid_argument("shininess " + std::to_string(s) + " is not a number >= 1");
 }
 
-MapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
+ComputedMapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
                const MethodSpec& method, const Hooks& hooks, AutoMemory* memory) {
   check_shininess(shininess);
   const auto t0 = std::chrono::steady_clock::now();
   Progress progress(hooks, texels.tiles().size() * shininess.size());
   const Job job{input, {shininess.begin(), shininess.end()}, texels, method, progress};
-  MapSet result;
+  ComputedMapSet result;
   switch (method.method) {
     case Method::Accurate:
       result = run_direct(job, false);
@@ -198,7 +198,7 @@ MapSet compute(const EnvMap& input, std::span<const double> shininess, const Out
 
 }  // namespace detail
 
-MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
+ComputedMapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
                     const MethodSpec& method, const Hooks& hooks) {
   return detail::compute(input, shininess, detail::OutputTexels(output), method, hooks, nullptr);
 }

@@ -88,7 +88,7 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
   }
 }
 
-MapSet run_direct(const Job& job, bool bounded) {
+ComputedMapSet run_direct(const Job& job, bool bounded) {
   const auto t0 = std::chrono::steady_clock::now();
   // Whole-hemisphere sums: big cells keep the per-cell work small next to the sums.
   const PointCells pts = points_from_texels(job.input, bounded ? 64 : 256);

@@ -47,7 +47,7 @@ std::vector<LobeSample> lobe_samples(double s, int k) {
 
 }  // namespace
 
-MapSet run_importance(const Job& job) {
+ComputedMapSet run_importance(const Job& job) {
   const auto t0 = std::chrono::steady_clock::now();
   const EnvSampler sampler(job.input);
   const int k_samples = job.spec.samples;

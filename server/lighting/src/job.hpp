@@ -92,8 +92,8 @@ struct Job {
 double seconds_since(std::chrono::steady_clock::time_point t0);
 
 // The result of a method that makes all its maps in one pass started at t0: the pass's time is
-// shared equally between the maps (MapSet::seconds).
-MapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
+// shared equally between the maps (ComputedMapSet::seconds).
+ComputedMapSet joint_result(std::vector<EnvMap> maps, std::chrono::steady_clock::time_point t0,
                     std::vector<std::string> plans);
 
 // Maps of one job, all zero, in the output layout.
@@ -123,10 +123,10 @@ std::size_t sh_pair_outputs(std::size_t maps);
 // evaluated weight.
 void sh_divide(std::span<float* const> values, std::size_t maps, std::size_t count);
 
-MapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
-MapSet run_mipmap(const Job& job);
-MapSet run_sh(const Job& job);
-MapSet run_importance(const Job& job);
+ComputedMapSet run_direct(const Job& job, bool bounded);  // accurate, bounded
+ComputedMapSet run_mipmap(const Job& job);
+ComputedMapSet run_sh(const Job& job);
+ComputedMapSet run_importance(const Job& job);
 // What method auto keeps from one input to the next when it follows a changing environment
 // (MapUpdater): its last maps and cube grids, and where the new input changed. A run with a
 // memory that is not valid computes everything and fills it. (The bright split is made afresh
@@ -149,12 +149,12 @@ struct AutoMemory {
   std::vector<double> recomputed;  // out: the share of each map's output recomputed
 };
 
-MapSet run_auto(const Job& job, AutoMemory* memory = nullptr);
+ComputedMapSet run_auto(const Job& job, AutoMemory* memory = nullptr);
 
 // Throws std::invalid_argument for an empty list or a shininess below 1.
 void check_shininess(std::span<const double> shininess);
 // compute_maps() over prepared output texels, with method auto's memory (may be null).
-MapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
+ComputedMapSet compute(const EnvMap& input, std::span<const double> shininess, const OutputTexels& texels,
                const MethodSpec& method, const Hooks& hooks, AutoMemory* memory);
 
 }  // namespace arlight::lighting::detail

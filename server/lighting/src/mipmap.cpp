@@ -60,7 +60,7 @@ double mipmap_level(double s, int n) {
   return l_max - std::log2(std::min(std::max(s / 2.0, 4.0), double(n)));  // eq. 4.3
 }
 
-MapSet run_mipmap(const Job& job) {
+ComputedMapSet run_mipmap(const Job& job) {
   const auto t0 = std::chrono::steady_clock::now();
   const EnvMap angle = working_angle_map(job.input);
   // Each level with the fraction of each texel that lies on the disk.

@@ -76,7 +76,7 @@ void sh_divide(std::span<float* const> values, std::size_t maps, std::size_t cou
   }
 }
 
-MapSet run_sh(const Job& job) {
+ComputedMapSet run_sh(const Job& job) {
   const auto t0 = std::chrono::steady_clock::now();
   const int order = job.spec.sh_order;
   const ShPair pair = sh_project_pair(job.input, order);

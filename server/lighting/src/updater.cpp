@@ -29,7 +29,7 @@ struct MapUpdater::State {
   double tolerance;
   std::optional<EnvMap> base;  // per texel, the value it had when it last counted as changed
   detail::AutoMemory memory;
-  MapSet last;
+  ComputedMapSet last;
   std::vector<double> recomputed;
   double changed = 1.0;
 };
@@ -57,7 +57,7 @@ MapUpdater& MapUpdater::operator=(MapUpdater&&) noexcept = default;
 std::span<const double> MapUpdater::recomputed() const { return state_->recomputed; }
 double MapUpdater::changed() const { return state_->changed; }
 
-const MapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks,
+const ComputedMapSet& MapUpdater::update(const EnvMap& input, const Hooks& hooks,
                                  std::span<const float> measured) {
   if (!measured.empty() && measured.size() != input.layout.texel_count())
     throw std::invalid_argument("MapUpdater: " + std::to_string(measured.size()) +

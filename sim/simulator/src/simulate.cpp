@@ -15,7 +15,7 @@
 #include "arlight/recording.hpp"
 #include "arlight/resample.hpp"
 #include "arlight/response.hpp"
-#include "arlight/sim.hpp"
+#include "arlight/sim/simulate.hpp"
 #include "arlight/truth.hpp"
 #include "imaging.hpp"
 #include "noise.hpp"

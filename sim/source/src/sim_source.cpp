@@ -1,9 +1,10 @@
-// SimSource: the client's sim:PROBE source, a shell over arlight_sim's LiveCamera.
+// SimSource: the client's sim:PROBE source, a shell over arlight_sim's LiveCamera, and its
+// registration into open_source.
 #include <chrono>
 #include <thread>
 
 #include "arlight/sim/live_camera.hpp"
-#include "arlight/source.hpp"
+#include "arlight/sim_source.hpp"
 
 namespace arlight::source {
 
@@ -60,6 +61,15 @@ std::string SimSource::describe() const {
 bool SimSource::request_exposure(double exposure_gain) {
   impl_->camera.request_exposure(exposure_gain);
   return true;
+}
+
+void register_sim_source() {
+  register_source_scheme(
+      "sim",
+      [](const std::string& probe, const SourceOptions& options) -> std::unique_ptr<FrameSource> {
+        return std::make_unique<SimSource>(probe, options);
+      },
+      "sim:PROBE.exr (a simulated phone in that room)");
 }
 
 }  // namespace arlight::source

@@ -104,7 +104,7 @@ class Client {
 
   // Called on the reader thread.
   std::function<void(const LightingUpdate&)> on_update;
-  std::function<void(const MapSet&)> on_map_set_complete;
+  std::function<void(const ReceivedMapSet&)> on_map_set_complete;
   // arlightd's exposure advice (PROTOCOL.md): take the next frame at advice.exposure.
   std::function<void(const wire::ExposureAdvice&)> on_exposure_advice;
 
@@ -114,7 +114,7 @@ class Client {
 
   // State, read under the lock in wait_for predicates or via these copies.
   std::optional<LightingUpdate> last_update() const;
-  std::optional<MapSet> last_complete_maps() const;
+  std::optional<ReceivedMapSet> last_complete_maps() const;
   std::optional<std::pair<std::string, std::string>> server_error() const;  // code, message
   std::optional<CalibrationResult> calibration_result() const;
   bool connected() const;

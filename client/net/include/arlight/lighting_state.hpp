@@ -24,7 +24,7 @@ namespace arlight::client {
 struct Lighting {
   std::uint64_t sh_version = 0, maps_version = 0;
   std::optional<ShCoeffs> sh;
-  std::shared_ptr<const MapSet> maps;
+  std::shared_ptr<const ReceivedMapSet> maps;
   glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
   glm::vec3 dominant_colour{0.0f};
   double coverage = 0;                     // fraction of the sphere measured
@@ -39,7 +39,7 @@ struct Lighting {
 
   // What a LightingUpdate and a completed map set change.
   void apply(const wire::LightingUpdate& update);
-  void apply(std::shared_ptr<const MapSet> set);
+  void apply(std::shared_ptr<const ReceivedMapSet> set);
 };
 
 class LightingState {

@@ -14,7 +14,7 @@
 namespace arlight::client {
 
 // A map set as it arrives: level-0 tiles fill `maps`; complete once MapSetComplete came.
-struct MapSet {
+struct ReceivedMapSet {
   std::uint32_t id = 0;
   std::vector<double> shininess;
   std::vector<EnvMap> maps;
@@ -38,10 +38,10 @@ class MapSetAssembler {
   void add_tile(const wire::MapTile& tile);
   // The completed set, or nullopt unless every one of its `done.maps` maps arrived whole (a set
   // begun on an earlier connection of a resumed session, or with a dropped tile, is not used).
-  std::optional<MapSet> complete(const wire::MapSetComplete& done);
+  std::optional<ReceivedMapSet> complete(const wire::MapSetComplete& done);
 
  private:
-  std::map<std::uint32_t, MapSet> building_;
+  std::map<std::uint32_t, ReceivedMapSet> building_;
   std::vector<float> expected_;  // as the wire carries them
 };
 

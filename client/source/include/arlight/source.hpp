@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <glm/gtc/quaternion.hpp>
 #include <memory>
 #include <opencv2/core/mat.hpp>
@@ -115,28 +116,23 @@ class V4l2Source : public FrameSource {
   std::unique_ptr<Impl> impl_;
 };
 
-// A simulated phone inside a probe (arlight/sim/live_camera.hpp): renders each view along a
-// sweep when asked, with auto-exposure, noise and JPEG, and follows exposure requests, so the
-// whole loop with arlightd runs without hardware. Its orientation is exact (an ideal IMU).
-class SimSource : public FrameSource {
- public:
-  // InputError for an unreadable probe or unusable options (size, fps, frames).
-  SimSource(const std::filesystem::path& probe, const SourceOptions& options = {});
-  ~SimSource() override;
-  std::optional<SourceFrame> next() override;
-  CameraIntrinsics intrinsics() const override;
-  std::string device_id() const override;
-  std::string describe() const override;
-  bool request_exposure(double exposure_gain) override;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
-// Opens `v4l2:/dev/videoN`, `replay:REC_FOLDER` or `sim:PROBE.exr`; anything else is an
+// Opens `v4l2:/dev/videoN`, `replay:REC_FOLDER` or `SCHEME:REST` of a registered scheme (below;
+// `sim:PROBE.exr` once a program has called register_sim_source()); anything else is an
 // InputError that says which forms are accepted.
 std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options);
+
+// Opens a source of one scheme: `rest` is the spec after "SCHEME:" (never empty).
+using SourceFactory = std::function<std::unique_ptr<FrameSource>(const std::string& rest,
+                                                                 const SourceOptions& options)>;
+
+// Teaches open_source a scheme beyond v4l2: and replay:, for sources client/ does not link: the
+// laboratory's simulated phone (sim/source, `sim:PROBE.exr`) is registered at startup by the
+// program that links both (arlight-client, through register_sim_source()). `usage` is the spec's
+// form as open_source's error lists it, e.g. "sim:PROBE.exr (a simulated phone in that room)".
+// Registering a scheme again replaces its factory and usage. `scheme` must be non-empty and free
+// of ':' (std::invalid_argument otherwise). Safe to call from any thread, also while another
+// opens a source.
+void register_source_scheme(const std::string& scheme, SourceFactory factory, std::string usage);
 
 // Reads a calibration (OpenCV FileStorage YAML/XML/JSON: camera_matrix 3x3, optional
 // distortion_coefficients with 4, 5 or more entries of which the first five are used, optional

@@ -71,7 +71,7 @@ class Cancelled : public std::runtime_error {
   Cancelled() : std::runtime_error("map computation cancelled") {}
 };
 
-struct MapSet {
+struct ComputedMapSet {
   std::vector<double> shininess;  // as requested
   std::vector<EnvMap> maps;       // one per shininess, in `output`'s layout
   // Wall seconds per map. Methods that compute all maps in one pass (accurate, bounded, sh,
@@ -84,7 +84,7 @@ struct MapSet {
 // Computes one map per shininess (each >= 1) of `input` in `output`'s layout, on all cores.
 // Input and output may use any projection and size. Throws std::invalid_argument for s < 1 or
 // an empty list, Cancelled when hooks.stop is requested.
-MapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
+ComputedMapSet compute_maps(const EnvMap& input, std::span<const double> shininess, const EnvLayout& output,
                     const MethodSpec& method, const Hooks& hooks = {});
 
 // Maps that follow an environment as it changes (issue 16 §3: map sets at 10 Hz while a phone
@@ -113,7 +113,7 @@ class MapUpdater {
   // layout, row-major), is the share of each texel that was measured rather than estimated
   // (a capture's fill): an estimated texel counts as changed only past kEstimatedTolerance x
   // the tolerance, as an estimate that moves a little says little about the room.
-  const MapSet& update(const EnvMap& input, const Hooks& hooks = {},
+  const ComputedMapSet& update(const EnvMap& input, const Hooks& hooks = {},
                        std::span<const float> measured = {});
   static constexpr double kEstimatedTolerance = 2.5;
   // Of the last update: the share of each map's output recomputed (1: all of it) and of the

@@ -17,7 +17,7 @@
 #include <string>
 
 #include "arlight/error.hpp"
-#include "arlight/sim.hpp"
+#include "arlight/sim/simulate.hpp"
 #include "support/run_tool.hpp"
 
 namespace arlight::test {

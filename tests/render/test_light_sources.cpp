@@ -10,7 +10,7 @@
 
 #include "arlight/image.hpp"
 #include "arlight/light_sources.hpp"
-#include "env_fixtures.hpp"
+#include "../support/env_fixtures.hpp"
 
 using namespace arlight;
 

@@ -3,8 +3,9 @@
 // receiver plane, how much of the distant light each direction brings once the mesh's own
 // occlusion is counted, as ambient occlusion, a bent normal and low-order SH coefficients.
 // Dotted with a lighting's SH at run time, the transfer gives the occluded diffuse light
-// that follows the room as it changes. Shared by both sides: the client bakes at model load,
-// arlightd for the pages it serves. Ray casting is Embree 3's; points are baked on all cores.
+// that follows the room as it changes. The native client bakes at model load (occlusion_bake),
+// arlight-model for the page's models (the page's WebAssembly build never ray-casts), the
+// laboratory for its shadow references. Ray casting is Embree 3's; points are baked on all cores.
 #pragma once
 
 #include <cstdint>

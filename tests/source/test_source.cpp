@@ -1,16 +1,18 @@
 // arlight_source: replay of recordings (count, metadata, skipped frames, pacing), the V4L2
-// source's errors without a webcam, intrinsics files and source specs.
+// source's errors without a webcam, intrinsics files and source specs (also a registered scheme).
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
 
 #include "arlight/error.hpp"
 #include "arlight/source.hpp"
-#include "track/sim_cache.hpp"
+#include "support/sim_cache.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
@@ -119,6 +121,29 @@ TEST(OpenSource, ReplaySpecOpensARecordingAndBadSpecsSayWhatIsAccepted) {
   // A folder that is not a recording: the recording reader's error names the manifest.
   const std::string r = error_of([] { open_source("replay:/nonexistent/rec", {}); });
   EXPECT_NE(r.find("/nonexistent/rec"), std::string::npos) << r;
+}
+
+// A scheme client/ does not link (the laboratory's sim:, sim/source) is registered by the program
+// that links both: it opens its specs, and the error lists its form after the built-in ones.
+TEST(OpenSource, ARegisteredSchemeOpensItsSpecsAndIsListed) {
+  const fs::path rec = tiny_recording("scheme");
+  const auto seen = std::make_shared<std::string>();
+  register_source_scheme(
+      "fake",
+      [seen](const std::string& rest, const SourceOptions& o) -> std::unique_ptr<FrameSource> {
+        *seen = rest;
+        return std::make_unique<ReplaySource>(rest, o);
+      },
+      "fake:REC_FOLDER (a test's scheme)");
+  auto src = open_source("fake:" + rec.string(), {});
+  EXPECT_EQ(*seen, rec.string());
+  EXPECT_TRUE(src->next().has_value());
+  const std::string e = error_of([] { open_source("fake:", {}); });
+  EXPECT_NE(e.find("expected v4l2:/dev/videoN (a webcam), replay:REC_FOLDER (a recording) or "
+                   "fake:REC_FOLDER (a test's scheme)"),
+            std::string::npos)
+      << e;
+  EXPECT_THROW(register_source_scheme("a:b", nullptr, ""), std::invalid_argument);
 }
 
 TEST(V4l2Source, AbsentDeviceIsNamed) {
