@@ -44,7 +44,13 @@ fs::path session_dir(const SessionEnv& env, const std::string& id) {
 }
 
 Session::Session(std::string id, std::string device_id, const SessionEnv& env, SessionLease lease)
-    : id_(std::move(id)), device_id_(std::move(device_id)), env_(env), lease_(std::move(lease)) {}
+    : id_(std::move(id)),
+      device_id_(std::move(device_id)),
+      env_(env),
+      frames_(env.queue_depth),
+      maps_(std::chrono::duration_cast<Clock::duration>(
+          std::chrono::duration<double>(env.map_interval_s))),
+      lease_(std::move(lease)) {}
 
 Session::~Session() { shutdown(); }
 
@@ -119,7 +125,7 @@ std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
   // reconnected mid-set with the same request can use it; others drop it).
   request_.reset();
   previews_.reset();
-  maps_stopped_ = false;
+  maps_.resume();
   last_activity_ = Clock::now();
   return ++attachment_;
 }
@@ -160,30 +166,16 @@ void Session::submit(FrameJob job) {
   env_.frames_received->inc();
   std::lock_guard lock(mutex_);
   ++received_;
-  last_activity_ = last_frame_ = Clock::now();
-  // A bounded queue where the newest frame wins: when it is full, the oldest waiting frame is
-  // stale and dropped (counted). Two frames absorb the jitter of a shared worker pool without
-  // letting a session fall more than a frame behind.
-  while (pending_.size() >= std::size_t(std::max(1, env_.queue_depth))) {
-    // The oldest waiting frame goes, unless it is the darker frame the exposure advice asked
-    // for (there is one such frame per advice; dropping it would read as a client that cannot
-    // go that dark): then the oldest other one.
-    auto victim = pending_.begin();
-    if (advisor_)
-      for (auto it = pending_.begin(); it != pending_.end(); ++it)
-        if (!advisor_->is_advised(it->frame.info.exposure * it->frame.info.gain)) {
-          victim = it;
-          break;
-        }
-    pending_.erase(victim);
-    ++dropped_;
-    env_.frames_dropped->inc();
-  }
-  pending_.push_back(std::move(job));
-  if (!busy_) {
-    busy_ = true;
+  last_activity_ = Clock::now();
+  maps_.frame_arrived(last_activity_);
+  // The darker frame the exposure advice asked for stays (one per advice).
+  const std::size_t dropped = frames_.push(std::move(job), [this](const FrameJob& waiting) {
+    return advisor_ && advisor_->is_advised(waiting.frame.info.exposure * waiting.frame.info.gain);
+  });
+  dropped_ += dropped;
+  for (std::size_t i = 0; i < dropped; ++i) env_.frames_dropped->inc();
+  if (frames_.begin_turn())
     boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
-  }
 }
 
 // One frame a turn: when the session has another waiting, it goes to the back of the worker
@@ -194,12 +186,12 @@ void Session::process() {
   FrameJob job;
   {
     std::lock_guard lock(mutex_);
-    if (pending_.empty() || !capture_) {
-      busy_ = false;
+    std::optional<FrameJob> next = capture_ ? frames_.take() : std::nullopt;
+    if (!next) {
+      frames_.end_turn();
       return;
     }
-    job = std::move(pending_.front());
-    pending_.pop_front();
+    job = std::move(*next);
   }
   const auto t0 = Clock::now();
   capture::FrameResult r;
@@ -240,8 +232,8 @@ void Session::process() {
     std::lock_guard lock(mutex_);
     // After the update went: a map set's input (a copy of the map) is not on the frame's path.
     maybe_start_maps();
-    if (pending_.empty() || !capture_) {
-      busy_ = false;
+    if (frames_.empty() || !capture_) {
+      frames_.end_turn();
       return;
     }
   }
@@ -250,29 +242,15 @@ void Session::process() {
 
 void Session::set_location(const wire::Location& location) {
   std::lock_guard lock(mutex_);
-  location_ = location;
-  location_received_ = Clock::now();
-  sun_checked_ = {};  // the next update checks at once
+  sun_.set_location(location, Clock::now());  // the next update checks at once
 }
 
 wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq) {
   const ShCoeffs& sh = capture_->sh();
   DominantLight light = sh_dominant_light(sh);
-  if (location_) {
-    const auto now = Clock::now();
-    if (now - sun_checked_ >= std::chrono::seconds(1)) {
-      sun_checked_ = now;
-      const double utc =
-          location_->utc_seconds + std::chrono::duration<double>(now - location_received_).count();
-      // A sun prior for the dominant light (issue 17): the map's brightest compact light, if
-      // it is where place and time put the sun. Only what was measured counts (not the fill).
-      sun_ = capture::estimate_sun(capture::sun_position(location_->where, utc),
-                                   capture::brightest_region(capture_->measured_environment()),
-                                   location_->north_referenced, location_->north_offset_deg);
-    }
-    // Confirmed, the sun's direction is exact where the SH's bands 0-1 smear it with the sky.
-    if (sun_.state == SunState::Confirmed) light.direction = glm::vec3(sun_.direction);
-  }
+  sun_.check(Clock::now(),
+             [&] { return capture::brightest_region(capture_->measured_environment()); });
+  if (sun_.state() == SunState::Confirmed) light.direction = glm::vec3(sun_.direction());
   return {.frame_sequence = seq,
           .frame_used = r.used,
           .reason = r.skipped_reason,
@@ -284,8 +262,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .frames_dropped = dropped_,
           .estimated = float(capture_->estimated_fraction()),
           .frame_exposure = r.used ? r.exposure_gain : 0.0,
-          .sun_state = location_ ? sun_.state : SunState::Unknown,
-          .sun_direction = location_ ? glm::vec3(sun_.direction) : glm::vec3(0.0f)};
+          .sun_state = sun_.state(),
+          .sun_direction = glm::vec3(sun_.direction())};
 }
 
 std::string Session::request_maps(MapRequest r) {
@@ -305,42 +283,26 @@ std::string Session::request_maps(MapRequest r) {
   std::lock_guard lock(mutex_);
   request_ = std::move(r);
   previews_.reset();
-  maps_forced_ = true;  // a new request is computed at once
+  maps_.request_changed();  // a new request is computed at once
   dirty_ = true;
   maybe_start_maps();
   return {};
 }
 
-// Frames that stopped this long ago have stopped: the next map set is a full one.
-constexpr auto kPreviewPause = std::chrono::milliseconds(500);
-
-// Map sets follow the map (issue 16 §3): one starts when a frame has changed the map since the
-// last one started, once that one is done and at least map_interval_s after it started. (They
-// used to wait for 5 % more coverage or 150 frames: a set every ~380 ms for one session.) A
-// change while a set runs starts the next when it ends; one deferred by the interval starts
-// with the next frame, or from on_idle when frames stop. While frames arrive, sets are previews
-// (MapSetJob::preview: from the map reduced to about twice the output's texels); once they
-// pause for kPreviewPause, a full one follows (from on_idle, or when the running set ends).
+// Map sets follow the map (issue 16 §3; the rules are MapSetScheduler's). While frames arrive,
+// sets are previews (MapSetJob::preview: from the map reduced to about twice the output's
+// texels); once they pause, a full one follows (from on_idle, or when the running set ends).
 void Session::maybe_start_maps() {
-  if (maps_stopped_ || !request_ || !capture_ || capture_->coverage() <= 0.0) return;
-  const auto now = Clock::now();
-  // Frames paused after a preview: the full set of the map as it is now is due.
-  const bool full_due =
-      maps_preview_ && pending_.empty() && !busy_ && now - last_frame_ >= kPreviewPause;
-  if (!maps_forced_ && processed_ <= maps_frames_ && !full_due) return;  // nothing new
-  if (maps_running_) {
-    maps_again_ = true;
-    return;
-  }
-  const auto interval = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(env_.map_interval_s));
-  if (!maps_forced_ && now - maps_started_ < interval) {
-    // Deferred by the interval: start it when the interval ends rather than with the next frame
-    // or idle tick after it (those came ~20 ms late: sets every ~120 ms at a 100 ms interval).
-    start_maps_at(maps_started_ + interval);
-    return;
-  }
-  const bool preview = now - last_frame_ < kPreviewPause;
+  const MapSetScheduler::Decision d =
+      maps_.decide({.time = Clock::now(),
+                    .frames_merged = processed_,
+                    .frames_waiting = frames_.active(),
+                    .can_compute = request_ && capture_ && capture_->coverage() > 0.0});
+  if (d.kind == MapSetScheduler::Decision::Kind::StartAt) start_maps_at(d.at);
+  if (d.kind == MapSetScheduler::Decision::Kind::StartNow) start_map_set(d.preview);
+}
+
+void Session::start_map_set(bool preview) {
   const EnvLayout output = EnvLayout::for_size(request_->projection, request_->size);
   // A preview's input: the map reduced to preview_input_layout() (when that is smaller), with
   // the share of each texel that was measured; a full set's: the map itself.
@@ -366,13 +328,7 @@ void Session::maybe_start_maps() {
     job.previews = previews_;
     job.measured = std::move(snapshot.measured);
   }
-  maps_running_ = true;
-  maps_again_ = false;
-  maps_forced_ = false;
-  maps_started_ = now;
-  maps_frames_ = processed_;
-  maps_preview_ = job.preview;
-  if (map_thread_.joinable()) map_thread_.join();  // finished already (maps_running_ was false)
+  if (map_thread_.joinable()) map_thread_.join();  // finished already (the scheduler was Idle)
   // `this`, not a shared_ptr: the thread must never hold the last reference (~Session joins
   // it); ~Session stops and joins it before any member goes away.
   map_thread_ = std::jthread([this, job = std::move(job)](std::stop_token stop) mutable {
@@ -412,8 +368,7 @@ void Session::compute_maps_thread(std::stop_token stop, MapSetJob job) {
     env_.map_set_seconds->observe(seconds);
   }
   std::lock_guard lock(mutex_);
-  maps_running_ = false;
-  if (maps_again_ && !stop.stop_requested()) {
+  if (maps_.finished() && !stop.stop_requested()) {
     // Start the next set from a fresh thread: this one cannot join itself.
     boost::asio::post(*env_.workers, [self = shared_from_this()] {
       std::lock_guard serial(self->process_mutex_);
@@ -468,7 +423,7 @@ void Session::shutdown() {
     std::lock_guard lock(mutex_);
     if (maps_timer_) maps_timer_->cancel();
     maps_timer_armed_ = false;
-    maps_stopped_ = true;
+    maps_.stop();
     running = std::move(map_thread_);
   }
   if (running.joinable()) {
@@ -578,7 +533,7 @@ json Session::summary() const {
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
             {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
             {"coverage", coverage_},
-            {"sun", location_ ? sun_state_name(sun_.state) : "unknown"}};
+            {"sun", sun_state_name(sun_.state())}};
   return j;
 }
 

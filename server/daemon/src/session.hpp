@@ -9,7 +9,6 @@
 #include <boost/asio/thread_pool.hpp>
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -26,8 +25,11 @@
 #include "arlight/metrics.hpp"
 #include "arlight/wire.hpp"
 #include "checkpoint.hpp"
+#include "frame_queue.hpp"
+#include "map_set_scheduler.hpp"
 #include "map_set_stream.hpp"
 #include "session_lease.hpp"
+#include "sun_tracker.hpp"
 
 namespace arlight::daemon {
 
@@ -52,12 +54,6 @@ struct SessionEnv {
   admin::Histogram* processing_seconds = nullptr;
   admin::Histogram* update_latency_seconds = nullptr;
   admin::Histogram* map_set_seconds = nullptr;
-};
-
-// A frame as it waits for a worker: the message as it arrived, and when.
-struct FrameJob {
-  wire::CameraFrame frame;
-  Clock::time_point received;
 };
 
 // Sends one encoded message (wire::encode) to the session's client; thread-safe; a no-op when
@@ -134,7 +130,10 @@ class Session : public std::enable_shared_from_this<Session> {
  private:
   void process();  // on the worker pool
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
-  void maybe_start_maps();  // with mutex_ held
+  // With process_mutex_ and mutex_ held: asks the scheduler and starts the set it says (or arms
+  // the timer for one the interval deferred). Every path to a map set comes through here.
+  void maybe_start_maps();
+  void start_map_set(bool preview);            // with mutex_ held
   void start_maps_at(Clock::time_point when);  // with mutex_ held: maybe_start_maps() then
   void compute_maps_thread(std::stop_token stop, MapSetJob job);
   void send(const wire::Message& message);
@@ -152,13 +151,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
-  // The client's place and time, when it sent them, and the sun as last checked against the
-  // map (at most once a second: the sun moves 0.004 degrees a second).
-  std::optional<wire::Location> location_;
-  Clock::time_point location_received_{}, sun_checked_{};
-  capture::SunEstimate sun_;
-  std::deque<FrameJob> pending_;  // at most env_.queue_depth frames wait
-  bool busy_ = false;             // a process() is queued or running
+  SunTracker sun_;      // the client's place and time, and the sun checked against the map
+  FrameQueue frames_;   // at most env_.queue_depth frames wait; one a turn on the worker pool
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
   double coverage_ = 0.0;  // the capture's, as of the last frame (for summary())
   bool dirty_ = false;
@@ -167,15 +161,9 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<MapRequest> request_;
   std::shared_ptr<lighting::MapUpdater> previews_;  // for request_, made by its first preview
   std::uint32_t map_set_ = 0;
-  std::uint64_t maps_frames_ = 0;     // frames merged when the last map set started
-  bool maps_forced_ = true;           // a new request: the next set starts whatever changed
-  Clock::time_point maps_started_{};  // when the last map set started
-  bool maps_preview_ = false;         // the last set was a preview (frames were arriving)
-  Clock::time_point last_frame_ = Clock::now();
-  bool maps_running_ = false, maps_again_ = false;
+  MapSetScheduler maps_;  // when the next set starts
   std::unique_ptr<boost::asio::steady_timer> maps_timer_;  // a set the interval deferred
   bool maps_timer_armed_ = false;
-  bool maps_stopped_ = false;  // shutdown() ran: no set starts until the next attach()
   std::jthread map_thread_;
   // Held while a frame is processed, and by all else that reads or changes capture_ (not
   // thread-safe: even its const reads refit the fill when it is due); taken before mutex_.
