@@ -17,10 +17,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <vector>
 
-#include "arlight/capture.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "arlight/sim/view.hpp"
 
 using namespace arlight;

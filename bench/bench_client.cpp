@@ -15,15 +15,15 @@
 #include <optional>
 #include <vector>
 
-#include "arlight/client_app.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/render.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/app/client_app.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/lighting/lighting.hpp"
+#include "arlight/render/render.hpp"
 #include "arlight/sim/simulate.hpp"
-#include "arlight/source.hpp"
-#include "arlight/track.hpp"
+#include "arlight/source/source.hpp"
+#include "arlight/track/track.hpp"
 
 using namespace arlight;
 namespace fs = std::filesystem;

@@ -7,9 +7,9 @@
 #include <map>
 #include <string>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 
 using namespace arlight;
 

@@ -2,9 +2,9 @@
 // 36.6 s to project, 8.5 s with precomputed tables, and 5.7 s for the maps, on an Nvidia Shield).
 #include <benchmark/benchmark.h>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
 
 namespace {
 

@@ -22,15 +22,15 @@
 #include <string>
 #include <vector>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/image.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/render.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "arlight/render/opencv.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/render/render.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;

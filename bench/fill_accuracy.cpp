@@ -24,16 +24,16 @@
 #include <string>
 #include <vector>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/capture.hpp"
+#include "arlight/capture/capture.hpp"
 #include "arlight/capture/exposure_advice.hpp"
 #include "arlight/capture/fill.hpp"
-#include "arlight/error.hpp"
-#include "arlight/eval.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/eval/eval.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "arlight/sim/live_camera.hpp"
 #include "arlight/sim/trajectory.hpp"
 

@@ -1,4 +1,4 @@
-#include "arlight/atomic_file.hpp"
+#include "arlight/common/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -1,4 +1,4 @@
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 
 #include <cmath>
 #include <glm/geometric.hpp>

@@ -1,4 +1,4 @@
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/hdr_io.hpp"
 
 #include <OpenImageIO/imageio.h>
 #include <unistd.h>
@@ -18,7 +18,7 @@
 #include <string_view>
 #include <system_error>
 
-#include "arlight/atomic_file.hpp"
+#include "arlight/common/atomic_file.hpp"
 
 namespace arlight {
 

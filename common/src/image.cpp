@@ -1,4 +1,4 @@
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "arlight/pose.hpp"
+#include "arlight/common/pose.hpp"
 
 #include <cmath>
 #include <numbers>

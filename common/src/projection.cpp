@@ -1,4 +1,4 @@
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 #include <algorithm>
 #include <array>

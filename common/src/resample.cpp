@@ -1,4 +1,4 @@
-#include "arlight/resample.hpp"
+#include "arlight/common/resample.hpp"
 
 #include <algorithm>
 #include <cmath>

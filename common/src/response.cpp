@@ -1,4 +1,4 @@
-#include "arlight/response.hpp"
+#include "arlight/common/response.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight {
 

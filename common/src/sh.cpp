@@ -11,7 +11,7 @@
 // Working in Cartesian form needs no trigonometry per direction and no division by sin(theta),
 // so the poles are exact; (x+iy)^m underflows gracefully to 0 where the true value is below
 // the double range anyway.
-#include "arlight/sh.hpp"
+#include "arlight/common/sh.hpp"
 
 #include <algorithm>
 #include <bit>

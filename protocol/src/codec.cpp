@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "arlight_generated.h"
 
 namespace arlight::wire {

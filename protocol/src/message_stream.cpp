@@ -1,4 +1,4 @@
-#include "arlight/message_stream.hpp"
+#include "arlight/protocol/message_stream.hpp"
 
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/post.hpp>

@@ -1,4 +1,4 @@
-#include "arlight/recording.hpp"
+#include "arlight/protocol/recording.hpp"
 
 #include <charconv>
 #include <cmath>
@@ -8,8 +8,8 @@
 #include <sstream>
 #include <thread>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::recording {
 

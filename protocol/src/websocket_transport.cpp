@@ -1,4 +1,4 @@
-#include "arlight/websocket_transport.hpp"
+#include "arlight/protocol/websocket_transport.hpp"
 
 #include <boost/asio/post.hpp>
 #include <boost/beast/ssl.hpp>

@@ -1,4 +1,4 @@
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 
 #include <Imath/half.h>
 #if !ARLIGHT_NO_ZSTD

@@ -23,8 +23,8 @@
 #include <thread>
 #include <vector>
 
-#include "arlight/admin_http.hpp"
-#include "arlight/metrics.hpp"
+#include "arlight/admin/admin_http.hpp"
+#include "arlight/admin/metrics.hpp"
 
 namespace {
 

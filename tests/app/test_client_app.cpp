@@ -6,11 +6,11 @@
 #include <functional>
 #include <opencv2/core.hpp>
 
-#include "arlight/client_app.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/app/client_app.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/truth/truth.hpp"
 #include "support/sim_cache.hpp"
 
 namespace arlight {

@@ -1,11 +1,11 @@
-// The GL-free placement both clients share (client/app/include/arlight/placement.hpp): how long
+// The GL-free placement both clients share (client/app/include/arlight/app/placement.hpp): how long
 // a tracked pose holds, how it is carried on to a later frame, where the preview stands, and
 // the soft shadow's budget.
 #include <gtest/gtest.h>
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "arlight/placement.hpp"
+#include "arlight/app/placement.hpp"
 
 using namespace arlight;
 using namespace arlight::client_app;

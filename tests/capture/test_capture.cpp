@@ -12,10 +12,10 @@
 #include <random>
 
 #include "align.hpp"
-#include "arlight/calibration.hpp"
-#include "arlight/capture.hpp"
-#include "arlight/error.hpp"
-#include "arlight/pose.hpp"
+#include "arlight/capture/calibration.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/pose.hpp"
 #include "drift_model.hpp"
 #include "linearize.hpp"
 

@@ -6,9 +6,9 @@
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/core.hpp>
 
-#include "arlight/capture.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
 #include "arlight/sim/view.hpp"
 
 using namespace arlight;

@@ -7,11 +7,11 @@
 #include <cstdio>
 #include <opencv2/core.hpp>
 
-#include "arlight/capture.hpp"
+#include "arlight/capture/capture.hpp"
 #include "arlight/capture/exposure_advice.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "arlight/sim/live_camera.hpp"
 
 using namespace arlight;

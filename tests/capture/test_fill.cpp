@@ -5,10 +5,10 @@
 #include <numbers>
 #include <opencv2/core.hpp>
 
-#include "arlight/capture.hpp"
+#include "arlight/capture/capture.hpp"
 #include "arlight/capture/fill.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
 
 using namespace arlight;
 using namespace arlight::capture;

@@ -9,9 +9,9 @@
 #include <stdexcept>
 
 #include "arlight/capture/sun.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/number_list.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/number_list.hpp"
 
 namespace arlight::capture {
 namespace {

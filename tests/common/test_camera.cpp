@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 
 using namespace arlight;
 

@@ -8,7 +8,7 @@
 #include <limits>
 #include <random>
 
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/hdr_io.hpp"
 
 using namespace arlight;
 namespace fs = std::filesystem;

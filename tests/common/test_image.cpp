@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 
 using namespace arlight;
 

@@ -5,7 +5,7 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 using namespace arlight;
 

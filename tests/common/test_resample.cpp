@@ -4,8 +4,8 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
-#include "arlight/resample.hpp"
 #include "../support/env_fixtures.hpp"
+#include "arlight/common/resample.hpp"
 
 using namespace arlight;
 

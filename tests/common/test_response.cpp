@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "arlight/error.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/response.hpp"
 
 using namespace arlight;
 namespace fs = std::filesystem;

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <random>
 
-#include "arlight/sh.hpp"
 #include "../support/env_fixtures.hpp"
+#include "arlight/common/sh.hpp"
 
 using namespace arlight;
 

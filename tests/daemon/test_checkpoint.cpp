@@ -5,8 +5,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
 #include "checkpoint.hpp"
 
 namespace arlight::daemon {

@@ -10,9 +10,9 @@
 #include <chrono>
 #include <thread>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "map_set_stream.hpp"
 #include "priority.hpp"
 

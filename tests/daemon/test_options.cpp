@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "options.hpp"
 #include "support/run_tool.hpp"
 

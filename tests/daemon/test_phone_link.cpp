@@ -11,7 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "arlight/daemon.hpp"
+#include "arlight/daemon/daemon.hpp"
 #include "phone_link.hpp"
 #include "web_server.hpp"
 

@@ -13,8 +13,8 @@
 #include <opencv2/core.hpp>
 #include <thread>
 
-#include "arlight/capture.hpp"
-#include "arlight/error.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/error.hpp"
 #include "checkpoint.hpp"
 #include "session.hpp"
 #include "session_lease.hpp"

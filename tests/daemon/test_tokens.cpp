@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "tokens.hpp"
 
 namespace {

@@ -12,10 +12,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "arlight/calibration.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/response.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/capture/calibration.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/response.hpp"
+#include "arlight/common/sh.hpp"
 #include "support/run_tool.hpp"
 
 namespace fs = std::filesystem;

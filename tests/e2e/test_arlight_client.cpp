@@ -16,7 +16,7 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/hdr_io.hpp"
 #include "checkpoint.hpp"
 #include "support/daemon_process.hpp"
 #include "support/run_tool.hpp"

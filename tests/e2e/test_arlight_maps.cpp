@@ -11,9 +11,9 @@
 #include <string>
 #include <tuple>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
 #include "support/run_tool.hpp"
 
 namespace fs = std::filesystem;

@@ -1,5 +1,5 @@
 // Runs the real arlight-sim binary and checks its recordings against their ground truth; unit
-// tests of the truth/ reader and writer (sim/truth/include/arlight/truth.hpp).
+// tests of the truth/ reader and writer (sim/truth/include/arlight/truth/truth.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,14 +17,14 @@
 #include <string>
 #include <vector>
 
-#include "arlight/camera.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/pose.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/response.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/pose.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/response.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/truth/truth.hpp"
 #include "support/run_tool.hpp"
 
 namespace fs = std::filesystem;

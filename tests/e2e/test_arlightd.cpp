@@ -27,13 +27,13 @@
 #include <string>
 #include <thread>
 
-#include "arlight/client_net.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/net/client_net.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "support/daemon_process.hpp"
-#include "support/sanitizer.hpp"
 #include "support/run_tool.hpp"
+#include "support/sanitizer.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;

@@ -17,10 +17,10 @@
 #include <fstream>
 #include <regex>
 
-#include "arlight/client_net.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/websocket_transport.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/net/client_net.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/protocol/websocket_transport.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "support/daemon_process.hpp"
 
 namespace fs = std::filesystem;

@@ -16,8 +16,8 @@
 #include <string>
 #include <thread>
 
-#include "arlight/client_net.hpp"
-#include "arlight/recording.hpp"
+#include "arlight/net/client_net.hpp"
+#include "arlight/protocol/recording.hpp"
 #include "support/child_process.hpp"
 #include "support/daemon_process.hpp"
 #include "support/run_tool.hpp"

@@ -2,7 +2,7 @@
 // daemon, or damaged by a crash or a full disk). The input is two parts (fuzz_support.hpp):
 // session.json and accum-1.bin. read_checkpoint must say what is wrong with an InputError; what
 // it accepts must have accumulators of the size its map needs.
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "checkpoint.hpp"
 #include "fuzz_support.hpp"
 

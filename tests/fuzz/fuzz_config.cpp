@@ -1,8 +1,8 @@
 // Fuzz target: arlightd's own files, which an operator edits by hand: the JSON config, the
 // device tokens file and the admin token file. Each must be accepted or refused with an
 // InputError naming the file.
-#include "arlight/daemon.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/daemon/daemon.hpp"
 #include "fuzz_support.hpp"
 #include "tokens.hpp"
 

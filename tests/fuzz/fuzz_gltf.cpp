@@ -1,7 +1,7 @@
 // Fuzz target: a model file as the client and arlight-model load it (glTF 2.0 binary or JSON with
 // data: URIs; Draco-compressed primitives through libdraco). Every problem must be an
 // InputError; a mesh that loads has indices inside its vertices and one normal per position.
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/render/mesh.hpp"
 #include "fuzz_support.hpp"
 

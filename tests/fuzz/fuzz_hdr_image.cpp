@@ -3,8 +3,8 @@
 // what it accepts is finite and non-negative (sanitised), of a projection's shape.
 #include <cmath>
 
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
 #include "fuzz_support.hpp"
 
 using namespace arlight;

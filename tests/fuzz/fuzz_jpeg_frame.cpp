@@ -4,7 +4,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arlight/capture.hpp"
+#include "arlight/capture/capture.hpp"
 #include "fuzz_support.hpp"
 
 using namespace arlight;

@@ -5,8 +5,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/recording.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/protocol/recording.hpp"
 #include "fuzz_support.hpp"
 
 using namespace arlight;

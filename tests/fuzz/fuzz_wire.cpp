@@ -7,7 +7,7 @@
 #include <string>
 #include <variant>
 
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "fuzz_support.hpp"
 
 using namespace arlight;

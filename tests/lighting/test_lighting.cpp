@@ -8,10 +8,10 @@
 #include <stop_token>
 
 #include "../support/env_fixtures.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 
 using namespace arlight;
 using namespace arlight::lighting;

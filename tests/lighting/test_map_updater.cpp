@@ -8,9 +8,9 @@
 #include <numbers>
 #include <stop_token>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 
 using namespace arlight;
 using namespace arlight::lighting;

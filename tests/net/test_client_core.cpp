@@ -5,8 +5,8 @@
 
 #include <vector>
 
-#include "arlight/lighting_state.hpp"
-#include "arlight/map_assembly.hpp"
+#include "arlight/net/lighting_state.hpp"
+#include "arlight/net/map_assembly.hpp"
 
 using namespace arlight;
 using namespace arlight::client;

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "arlight/message_stream.hpp"
+#include "arlight/protocol/message_stream.hpp"
 
 namespace arlight::test {
 

@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "arlight/message_stream.hpp"
+#include "arlight/protocol/message_stream.hpp"
 #include "stream_seen.hpp"
 
 namespace arlight {

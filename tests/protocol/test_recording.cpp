@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/recording.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/protocol/recording.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;

@@ -14,7 +14,7 @@
 #include <mutex>
 #include <thread>
 
-#include "arlight/websocket_transport.hpp"
+#include "arlight/protocol/websocket_transport.hpp"
 #include "stream_seen.hpp"
 
 namespace arlight {

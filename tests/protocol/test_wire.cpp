@@ -1,4 +1,4 @@
-// The typed codec (protocol/include/arlight/wire.hpp) on its own: every message survives a round
+// The typed codec (protocol/include/arlight/protocol/wire.hpp) on its own: every message survives a round
 // trip with its optional fields set and unset, and every class of corruption is refused with
 // the fault, message and field it concerns.
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <fstream>
 #include <limits>
 
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "wire_samples.hpp"
 
 namespace arlight {

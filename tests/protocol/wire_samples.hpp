@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 
 namespace arlight::test {
 

@@ -8,9 +8,9 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <optional>
 
-#include "arlight/camera.hpp"
-#include "arlight/render.hpp"
+#include "arlight/common/camera.hpp"
 #include "arlight/render/opencv.hpp"
+#include "arlight/render/render.hpp"
 
 namespace arlight::render::testing {
 

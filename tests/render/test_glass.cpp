@@ -5,7 +5,7 @@
 // is the camera frame's pixel where the ray meets the floor, or far away.
 #include <algorithm>
 
-#include "arlight/response.hpp"
+#include "arlight/common/response.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {

@@ -9,7 +9,7 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/render/mesh.hpp"
 
 namespace arlight::render {

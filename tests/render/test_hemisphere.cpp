@@ -6,7 +6,7 @@
 // (3/2) d.e and the clamped-cosine convolution keeps only bands 0 and 1 of an odd function, so
 // the irradiance map is exactly Lbar(n) = c + s_y n.y + s_x n.x: c_u = c + s_y, c_l = c - s_y,
 // the lit and dark sides c +- s_x.
-#include "arlight/sh.hpp"
+#include "arlight/common/sh.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 
 namespace arlight::render {
 namespace {

@@ -8,9 +8,9 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "arlight/image.hpp"
-#include "arlight/light_sources.hpp"
 #include "../support/env_fixtures.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/render/light_sources.hpp"
 
 using namespace arlight;
 

@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <numbers>
 
-#include "arlight/sh.hpp"
-#include "arlight/transfer.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/render/transfer.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {

@@ -1,7 +1,7 @@
 // IBL shading of a sphere (thesis Alg. 5.1): constant environments give kd*c (+ ks*c), through
 // every projection and through the SH path; the mask is the sphere's silhouette; camera-matched
 // tone mapping gives the response's codes and leaves the background alone.
-#include "arlight/sh.hpp"
+#include "arlight/common/sh.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {

@@ -12,8 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/sh.hpp"
-#include "arlight/transfer.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/render/transfer.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {

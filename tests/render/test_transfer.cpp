@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "arlight/sh.hpp"
-#include "arlight/transfer.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/render/transfer.hpp"
 
 using namespace arlight;
 

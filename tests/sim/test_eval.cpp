@@ -8,8 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/eval.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/eval/eval.hpp"
 
 namespace {
 

@@ -6,8 +6,8 @@
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/core.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/reference.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/reference/reference.hpp"
 
 namespace {
 

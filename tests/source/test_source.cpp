@@ -10,8 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
-#include "arlight/error.hpp"
-#include "arlight/source.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/source/source.hpp"
 #include "support/sim_cache.hpp"
 
 namespace fs = std::filesystem;

@@ -1,7 +1,7 @@
 // Helpers shared by the common/ tests.
 #pragma once
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 namespace arlight::test {
 

@@ -16,7 +16,7 @@
 #include <functional>
 #include <string>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/sim/simulate.hpp"
 #include "support/run_tool.hpp"
 

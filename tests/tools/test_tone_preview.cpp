@@ -7,9 +7,9 @@
 #include <optional>
 #include <vector>
 
-#include "arlight/error.hpp"
-#include "arlight/image.hpp"
-#include "arlight/tone_preview.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/preview/tone_preview.hpp"
 
 using namespace arlight;
 

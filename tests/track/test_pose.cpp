@@ -6,8 +6,8 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "arlight/camera.hpp"
-#include "arlight/track.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/track/track.hpp"
 
 using namespace arlight;
 using namespace arlight::track;

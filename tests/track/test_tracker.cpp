@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "support/sim_cache.hpp"
 #include "track/truth_stats.hpp"
 

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "arlight/source.hpp"
-#include "arlight/track.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/source/source.hpp"
+#include "arlight/track/track.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::test {
 

@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/render.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "arlight/render/opencv.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/render/render.hpp"
 
 using namespace arlight;
 

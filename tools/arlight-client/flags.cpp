@@ -7,10 +7,10 @@
 #include <cmath>
 #include <tuple>
 
-#include "arlight/error.hpp"
-#include "arlight/geo.hpp"
-#include "arlight/number_list.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/geo.hpp"
+#include "arlight/common/number_list.hpp"
+#include "arlight/truth/truth.hpp"
 #include "report.hpp"
 
 namespace arlight::client_app {

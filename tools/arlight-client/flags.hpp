@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "arlight/client_app.hpp"
-#include "arlight/source.hpp"
+#include "arlight/app/client_app.hpp"
+#include "arlight/source/source.hpp"
 
 namespace arlight::client_app {
 

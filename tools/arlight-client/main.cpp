@@ -7,11 +7,11 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
-#include "arlight/client_app.hpp"
-#include "arlight/error.hpp"
-#include "arlight/geo.hpp"
-#include "arlight/number_list.hpp"
-#include "arlight/sim_source.hpp"
+#include "arlight/app/client_app.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/geo.hpp"
+#include "arlight/common/number_list.hpp"
+#include "arlight/sim_source/sim_source.hpp"
 #include "flags.hpp"
 #include "report.hpp"
 

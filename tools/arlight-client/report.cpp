@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/atomic_file.hpp"
+#include "arlight/common/atomic_file.hpp"
 
 namespace arlight::client_app {
 

@@ -7,8 +7,8 @@
 #include <opencv2/core/mat.hpp>
 #include <vector>
 
-#include "arlight/client_app.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/app/client_app.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::client_app {
 

@@ -6,10 +6,10 @@
 #include <exception>
 #include <nlohmann/json.hpp>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
-#include "arlight/eval.hpp"
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/eval/eval.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <optional>
 #include <thread>
 
-#include "arlight/client_net.hpp"
+#include "arlight/net/client_net.hpp"
 
 namespace arlight::load {
 

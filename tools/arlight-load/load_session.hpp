@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "arlight/connection_flags.hpp"
-#include "arlight/recording.hpp"
+#include "arlight/flags/connection_flags.hpp"
+#include "arlight/protocol/recording.hpp"
 
 namespace arlight::load {
 

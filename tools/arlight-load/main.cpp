@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <thread>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/connection_flags.hpp"
-#include "arlight/error.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/flags/connection_flags.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "load_report.hpp"
 #include "load_session.hpp"
 

@@ -5,7 +5,7 @@
 #include <memory>
 #include <sstream>
 
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/hdr_io.hpp"
 #include "commands.hpp"
 #include "maps_io.hpp"
 

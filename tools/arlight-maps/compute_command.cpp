@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/hdr_io.hpp"
 #include "commands.hpp"
 #include "maps_io.hpp"
 

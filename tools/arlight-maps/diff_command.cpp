@@ -4,7 +4,7 @@
 #include <memory>
 #include <numbers>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "commands.hpp"
 #include "maps_io.hpp"
 

@@ -4,7 +4,7 @@
 #include <exception>
 #include <functional>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "commands.hpp"
 
 int main(int argc, char** argv) {

@@ -10,12 +10,12 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "arlight/atomic_file.hpp"
 #include "arlight/capture/fill.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/number_list.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/number_list.hpp"
+#include "arlight/common/resample.hpp"
 
 namespace arlight::maps {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "arlight/lighting.hpp"
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/lighting/lighting.hpp"
 
 namespace arlight::maps {
 

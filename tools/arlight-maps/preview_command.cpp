@@ -4,8 +4,8 @@
 #include <optional>
 #include <string>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/tone_preview.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/preview/tone_preview.hpp"
 #include "commands.hpp"
 
 namespace arlight::maps {

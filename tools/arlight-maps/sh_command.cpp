@@ -10,10 +10,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "arlight/hdr_io.hpp"
-#include "arlight/projection.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
 #include "commands.hpp"
 #include "maps_io.hpp"
 

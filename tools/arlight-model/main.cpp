@@ -13,12 +13,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/render/colour.hpp"
 #include "arlight/render/mesh.hpp"
 #include "arlight/render/opencv.hpp"
-#include "arlight/transfer.hpp"
+#include "arlight/render/transfer.hpp"
 
 using namespace arlight;
 

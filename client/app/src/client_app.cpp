@@ -1,4 +1,4 @@
-#include "arlight/client_app.hpp"
+#include "arlight/app/client_app.hpp"
 
 #include <spdlog/spdlog.h>
 #include <xxhash.h>
@@ -10,9 +10,9 @@
 #include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
-#include "arlight/number_list.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/number_list.hpp"
 
 namespace arlight::client_app {
 

@@ -1,4 +1,4 @@
-#include "arlight/lighting_link.hpp"
+#include "arlight/app/lighting_link.hpp"
 
 #include <spdlog/spdlog.h>
 

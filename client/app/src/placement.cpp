@@ -1,4 +1,4 @@
-#include "arlight/placement.hpp"
+#include "arlight/app/placement.hpp"
 
 #include <algorithm>
 #include <glm/gtc/quaternion.hpp>

@@ -1,4 +1,4 @@
-#include "arlight/client_messages.hpp"
+#include "arlight/net/client_messages.hpp"
 
 #include <cmath>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "arlight/client_net.hpp"
+#include "arlight/net/client_net.hpp"
 
 #include <openssl/ssl.h>
 
@@ -13,8 +13,8 @@
 #include <cstring>
 #include <thread>
 
-#include "arlight/message_stream.hpp"
-#include "arlight/websocket_transport.hpp"
+#include "arlight/protocol/message_stream.hpp"
+#include "arlight/protocol/websocket_transport.hpp"
 
 namespace arlight::client {
 

@@ -1,4 +1,4 @@
-#include "arlight/lighting_state.hpp"
+#include "arlight/net/lighting_state.hpp"
 
 namespace arlight::client {
 

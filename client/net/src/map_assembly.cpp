@@ -1,4 +1,4 @@
-#include "arlight/map_assembly.hpp"
+#include "arlight/net/map_assembly.hpp"
 
 #include <cstring>
 #include <string>

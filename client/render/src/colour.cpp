@@ -7,8 +7,8 @@
 #include <glm/mat3x3.hpp>
 #include <limits>
 
-#include "arlight/image.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/response.hpp"
 
 namespace arlight::render {
 

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <unordered_map>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "colour_statistics.hpp"
 #include "fullscreen_pass.hpp"
 #include "scene_lighting.hpp"

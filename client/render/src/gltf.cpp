@@ -16,9 +16,9 @@
 #include <span>
 #include <string>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/sh.hpp"
 #include "arlight/render/mesh.hpp"
-#include "arlight/sh.hpp"
 
 namespace arlight::render {
 

@@ -2,7 +2,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "gl.hpp"
 
 namespace arlight::render {

@@ -9,7 +9,7 @@
 #include <memory>
 #include <unordered_map>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "fullscreen_pass.hpp"
 #include "scene_lighting.hpp"
 

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 
 namespace arlight::render {
 

@@ -1,4 +1,4 @@
-#include "arlight/light_sources.hpp"
+#include "arlight/render/light_sources.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <queue>
 #include <stdexcept>
 
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 
 namespace arlight {
 

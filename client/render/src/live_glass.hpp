@@ -6,7 +6,7 @@
 
 #include <vector>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "fullscreen_pass.hpp"
 #include "ibl_pass.hpp"
 

@@ -4,9 +4,9 @@
 #include <glm/geometric.hpp>
 #include <stdexcept>
 
+#include "arlight/common/sh.hpp"
 #include "arlight/render/mesh.hpp"
-#include "arlight/sh.hpp"
-#include "arlight/transfer.hpp"
+#include "arlight/render/transfer.hpp"
 
 namespace arlight::render {
 

@@ -2,7 +2,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/render/opencv.hpp"
 
 namespace arlight::render {

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "colour_statistics.hpp"
 #include "composite_pass.hpp"
 #include "fullscreen_pass.hpp"

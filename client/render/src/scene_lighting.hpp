@@ -11,9 +11,9 @@
 #include <tuple>
 #include <vector>
 
-#include "arlight/projection.hpp"
-#include "arlight/render.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/render/render.hpp"
 #include "gl.hpp"
 
 namespace arlight::render {

@@ -7,8 +7,8 @@
 #include <optional>
 #include <vector>
 
-#include "arlight/light_sources.hpp"
-#include "arlight/render.hpp"
+#include "arlight/render/light_sources.hpp"
+#include "arlight/render/render.hpp"
 #include "scene_lighting.hpp"
 
 namespace arlight::render {

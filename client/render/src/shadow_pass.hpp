@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "arlight/render.hpp"
+#include "arlight/render/render.hpp"
 #include "fullscreen_pass.hpp"
 #include "scene_lighting.hpp"
 #include "shadow_lights.hpp"

@@ -4,9 +4,9 @@
 #include <array>
 #include <cstdint>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/common/response.hpp"
 #include "arlight/render/material.hpp"
-#include "arlight/response.hpp"
 #include "gl.hpp"
 
 namespace arlight::render {

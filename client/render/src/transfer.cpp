@@ -1,5 +1,5 @@
 // Radiance transfer baked by ray casting (transfer.hpp).
-#include "arlight/transfer.hpp"
+#include "arlight/render/transfer.hpp"
 
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
@@ -11,7 +11,7 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 
 namespace arlight {
 

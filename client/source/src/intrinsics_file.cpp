@@ -4,8 +4,8 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/source.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/source/source.hpp"
 
 namespace arlight::source {
 

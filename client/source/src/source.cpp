@@ -6,8 +6,8 @@
 #include <utility>
 #include <vector>
 
-#include "arlight/error.hpp"
-#include "arlight/source.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/source/source.hpp"
 
 namespace arlight::source {
 

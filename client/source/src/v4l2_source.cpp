@@ -18,8 +18,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/source.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/source/source.hpp"
 
 namespace arlight::source {
 

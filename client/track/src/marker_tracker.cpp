@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "edge_refine.hpp"
 
 namespace arlight::track {

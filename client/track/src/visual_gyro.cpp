@@ -4,7 +4,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "arlight/track/orientation.hpp"
 
 namespace arlight::track {

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <vector>
 
-#include "arlight/pose.hpp"
+#include "arlight/common/pose.hpp"
 #include "arlight/track/world_from_marker.hpp"
 
 namespace arlight::track {

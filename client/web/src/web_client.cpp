@@ -9,9 +9,9 @@
 #include <cmath>
 #include <glm/gtc/quaternion.hpp>
 
-#include "arlight/client_messages.hpp"
+#include "arlight/net/client_messages.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "arlight/track/pose_math.hpp"
-#include "arlight/wire.hpp"
 
 namespace arlight::web {
 

@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "arlight/lighting_state.hpp"
-#include "arlight/placement.hpp"
-#include "arlight/render.hpp"
+#include "arlight/app/placement.hpp"
+#include "arlight/net/lighting_state.hpp"
+#include "arlight/render/render.hpp"
 #include "arlight/track/pose_filter.hpp"
 #include "arlight/track/world_from_marker.hpp"
 #include "yuv_frame.hpp"

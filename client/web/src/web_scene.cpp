@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "web_client.hpp"
 
 namespace arlight::web {

@@ -1,4 +1,4 @@
-#include "arlight/admin_http.hpp"
+#include "arlight/admin/admin_http.hpp"
 
 #include <openssl/crypto.h>
 #include <openssl/sha.h>

@@ -1,4 +1,4 @@
-#include "arlight/metrics.hpp"
+#include "arlight/admin/metrics.hpp"
 
 #include <algorithm>
 #include <charconv>

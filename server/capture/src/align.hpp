@@ -9,7 +9,7 @@
 #include <span>
 #include <string>
 
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 
 namespace cv {
 class Mat;

@@ -1,4 +1,4 @@
-#include "arlight/calibration.hpp"
+#include "arlight/capture/calibration.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,7 +6,7 @@
 #include <opencv2/photo.hpp>
 #include <vector>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::capture {
 

@@ -11,9 +11,9 @@
 #include <stdexcept>
 
 #include "align.hpp"
-#include "arlight/capture.hpp"
-#include "arlight/pose.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/pose.hpp"
+#include "arlight/common/resample.hpp"
 #include "drift_model.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "arlight/pose.hpp"
+#include "arlight/common/pose.hpp"
 
 namespace arlight::capture {
 

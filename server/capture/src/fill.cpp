@@ -21,7 +21,7 @@
 #include <utility>
 #include <vector>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::capture {
 

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "arlight/response.hpp"
+#include "arlight/common/response.hpp"
 
 namespace cv {
 class Mat;

@@ -14,7 +14,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 
 namespace arlight::capture {
 

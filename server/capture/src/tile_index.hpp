@@ -7,7 +7,7 @@
 #include <memory>
 #include <vector>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 namespace arlight::capture {
 

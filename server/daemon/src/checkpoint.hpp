@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "arlight/camera.hpp"
-#include "arlight/capture.hpp"
-#include "arlight/projection.hpp"
+#include "arlight/capture/capture.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/projection.hpp"
 #include "map_request.hpp"
 
 namespace arlight::daemon {

@@ -11,8 +11,8 @@
 #include <memory>
 #include <string>
 
-#include "arlight/message_stream.hpp"
-#include "arlight/metrics.hpp"
+#include "arlight/admin/metrics.hpp"
+#include "arlight/protocol/message_stream.hpp"
 #include "session.hpp"
 
 namespace arlight::daemon {

@@ -1,4 +1,4 @@
-#include "arlight/daemon.hpp"
+#include "arlight/daemon/daemon.hpp"
 
 #include <openssl/rand.h>
 #include <spdlog/spdlog.h>
@@ -16,9 +16,9 @@
 #include <opencv2/core/utility.hpp>
 #include <thread>
 
-#include "arlight/admin_http.hpp"
-#include "arlight/error.hpp"
-#include "arlight/metrics.hpp"
+#include "arlight/admin/admin_http.hpp"
+#include "arlight/admin/metrics.hpp"
+#include "arlight/common/error.hpp"
 #include "connection.hpp"
 #include "phone_link.hpp"
 #include "priority.hpp"

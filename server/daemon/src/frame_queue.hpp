@@ -9,7 +9,7 @@
 #include <functional>
 #include <optional>
 
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 
 namespace arlight::daemon {
 

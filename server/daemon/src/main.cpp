@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <thread>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "options.hpp"
 #include "phone_link.hpp"
 

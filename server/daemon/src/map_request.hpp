@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 namespace arlight::daemon {
 

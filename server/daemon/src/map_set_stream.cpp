@@ -8,8 +8,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "priority.hpp"
 
 namespace arlight::daemon {

@@ -10,8 +10,8 @@
 #include <stop_token>
 #include <vector>
 
-#include "arlight/projection.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "map_request.hpp"
 
 namespace arlight::lighting {

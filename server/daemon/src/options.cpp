@@ -4,7 +4,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::daemon {
 

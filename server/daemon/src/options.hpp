@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "arlight/daemon.hpp"
+#include "arlight/daemon/daemon.hpp"
 
 namespace arlight::daemon {
 

@@ -17,7 +17,7 @@
 #include <memory>
 #include <sstream>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::daemon {
 

@@ -9,11 +9,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/calibration.hpp"
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/resample.hpp"
+#include "arlight/capture/calibration.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "map_set_stream.hpp"
 #include "priority.hpp"
 

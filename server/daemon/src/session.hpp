@@ -19,11 +19,11 @@
 #include <thread>
 #include <vector>
 
-#include "arlight/capture.hpp"
+#include "arlight/admin/metrics.hpp"
+#include "arlight/capture/capture.hpp"
 #include "arlight/capture/exposure_advice.hpp"
 #include "arlight/capture/sun.hpp"
-#include "arlight/metrics.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 #include "checkpoint.hpp"
 #include "frame_queue.hpp"
 #include "map_set_scheduler.hpp"

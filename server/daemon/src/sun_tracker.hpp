@@ -9,7 +9,7 @@
 #include <optional>
 
 #include "arlight/capture/sun.hpp"
-#include "arlight/wire.hpp"
+#include "arlight/protocol/wire.hpp"
 
 namespace arlight::daemon {
 

@@ -13,7 +13,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::daemon {
 

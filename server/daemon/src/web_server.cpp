@@ -8,7 +8,7 @@
 #include <boost/beast/websocket.hpp>
 #include <chrono>
 
-#include "arlight/websocket_transport.hpp"
+#include "arlight/protocol/websocket_transport.hpp"
 
 namespace arlight::daemon {
 

@@ -12,7 +12,7 @@
 #include <optional>
 #include <string>
 
-#include "arlight/message_stream.hpp"
+#include "arlight/protocol/message_stream.hpp"
 
 namespace arlight::daemon {
 

@@ -44,8 +44,8 @@
 #include <optional>
 #include <sstream>
 
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
 #include "direct.hpp"
 #include "job.hpp"
 #include "kernels.hpp"

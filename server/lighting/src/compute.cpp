@@ -8,7 +8,7 @@
 #include <numbers>
 #include <numeric>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "job.hpp"
 #include "kernels.hpp"
 

@@ -10,7 +10,7 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
-#include "arlight/resample.hpp"
+#include "arlight/common/resample.hpp"
 #include "job.hpp"
 
 namespace arlight::lighting::detail {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "arlight/lighting.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/lighting/lighting.hpp"
 
 namespace arlight::lighting::detail {
 

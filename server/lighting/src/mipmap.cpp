@@ -13,7 +13,7 @@
 #include <glm/common.hpp>
 #include <numbers>
 
-#include "arlight/resample.hpp"
+#include "arlight/common/resample.hpp"
 #include "job.hpp"
 
 namespace arlight::lighting::detail {

@@ -7,7 +7,7 @@
 #include <glm/vec3.hpp>
 #include <vector>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 
 namespace arlight::lighting::detail {
 

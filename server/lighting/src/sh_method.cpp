@@ -10,7 +10,7 @@
 #include <numbers>
 #include <tuple>
 
-#include "arlight/sh.hpp"
+#include "arlight/common/sh.hpp"
 #include "job.hpp"
 
 namespace arlight::lighting::detail {

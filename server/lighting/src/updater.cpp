@@ -8,7 +8,7 @@
 #include <numbers>
 #include <optional>
 
-#include "arlight/image.hpp"
+#include "arlight/common/image.hpp"
 #include "job.hpp"
 
 namespace arlight::lighting {

@@ -1,5 +1,5 @@
 // Image-quality figures for composites against references (eval.hpp).
-#include "arlight/eval.hpp"
+#include "arlight/eval/eval.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,13 +9,13 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/quality.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/lighting.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/reference.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/sh.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/sh.hpp"
+#include "arlight/lighting/lighting.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/reference/reference.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::eval {
 

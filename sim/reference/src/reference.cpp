@@ -1,5 +1,5 @@
 // Reference renders of a virtual object and its shadow under the true room (reference.hpp).
-#include "arlight/reference.hpp"
+#include "arlight/reference/reference.hpp"
 
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/transfer.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/protocol/recording.hpp"
+#include "arlight/render/transfer.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::reference {
 

@@ -9,9 +9,9 @@
 #include <glm/vec3.hpp>
 #include <vector>
 
-#include "arlight/camera.hpp"
-#include "arlight/image.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/response.hpp"
 
 namespace arlight::sim {
 

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/response.hpp"
 #include "imaging.hpp"
 
 namespace arlight::sim {

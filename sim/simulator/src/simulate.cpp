@@ -10,13 +10,13 @@
 #include <sstream>
 #include <utility>
 
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
-#include "arlight/recording.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/response.hpp"
+#include "arlight/protocol/recording.hpp"
 #include "arlight/sim/simulate.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/truth/truth.hpp"
 #include "imaging.hpp"
 #include "noise.hpp"
 #include "y4m.hpp"

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <string>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 #include "noise.hpp"
 
 namespace arlight::sim {

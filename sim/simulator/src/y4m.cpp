@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "arlight/error.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::sim {
 

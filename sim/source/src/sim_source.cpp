@@ -4,7 +4,7 @@
 #include <thread>
 
 #include "arlight/sim/live_camera.hpp"
-#include "arlight/sim_source.hpp"
+#include "arlight/sim_source/sim_source.hpp"
 
 namespace arlight::source {
 

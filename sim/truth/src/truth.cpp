@@ -1,12 +1,12 @@
-#include "arlight/truth.hpp"
+#include "arlight/truth/truth.hpp"
 
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "arlight/atomic_file.hpp"
-#include "arlight/error.hpp"
+#include "arlight/common/atomic_file.hpp"
+#include "arlight/common/error.hpp"
 
 namespace arlight::recording {
 

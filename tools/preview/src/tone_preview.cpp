@@ -1,4 +1,4 @@
-#include "arlight/tone_preview.hpp"
+#include "arlight/preview/tone_preview.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/photo.hpp>
 
-#include "arlight/error.hpp"
-#include "arlight/hdr_io.hpp"
+#include "arlight/common/error.hpp"
+#include "arlight/common/hdr_io.hpp"
 
 namespace arlight {
 

@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "arlight/projection.hpp"
+#include "arlight/common/projection.hpp"
 #include "arlight/render/material.hpp"
 #include "arlight/render/mesh.hpp"
 

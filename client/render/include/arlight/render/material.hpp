@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "arlight/image_u8.hpp"
+#include "arlight/common/image_u8.hpp"
 
 namespace arlight::render {
 

@@ -7,8 +7,8 @@
 #include <memory>
 #include <opencv2/core/mat.hpp>
 
-#include "arlight/image_u8.hpp"
-#include "arlight/render.hpp"
+#include "arlight/common/image_u8.hpp"
+#include "arlight/render/render.hpp"
 
 namespace arlight::render {
 

@@ -15,7 +15,7 @@
 #include <opencv2/core/mat.hpp>
 #include <string>
 
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 #include "arlight/track/pose_filter.hpp"
 #include "arlight/track/pose_math.hpp"
 

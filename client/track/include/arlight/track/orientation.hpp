@@ -16,7 +16,7 @@
 #include <optional>
 #include <string>
 
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 #include "arlight/track/marker_tracker.hpp"
 #include "arlight/track/pose_math.hpp"
 #include "arlight/track/world_from_marker.hpp"

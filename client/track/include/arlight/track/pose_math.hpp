@@ -1,6 +1,6 @@
 // Rotations for tracking: the change between OpenCV's camera (x right, y down, z forward) and
 // the project's (x right, y up, looking down -z; common/CONVENTIONS.md). Poses themselves and
-// their algebra are common/ (arlight/pose.hpp). Free of OpenCV, like the pose filter and
+// their algebra are common/ (arlight/common/pose.hpp). Free of OpenCV, like the pose filter and
 // WorldFromMarker (arlight_track_core: the browser client compiles them).
 #pragma once
 
@@ -8,7 +8,7 @@
 #include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
-#include "arlight/pose.hpp"
+#include "arlight/common/pose.hpp"
 
 namespace arlight::track {
 

@@ -17,7 +17,7 @@
 #include <cstddef>
 #include <optional>
 
-#include "arlight/capture.hpp"
+#include "arlight/capture/capture.hpp"
 
 namespace arlight::capture {
 

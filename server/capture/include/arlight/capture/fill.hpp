@@ -43,9 +43,9 @@
 #include <string_view>
 #include <vector>
 
-#include "arlight/image.hpp"
-#include "arlight/projection.hpp"
-#include "arlight/sh.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/common/sh.hpp"
 
 namespace arlight::capture {
 

@@ -8,8 +8,8 @@
 #include <glm/vec3.hpp>
 #include <optional>
 
-#include "arlight/geo.hpp"
-#include "arlight/projection.hpp"
+#include "arlight/common/geo.hpp"
+#include "arlight/common/projection.hpp"
 
 namespace arlight::capture {
 

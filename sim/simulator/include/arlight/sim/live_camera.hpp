@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "arlight/camera.hpp"
+#include "arlight/common/camera.hpp"
 #include "arlight/sim/trajectory.hpp"
 
 namespace arlight::sim {

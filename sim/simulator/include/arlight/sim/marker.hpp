@@ -8,9 +8,9 @@
 #include <glm/vec3.hpp>
 #include <optional>
 
-#include "arlight/camera.hpp"
-#include "arlight/projection.hpp"
-#include "arlight/truth.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::sim {
 

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "arlight/recording.hpp"
+#include "arlight/protocol/recording.hpp"
 #include "arlight/sim/marker.hpp"
 #include "arlight/sim/trajectory.hpp"
 

@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "arlight/truth.hpp"
+#include "arlight/truth/truth.hpp"
 
 namespace arlight::sim {
 

@@ -4,9 +4,9 @@
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "arlight/camera.hpp"
-#include "arlight/resample.hpp"
-#include "arlight/response.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/common/response.hpp"
 
 namespace cv {
 class Mat;

@@ -1,0 +1,107 @@
+// The client's link to arlightd: keeps one session connected (reconnecting and resuming it
+// when the server goes away), forwards frames and keeps the newest lighting it received, so
+// the render loop never waits on the network: it shades with whatever lighting came last.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "arlight/net/client_net.hpp"
+
+namespace arlight::client_app {
+
+struct LinkOptions {
+  std::string host;
+  std::uint16_t port = 0;
+  std::string device_id, token, resume_session;
+  client::TlsOptions tls;
+  CameraIntrinsics camera;
+  std::vector<double> shininess;  // the map set to request
+  int map_size = 256;
+  Projection projection = Projection::AngleMap;
+  // After a loss the link retries at once, then backs off (doubling from 0.1 s) to this.
+  double reconnect_interval_s = 1.0;
+  // The source can take a frame at a given exposure: the Hello names exposure:advice and
+  // arlightd says when it needs a darker frame (take_exposure_advice()).
+  bool exposure_advice = false;
+  // Where and when the client is (the sun, PROTOCOL.md): sent after each handshake with a
+  // server that takes it, its time moved on by the time since the link started.
+  std::optional<wire::Location> location;
+};
+
+// The newest lighting (the client core's: arlight/net/lighting_state.hpp), kept across reconnections.
+using client::Lighting;
+
+// A reconnection that resumed the session: what the server's Welcome said it had kept, and
+// the coverage of the first update after it (a fail-over check: never below the checkpoint's).
+struct Resume {
+  std::uint64_t frames_sent_before = 0;  // this client's frames sent until then
+  std::uint64_t frames_processed = 0;    // the Welcome's: what the resumed session holds
+  double first_coverage = -1;            // -1 until an update arrives
+};
+
+struct LinkStats {
+  bool connected = false;
+  std::string session_id;
+  std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
+  std::vector<Resume> resumes;
+  std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
+  std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
+  std::string last_error;
+  bool refused = false;  // the server refused this client: no more attempts
+};
+
+class LightingLink {
+ public:
+  // Starts connecting in the background; the first attempt's failure is not fatal (the link
+  // retries), but connect_now() lets a caller insist on a first connection.
+  explicit LightingLink(LinkOptions options);
+  ~LightingLink();  // says Bye when connected
+  LightingLink(const LightingLink&) = delete;
+  LightingLink& operator=(const LightingLink&) = delete;
+
+  // Waits up to `timeout` for the first handshake; throws client::ClientError with the
+  // server's reason (e.g. Unauthorized) when it was refused, or when nothing answered.
+  void wait_connected(std::chrono::milliseconds timeout);
+
+  // Forwards a frame when connected; counted as not sent otherwise (the renderer goes on).
+  void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
+                  std::span<const std::uint8_t> jpeg);
+
+  // Waits up to `timeout` for the first complete map set; whether one came.
+  bool wait_for_maps(std::chrono::duration<double> timeout);
+
+  Lighting lighting() const;
+  LinkStats stats() const;
+
+  // The newest exposure advice not taken yet (PROTOCOL.md, exposure advice): the exposure x
+  // gain to take the next frame at, or 0 to drop an advice not used yet; nothing when no new
+  // advice came since the last call.
+  std::optional<double> take_exposure_advice();
+
+ private:
+  void run();
+  bool connect_once();
+
+  LinkOptions options_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::shared_ptr<client::Client> client_;
+  Lighting lighting_;
+  LinkStats stats_;
+  std::optional<double> advice_;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace arlight::client_app

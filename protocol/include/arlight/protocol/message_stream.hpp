@@ -1,0 +1,118 @@
+// MessageStream: wire messages over a byte stream, the one implementation both arlightd and the
+// protocol client use. A Transport carries whole Envelopes and owns the framing: plain TCP and
+// TLS frame each as a 4-byte length then the bytes (the length checked against the limit before
+// anything is allocated); a WebSocket transport carries one binary message per Envelope and
+// plugs in beside them. MessageStream adds what every connection needs on top: one read loop
+// that decodes and verifies every message, a write queue with a byte bound, orderly and abrupt
+// closing. Everything runs on the transport's strand; send() and close() may be called from any
+// thread.
+#pragma once
+
+#include <atomic>
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl/stream.hpp>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "arlight/protocol/wire.hpp"
+
+namespace arlight::wire {
+
+// One way of carrying Envelopes. Completion handlers run on executor() (a strand); MessageStream
+// never has two reads or two writes outstanding.
+class Transport {
+ public:
+  virtual ~Transport() = default;
+  using Done = std::function<void(const boost::system::error_code&)>;
+  // `refused` is set (and ec clear) when the framing announced a message that cannot be
+  // accepted (over max_bytes, empty).
+  using ReadDone =
+      std::function<void(const boost::system::error_code& ec, const DecodeError* refused)>;
+
+  virtual boost::asio::any_io_executor executor() = 0;
+  // Whatever must happen before the first message (a TLS server handshake); may complete at once.
+  virtual void async_start(Done done) = 0;
+  virtual void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
+                          ReadDone done) = 0;
+  // `bytes` stay alive until `done` runs. Unframed: written as they are, header and all (tests
+  // of what a misbehaving peer can send).
+  virtual void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) = 0;
+  virtual void close() = 0;              // ends the connection at once (no TLS close_notify)
+  virtual std::string peer() const = 0;  // "address:port"
+};
+
+using TlsSocket = boost::asio::ssl::stream<boost::asio::ip::tcp::socket>;
+enum class TlsRole { AcceptAsServer, Established };
+
+std::unique_ptr<Transport> make_tcp_transport(boost::asio::ip::tcp::socket socket);
+// AcceptAsServer: async_start runs the server handshake. Established: the caller has done it.
+std::unique_ptr<Transport> make_tls_transport(TlsSocket stream, TlsRole role);
+
+class MessageStream : public std::enable_shared_from_this<MessageStream> {
+ public:
+  struct Options {
+    WireLimits limits;                 // what a received message may be
+    std::size_t max_queued_bytes = 0;  // over this, on_overflow; 0: no bound here
+  };
+  // Called on the strand. After on_bad_message reading has stopped: the handler closes.
+  struct Handlers {
+    std::function<void(Message&&)> on_message;
+    std::function<void(const DecodeError&)> on_bad_message;
+    std::function<void(const std::string& why)> on_start_failed;  // e.g. the TLS handshake
+    // The connection ended (peer gone, I/O error, close()); called once, after which the
+    // stream lets go of the handlers.
+    std::function<void(const std::string& why)> on_closed;
+    // The send queue went over max_queued_bytes: everything not yet being written was dropped.
+    std::function<void()> on_overflow;
+    std::function<void(std::size_t bytes)> on_sent;  // one message written
+  };
+
+  MessageStream(std::unique_ptr<Transport> transport, Options options);
+  ~MessageStream();
+  MessageStream(const MessageStream&) = delete;
+  MessageStream& operator=(const MessageStream&) = delete;
+
+  void start(Handlers handlers);
+
+  // Any thread. Messages are written in the order sent; after the end they are dropped.
+  void send(std::vector<std::uint8_t> envelope);
+  void send(const Message& message) { send(encode(message)); }
+  // Any thread: bytes onto the connection as they are, bypassing the framing (tests only).
+  void send_unframed(std::vector<std::uint8_t> bytes);
+  // Any thread: read nothing more, close once everything queued is written.
+  void close_after_sending();
+  // Any thread: close now.
+  void close();
+
+  std::size_t queued_bytes() const { return queued_bytes_.load(); }
+  const std::string& peer() const { return peer_; }
+  boost::asio::any_io_executor executor() const { return executor_; }
+
+ private:
+  struct Outgoing {
+    std::vector<std::uint8_t> bytes;
+    bool framed = true;
+  };
+  void enqueue(Outgoing message);
+  void read_next();
+  void write_next();
+  void end(const std::string& why);  // on the strand; idempotent
+
+  std::unique_ptr<Transport> transport_;
+  Options options_;
+  boost::asio::any_io_executor executor_;
+  std::string peer_;
+  Handlers handlers_;
+  std::vector<std::uint8_t> in_;
+  std::deque<Outgoing> out_;
+  std::atomic<std::size_t> queued_bytes_{0};
+  bool writing_ = false, closing_ = false, ended_ = false;
+};
+
+}  // namespace arlight::wire

@@ -1,0 +1,189 @@
+// HDR environment-map capture from camera frames and device orientation (thesis ch. 3, after
+// Kán [Kán15]): each frame is linearised with the inverse camera response and its exposure,
+// aligned to what has been captured so far, and accumulated into an environment map as
+// sum(w * L) and sum(w); low-order SH of the map are kept current from the texels each frame
+// changes. One CaptureSession per capturing device; not thread-safe (the daemon serialises a
+// session's frames), but sessions are independent.
+#pragma once
+
+#include <cstdint>
+#include <glm/gtc/quaternion.hpp>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "arlight/capture/fill.hpp"
+#include "arlight/common/camera.hpp"
+#include "arlight/common/frame.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/projection.hpp"
+#include "arlight/common/response.hpp"
+#include "arlight/common/sh.hpp"
+
+namespace cv {
+class Mat;
+}
+
+namespace arlight::capture {
+
+struct CaptureOptions {
+  EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 512);
+  int sh_order = 8;   // live SH: bands 0..sh_order-1 (>= 3)
+  bool align = true;  // feature-based drift correction (Kán's alignment)
+  // Alignment: corners of the map rendered into the camera, followed into the frame by LK flow.
+  int align_min_inliers = 12;       // fewer -> keep the sensor orientation (with the last offset)
+  double align_max_step_deg = 3.0;  // a correction larger than this is treated as a mismatch
+  // The correction follows the alignments with a constant drift rate (a gyro bias) fitted to
+  // the last seconds of them: each alignment moves the offset by `align_smoothing` of what it
+  // measured (so one bad match cannot jump).
+  double align_smoothing = 0.6;
+  double align_max_drift_deg_per_s = 3.0;
+  int align_every = 1;        // try the alignment on every n-th frame; the others extrapolate
+  int align_max_width = 320;  // the alignment works on the frame reduced to at most this wide
+  // Measure the alignment (features, fit) on another thread and apply it at the next frame,
+  // so a frame never waits for it (the daemon's live path). The result does not depend on
+  // timing: the next frame waits for the measurement if it is not done yet.
+  bool align_async = false;
+  // JPEG frames that are reduced by 4 or more anyway are decoded at half size in the DCT
+  // domain (libjpeg scaling): 2.5x faster decoding; codes are then averaged over 2x2 before
+  // linearisation, a bias only at high-contrast edges.
+  bool fast_decode = true;
+  // What the map holds where nothing has been seen yet (arlight/capture/fill.hpp):
+  // environment() and sh() are those of the filled map; measured_environment() and
+  // measured_sh() those of what was seen, with black elsewhere.
+  Fill fill = Fill::Estimate;
+  FillOptions fill_options;
+  // The fill's model is refitted (a pass over the whole map, ~2 ms at 512) once
+  // `fill_refit_frames` frames have changed the map or its coverage has grown by
+  // `fill_refit_coverage` of the sphere since the last fit, whichever is first; in between,
+  // sh() follows every frame exactly under the last model (the measured change added, the
+  // model taken off what the frame saw first), and environment() fills with that model.
+  // 1 (or a coverage of 0): refit after every frame.
+  int fill_refit_frames = 8;
+  double fill_refit_coverage = 0.02;
+  // The frames' exposure x gain is unknown (most browsers; issue 16 §4): each frame's is
+  // estimated relative to the map from where it overlaps what was captured already (a median
+  // ratio over well-exposed samples); the first frame's reported value sets the map's scale,
+  // and a frame that overlaps too little keeps the last estimate.
+  bool estimate_exposure = false;
+};
+
+// What one frame carries besides its pixels (common/, shared with the client and the wire).
+using FrameInfo = arlight::FrameInfo;
+
+struct FrameResult {
+  bool used = false;
+  std::string skipped_reason;          // set when !used
+  glm::dquat orientation{1, 0, 0, 0};  // the orientation the frame was accumulated with
+  bool aligned = false;                // the feature alignment produced this frame's correction
+  int align_inliers = 0;
+  std::string align_note;     // why the alignment was not used, when it was tried
+  double correction_deg = 0;  // angle between the sensor and the used orientation
+  std::size_t texels_changed = 0;
+  double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
+  bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
+  int exposure_samples = 0;         // the overlapping samples that measurement had
+  // Lights this exposure cannot see (issue 16 §4): the fraction of the frame that is clipped
+  // where the map holds no unclipped measurement yet, and the largest radiance clipping has
+  // proved there (at this frame's exposure or an earlier one). 0 when nothing is clipped.
+  double clipped_unmeasured = 0;
+  double clipped_floor = 0;
+  double decode_ms = 0, linearize_ms = 0, align_ms = 0, exposure_ms = 0, project_ms = 0, sh_ms = 0;
+  double total_ms() const {
+    return decode_ms + linearize_ms + align_ms + exposure_ms + project_ms + sh_ms;
+  }
+};
+
+// The accumulators of a session (what a checkpoint has to keep), in `layout`'s texel order.
+struct Accumulators {
+  std::vector<float> weighted_radiance;  // sum(w * L), 3 floats per texel
+  std::vector<float> weight;             // sum(w), 1 float per texel
+};
+
+class CaptureSession {
+ public:
+  // Throws std::invalid_argument for unusable intrinsics or options.
+  CaptureSession(const CameraIntrinsics& camera, CameraResponse response,
+                 CaptureOptions options = {});
+  ~CaptureSession();
+  CaptureSession(CaptureSession&&) noexcept;
+  CaptureSession& operator=(CaptureSession&&) noexcept;
+
+  // Decodes a JPEG (or any format OpenCV reads) and adds it. Never throws for bad input: a
+  // frame that cannot be used comes back with used = false and the reason.
+  FrameResult add_encoded(std::span<const std::uint8_t> bytes, const FrameInfo& info);
+  // Adds an 8-bit BGR image (OpenCV's channel order) of the camera's size.
+  FrameResult add_image(const cv::Mat& bgr8, const FrameInfo& info);
+
+  const EnvLayout& layout() const;
+  const CameraIntrinsics& camera() const;
+  const CameraResponse& response() const;
+  const CaptureOptions& options() const;
+
+  // The captured environment: sum(w * L) / sum(w) where seen, the options' fill elsewhere.
+  EnvMap environment() const;
+  // environment() reduced to `reduced` (arlightd's previews, issue 16 §3), with the share of
+  // each of its texels that was measured rather than estimated. A cube layout whose face
+  // divides the capture's: each texel the solid-angle-weighted mean of the measured radiance of
+  // the texels it covers and of the fill's estimate at its centre for their unseen share (the
+  // fill evaluated once per reduced texel: ~1 ms at face 192 -> 64, where environment() takes
+  // ~12). Any other layout: reduce(environment(), reduced) and measured_share().
+  struct Reduced {
+    EnvMap env;
+    std::vector<float> measured;  // per texel of `reduced`, row-major, in [0, 1]
+  };
+  Reduced reduced_environment(const EnvLayout& reduced) const;
+  // sum(w * L) / sum(w); texels never seen are 0.
+  EnvMap measured_environment() const;
+  // sum(w) per texel as a one-channel image in the layout (0 = never seen).
+  std::vector<float> weights() const;
+  // Fraction of the sphere's solid angle seen by at least one frame.
+  double coverage() const;
+  // Fraction of the sphere's solid angle whose radiance is estimated rather than measured:
+  // 1 - coverage() while filling, 0 with Fill::None or before the first frame.
+  double estimated_fraction() const;
+  // SH coefficients of environment(): those of measured_environment(), kept current
+  // incrementally, plus the fill's over the unseen part (refitted when the map changed, on
+  // the first call after it: about 1-2 ms at 512x512).
+  const ShCoeffs& sh() const;
+  const ShCoeffs& measured_sh() const;
+
+  std::size_t frames_added() const;  // frames offered
+  std::size_t frames_used() const;
+  // How many times the fill's model has been fitted (options.fill_refit_*): for benchmarks.
+  std::size_t fill_fits() const;
+
+  // The state to checkpoint, and a session restored from it (same camera, layout, order).
+  Accumulators accumulators() const;
+  void restore(const Accumulators& acc);  // throws std::invalid_argument on a size mismatch
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The layout arlightd captures into for a map of angle-map resolution N (issue 16 §2): a cube
+// map with about as many texels on the sphere (face 3N/8, at least 8: 221,184 texels for
+// N = 512 against the angle map's 206,880). Its texels' solid angles vary 5.2x where an angle
+// map's vary ~17x (tiny around the back pole), so a frame costs about the same wherever the
+// camera looks (BM_CaptureByDirection: max/min 1.4 against 4.4).
+EnvLayout capture_layout_for(int n);
+
+// Accumulators of one layout carried over to another (an old checkpoint's angle map into the
+// cube map, say): every texel of `to` takes the sums of the texel of `from` its direction falls
+// in. Throws std::invalid_argument when `acc` does not fit `from`.
+Accumulators convert_accumulators(const Accumulators& acc, const EnvLayout& from,
+                                  const EnvLayout& to);
+
+// The share of each texel of `reduced` that was measured (seen by a frame) rather than estimated
+// by the fill, from a capture's weights() in `layout` (arlight::reduce of the seen mask).
+// Throws std::invalid_argument when the weights do not fit the layout.
+std::vector<float> measured_share(const EnvLayout& layout, std::span<const float> weights,
+                                  const EnvLayout& reduced);
+
+// Why a frame's metadata cannot be used, or empty when it can (exposure and gain positive and
+// finite, orientation a finite unit quaternion within 1e-3).
+std::string check_frame_info(const FrameInfo& info);
+
+}  // namespace arlight::capture
