@@ -111,10 +111,14 @@ $(SANITIZE_BUILD)/build.ninja:
 	  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=$(SANITIZE_OPT)" "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=$(SANITIZE_OPT)" \
 	  -DARLIGHT_WEB=OFF -DARLIGHT_BENCH=OFF $(CMAKE_FLAGS)
 
-# The whole test suite (but the browser's) built with ASan + UBSan: any report fails its test.
+# The suites of code that parses input or runs concurrently (ctest label `sanitize`, see
+# tests/CMakeLists.txt), built with ASan + UBSan: any report fails its test. SANITIZE_TESTS=all
+# runs the whole suite (but the browser's) sanitized.
+SANITIZE_TESTS ?= sanitize
+SANITIZE_SELECT = $(if $(filter all,$(SANITIZE_TESTS)),,-L $(SANITIZE_TESTS))
 test-sanitize: deps $(SANITIZE_BUILD)/build.ninja
 	cmake --build $(SANITIZE_BUILD) -j $(JOBS)
-	$(SANITIZER_ENV) ctest --test-dir $(SANITIZE_BUILD) --output-on-failure -j $(JOBS)
+	$(SANITIZER_ENV) ctest --test-dir $(SANITIZE_BUILD) --output-on-failure -j $(JOBS) $(SANITIZE_SELECT)
 
 # Every fuzz target for FUZZ_SECONDS from its committed corpus; findings and stats in FUZZ_OUT.
 fuzz: deps $(SANITIZE_BUILD)/build.ninja

@@ -41,6 +41,7 @@ function(arlight_fuzz_target name)
     target_sources(fuzz_${name} PRIVATE ${ARLIGHT_FUZZ_DIR}/replay_main.cpp)
     add_test(NAME fuzz.${name} COMMAND fuzz_${name} ${corpus})
   endif()
+  set_tests_properties(fuzz.${name} PROPERTIES LABELS sanitize)
 endfunction()
 
 arlight_fuzz_target(wire arlight_wire)
