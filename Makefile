@@ -112,12 +112,14 @@ $(SANITIZE_BUILD)/build.ninja:
 	  -DARLIGHT_WEB=OFF -DARLIGHT_BENCH=OFF $(CMAKE_FLAGS)
 
 # The suites of code that parses input or runs concurrently (ctest label `sanitize`, see
-# tests/CMakeLists.txt), built with ASan + UBSan: any report fails its test. SANITIZE_TESTS=all
-# runs the whole suite (but the browser's) sanitized.
+# tests/CMakeLists.txt; only what they need is built: target sanitize_suites), built with ASan +
+# UBSan: any report fails its test. SANITIZE_TESTS=all builds and runs the whole suite (but the
+# browser's) sanitized.
 SANITIZE_TESTS ?= sanitize
 SANITIZE_SELECT = $(if $(filter all,$(SANITIZE_TESTS)),,-L $(SANITIZE_TESTS))
+SANITIZE_TARGET = $(if $(filter all,$(SANITIZE_TESTS)),all,sanitize_suites)
 test-sanitize: deps $(SANITIZE_BUILD)/build.ninja
-	cmake --build $(SANITIZE_BUILD) -j $(JOBS)
+	cmake --build $(SANITIZE_BUILD) -j $(JOBS) --target $(SANITIZE_TARGET)
 	$(SANITIZER_ENV) ctest --test-dir $(SANITIZE_BUILD) --output-on-failure -j $(JOBS) $(SANITIZE_SELECT)
 
 # Every fuzz target for FUZZ_SECONDS from its committed corpus; findings and stats in FUZZ_OUT.

@@ -28,8 +28,7 @@ TEST(SunTracker, ChecksTheMapOnceASecondAndAtOnceAfterALocation) {
   SunTracker sun;
   const auto t0 = SunTracker::Clock::now();
   int reads = 0;
-  const capture::SunPosition where =
-      capture::sun_position(golden().where, golden().utc_seconds);
+  const capture::SunPosition where = capture::sun_position(golden().where, golden().utc_seconds);
   const glm::dvec3 predicted = capture::sun_direction_world(where);
   // The map's brightest compact light exactly where the sun is, 1000x the mean.
   const auto bright_at_the_sun = [&]() -> std::optional<capture::BrightRegion> {
@@ -66,10 +65,12 @@ TEST(SunTracker, ABrightLightWhereTheSunIsNotIsNotTheSun) {
   SunTracker sun;
   const auto t0 = SunTracker::Clock::now();
   sun.set_location(golden(), t0);
-  const glm::dvec3 predicted = capture::sun_direction_world(
-      capture::sun_position(golden().where, golden().utc_seconds));
+  const glm::dvec3 predicted =
+      capture::sun_direction_world(capture::sun_position(golden().where, golden().utc_seconds));
   // A lamp straight overhead, 40° off the sun's elevation.
-  sun.check(t0, [] { return std::optional(capture::BrightRegion{{0.0, 1.0, 0.0}, 0.001, 1000.0}); });
+  sun.check(t0, [] {
+    return std::optional(capture::BrightRegion{{0.0, 1.0, 0.0}, 0.001, 1000.0});
+  });
   EXPECT_EQ(sun.state(), SunState::Predicted);  // day, but nothing compact there
   EXPECT_LT(glm::dot(glm::dvec3(0.0, 1.0, 0.0), predicted), 0.9);
 }

@@ -24,7 +24,6 @@ namespace arlight::capture_tool {
 
 namespace {
 
-
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -91,12 +90,9 @@ void report_capture(const CaptureFlags& o, const recording::Recording& rec,
     j["exposure_rms_stops"] = std::sqrt(t.exposure_squared_error / double(t.exposures_compared));
   j["estimated"] = session.estimated_fraction();
   j["median_frame_ms"] = median(t.total_ms);
-  j["stages_median_ms"] = {{"decode", median(t.decode_ms)},
-                           {"linearize", median(t.linearize_ms)},
-                           {"align", median(t.align_ms)},
-                           {"exposure", median(t.exposure_ms)},
-                           {"project", median(t.project_ms)},
-                           {"sh", median(t.sh_ms)}};
+  j["stages_median_ms"] = {{"decode", median(t.decode_ms)},   {"linearize", median(t.linearize_ms)},
+                           {"align", median(t.align_ms)},     {"exposure", median(t.exposure_ms)},
+                           {"project", median(t.project_ms)}, {"sh", median(t.sh_ms)}};
   j["aligned_frames"] = t.aligned;
   if (t.compared) j["orientation_rms_deg"] = std::sqrt(t.squared_error / double(t.compared));
   j["sh_order"] = session.sh().order;

@@ -16,7 +16,7 @@ struct CaptureFlags {
   std::string projection = "anglemap";
   std::string calibrate;  // robertson | debevec
   std::string fill = "estimate";
-  double until_coverage = 0;  // > 0: stop once the map covers this fraction of the sphere
+  double until_coverage = 0;       // > 0: stop once the map covers this fraction of the sphere
   std::string exposure = "known";  // known | locked | estimate
   int size = 512;
   int sh_order = 8;

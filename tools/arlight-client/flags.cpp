@@ -180,7 +180,7 @@ LinkOptions link_options(const ClientFlags& f, source::FrameSource& src,
   LinkOptions lo;
   wire::parse_endpoint(f.server, lo.host, lo.port);
   lo.token = f.token, lo.tls = f.tls, lo.resume_session = f.resume;
-  lo.device_id = !f.device.empty()           ? f.device
+  lo.device_id = !f.device.empty()          ? f.device
                  : !src.device_id().empty() ? src.device_id()
                                             : "webcam";
   lo.camera = camera, lo.shininess = shininess, lo.map_size = f.map_size;

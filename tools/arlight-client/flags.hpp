@@ -14,13 +14,11 @@
 namespace arlight::client_app {
 
 struct ClientFlags {
-  std::string server, token, source_spec, model = "sphere", material_text = "0.8,0.2,80",
-                                          marker_text = "0,0.2", out, json_path, device, resume,
-                                          tone = "camera", response = "srgb",
-                                          maps_text = "1,10,20,40,80,160,320,1280",
-                                          intrinsics_file, normal_map, light_map, shadow = "on",
-                                          size = "640x480", shading = "maps", location, time_text,
-                                          glass = "off", pose = "track", occlusion = "baked";
+  std::string server, token, source_spec,
+      model = "sphere", material_text = "0.8,0.2,80", marker_text = "0,0.2", out, json_path, device,
+      resume, tone = "camera", response = "srgb", maps_text = "1,10,20,40,80,160,320,1280",
+      intrinsics_file, normal_map, light_map, shadow = "on", size = "640x480", shading = "maps",
+      location, time_text, glass = "off", pose = "track", occlusion = "baked";
   std::optional<double> north_offset;
   bool window = false, realtime = false;
   int frames_limit = 0, map_size = 128, shadow_lights = 16;

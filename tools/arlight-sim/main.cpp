@@ -50,8 +50,8 @@ int main(int argc, char** argv) {
                 (o.out / "truth").string().c_str());
     if (object) {
       const auto traced = Clock::now();
-      const auto frames_done = reference::write_references(
-          o.out, *object, load_envmap(o.env).env, {}, f.reference_every);
+      const auto frames_done = reference::write_references(o.out, *object, load_envmap(o.env).env,
+                                                           {}, f.reference_every);
       std::printf("arlight-sim: %zu reference views of the %s in %s in %.1f s\n",
                   frames_done.size(), f.object.c_str(),
                   (o.out / "truth" / reference::kReferenceFolder).string().c_str(),

@@ -112,20 +112,19 @@ std::optional<reference::ReferenceObject> finish_sim_options(const SimFlags& f,
   o.out = f.out;
   o.y4m = f.y4m;
   if (!f.y4m.empty() && (o.hdr_stops > 0 || o.bracket > 0))
-    throw InputError("--y4m: a browser's camera has one locked exposure (no --hdr-stops, "
-                     "--bracket)");
+    throw InputError(
+        "--y4m: a browser's camera has one locked exposure (no --hdr-stops, "
+        "--bracket)");
   const ImageSize image = parse_image_size(f.size, "--size");
   o.width = image.width, o.height = image.height;
   if (o.frames < 1 || o.frames > 1000000) throw InputError("--frames: must be 1..1000000");
   if (!(o.fps > 0) || o.fps > 10000) throw InputError("--fps: must be > 0 (and <= 10000)");
-  if (!(o.hfov_deg > 1 && o.hfov_deg < 179))
-    throw InputError("--fov: must be in (1, 179) degrees");
+  if (!(o.hfov_deg > 1 && o.hfov_deg < 179)) throw InputError("--fov: must be in (1, 179) degrees");
   o.trajectory = sim::trajectory_from_name(f.trajectory);
   if (f.auto_exposure != "on" && f.auto_exposure != "off")
     throw InputError("--auto-exposure '" + f.auto_exposure + "': use on or off");
   o.auto_exposure = f.auto_exposure == "on";
-  if (!(o.hdr_stops >= 0 && o.hdr_stops <= 10))
-    throw InputError("--hdr-stops must be in [0, 10]");
+  if (!(o.hdr_stops >= 0 && o.hdr_stops <= 10)) throw InputError("--hdr-stops must be in [0, 10]");
   if (!(o.gyro_drift_deg_per_s >= 0) || o.gyro_drift_deg_per_s > 100)
     throw InputError("--gyro-drift: must be 0..100 degrees per second");
   if (!(o.noise >= 0) || o.noise > 1) throw InputError("--noise: must be 0..1");

@@ -26,7 +26,6 @@ void add_sim_flags(CLI::App& app, sim::SimOptions& o, SimFlags& f);
 
 // Checks every flag (InputError naming it) and completes `o` from `f`; returns the object to
 // ray trace references of (--object), if any.
-std::optional<reference::ReferenceObject> finish_sim_options(const SimFlags& f,
-                                                             sim::SimOptions& o);
+std::optional<reference::ReferenceObject> finish_sim_options(const SimFlags& f, sim::SimOptions& o);
 
 }  // namespace arlight::sim_tool
