@@ -344,7 +344,9 @@ std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOption
       for (int c = 0; c < 3; ++c) {
         const float v = float(img.pixel(x, y)[c] * scale);
         // Infinity shows white; negatives (lossy probes) and NaN black.
-        const float display = std::isinf(v) ? (v > 0 ? 1.0f : 0.0f) : v > 0.0f ? v / (1.0f + v) : 0.0f;
+        const float display = std::isinf(v) ? (v > 0 ? 1.0f : 0.0f)
+                              : v > 0.0f    ? v / (1.0f + v)
+                                            : 0.0f;
         px[(std::size_t(y) * img.width + x) * 3 + c] = srgb_code(display);
       }
   return px;
@@ -352,9 +354,9 @@ std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOption
 
 void write_png_rgb(const fs::path& path, int width, int height, std::span<const std::uint8_t> rgb) {
   if (width <= 0 || height <= 0 || rgb.size() != std::size_t(width) * std::size_t(height) * 3)
-    throw std::invalid_argument("write_png_rgb: " + std::to_string(rgb.size()) +
-                                " bytes for a " + std::to_string(width) + "x" +
-                                std::to_string(height) + " RGB image");
+    throw std::invalid_argument("write_png_rgb: " + std::to_string(rgb.size()) + " bytes for a " +
+                                std::to_string(width) + "x" + std::to_string(height) +
+                                " RGB image");
   OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
   write_atomically(path, spec, rgb.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(width));

@@ -29,4 +29,4 @@ target_compile_definitions(e2e_tests PRIVATE
 add_dependencies(e2e_tests arlight-maps arlight-sim arlight-capture arlightd arlight-replay
   arlight-client arlight-eval arlight-model)
 set_target_properties(e2e_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
-gtest_discover_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 300 LABELS sanitize)
+arlight_discover_sanitized_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 300)

@@ -173,7 +173,7 @@ void Session::submit(FrameJob job) {
     return advisor_ && advisor_->is_advised(waiting.frame.info.exposure * waiting.frame.info.gain);
   });
   dropped_ += dropped;
-  for (std::size_t i = 0; i < dropped; ++i) env_.frames_dropped->inc();
+  if (dropped) env_.frames_dropped->inc(double(dropped));
   if (frames_.begin_turn())
     boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
 }
