@@ -19,7 +19,7 @@ install_npm() {
   # only when the lockfile changed since the last install (a copy of it is kept as the stamp).
   local web="$here/../client/web"
   if ! cmp -s "$web/package-lock.json" "$web/node_modules/.arlight-package-lock.json" 2>/dev/null; then
-    echo "deps: npm ci in client/web (playwright-core, opencv.js)"
+    echo "deps: npm ci in client/web (playwright-core, opencv.js, three, ktx-parse, gltf-validator)"
     (cd "$web" && npm ci --no-audit --no-fund --loglevel=error)
     cp "$web/package-lock.json" "$web/node_modules/.arlight-package-lock.json"
   fi

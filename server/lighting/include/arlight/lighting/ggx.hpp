@@ -1,0 +1,87 @@
+// The split sum's parts for glTF metallic-roughness shading (Karis 2013, "Real Shading in Unreal
+// Engine 4"; Filament's libs/ibl): the GGX-prefiltered radiance chain and the DFG table.
+//
+// Roughness is glTF's perceptual roughness r, alpha = r^2. The prefiltered radiance for r at a
+// direction R is the lobe-weighted mean the engines sample at run time, with n = v = R and
+// h = norm(R + l):
+//   sum L(l) D(h) (R.l)+ dw / sum D(h) (R.l)+ dw,   D = GGX (Trowbridge-Reitz).
+// Like the thesis's maps (Alg. 4.1's normalisation) a constant environment gives that constant
+// at every roughness; r = 1 (D constant) gives the cosine-weighted mean, the irradiance map.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "arlight/common/projection.hpp"
+#include "arlight/lighting/lighting.hpp"
+
+namespace arlight::lighting {
+
+// Filament's level <-> roughness mapping (cmgen, IBLPrefilterContext, perceptualRoughnessToLod's
+// inverse): r = 1 - sqrt(1 - level / (levels - 1)); level 0 is the mirror (r = 0).
+double ggx_level_roughness(int level, int levels);
+// Its inverse: the (fractional) level an engine samples for roughness r.
+double ggx_roughness_level(double roughness, int levels);
+// The mapping's one-line statement, written into every file that holds a chain.
+inline constexpr const char* kGgxLevelMapping =
+    "roughness = 1 - sqrt(1 - level / (levels - 1)) (Filament's perceptualRoughnessToLod "
+    "inverse); alpha = roughness^2; level 0 is the mirror";
+
+struct GgxChainSpec {
+  int face = 256;      // level 0's face edge (a power of two)
+  int min_face = 16;   // the last level's face edge; each level halves the face
+  // Accuracy of the hierarchical sum (see ggx.cpp): a group of input texels of angular radius
+  // rho stands for its texels (by its moments) only where rho <= opening x its distance from
+  // the lobe's axis (or x the lobe's width). Smaller is slower and closer to the exact sum.
+  double opening = 0.1;
+};
+
+struct GgxLevel {
+  int level = 0;
+  double roughness = 0.0;
+  EnvMap map;  // cube, face = spec.face >> level
+  double seconds = 0.0;
+};
+
+struct GgxChain {
+  std::vector<GgxLevel> levels;
+  double total_seconds = 0.0;
+};
+
+// The chain of `input` (any projection; values finite and >= 0), on all cores. Level 0 is the
+// input resampled to the cube (the mirror), level k the prefilter at ggx_level_roughness(k, n).
+// Throws InputError for a face that is not a power of two or a min_face above it; Cancelled
+// when hooks.stop is requested (hooks.on_tile reports tiles with map = the level).
+GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec = {},
+                           const Hooks& hooks = {});
+
+// The prefilter for one roughness (> 0) in any output layout, by the hierarchical sum.
+EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& output,
+                     double opening = GgxChainSpec{}.opening, const Hooks& hooks = {});
+
+// The exact prefilter at each direction (unit) of `dirs`: the sum above over every input texel
+// at its centre, in double. The reference the tests and benchmarks measure against; all cores.
+std::vector<glm::dvec3> ggx_prefilter_exact(const EnvMap& input, double roughness,
+                                            std::span<const glm::dvec3> dirs);
+
+// The split sum's DFG term (Karis 2013; Filament's DFV_Multiscatter): for n.v = x and perceptual
+// roughness y, the GGX BRDF's directional albedo split by the Schlick Fresnel as
+//   a = integral of V * F_c,   b = integral of V,   F_c = (1 - v.h)^5,
+// so the specular albedo for F0 is a + (b - a) F0 = mix(a, b, F0) and the multiple-scattering
+// compensation 1 + F0 (1 / b - 1). Texel (i, j) of a size x size table holds
+// x = (i + 0.5) / size and y = 1 - (j + 0.5) / size (row 0 is roughness 1, as cmgen writes it).
+struct DfgTable {
+  int size = 0;
+  std::vector<glm::vec2> ab;  // row-major, (a, b) per texel
+  glm::vec2 at(int i, int j) const { return ab[std::size_t(j) * std::size_t(size) + std::size_t(i)]; }
+};
+// Importance-sampled with `samples` Hammersley points of the GGX distribution per texel.
+DfgTable dfg_table(int size = 128, int samples = 1024);
+// One texel's (a, b) for n.v and perceptual roughness.
+glm::vec2 dfg_value(double n_dot_v, double roughness, int samples = 1024);
+
+}  // namespace arlight::lighting

@@ -1,0 +1,73 @@
+// The split sum's DFG table (Karis 2013 §"Specular IBL"; Filament's DFV_Multiscatter in
+// libs/ibl): the GGX BRDF with height-correlated Smith visibility integrated over the
+// hemisphere by importance sampling the GGX distribution with Hammersley points.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "arlight/common/error.hpp"
+#include "arlight/lighting/ggx.hpp"
+
+namespace arlight::lighting {
+
+namespace {
+
+double radical_inverse(std::uint32_t bits) {
+  bits = (bits << 16u) | (bits >> 16u);
+  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
+  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
+  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
+  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
+  return double(bits) * 2.3283064365386963e-10;
+}
+
+// Height-correlated Smith visibility V = G / (4 n.l n.v) (Heitz 2014, Filament's
+// V_SmithGGXCorrelated).
+double visibility(double n_dot_v, double n_dot_l, double a2) {
+  const double lv = n_dot_l * std::sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
+  const double ll = n_dot_v * std::sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
+  return 0.5 / (lv + ll);
+}
+
+}  // namespace
+
+glm::vec2 dfg_value(double n_dot_v, double roughness, int samples) {
+  const double nv = std::clamp(n_dot_v, 1e-6, 1.0);
+  const double alpha = roughness * roughness, a2 = alpha * alpha;
+  const double vx = std::sqrt(1.0 - nv * nv), vz = nv;  // v in the x-z plane, n = +z
+  double a = 0.0, b = 0.0;
+  for (int i = 0; i < samples; ++i) {
+    // GGX-distributed half vector (pdf D(h) n.h).
+    const double u1 = double(i) / double(samples), u2 = radical_inverse(std::uint32_t(i));
+    const double phi = 2.0 * std::numbers::pi * u1;
+    const double cos2 = (1.0 - u2) / (1.0 + (a2 - 1.0) * u2);
+    const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
+    const double hx = st * std::cos(phi), hz = ct;  // h.y does not enter: v lies in the x-z plane
+    const double v_dot_h = vx * hx + vz * hz;
+    const double lz = 2.0 * v_dot_h * hz - vz;  // n.l of l = reflect(-v, h)
+    if (lz <= 0.0 || v_dot_h <= 0.0) continue;
+    // BRDF x n.l / pdf(l) with pdf(l) = D n.h / (4 v.h): 4 V n.l v.h / n.h.
+    const double v = visibility(nv, lz, a2) * lz * v_dot_h / hz;
+    const double fc = std::pow(1.0 - v_dot_h, 5.0);
+    a += v * fc;
+    b += v;
+  }
+  return glm::vec2(float(4.0 * a / samples), float(4.0 * b / samples));
+}
+
+DfgTable dfg_table(int size, int samples) {
+  if (size < 1 || size > 4096) throw InputError("DFG table: size must lie in [1, 4096], got " + std::to_string(size));
+  if (samples < 1) throw InputError("DFG table: samples must be positive, got " + std::to_string(samples));
+  DfgTable t{size, std::vector<glm::vec2>(std::size_t(size) * std::size_t(size))};
+  tbb::parallel_for(0, size, [&](int j) {
+    const double roughness = 1.0 - (j + 0.5) / size;
+    for (int i = 0; i < size; ++i)
+      t.ab[std::size_t(j) * std::size_t(size) + std::size_t(i)] =
+          dfg_value((i + 0.5) / size, roughness, samples);
+  });
+  return t;
+}
+
+}  // namespace arlight::lighting

@@ -1,0 +1,505 @@
+// The GGX-prefiltered radiance chain by a hierarchical sum (a Barnes-Hut tree code on the
+// sphere; the exact sum it approximates is ggx_exact.cpp's).
+//
+// The GGX lobe has long tails (D falls as theta^-4 away from its peak): at roughness 0.13 a
+// quarter of its weight lies beyond 3 degrees, and a bright window 90 degrees away still shows
+// in a glossy texel. So no window can be cut off; instead the input's texels are grouped in a
+// pyramid of cube-grid cells, and each output tile sums
+//   - the input texels themselves near its lobes' axes (as Alg. 4.1's accurate method does), and
+//   - further out, whole cells by their moments: a cell of angular radius rho at angle d from
+//     the tile stands for its texels when rho <= opening x max(d, lobe width). The lobe is a
+//     function of c = R.l only, and R.l = R.mu + R.(l - mu) exactly, so a second-order Taylor
+//     expansion in c about the cell's centroid mu needs only the cell's sums: power, first
+//     moments per channel and the weights' second moment (sum w (l-mu)(l-mu)^T). Its error
+//     falls as the cube of rho / d.
+// Cells that straddle the horizon (R.l = 0, where the lobe has a kink) are opened down to a few
+// degrees, and to their texels where a few bright texels (a sun) hold most of their power. The cost per output tile grows with log(texels) / opening^2 plus the texels near the
+// axis, instead of the whole input per texel.
+#include "arlight/lighting/ggx.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <limits>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+
+#include "arlight/common/error.hpp"
+#include "arlight/common/resample.hpp"
+#include "job.hpp"
+#include "kernels.hpp"
+
+namespace arlight::lighting {
+
+double ggx_level_roughness(int level, int levels) {
+  if (levels < 2 || level <= 0) return 0.0;
+  const double lod = std::clamp(double(level) / double(levels - 1), 0.0, 1.0);
+  return 1.0 - std::sqrt(1.0 - lod);
+}
+
+double ggx_roughness_level(double roughness, int levels) {
+  const double r = std::clamp(roughness, 0.0, 1.0);
+  return (1.0 - (1.0 - r) * (1.0 - r)) * double(std::max(levels - 1, 0));
+}
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// Cells that straddle some output's horizon are used whole only below this radius (rad): the
+// kink of (R.l)+ there costs at most ~radius^2 / 2 of a cosine lobe's total.
+constexpr double kHorizonRadius = 0.04;
+// ... and only when no texel is brighter than this many times the cell's mean.
+constexpr double kConcentration = 4.0;
+// ... and only when its kink can change the sum by at most this share of the sum (per cell).
+constexpr double kHorizonTolerance = 1e-3;
+// The opening of the coarse pass that bounds each tile's sums first.
+constexpr double kFirstPassOpening = 0.5;
+// Output tiles of 8 x 8 texels share one walk of the pyramid (4 and 16 measured slower).
+constexpr int kTileSize = 8;
+// Texels to a finest cell, on average (1, 2, 8 and 16 measured slower).
+constexpr double kTexelsPerCell = 4.0;
+
+double angle_between(glm::dvec3 a, glm::dvec3 b) {
+  return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+}
+
+// The input as a pyramid of cube-grid cells over its texels (the texels sorted by finest cell).
+struct Pyramid {
+  // Texels (single precision, structure of arrays), grouped by finest cell.
+  std::vector<float> x, y, z, w, lr, lg, lb;
+
+  // Cells of every level; level k has a cube grid of face >> k cells a face edge... stored
+  // from the finest (level 0, face `finest`) to the coarsest (face 1).
+  struct Cell {
+    double weight = 0.0;            // sum w
+    glm::dvec3 sum_dir{0.0};        // sum w l
+    glm::dvec3 power{0.0};          // sum L w
+    glm::dvec3 centroid{0.0, 0.0, 1.0};  // normalize(sum_dir)
+    glm::dvec3 m1_weight{0.0};      // sum w (l - mu)
+    glm::dvec3 m1[3]{};             // per channel: sum L_c w (l - mu)
+    glm::dmat3 m2{0.0};             // sum w (l - mu)(l - mu)^T
+    double radius = 0.0;            // every texel within this angle of mu
+    double peak = 0.0;              // the largest radiance of a texel, any channel
+    // Whether a few texels hold most of the cell's power (a sun, a lamp): then the cell's
+    // moments do not say how much of it lies beyond a horizon.
+    bool concentrated() const {
+      return peak * weight > kConcentration * std::max({power.x, power.y, power.z});
+    }
+    std::uint32_t begin = 0, end = 0;  // finest cells: their texels
+  };
+  int finest = 1;
+  std::vector<int> level_face;       // cells a face edge, per level
+  std::vector<std::size_t> level_offset;
+  std::vector<Cell> cells;
+
+  std::size_t cell_index(int level, int face, int i, int j) const {
+    const auto g = std::size_t(level_face[std::size_t(level)]);
+    return level_offset[std::size_t(level)] + (std::size_t(face) * g + std::size_t(j)) * g +
+           std::size_t(i);
+  }
+};
+
+// Moves the moments of `c` (about its own centroid) to be about `mu`.
+void shift_moments(const Pyramid::Cell& c, glm::dvec3 mu, Pyramid::Cell& into) {
+  const glm::dvec3 d = c.centroid - mu;
+  into.m1_weight += c.m1_weight + c.weight * d;
+  for (int ch = 0; ch < 3; ++ch) into.m1[ch] += c.m1[ch] + c.power[ch] * d;
+  into.m2 += c.m2 + glm::outerProduct(c.m1_weight, d) + glm::outerProduct(d, c.m1_weight) +
+             c.weight * glm::outerProduct(d, d);
+}
+
+Pyramid build_pyramid(const EnvMap& input) {
+  const TexelTable& table = *texel_table(input.layout);
+  Pyramid p;
+  // ~4 texels to a finest cell.
+  const double target = std::sqrt(double(table.size()) / (6.0 * kTexelsPerCell));
+  p.finest = int(std::bit_floor(unsigned(std::max(1.0, target))));
+  const EnvLayout grid(Projection::Cube, p.finest, 6 * p.finest);
+
+  // Sort the valid texels with radiance by finest cell.
+  const float* px = input.image.data();
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed;  // (cell, table entry)
+  keyed.reserve(table.size());
+  for (std::size_t e = 0; e < table.size(); ++e) {
+    if (table.solid_angle[e] <= 0.0) continue;
+    const glm::dvec3 d(table.x[e], table.y[e], table.z[e]);
+    const glm::ivec2 t = grid.dir_to_texel(d);
+    keyed.emplace_back(std::uint32_t(t.y) * std::uint32_t(p.finest) + std::uint32_t(t.x),
+                       std::uint32_t(e));
+  }
+  std::sort(keyed.begin(), keyed.end());
+
+  for (int g = p.finest; g >= 1; g /= 2) {
+    p.level_offset.push_back(p.cells.size());
+    p.level_face.push_back(g);
+    p.cells.resize(p.cells.size() + 6 * std::size_t(g) * std::size_t(g));
+  }
+  const std::size_t n = keyed.size();
+  for (auto* v : {&p.x, &p.y, &p.z, &p.w, &p.lr, &p.lg, &p.lb}) v->resize(n);
+
+  // Finest cells from their texels: sums, then moments about the centroid.
+  for (std::size_t k = 0; k < n;) {
+    const std::uint32_t id = keyed[k].first;
+    Pyramid::Cell& c = p.cells[id];
+    c.begin = std::uint32_t(k);
+    std::size_t end = k;
+    for (; end < n && keyed[end].first == id; ++end) {
+      const std::size_t e = keyed[end].second;
+      const glm::dvec3 d(table.x[e], table.y[e], table.z[e]);
+      const double w = table.solid_angle[e];
+      const float* l = px + 3 * std::size_t(table.index[e]);
+      c.weight += w;
+      c.sum_dir += w * d;
+      c.power += w * glm::dvec3(l[0], l[1], l[2]);
+      p.x[end] = float(d.x), p.y[end] = float(d.y), p.z[end] = float(d.z), p.w[end] = float(w);
+      p.lr[end] = float(l[0] * w), p.lg[end] = float(l[1] * w), p.lb[end] = float(l[2] * w);
+    }
+    c.end = std::uint32_t(end);
+    c.centroid = glm::normalize(c.sum_dir);
+    for (std::size_t i = k; i < end; ++i) {
+      const std::size_t e = keyed[i].second;
+      const glm::dvec3 d(table.x[e], table.y[e], table.z[e]);
+      const glm::dvec3 delta = d - c.centroid;
+      const double w = p.w[i];
+      c.m1_weight += w * delta;
+      c.m1[0] += double(p.lr[i]) * delta;
+      c.m1[1] += double(p.lg[i]) * delta;
+      c.m1[2] += double(p.lb[i]) * delta;
+      c.m2 += w * glm::outerProduct(delta, delta);
+      c.radius = std::max(c.radius, angle_between(c.centroid, d));
+      const float* l = px + 3 * std::size_t(table.index[e]);
+      c.peak = std::max(c.peak, double(std::max({l[0], l[1], l[2]})));
+    }
+    c.radius += 1e-6;
+    k = end;
+  }
+  // Coarser levels from their four children.
+  for (std::size_t level = 1; level < p.level_face.size(); ++level) {
+    const int g = p.level_face[level];
+    for (int face = 0; face < 6; ++face)
+      for (int j = 0; j < g; ++j)
+        for (int i = 0; i < g; ++i) {
+          Pyramid::Cell& c = p.cells[p.cell_index(int(level), face, i, j)];
+          std::array<const Pyramid::Cell*, 4> kids;
+          for (int q = 0; q < 4; ++q)
+            kids[std::size_t(q)] =
+                &p.cells[p.cell_index(int(level) - 1, face, 2 * i + (q & 1), 2 * j + (q >> 1))];
+          for (const Pyramid::Cell* k : kids) {
+            c.weight += k->weight;
+            c.sum_dir += k->sum_dir;
+            c.power += k->power;
+          }
+          if (c.weight <= 0.0) continue;
+          c.centroid = glm::normalize(c.sum_dir);
+          for (const Pyramid::Cell* k : kids) {
+            if (k->weight <= 0.0) continue;
+            shift_moments(*k, c.centroid, c);
+            c.radius = std::max(c.radius, angle_between(c.centroid, k->centroid) + k->radius);
+            c.peak = std::max(c.peak, k->peak);
+          }
+        }
+  }
+  return p;
+}
+
+// The near and far parts of one output tile's sum, gathered by walking the pyramid.
+struct Interactions {
+  // Texels: x, y, z, w, lr, lg, lb.
+  std::array<std::vector<float>, 7> texels;
+  // Cells: centroid (3), weight, power (3), mean radiance (3), m1_weight (3), m1 (9), m2 (6:
+  // xx, yy, zz, xy, xz, yz).
+  static constexpr int kCellFloats = 28;
+  std::array<std::vector<float>, kCellFloats> cells;
+  void clear() {
+    for (auto& v : texels) v.clear();
+    for (auto& v : cells) v.clear();
+  }
+  void add_texels(const Pyramid& p, std::uint32_t begin, std::uint32_t end) {
+    const std::array<const std::vector<float>*, 7> src{&p.x, &p.y, &p.z, &p.w, &p.lr, &p.lg, &p.lb};
+    for (std::size_t a = 0; a < 7; ++a)
+      texels[a].insert(texels[a].end(), src[a]->begin() + begin, src[a]->begin() + end);
+  }
+  void add_cell(const Pyramid::Cell& c) {
+    const glm::dvec3 mean = c.power / c.weight;
+    const float v[kCellFloats] = {
+        float(c.centroid.x), float(c.centroid.y), float(c.centroid.z), float(c.weight),
+        float(c.power.x), float(c.power.y), float(c.power.z),
+        float(mean.x), float(mean.y), float(mean.z),
+        float(c.m1_weight.x), float(c.m1_weight.y), float(c.m1_weight.z),
+        float(c.m1[0].x), float(c.m1[0].y), float(c.m1[0].z),
+        float(c.m1[1].x), float(c.m1[1].y), float(c.m1[1].z),
+        float(c.m1[2].x), float(c.m1[2].y), float(c.m1[2].z),
+        float(c.m2[0][0]), float(c.m2[1][1]), float(c.m2[2][2]),
+        float(c.m2[0][1]), float(c.m2[0][2]), float(c.m2[1][2])};
+    for (int a = 0; a < kCellFloats; ++a) cells[std::size_t(a)].push_back(v[a]);
+  }
+};
+
+// The GGX lobe as a function of u = 1 - R.l (computed as |R - l|^2 / 2, exact in floats near
+// the peak): f = c / t^2 with c = 1 - u and t = alpha^2 + u (1 - alpha^2) / 2, i.e. D(h) (R.l)
+// up to a constant (n.h^2 = 1 - u / 2). Its derivatives in c: f' = (t + 2ck) / t^3 and
+// f'' = (4kt + 6ck^2) / t^4 with k = (1 - alpha^2) / 2 = -dt/dc.
+struct Lobe {
+  float a2, k;
+};
+
+#if defined(__clang__)
+#define ARLIGHT_GGX_CLONES  // clang's builds (sanitizers, fuzzing) keep one version
+#else
+// One version per instruction set, chosen at load time (as kernels.cpp does): the sums are
+// ~2/3 of the chain's time and vectorise 8 or 16 floats wide.
+#define ARLIGHT_GGX_CLONES __attribute__((target_clones("avx512f", "fma", "default")))
+#endif
+
+// Sums the tile's interactions for one output direction: acc = (sum f L w, sum f w).
+ARLIGHT_GGX_CLONES void sum_direction(const Interactions& in, const Lobe& lobe, glm::vec3 r, double acc[4]) {
+  const float a2 = lobe.a2, k = lobe.k;
+  const float rx = r.x, ry = r.y, rz = r.z;
+  {
+    const float *x = in.texels[0].data(), *y = in.texels[1].data(), *z = in.texels[2].data(),
+                *w = in.texels[3].data(), *lr = in.texels[4].data(), *lg = in.texels[5].data(),
+                *lb = in.texels[6].data();
+    const std::size_t n = in.texels[0].size();
+    for (std::size_t b = 0; b < n; b += 1024) {
+      const std::size_t e = std::min(n, b + 1024);
+      float sr = 0, sg = 0, sb = 0, sw = 0;
+#pragma omp simd reduction(+ : sr, sg, sb, sw)
+      for (std::size_t i = b; i < e; ++i) {
+        const float dx = rx - x[i], dy = ry - y[i], dz = rz - z[i];
+        const float u = 0.5f * (dx * dx + dy * dy + dz * dz);
+        const float c = 1.0f - u;
+        const float t = a2 + u * k;
+        const float f = c > 0.0f ? c / (t * t) : 0.0f;
+        sr += f * lr[i];
+        sg += f * lg[i];
+        sb += f * lb[i];
+        sw += f * w[i];
+      }
+      acc[0] += sr, acc[1] += sg, acc[2] += sb, acc[3] += sw;
+    }
+  }
+  const auto& cv = in.cells;
+  const float *mx = cv[0].data(), *my = cv[1].data(), *mz = cv[2].data(), *cw = cv[3].data(),
+              *pr = cv[4].data(), *pg = cv[5].data(), *pb = cv[6].data(), *ar = cv[7].data(),
+              *ag = cv[8].data(), *ab = cv[9].data(), *wx = cv[10].data(), *wy = cv[11].data(),
+              *wz = cv[12].data(), *rx1 = cv[13].data(), *ry1 = cv[14].data(),
+              *rz1 = cv[15].data(), *gx1 = cv[16].data(), *gy1 = cv[17].data(),
+              *gz1 = cv[18].data(), *bx1 = cv[19].data(), *by1 = cv[20].data(),
+              *bz1 = cv[21].data(), *qxx = cv[22].data(), *qyy = cv[23].data(),
+              *qzz = cv[24].data(), *qxy = cv[25].data(), *qxz = cv[26].data(),
+              *qyz = cv[27].data();
+  const float rxx = rx * rx, ryy = ry * ry, rzz = rz * rz, rxy = 2 * rx * ry, rxz = 2 * rx * rz,
+              ryz = 2 * ry * rz;
+  const std::size_t n = cv[0].size();
+  for (std::size_t b = 0; b < n; b += 1024) {
+    const std::size_t e = std::min(n, b + 1024);
+    float sr = 0, sg = 0, sb = 0, sw = 0;
+#pragma omp simd reduction(+ : sr, sg, sb, sw)
+    for (std::size_t i = b; i < e; ++i) {
+      const float dx = rx - mx[i], dy = ry - my[i], dz = rz - mz[i];
+      const float u = 0.5f * (dx * dx + dy * dy + dz * dz);
+      const float c = 1.0f - u;
+      const float t = a2 + u * k;
+      const float it = 1.0f / t;
+      const float it2 = it * it;
+      const float f = c * it2;
+      const float f1 = (t + 2.0f * c * k) * it2 * it;
+      const float f2 = (4.0f * k * t + 6.0f * c * k * k) * it2 * it2;
+      const float q = rxx * qxx[i] + ryy * qyy[i] + rzz * qzz[i] + rxy * qxy[i] + rxz * qxz[i] +
+                      ryz * qyz[i];
+      const float h = 0.5f * f2 * q;
+      const float above = c > 0.0f ? 1.0f : 0.0f;
+      sw += above * (f * cw[i] + f1 * (rx * wx[i] + ry * wy[i] + rz * wz[i]) + h);
+      sr += above * (f * pr[i] + f1 * (rx * rx1[i] + ry * ry1[i] + rz * rz1[i]) + h * ar[i]);
+      sg += above * (f * pg[i] + f1 * (rx * gx1[i] + ry * gy1[i] + rz * gz1[i]) + h * ag[i]);
+      sb += above * (f * pb[i] + f1 * (rx * bx1[i] + ry * by1[i] + rz * bz1[i]) + h * ab[i]);
+    }
+    acc[0] += sr, acc[1] += sg, acc[2] += sb, acc[3] += sw;
+  }
+}
+
+// Collects the tile's interactions: cells far enough from the tile's cone (centre, radius tau)
+// for their moments, texels elsewhere.
+// A straddling cell is used whole only when it is small, not concentrated, and the most its
+// kink can change the sum (its power x radius x the lobe's slope at the horizon) is within
+// `horizon_budget`.
+void gather(const Pyramid& p, glm::dvec3 centre, double tau, double sigma, double opening,
+            double horizon_slope, double horizon_budget, Interactions& out) {
+  out.clear();
+  struct Item {
+    int level, face, i, j;
+  };
+  std::vector<Item> stack;
+  const int top = int(p.level_face.size()) - 1;
+  for (int face = 0; face < 6; ++face) stack.push_back({top, face, 0, 0});
+  while (!stack.empty()) {
+    const Item it = stack.back();
+    stack.pop_back();
+    const Pyramid::Cell& c = p.cells[p.cell_index(it.level, it.face, it.i, it.j)];
+    if (c.weight <= 0.0) continue;
+    const double a = angle_between(centre, c.centroid);
+    const double dmin = a - tau - c.radius, dmax = a + tau + c.radius;
+    if (dmin >= kPi / 2) continue;  // below every output's horizon
+    const bool straddles = dmax > kPi / 2;
+    if (c.radius <= opening * std::max(dmin, sigma) &&
+        (!straddles || (c.radius <= kHorizonRadius && !c.concentrated() &&
+                        std::max({c.power.x, c.power.y, c.power.z}) * c.radius * horizon_slope <=
+                            horizon_budget))) {
+      out.add_cell(c);
+    } else if (it.level == 0) {
+      out.add_texels(p, c.begin, c.end);
+    } else {
+      for (int q = 0; q < 4; ++q)
+        stack.push_back({it.level - 1, it.face, 2 * it.i + (q & 1), 2 * it.j + (q >> 1)});
+    }
+  }
+}
+
+struct OutputTile {
+  int x, y, width, height;
+};
+
+std::vector<OutputTile> output_tiles(const EnvLayout& layout, int size) {
+  std::vector<OutputTile> tiles;
+  const int w = layout.width(), h = layout.height();
+  const int band = layout.projection() == Projection::Cube ? layout.face_size() : h;
+  for (int y0 = 0; y0 < h; y0 += band)
+    for (int y = y0; y < y0 + band; y += size)
+      for (int x = 0; x < w; x += size)
+        tiles.push_back({x, y, std::min(size, w - x), std::min(size, y0 + band - y)});
+  return tiles;
+}
+
+void check_input(const EnvMap& input) {
+  const auto& s = input.image.storage();
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (!std::isfinite(s[i]) || s[i] < 0.0f)
+      throw InputError("GGX prefilter: the input has a negative or non-finite value at texel " +
+                       std::to_string(i / 3) + " (sanitize it first)");
+}
+
+EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& output,
+                 double opening, int map_index, detail::Progress& progress) {
+  if (!(roughness > 0.0 && roughness <= 1.0))
+    throw InputError("GGX prefilter: roughness must lie in (0, 1], got " + std::to_string(roughness));
+  if (!(opening > 0.0 && opening < 1.0))
+    throw InputError("GGX prefilter: opening must lie in (0, 1), got " + std::to_string(opening));
+  const double alpha = roughness * roughness;
+  const Lobe lobe{float(alpha * alpha), float((1.0 - alpha * alpha) / 2.0)};
+  // The lobe's angular scale: t doubles from its peak value at theta ~ 2 alpha.
+  const double sigma = 2.0 * alpha;
+  // f'(0), the lobe's slope in c at the horizon.
+  const double horizon_slope = 1.0 / (double(lobe.a2 + lobe.k) * double(lobe.a2 + lobe.k));
+  const TexelTable& table = *texel_table(output);
+  std::vector<std::int32_t> entry(output.texel_count(), -1);
+  for (std::size_t e = 0; e < table.size(); ++e) entry[table.index[e]] = std::int32_t(e);
+
+  EnvMap result(output);
+  const auto tiles = output_tiles(output, kTileSize);
+  tbb::enumerable_thread_specific<Interactions> scratch;
+  tbb::parallel_for(std::size_t(0), tiles.size(), [&](std::size_t ti) {
+    progress.check();
+    detail::FlushDenormals ftz;
+    const OutputTile& tile = tiles[ti];
+    std::vector<std::pair<std::size_t, glm::dvec3>> texels;
+    glm::dvec3 sum(0.0);
+    for (int y = tile.y; y < tile.y + tile.height; ++y)
+      for (int x = tile.x; x < tile.x + tile.width; ++x) {
+        const std::size_t pixel = std::size_t(y) * std::size_t(output.width()) + std::size_t(x);
+        const std::int32_t e = entry[pixel];
+        if (e < 0) continue;
+        const glm::dvec3 d(table.x[std::size_t(e)], table.y[std::size_t(e)], table.z[std::size_t(e)]);
+        texels.emplace_back(pixel, d);
+        sum += d;
+      }
+    if (texels.empty()) return;
+    const glm::dvec3 centre =
+        glm::length(sum) > 1e-9 ? glm::normalize(sum) : texels.front().second;
+    double tau = 0.0;
+    for (const auto& t : texels) tau = std::max(tau, angle_between(centre, t.second));
+    Interactions& in = scratch.local();
+    // A coarse first pass bounds the tile's sums from below; the second spends on the horizon
+    // only what that bound says can matter.
+    gather(pyramid, centre, tau + 1e-6, sigma, kFirstPassOpening, horizon_slope,
+           std::numeric_limits<double>::infinity(), in);
+    double least = std::numeric_limits<double>::infinity();
+    for (const auto& t : texels) {
+      double acc[4] = {0, 0, 0, 0};
+      sum_direction(in, lobe, glm::vec3(t.second), acc);
+      const double top = std::max({acc[0], acc[1], acc[2]});
+      least = std::min(least, std::max(std::min({acc[0], acc[1], acc[2]}), 0.01 * top));
+    }
+    gather(pyramid, centre, tau + 1e-6, sigma, opening, horizon_slope,
+           kHorizonTolerance * std::max(least, 0.0), in);
+    float* out = result.image.data();
+    for (const auto& [pixel, d] : texels) {
+      double acc[4] = {0, 0, 0, 0};
+      sum_direction(in, lobe, glm::vec3(d), acc);
+      for (int ch = 0; ch < 3; ++ch)
+        out[3 * pixel + std::size_t(ch)] = acc[3] > 0.0 ? float(std::max(0.0, acc[ch] / acc[3])) : 0.0f;
+    }
+    progress.tile_done(map_index, {tile.x, tile.y, tile.width, tile.height});
+  });
+  progress.check();
+  return result;
+}
+
+}  // namespace
+
+EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& output,
+                     double opening, const Hooks& hooks) {
+  check_input(input);
+  const Pyramid pyramid = build_pyramid(input);
+  detail::Progress progress(hooks, output_tiles(output, kTileSize).size());
+  return prefilter(pyramid, roughness, output, opening, 0, progress);
+}
+
+GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const Hooks& hooks) {
+  if (spec.face < 1 || !std::has_single_bit(unsigned(spec.face)))
+    throw InputError("GGX chain: the face size must be a power of two, got " + std::to_string(spec.face));
+  if (spec.min_face < 1 || spec.min_face > spec.face || !std::has_single_bit(unsigned(spec.min_face)))
+    throw InputError("GGX chain: the smallest face must be a power of two from 1 to the face size (" +
+                     std::to_string(spec.face) + "), got " + std::to_string(spec.min_face));
+  check_input(input);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int levels = std::countr_zero(unsigned(spec.face)) -
+                     std::countr_zero(unsigned(spec.min_face)) + 1;
+  std::size_t total = 0;
+  for (int k = 1; k < levels; ++k) {
+    const int f = spec.face >> k;
+    total += output_tiles(EnvLayout(Projection::Cube, f, 6 * f), kTileSize).size();
+  }
+  detail::Progress progress(hooks, total);
+  GgxChain chain;
+  {
+    const auto t = std::chrono::steady_clock::now();
+    GgxLevel mirror{0, 0.0, resample(input, EnvLayout(Projection::Cube, spec.face, 6 * spec.face)), 0.0};
+    mirror.seconds = detail::seconds_since(t);
+    chain.levels.push_back(std::move(mirror));
+  }
+  const auto tp = std::chrono::steady_clock::now();
+  const Pyramid pyramid = build_pyramid(input);
+  const double pyramid_seconds = detail::seconds_since(tp);
+  for (int k = 1; k < levels; ++k) {
+    const auto t = std::chrono::steady_clock::now();
+    const int f = spec.face >> k;
+    const double r = ggx_level_roughness(k, levels);
+    EnvMap map =
+        prefilter(pyramid, r, EnvLayout(Projection::Cube, f, 6 * f), spec.opening, k, progress);
+    // The pyramid serves every level; its build counts towards the first.
+    const double s = detail::seconds_since(t) + (k == 1 ? pyramid_seconds : 0.0);
+    chain.levels.push_back({k, r, std::move(map), s});
+  }
+  chain.total_seconds = detail::seconds_since(t0);
+  return chain;
+}
+
+}  // namespace arlight::lighting
