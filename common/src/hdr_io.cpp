@@ -352,14 +352,26 @@ std::vector<std::uint8_t> preview_pixels(ConstImageView img, const PreviewOption
   return px;
 }
 
-void write_png_rgb(const fs::path& path, int width, int height, std::span<const std::uint8_t> rgb) {
-  if (width <= 0 || height <= 0 || rgb.size() != std::size_t(width) * std::size_t(height) * 3)
-    throw std::invalid_argument("write_png_rgb: " + std::to_string(rgb.size()) + " bytes for a " +
-                                std::to_string(width) + "x" + std::to_string(height) +
-                                " RGB image");
-  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+namespace {
+void write_png_u8(const fs::path& path, int width, int height, int channels,
+                  std::span<const std::uint8_t> bytes) {
+  if (width <= 0 || height <= 0 ||
+      bytes.size() != std::size_t(width) * std::size_t(height) * std::size_t(channels))
+    throw std::invalid_argument("write_png: " + std::to_string(bytes.size()) + " bytes for a " +
+                                std::to_string(width) + "x" + std::to_string(height) + "x" +
+                                std::to_string(channels) + " image");
+  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
-  write_atomically(path, spec, rgb.data(), OIIO::TypeDesc::UINT8, 3 * std::ptrdiff_t(width));
+  write_atomically(path, spec, bytes.data(), OIIO::TypeDesc::UINT8, channels * std::ptrdiff_t(width));
+}
+}  // namespace
+
+void write_png_rgb(const fs::path& path, int width, int height, std::span<const std::uint8_t> rgb) {
+  write_png_u8(path, width, height, 3, rgb);
+}
+
+void write_png_rgba(const fs::path& path, int width, int height, std::span<const std::uint8_t> rgba) {
+  write_png_u8(path, width, height, 4, rgba);
 }
 
 void write_png_preview(const fs::path& path, ConstImageView img, const PreviewOptions& options) {

@@ -39,3 +39,9 @@ add_test(NAME web.page_pixels
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/page_pixels.test.mjs)
 set_tests_properties(web.page_pixels PROPERTIES TIMEOUT 300 RUN_SERIAL TRUE
   ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR};ARLIGHT_WEB_PIXEL_REFERENCE=${CMAKE_BINARY_DIR}/tests/web_pixel_reference")
+
+# The light files (arlight-maps export) read by ktx-parse and gltf-validator (npm, pinned).
+add_test(NAME web.light_files
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/light_files.test.mjs)
+set_tests_properties(web.light_files PROPERTIES TIMEOUT 120
+  ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")

@@ -14,6 +14,8 @@ Runner add_compute_command(CLI::App& app);
 Runner add_compare_command(CLI::App& app);
 Runner add_diff_command(CLI::App& app);
 Runner add_preview_command(CLI::App& app);
+Runner add_ggx_command(CLI::App& app);
+Runner add_export_command(CLI::App& app);
 
 // --shininess, --size, --projection, shared by compute, compare and diff.
 // --shininess, --size, --projection and --fill (what a map's unseen texels become: see

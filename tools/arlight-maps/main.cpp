@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
       {"diff", arlight::maps::add_diff_command(app)},
       {"sh", arlight::maps::add_sh_command(app)},
       {"preview", arlight::maps::add_preview_command(app)},
+      {"ggx", arlight::maps::add_ggx_command(app)},
+      {"export", arlight::maps::add_export_command(app)},
   };
   for (const auto& [name, runner] : commands)
     app.get_subcommand(name)->callback([&run, r = runner] { run = r; });

@@ -100,6 +100,9 @@ std::uint8_t srgb_code(float display_linear);
 // Throws std::invalid_argument when the pixel count disagrees with the size.
 void write_png_rgb(const std::filesystem::path& path, int width, int height,
                    std::span<const std::uint8_t> rgb);
+// The same with an alpha channel (4 bytes a pixel, straight alpha).
+void write_png_rgba(const std::filesystem::path& path, int width, int height,
+                    std::span<const std::uint8_t> rgba);
 
 // preview_pixels() as a PNG file, written atomically like write_exr.
 void write_png_preview(const std::filesystem::path& path, ConstImageView img,

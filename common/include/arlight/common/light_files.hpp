@@ -1,0 +1,48 @@
+// A room's light in the files the field's engines read (issue 34 §4): the GGX chain as KTX2,
+// SH-9 in WebXR's / three.js's, Filament's and Unity's shapes with the primary light as JSON,
+// and a glTF with EXT_lights_image_based as Babylon.js reads it.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "arlight/common/projection.hpp"
+#include "arlight/common/sh.hpp"
+
+namespace arlight {
+
+struct LightFilesInput {
+  ShCoeffs sh;                      // radiance SH of the room, order >= 3 (bands above 2 unused)
+  DominantLight primary;            // direction towards the light (unit), RGB intensity
+  std::span<const EnvMap> specular;  // the GGX chain (cube maps, level 0 the mirror)
+  std::vector<double> roughness;    // per level
+  std::string level_mapping;        // the level <-> roughness rule, stated in every file
+  std::string source;               // what the light was measured from, for the record
+};
+
+// SH-9 as 27 floats, 9 RGB triples in the order (l, m) = (0,0), (1,-1), (1,0), (1,1), (2,-2),
+// (2,-1), (2,0), (2,1), (2,2), in the world frame of common/CONVENTIONS.md (right-handed, +Y up,
+// -Z forward; glTF's, three.js's and Filament's too):
+// - webxr: raw radiance coefficients on the real orthonormal basis without the Condon-Shortley
+//   phase (Y_1,-1 ~ y, Y_1,0 ~ z, Y_1,1 ~ x), as WebXR's sphericalHarmonicsCoefficients and
+//   three.js's LightProbe.sh.fromArray take them;
+// - filament: pre-scaled for IndirectLight::Builder::irradiance(3, ...) (cmgen --sh-shader):
+//   each coefficient times its band's cosine-lobe factor A_l / pi and the basis constant, so
+//   Filament's shader polynomial gives irradiance / pi;
+// - unity: raw radiance coefficients in Unity's left-handed frame (+Z forward: z mirrored),
+//   as SphericalHarmonicsL2[channel, i] holds them (written per channel).
+std::array<float, 27> sh9_webxr(const ShCoeffs& sh);
+std::array<float, 27> sh9_filament(const ShCoeffs& sh);
+std::array<float, 27> sh9_unity(const ShCoeffs& sh);
+
+// light.json's text.
+std::string light_json(const LightFilesInput& light);
+
+// Writes dir/specular.ktx2, dir/light.json, dir/lighting.gltf and the glTF's face images
+// (dir/lighting/m<L>_<face>.png, RGBD as EXT_lights_image_based defines it). Creates dir.
+void write_light_files(const std::filesystem::path& dir, const LightFilesInput& light);
+
+}  // namespace arlight

@@ -1,0 +1,92 @@
+// The light files arlight-maps export writes, read by the field's own tools rather than ours:
+// ktx-parse (the KTX2 container), gltf-validator (the glTF), and the conventions light.json
+// states checked against each other. Needs ARLIGHT_BIN and ARLIGHT_SOURCE_DIR (ctest sets them).
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { execFileSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+
+const BIN = process.env.ARLIGHT_BIN;
+const SOURCE = process.env.ARLIGHT_SOURCE_DIR;
+const require = createRequire(path.join(SOURCE, 'client', 'web', 'package.json'));
+
+function halfToFloat(h) {
+  const s = h & 0x8000 ? -1 : 1, e = (h >> 10) & 0x1f, m = h & 0x3ff;
+  if (e === 0) return s * m * 2 ** -24;
+  if (e === 31) return m ? NaN : s * Infinity;
+  return s * (1 + m / 1024) * 2 ** (e - 15);
+}
+
+test('export writes a KTX2 chain, light.json and a glTF the field\'s tools accept', async () => {
+  const out = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-light-'));
+  try {
+    execFileSync(path.join(BIN, 'arlight-maps'), ['export', '--input', path.join(SOURCE, 'data/probes/park.exr'),
+      '--face', '64', '--min-face', '8', '--out', out], { stdio: 'pipe' });
+
+    const { read } = await import(require.resolve('ktx-parse'));
+    const ktx = read(new Uint8Array(fs.readFileSync(path.join(out, 'specular.ktx2'))));
+    assert.equal(ktx.vkFormat, 97);  // VK_FORMAT_R16G16B16A16_SFLOAT
+    assert.equal(ktx.faceCount, 6);
+    assert.equal(ktx.pixelWidth, 64);
+    assert.equal(ktx.levels.length, 4);
+    ktx.levels.forEach((l, k) => assert.equal(l.levelData.byteLength, 6 * (64 >> k) ** 2 * 8));
+    const meta = JSON.parse(new TextDecoder().decode(ktx.keyValue['arlight.ggx']).replace(/\0$/, ''));
+    assert.deepEqual(meta.roughness.map((r) => +r.toFixed(4)), [0, 0.1835, 0.4226, 1]);
+    assert.match(meta.level_mapping, /1 - sqrt\(1 - level/);
+
+    // The park's sky (+Y face) outshines its ground (-Y) in the roughest level, alpha is 1.
+    const last = ktx.levels[3].levelData, n = 8;
+    const view = new DataView(last.buffer, last.byteOffset, last.byteLength);
+    const faceMean = (f) => {
+      let s = 0;
+      for (let t = 0; t < n * n; ++t) {
+        const at = ((f * n * n) + t) * 8;
+        s += halfToFloat(view.getUint16(at + 2, true));
+        assert.equal(halfToFloat(view.getUint16(at + 6, true)), 1);
+      }
+      return s / (n * n);
+    };
+    assert.ok(faceMean(2) > 1.5 * faceMean(3), `sky ${faceMean(2)} vs ground ${faceMean(3)}`);
+
+    const light = JSON.parse(fs.readFileSync(path.join(out, 'light.json'), 'utf8'));
+    assert.equal(light.sh9.webxr.length, 27);
+    // Filament's pre-scaling of the constant band: Y00 x A0 / pi = 0.282095.
+    assert.ok(Math.abs(light.sh9.filament[1] - light.sh9.webxr[1] * 0.2820948) < 1e-5 * Math.abs(light.sh9.webxr[1]));
+    // Unity mirrors z: (1,0) negated, (1,1) kept.
+    assert.equal(light.sh9.unity.g[2], -light.sh9.webxr[3 * 2 + 1]);
+    assert.equal(light.sh9.unity.g[3], light.sh9.webxr[3 * 3 + 1]);
+    assert.ok(Math.abs(Math.hypot(...light.primary_light.direction) - 1) < 1e-4);
+    assert.ok(light.primary_light.direction[1] > 0.3, 'the park\'s light comes from above');
+    assert.equal(light.specular.levels.length, 4);
+
+    const validator = require('gltf-validator');
+    const gltf = fs.readFileSync(path.join(out, 'lighting.gltf'));
+    const report = await validator.validateBytes(new Uint8Array(gltf), {
+      uri: 'lighting.gltf',
+      externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(out, decodeURIComponent(uri))))),
+    });
+    assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+    assert.equal(report.issues.numWarnings, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+    const ibl = JSON.parse(gltf).extensions.EXT_lights_image_based.lights[0];
+    assert.equal(ibl.specularImageSize, 64);
+    assert.equal(ibl.specularImages.length, 4);
+    assert.equal(ibl.irradianceCoefficients.length, 9);
+  } finally {
+    fs.rmSync(out, { recursive: true, force: true });
+  }
+});
+
+test('export refuses a face that is not a power of two, naming it', () => {
+  const out = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-light-'));
+  try {
+    assert.throws(() => execFileSync(path.join(BIN, 'arlight-maps'), ['export', '--input',
+      path.join(SOURCE, 'data/probes/park.exr'), '--face', '100', '--out', out], { stdio: 'pipe' }),
+    (e) => e.status === 2 && /power of two, got 100/.test(e.stderr.toString()));
+    assert.equal(fs.existsSync(path.join(out, 'specular.ktx2')), false);
+  } finally {
+    fs.rmSync(out, { recursive: true, force: true });
+  }
+});
