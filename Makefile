@@ -136,6 +136,8 @@ bench: deps
 	bench/eval_rooms.sh $(BUILD) out/bench/eval data/probes/venice.exr data/probes/lab.exr \
 	  data/probes/park.exr
 	bench/load_maps.sh $(BUILD) out/bench/load_maps 1 4 8
+	for p in park venice studio; do $(BUILD)/bin/arlight-bench-ggx --probe data/probes/$$p.exr \
+	  --json out/bench/ggx_$$p.json; done
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out
