@@ -9,19 +9,11 @@
 
 #include "arlight/common/error.hpp"
 #include "arlight/lighting/ggx.hpp"
+#include "job.hpp"
 
 namespace arlight::lighting {
 
 namespace {
-
-double radical_inverse(std::uint32_t bits) {
-  bits = (bits << 16u) | (bits >> 16u);
-  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-  return double(bits) * 2.3283064365386963e-10;
-}
 
 // Height-correlated Smith visibility V = G / (4 n.l n.v) (Heitz 2014, Filament's
 // V_SmithGGXCorrelated).
@@ -40,7 +32,7 @@ glm::vec2 dfg_value(double n_dot_v, double roughness, int samples) {
   double a = 0.0, b = 0.0;
   for (int i = 0; i < samples; ++i) {
     // GGX-distributed half vector (pdf D(h) n.h).
-    const double u1 = double(i) / double(samples), u2 = radical_inverse(std::uint32_t(i));
+    const double u1 = double(i) / double(samples), u2 = detail::radical_inverse(std::uint32_t(i));
     const double phi = 2.0 * std::numbers::pi * u1;
     const double cos2 = (1.0 - u2) / (1.0 + (a2 - 1.0) * u2);
     const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));

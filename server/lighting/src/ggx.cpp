@@ -64,7 +64,7 @@ constexpr double kHorizonTolerance = 1e-3;
 constexpr double kFirstPassOpening = 0.5;
 // Output tiles of 8 x 8 texels share one walk of the pyramid (4 and 16 measured slower).
 constexpr int kTileSize = 8;
-// Texels to a finest cell, on average (1, 2, 8 and 16 measured slower).
+// Texels to a finest cell, on average (1 and 2 measured slower).
 constexpr double kTexelsPerCell = 4.0;
 
 double angle_between(glm::dvec3 a, glm::dvec3 b) {
@@ -76,8 +76,8 @@ struct Pyramid {
   // Texels (single precision, structure of arrays), grouped by finest cell.
   std::vector<float> x, y, z, w, lr, lg, lb;
 
-  // Cells of every level; level k has a cube grid of face >> k cells a face edge... stored
-  // from the finest (level 0, face `finest`) to the coarsest (face 1).
+  // Cells of every level, from the finest (level 0, a cube grid of `finest` cells a face edge)
+  // to the coarsest (1 cell a face); level k has finest >> k cells a face edge.
   struct Cell {
     double weight = 0.0;            // sum w
     glm::dvec3 sum_dir{0.0};        // sum w l
@@ -119,7 +119,6 @@ void shift_moments(const Pyramid::Cell& c, glm::dvec3 mu, Pyramid::Cell& into) {
 Pyramid build_pyramid(const EnvMap& input) {
   const TexelTable& table = *texel_table(input.layout);
   Pyramid p;
-  // ~4 texels to a finest cell.
   const double target = std::sqrt(double(table.size()) / (6.0 * kTexelsPerCell));
   p.finest = int(std::bit_floor(unsigned(std::max(1.0, target))));
   const EnvLayout grid(Projection::Cube, p.finest, 6 * p.finest);

@@ -17,15 +17,6 @@ namespace arlight::lighting::detail {
 
 namespace {
 
-double radical_inverse(std::uint32_t i) {
-  i = (i << 16u) | (i >> 16u);
-  i = ((i & 0x55555555u) << 1u) | ((i & 0xAAAAAAAAu) >> 1u);
-  i = ((i & 0x33333333u) << 2u) | ((i & 0xCCCCCCCCu) >> 2u);
-  i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
-  i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
-  return double(i) * 0x1p-32;
-}
-
 // One lobe sample in the lobe's own frame (z = lobe axis) with its density.
 struct LobeSample {
   glm::dvec3 local;
