@@ -34,10 +34,11 @@ inline constexpr const char* kGgxLevelMapping =
 struct GgxChainSpec {
   int face = 256;      // level 0's face edge (a power of two)
   int min_face = 16;   // the last level's face edge; each level halves the face
-  // Accuracy of the hierarchical sum (see ggx.cpp): a group of input texels of angular radius
-  // rho stands for its texels (by its moments) only where rho <= opening x its distance from
-  // the lobe's axis (or x the lobe's width). Smaller is slower and closer to the exact sum.
-  double opening = 0.1;
+  // The hierarchical sum's widest opening (see ggx.cpp): a group of input texels of angular
+  // radius rho stands for its texels (by its moments) only where rho <= opening x its distance
+  // from the lobe's axis (or x the lobe's width), and where the bound on that expansion's error
+  // is within its share of the sum. Smaller is slower and closer to the exact sum.
+  double opening = 0.5;
 };
 
 struct GgxLevel {
