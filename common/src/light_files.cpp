@@ -114,6 +114,11 @@ std::string light_json(const LightFilesInput& light) {
   return j.dump(2) + "\n";
 }
 
+std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light) {
+  const nlohmann::json meta = {{"level_mapping", light.level_mapping}, {"roughness", light.roughness}};
+  return encode_ktx2_cube(light.specular, {{"arlight.ggx", meta.dump()}});
+}
+
 namespace {
 
 // EXT_lights_image_based's RGBD (as Babylon.js packs it): rgb = (L D)^(1/2.2), a = D with
@@ -141,9 +146,9 @@ void write_light_files(const std::filesystem::path& dir, const LightFilesInput& 
   using nlohmann::json;
   if (light.specular.empty()) throw std::invalid_argument("light files: no specular chain");
   std::filesystem::create_directories(dir / "lighting");
-  Ktx2KeyValues kv = {{"arlight.ggx", json({{"level_mapping", light.level_mapping},
-                                            {"roughness", light.roughness}}).dump()}};
-  write_ktx2_cube(dir / "specular.ktx2", light.specular, kv);
+  const auto ktx2 = specular_ktx2(light);
+  write_file_atomically(dir / "specular.ktx2",
+                        std::string_view(reinterpret_cast<const char*>(ktx2.data()), ktx2.size()));
   write_file_atomically(dir / "light.json", light_json(light));
 
   // glTF: the face images, and Babylon's irradiance SH (irradiance = A_l c_lm, with the

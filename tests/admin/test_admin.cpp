@@ -316,6 +316,12 @@ class AdminServerTest : public ::testing::Test {
       if (id == "abc-123") return kPng;
       return std::nullopt;
     };
+    h.light_file = [this](const std::string& id, AdminHandlers::LightFile file) -> std::optional<std::string> {
+      ++calls;
+      if (id != "abc-123") return std::nullopt;
+      return file == AdminHandlers::LightFile::Json ? std::string(R"({"sh9":{}})")
+                                                    : std::string("\xabKTX 20\xbb\r\n\x1a\n\0\0", 14);
+    };
     h.healthy = [this] { return healthy.load(); };
     server = std::make_unique<AdminServer>(io, "127.0.0.1", 0, std::move(h),
                                            AdminAccess{kToken, protect_all});
@@ -386,6 +392,21 @@ TEST_F(AdminServerTest, EnvmapPngAndUnknownSession) {
   EXPECT_EQ(r.status, 404);
   EXPECT_EQ(r.content_type.rfind("text/plain", 0), 0u);
   EXPECT_NE(r.body.find("no-such-session"), std::string::npos) << r.body;
+}
+
+TEST_F(AdminServerTest, LightFilesOfASession) {
+  Client c(port);
+  Reply r = c.get("/sessions/abc-123/light.json");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type, "application/json");
+  EXPECT_EQ(r.body, R"({"sh9":{}})");
+  r = c.get("/sessions/abc-123/specular.ktx2");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type, "image/ktx2");
+  EXPECT_EQ(r.body, std::string("\xabKTX 20\xbb\r\n\x1a\n\0\0", 14));  // binary-safe
+  EXPECT_EQ(c.get("/sessions/nope/specular.ktx2").status, 404);
+  EXPECT_EQ(c.get("/sessions/a.b/light.json").status, 400);
+  EXPECT_EQ(c.get("/sessions/abc-123/light.jsonx").status, 404);
 }
 
 TEST_F(AdminServerTest, BadSessionIdsAre400AndNeverReachTheHandler) {

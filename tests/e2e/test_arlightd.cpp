@@ -28,6 +28,7 @@
 #include <thread>
 
 #include "arlight/common/hdr_io.hpp"
+#include "arlight/common/ktx2.hpp"
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
 #include "arlight/protocol/wire.hpp"
@@ -514,6 +515,40 @@ TEST(Arlightd, AdminEndpointsAnswer) {
     EXPECT_EQ(http_get(d.admin(), "/sessions/" + w.session_id + "/envmap.png", token).first, 401);
   }
   EXPECT_EQ(d.admin_get("/sessions/" + w.session_id + "/envmap.png").first, 200);
+}
+
+TEST(Arlightd, AdminServesALiveSessionsLightFiles) {
+  // Issue 34 §2: the light of a session in the files engines read, from the admin port.
+  const fs::path dir = test::fresh_temp_dir("daemon_light_files");
+  DaemonProcess d(dir / "daemon");
+  const auto r = test::run_tool(ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + kToken +
+                                                        " --recording " + sample_recording().string() +
+                                                        " --maps '' --out " + (dir / "replay").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string session = read_json(dir / "replay" / "replay.json")["session_id"];
+  const auto [js, body] = d.admin_get("/sessions/" + session + "/light.json");
+  ASSERT_EQ(js, 200) << body;
+  const json light = json::parse(body);
+  ASSERT_EQ(light["sh9"]["webxr"].size(), 27u);
+  ASSERT_EQ(light["specular"]["levels"].size(), 4u);  // faces 128, 64, 32, 16
+  EXPECT_EQ(light["specular"]["levels"][0]["face"], 128);
+  const auto [ks, ktx] = d.admin_get("/sessions/" + session + "/specular.ktx2");
+  ASSERT_EQ(ks, 200);
+  const Ktx2Cube cube = decode_ktx2_cube(std::span(reinterpret_cast<const std::uint8_t*>(ktx.data()), ktx.size()));
+  ASSERT_EQ(cube.levels.size(), 4u);
+  EXPECT_EQ(cube.levels[0].layout.face_size(), 128);
+  // The two files describe one room: the roughest level (the cosine-weighted mean radiance) has
+  // the sphere's mean radiance, which SH-9's constant term gives as c00 Y00.
+  const EnvMap& rough = cube.levels[3];
+  const TexelTable& t = *texel_table(rough.layout);
+  double mean = 0.0;
+  for (std::size_t e = 0; e < t.size(); ++e)
+    mean += t.solid_angle[e] * rough.image.data()[3 * std::size_t(t.index[e]) + 1] / (4.0 * M_PI);
+  const double c00 = light["sh9"]["webxr"][1].get<double>() * 0.28209479;
+  EXPECT_GT(mean, 0.0);
+  EXPECT_NEAR(mean, c00, 0.03 * c00);
+  EXPECT_EQ(d.admin_get("/sessions/nope/light.json").first, 404);
+  EXPECT_EQ(http_get(d.admin(), "/sessions/" + session + "/specular.ktx2", "").first, 401);
 }
 
 TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {

@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "arlight/common/atomic_file.hpp"
 #include "arlight/common/hdr_io.hpp"
-#include "arlight/common/ktx2.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/common/light_files.hpp"
 #include "arlight/common/sh.hpp"
@@ -71,9 +71,13 @@ int run_ggx(const GgxOptions& o) {
   const lighting::GgxChain chain = chain_of(probe.env, o);
   fs::create_directories(o.out);
   const auto maps = level_maps(chain);
-  const nlohmann::json meta = {{"level_mapping", lighting::kGgxLevelMapping},
-                               {"roughness", level_roughness(chain)}};
-  write_ktx2_cube(fs::path(o.out) / "specular.ktx2", maps, {{"arlight.ggx", meta.dump()}});
+  LightFilesInput light;
+  light.specular = maps;
+  light.roughness = level_roughness(chain);
+  light.level_mapping = lighting::kGgxLevelMapping;
+  const auto ktx2 = specular_ktx2(light);
+  write_file_atomically(fs::path(o.out) / "specular.ktx2",
+                        std::string_view(reinterpret_cast<const char*>(ktx2.data()), ktx2.size()));
 
   nlohmann::json j;
   j["input"] = o.input;

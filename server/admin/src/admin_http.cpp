@@ -90,11 +90,12 @@ bool is_http_parse_error(const beast::error_code& ec) {
   return ec.category() == category;
 }
 
-enum class Route { kHealthz, kMetrics, kSessions, kEnvmap, kNotFound, kBadTarget };
+enum class Route { kHealthz, kMetrics, kSessions, kEnvmap, kLightJson, kSpecularKtx2, kNotFound,
+                   kBadTarget };
 
 struct Resolved {
   Route route = Route::kNotFound;
-  std::string session_id;  // kEnvmap only; not yet validated
+  std::string session_id;  // the session routes only; not yet validated
 };
 
 Resolved resolve(std::string_view target) {
@@ -104,12 +105,14 @@ Resolved resolve(std::string_view target) {
   if (path == "/metrics") return {Route::kMetrics, {}};
   if (path == "/sessions") return {Route::kSessions, {}};
   constexpr std::string_view kPrefix = "/sessions/";
-  constexpr std::string_view kSuffix = "/envmap.png";
-  if (path.size() > kPrefix.size() + kSuffix.size() && path.starts_with(kPrefix) &&
-      path.ends_with(kSuffix)) {
-    return {Route::kEnvmap, std::string(path.substr(
-                                kPrefix.size(), path.size() - kPrefix.size() - kSuffix.size()))};
-  }
+  constexpr std::pair<std::string_view, Route> kFiles[] = {{"/envmap.png", Route::kEnvmap},
+                                                           {"/light.json", Route::kLightJson},
+                                                           {"/specular.ktx2", Route::kSpecularKtx2}};
+  for (const auto& [suffix, route] : kFiles)
+    if (path.size() > kPrefix.size() + suffix.size() && path.starts_with(kPrefix) &&
+        path.ends_with(suffix))
+      return {route, std::string(path.substr(kPrefix.size(),
+                                             path.size() - kPrefix.size() - suffix.size()))};
   return {Route::kNotFound, {}};
 }
 
@@ -190,12 +193,13 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
       case Route::kNotFound:
         return text_response(http::status::not_found,
                              "not found; the admin endpoints are /healthz, /metrics, /sessions "
-                             "and /sessions/<id>/envmap.png\n");
+                             "and /sessions/<id>/{envmap.png, light.json, specular.ktx2}\n");
       default:
         break;
     }
-    const bool protected_route = r.route == Route::kSessions || r.route == Route::kEnvmap ||
-                                 access_->protect_all;
+    const bool session_route = r.route == Route::kEnvmap || r.route == Route::kLightJson ||
+                               r.route == Route::kSpecularKtx2;
+    const bool protected_route = r.route == Route::kSessions || session_route || access_->protect_all;
     if (protected_route) {
       if (!access_->token_digest) {
         return text_response(http::status::forbidden,
@@ -217,7 +221,7 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
       }
     }
     if (req.method() != http::verb::get) return method_not_allowed();
-    if (r.route == Route::kEnvmap && !valid_session_id(r.session_id)) {
+    if (session_route && !valid_session_id(r.session_id)) {
       return text_response(http::status::bad_request,
                            "bad request: a session id is 1 to 128 characters of [A-Za-z0-9-]\n");
     }
@@ -250,6 +254,17 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
           }
           return text_response(http::status::ok, std::string(png->begin(), png->end()),
                                "image/png");
+        }
+        case Route::kLightJson:
+        case Route::kSpecularKtx2: {
+          const bool json = r.route == Route::kLightJson;
+          if (!h.light_file) return not_implemented(json ? "/sessions/<id>/light.json" : "/sessions/<id>/specular.ktx2");
+          std::optional<std::string> body = h.light_file(
+              r.session_id, json ? AdminHandlers::LightFile::Json : AdminHandlers::LightFile::Ktx2);
+          if (!body) {
+            return text_response(http::status::not_found, "no session '" + r.session_id + "'\n");
+          }
+          return text_response(http::status::ok, std::move(*body), json ? "application/json" : "image/ktx2");
         }
         default:
           break;

@@ -227,6 +227,20 @@ struct Daemon::Impl {
         if (it == sessions.end()) return std::nullopt;
         return it->second->envmap_png();
       };
+      h.light_file = [this](const std::string& id, admin::AdminHandlers::LightFile file)
+          -> std::optional<std::string> {
+        std::shared_ptr<Session> session;
+        {
+          std::lock_guard lock(sessions_mutex);
+          const auto it = sessions.find(id);
+          if (it == sessions.end()) return std::nullopt;
+          session = it->second;
+        }
+        // Computed outside the sessions' lock: the chain takes ~0.2 s.
+        Session::LightFiles files = session->light_files();
+        if (file == admin::AdminHandlers::LightFile::Json) return std::move(files.light_json);
+        return std::string(files.specular_ktx2.begin(), files.specular_ktx2.end());
+      };
       h.healthy = [this] { return accepting.load(); };
       const bool default_file = config.admin_token_file.empty();
       admin_token_file = default_file ? config.data_dir / "admin.token" : config.admin_token_file;

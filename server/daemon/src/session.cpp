@@ -12,7 +12,9 @@
 #include "arlight/capture/calibration.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/hdr_io.hpp"
+#include "arlight/common/light_files.hpp"
 #include "arlight/common/resample.hpp"
+#include "arlight/lighting/ggx.hpp"
 #include "arlight/lighting/lighting.hpp"
 #include "map_set_stream.hpp"
 #include "priority.hpp"
@@ -554,6 +556,34 @@ std::vector<std::uint8_t> Session::envmap_png() const {
   std::vector<std::uint8_t> png;
   cv::imencode(".png", out, png);
   return png;
+}
+
+Session::LightFiles Session::light_files() const {
+  std::optional<EnvMap> env;
+  ShCoeffs sh;
+  {
+    std::lock_guard serial(process_mutex_);
+    std::lock_guard lock(mutex_);
+    if (capture_) {
+      env = capture_->environment();
+      sh = capture_->sh();
+    }
+  }
+  if (!env) throw std::runtime_error("session '" + id_ + "' has no map yet (no frame received)");
+  const lighting::GgxChain chain =
+      lighting::compute_ggx_chain(*env, {.face = kLightFileFace, .min_face = 16});
+  std::vector<EnvMap> maps;
+  LightFilesInput light;
+  for (const auto& level : chain.levels) {
+    maps.push_back(level.map);
+    light.roughness.push_back(level.roughness);
+  }
+  light.sh = sh;
+  light.primary = sh_dominant_light(sh);
+  light.specular = maps;
+  light.level_mapping = lighting::kGgxLevelMapping;
+  light.source = "arlightd session " + id_;
+  return {light_json(light), specular_ktx2(light)};
 }
 
 }  // namespace arlight::daemon

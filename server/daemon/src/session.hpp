@@ -126,6 +126,15 @@ class Session : public std::enable_shared_from_this<Session> {
   void shutdown();  // cancels the map computation and waits for running work
   nlohmann::json summary() const;
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
+  // The live map's light in the files engines read (issue 34 §2): light.json's text and
+  // specular.ktx2's bytes (a GGX chain of face kLightFileFace down to 16), computed from the
+  // filled map on request (~0.2 s on two cores).
+  struct LightFiles {
+    std::string light_json;
+    std::vector<std::uint8_t> specular_ktx2;
+  };
+  static constexpr int kLightFileFace = 128;
+  LightFiles light_files() const;
 
  private:
   void process();  // on the worker pool

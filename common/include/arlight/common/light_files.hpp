@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -40,6 +41,9 @@ std::array<float, 27> sh9_unity(const ShCoeffs& sh);
 
 // light.json's text.
 std::string light_json(const LightFilesInput& light);
+// specular.ktx2's bytes: the chain with its level mapping and roughness in the key
+// "arlight.ggx" (JSON). Needs only `specular`, `roughness` and `level_mapping`.
+std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light);
 
 // Writes dir/specular.ktx2, dir/light.json, dir/lighting.gltf and the glTF's face images
 // (dir/lighting/m<L>_<face>.png, RGBD as EXT_lights_image_based defines it). Creates dir.

@@ -6,6 +6,9 @@
 //   GET /sessions                   JSON array of the sessions (application/json)
 //   GET /sessions/<id>/envmap.png   the session's live environment map (image/png); 404 for an
 //                                   unknown session, 400 for an id outside [A-Za-z0-9-]{1,128}
+//   GET /sessions/<id>/light.json   its light for other engines (application/json: SH-9 in
+//   GET /sessions/<id>/specular.ktx2  WebXR/Filament/Unity shapes; the GGX chain as KTX2,
+//                                   image/ktx2); common/light_files.hpp has the formats
 //
 // Access (AdminAccess): the routes that show a room, /sessions and /sessions/<id>/..., need
 // "Authorization: Bearer <token>"; /healthz and /metrics are open (Prometheus and probes scrape
@@ -43,6 +46,10 @@ struct AdminHandlers {
   // PNG bytes of a session's live environment map, std::nullopt if no such session.
   std::function<std::optional<std::vector<std::uint8_t>>(const std::string& session_id)> envmap_png;
   std::function<bool()> healthy;  // /healthz: 200 "ok\n" when true, 503 otherwise
+  // A session's light file: light.json's text or specular.ktx2's bytes, std::nullopt if no
+  // such session.
+  enum class LightFile { Json, Ktx2 };
+  std::function<std::optional<std::string>(const std::string& session_id, LightFile file)> light_file;
 };
 
 struct AdminAccess {
