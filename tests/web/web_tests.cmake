@@ -45,3 +45,8 @@ add_test(NAME web.light_files
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/light_files.test.mjs)
 set_tests_properties(web.light_files PROPERTIES TIMEOUT 120
   ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+# specular.ktx2 through three.js's KTX2Loader into WebGL2 in headless Chromium.
+add_test(NAME web.three_ktx2
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/three_ktx2.test.mjs)
+set_tests_properties(web.three_ktx2 PROPERTIES TIMEOUT 300 RUN_SERIAL TRUE
+  ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
