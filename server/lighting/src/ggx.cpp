@@ -141,7 +141,7 @@ Pyramid build_pyramid(const EnvMap& input) {
   p.finest = int(std::bit_floor(unsigned(std::max(1.0, target))));
   const EnvLayout grid(Projection::Cube, p.finest, 6 * p.finest);
 
-  // Sort the valid texels with radiance by finest cell.
+  // Sort the valid texels by finest cell.
   const float* px = input.image.data();
   std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed;  // (cell, table entry)
   keyed.reserve(table.size());
@@ -350,7 +350,7 @@ ARLIGHT_GGX_CLONES void sum_direction(const Interactions& in, const Lobe& lobe, 
 // `horizon_budget`.
 void gather(const Pyramid& p, glm::dvec3 centre, double tau, double sigma, double opening,
             double horizon_slope, double horizon_budget, const Lobe& lobe, double expansion_budget,
-            bool open_to_texels, Interactions& out) {
+            double expansion_weight_budget, bool open_to_texels, Interactions& out) {
   const double a2 = lobe.a2, k = lobe.k;
   out.clear();
   struct Item {
@@ -380,10 +380,15 @@ void gather(const Pyramid& p, glm::dvec3 centre, double tau, double sigma, doubl
         const double c_hi = std::cos(std::max(dmin, 0.0)), t = a2 + k * (1.0 - c_hi);
         const double f2 = (4.0 * k * t + 6.0 * c_hi * k * k) / (t * t * t * t);
         const double f3 = (18.0 * k * k * t + 24.0 * c_hi * k * k * k) / (t * t * t * t * t);
-        const double uneven = std::clamp((c.peak * c.weight / pmax - 1.0) / 3.0, 0.0, 1.0);
+        const double uneven =
+            pmax > 0.0 ? std::clamp((c.peak * c.weight / pmax - 1.0) / 3.0, 0.0, 1.0) : 0.0;
         // |R.(l - mu)| <= rho sin(angle) + rho^2 / 2 over the cell: its extent in c.
         const double r = c.radius * std::sin(std::min(dmax, kPi / 2)) + 0.5 * c.radius * c.radius;
-        whole = pmax * (f3 * r * r * r / 6.0 + uneven * 0.5 * f2 * r * r) <= expansion_budget;
+        const double third = f3 * r * r * r / 6.0;
+        // The same bound on the weights' sum (the ratio's denominator: a dark cell's weight
+        // counts too), against the tile's smallest weight sum.
+        whole = pmax * (third + uneven * 0.5 * f2 * r * r) <= expansion_budget &&
+                c.weight * third <= expansion_weight_budget;
       }
     }
     if (whole) {
@@ -461,19 +466,21 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
     for (const auto& t : texels) tau = std::max(tau, angle_between(centre, t.second));
     Interactions& in = scratch.local();
     // A coarse first pass bounds the tile's sums from below; the second spends on the horizon
-    // only what that bound says can matter.
+    // and on the cells' expansions only what that bound says can matter.
     constexpr double kNone = std::numeric_limits<double>::infinity();
     gather(pyramid, centre, tau + 1e-6, sigma, kFirstPassOpening, horizon_slope, kNone, lobe, kNone,
-           false, in);
-    double least = std::numeric_limits<double>::infinity();
+           kNone, false, in);
+    double least = std::numeric_limits<double>::infinity(), least_weight = least;
     for (const auto& t : texels) {
       double acc[4] = {0, 0, 0, 0};
       sum_direction(in, lobe, glm::vec3(t.second), acc);
       const double top = std::max({acc[0], acc[1], acc[2]});
       least = std::min(least, std::max(std::min({acc[0], acc[1], acc[2]}), 0.01 * top));
+      least_weight = std::min(least_weight, acc[3]);
     }
     gather(pyramid, centre, tau + 1e-6, sigma, opening, horizon_slope,
-           kHorizonTolerance * std::max(least, 0.0), lobe, kExpansionTolerance * std::max(least, 0.0), true, in);
+           kHorizonTolerance * std::max(least, 0.0), lobe, kExpansionTolerance * std::max(least, 0.0),
+           kExpansionTolerance * std::max(least_weight, 0.0), true, in);
     float* out = result.image.data();
     for (const auto& [pixel, d] : texels) {
       double acc[4] = {0, 0, 0, 0};
