@@ -318,6 +318,7 @@ class AdminServerTest : public ::testing::Test {
     };
     h.light_file = [this](const std::string& id, AdminHandlers::LightFile file) -> std::optional<std::string> {
       ++calls;
+      if (id == "no-frames") throw NotReady("session 'no-frames' has no map yet");
       if (id != "abc-123") return std::nullopt;
       return file == AdminHandlers::LightFile::Json ? std::string(R"({"sh9":{}})")
                                                     : std::string("\xabKTX 20\xbb\r\n\x1a\n\0\0", 14);
@@ -407,6 +408,9 @@ TEST_F(AdminServerTest, LightFilesOfASession) {
   EXPECT_EQ(c.get("/sessions/nope/specular.ktx2").status, 404);
   EXPECT_EQ(c.get("/sessions/a.b/light.json").status, 400);
   EXPECT_EQ(c.get("/sessions/abc-123/light.jsonx").status, 404);
+  r = c.get("/sessions/no-frames/light.json");
+  EXPECT_EQ(r.status, 409);
+  EXPECT_EQ(r.body, "session 'no-frames' has no map yet\n");
 }
 
 TEST_F(AdminServerTest, BadSessionIdsAre400AndNeverReachTheHandler) {

@@ -549,6 +549,12 @@ TEST(Arlightd, AdminServesALiveSessionsLightFiles) {
   EXPECT_NEAR(mean, c00, 0.03 * c00);
   EXPECT_EQ(d.admin_get("/sessions/nope/light.json").first, 404);
   EXPECT_EQ(http_get(d.admin(), "/sessions/" + session + "/specular.ktx2", "").first, 401);
+  // A session that has sent no frame has no light yet: 409, saying so.
+  client::Client fresh;
+  const auto w = fresh.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  const auto [ns, why] = d.admin_get("/sessions/" + w.session_id + "/light.json");
+  EXPECT_EQ(ns, 409);
+  EXPECT_NE(why.find("no map yet"), std::string::npos) << why;
 }
 
 TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {

@@ -269,6 +269,8 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
         default:
           break;
       }
+    } catch (const NotReady& e) {
+      return text_response(http::status::conflict, std::string(e.what()) + "\n");
     } catch (const std::exception& e) {
       return text_response(http::status::internal_server_error,
                            std::string("internal error: ") + e.what() + "\n");

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "arlight/admin/admin_http.hpp"
 #include "arlight/capture/calibration.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/hdr_io.hpp"
@@ -569,7 +570,7 @@ Session::LightFiles Session::light_files() const {
       sh = capture_->sh();
     }
   }
-  if (!env) throw std::runtime_error("session '" + id_ + "' has no map yet (no frame received)");
+  if (!env) throw admin::NotReady("session '" + id_ + "' has no map yet (no frame received)");
   const lighting::GgxChain chain =
       lighting::compute_ggx_chain(*env, {.face = kLightFileFace, .min_face = 16});
   std::vector<EnvMap> maps;

@@ -8,7 +8,8 @@
 //                                   unknown session, 400 for an id outside [A-Za-z0-9-]{1,128}
 //   GET /sessions/<id>/light.json   its light for other engines (application/json: SH-9 in
 //   GET /sessions/<id>/specular.ktx2  WebXR/Filament/Unity shapes; the GGX chain as KTX2,
-//                                   image/ktx2); common/light_files.hpp has the formats
+//                                   image/ktx2); common/light_files.hpp has the formats; 409
+//                                   while the session has no map yet
 //
 // Access (AdminAccess): the routes that show a room, /sessions and /sessions/<id>/..., need
 // "Authorization: Bearer <token>"; /healthz and /metrics are open (Prometheus and probes scrape
@@ -35,10 +36,18 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace arlight::admin {
+
+// Thrown by a handler for a resource that exists but has nothing to show yet (a session that
+// has received no frame): answered 409 with the message.
+class NotReady : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct AdminHandlers {
   std::function<std::string()> metrics;        // Prometheus text
