@@ -547,6 +547,10 @@ TEST(Arlightd, AdminServesALiveSessionsLightFiles) {
   const double c00 = light["sh9"]["webxr"][1].get<double>() * 0.28209479;
   EXPECT_GT(mean, 0.0);
   EXPECT_NEAR(mean, c00, 0.03 * c00);
+  // Both files came from one computation, kept while no frame arrives.
+  EXPECT_EQ(metric(d.admin(), "arlight_light_files_total"), 1.0);
+  EXPECT_EQ(d.admin_get("/sessions/" + session + "/specular.ktx2").second, ktx);
+  EXPECT_EQ(metric(d.admin(), "arlight_light_files_total"), 1.0);
   EXPECT_EQ(d.admin_get("/sessions/nope/light.json").first, 404);
   EXPECT_EQ(http_get(d.admin(), "/sessions/" + session + "/specular.ktx2", "").first, 401);
   // A session that has sent no frame has no light yet: 409, saying so.

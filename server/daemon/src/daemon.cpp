@@ -163,6 +163,8 @@ struct Daemon::Impl {
     session_env.frames_skipped =
         &metrics.counter("arlight_frames_skipped_total", "frames refused by the capture library");
     session_env.map_sets = &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
+    session_env.light_files = &metrics.counter(
+        "arlight_light_files_total", "light files (light.json, specular.ktx2) computed for the admin");
     const std::vector<double> ms = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1};
     session_env.processing_seconds =
         &metrics.histogram("arlight_frame_processing_seconds", "capture time per frame", ms);

@@ -560,11 +560,15 @@ std::vector<std::uint8_t> Session::envmap_png() const {
 }
 
 Session::LightFiles Session::light_files() const {
+  std::lock_guard cached(light_files_mutex_);
   std::optional<EnvMap> env;
   ShCoeffs sh;
+  std::uint64_t frames = 0;
   {
     std::lock_guard serial(process_mutex_);
     std::lock_guard lock(mutex_);
+    frames = processed_;
+    if (light_files_ && light_files_frames_ == frames) return *light_files_;
     if (capture_) {
       env = capture_->environment();
       sh = capture_->sh();
@@ -584,7 +588,10 @@ Session::LightFiles Session::light_files() const {
   light.specular = maps;
   light.level_mapping = lighting::kGgxLevelMapping;
   light.source = "arlightd session " + id_;
-  return {light_json(light), specular_ktx2(light)};
+  light_files_ = std::make_shared<const LightFiles>(LightFiles{light_json(light), specular_ktx2(light)});
+  light_files_frames_ = frames;
+  if (env_.light_files) env_.light_files->inc();
+  return *light_files_;
 }
 
 }  // namespace arlight::daemon

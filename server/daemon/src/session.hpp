@@ -51,6 +51,7 @@ struct SessionEnv {
   admin::Counter* frames_dropped = nullptr;
   admin::Counter* frames_skipped = nullptr;
   admin::Counter* map_sets = nullptr;
+  admin::Counter* light_files = nullptr;
   admin::Histogram* processing_seconds = nullptr;
   admin::Histogram* update_latency_seconds = nullptr;
   admin::Histogram* map_set_seconds = nullptr;
@@ -128,7 +129,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
   // The live map's light in the files engines read (issue 34 §2): light.json's text and
   // specular.ktx2's bytes (a GGX chain of face kLightFileFace down to 16), computed from the
-  // filled map on request (~0.2 s on two cores).
+  // filled map on request (~0.2 s on two cores) and kept until the next frame is merged.
+  // Throws admin::NotReady before the first frame.
   struct LightFiles {
     std::string light_json;
     std::vector<std::uint8_t> specular_ktx2;
@@ -177,7 +179,12 @@ class Session : public std::enable_shared_from_this<Session> {
   // Held while a frame is processed, and by all else that reads or changes capture_ (not
   // thread-safe: even its const reads refit the fill when it is due); taken before mutex_.
   mutable std::mutex process_mutex_;
-  mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
+  mutable std::mutex checkpoint_mutex_;
+  // light_files() of the map after `light_files_frames_` processed frames; taken before
+  // process_mutex_ and mutex_, and held while computing (one computation a session at a time).
+  mutable std::mutex light_files_mutex_;
+  mutable std::shared_ptr<const LightFiles> light_files_;
+  mutable std::uint64_t light_files_frames_ = 0;  // one checkpoint at a time (periodic, Bye, idle, ...)
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
 };
 
