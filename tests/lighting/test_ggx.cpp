@@ -96,7 +96,7 @@ TEST(GgxChain, RoughnessOneIsTheIrradianceMap) {
 
 TEST(GgxChain, MeetsTheExactPrefilterOnThreeProbes) {
   // Mean <= 0.5 %, max <= 3 % at every level (issue 34), here at face 128 of the full probes;
-  // the benchmark (bench/bench_ggx.cpp) measures face 256.
+  // the benchmark (bench/ggx_vs_cmgen.cpp, arlight-bench-ggx) measures face 256.
   for (const char* probe : {"park.exr", "venice.exr", "studio.exr"}) {
     const EnvMap env = load_envmap(kProbes / probe).env;
     const GgxChain chain = compute_ggx_chain(env, {.face = 128, .min_face = 16});
