@@ -6,10 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
-#include <fstream>
 #include <stdexcept>
 
-#include "arlight/common/atomic_file.hpp"
 #include "arlight/common/error.hpp"
 
 namespace arlight {
@@ -133,12 +131,6 @@ std::vector<std::uint8_t> encode_ktx2_cube(std::span<const EnvMap> levels,
   return out;
 }
 
-void write_ktx2_cube(const std::filesystem::path& path, std::span<const EnvMap> levels,
-                     const Ktx2KeyValues& key_values) {
-  const auto bytes = encode_ktx2_cube(levels, key_values);
-  write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-}
-
 Ktx2Cube decode_ktx2_cube(std::span<const std::uint8_t> b) {
   auto fail = [](const std::string& what) { throw InputError("KTX2: " + what); };
   auto get32 = [&](std::size_t at) {
@@ -201,17 +193,6 @@ Ktx2Cube decode_ktx2_cube(std::span<const std::uint8_t> b) {
     cube.levels.push_back(std::move(level));
   }
   return cube;
-}
-
-Ktx2Cube read_ktx2_cube(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("KTX2: cannot open " + path.string());
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  try {
-    return decode_ktx2_cube(bytes);
-  } catch (const InputError& e) {
-    throw InputError(path.string() + ": " + e.what());
-  }
 }
 
 }  // namespace arlight

@@ -119,6 +119,11 @@ std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light) {
   return encode_ktx2_cube(light.specular, {{"arlight.ggx", meta.dump()}});
 }
 
+void write_specular_ktx2(const std::filesystem::path& path, const LightFilesInput& light) {
+  const auto bytes = specular_ktx2(light);
+  write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
 namespace {
 
 // EXT_lights_image_based's RGBD (as Babylon.js packs it): rgb = (L D)^(1/2.2), a = D with
@@ -146,9 +151,7 @@ void write_light_files(const std::filesystem::path& dir, const LightFilesInput& 
   using nlohmann::json;
   if (light.specular.empty()) throw std::invalid_argument("light files: no specular chain");
   std::filesystem::create_directories(dir / "lighting");
-  const auto ktx2 = specular_ktx2(light);
-  write_file_atomically(dir / "specular.ktx2",
-                        std::string_view(reinterpret_cast<const char*>(ktx2.data()), ktx2.size()));
+  write_specular_ktx2(dir / "specular.ktx2", light);
   write_file_atomically(dir / "light.json", light_json(light));
 
   // glTF: the face images, and Babylon's irradiance SH (irradiance = A_l c_lm, with the

@@ -7,7 +7,6 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "arlight/common/atomic_file.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/common/light_files.hpp"
@@ -53,31 +52,17 @@ lighting::GgxChain chain_of(const EnvMap& env, const GgxOptions& o) {
   return lighting::compute_ggx_chain(env, spec);
 }
 
-std::vector<EnvMap> level_maps(const lighting::GgxChain& chain) {
-  std::vector<EnvMap> maps;
-  for (const auto& l : chain.levels) maps.push_back(l.map);
-  return maps;
-}
-
-std::vector<double> level_roughness(const lighting::GgxChain& chain) {
-  std::vector<double> r;
-  for (const auto& l : chain.levels) r.push_back(l.roughness);
-  return r;
-}
-
 int run_ggx(const GgxOptions& o) {
   namespace fs = std::filesystem;
   const LoadedEnvMap probe = load_probe(o.input);
   const lighting::GgxChain chain = chain_of(probe.env, o);
   fs::create_directories(o.out);
-  const auto maps = level_maps(chain);
+  const auto maps = chain.maps();
   LightFilesInput light;
   light.specular = maps;
-  light.roughness = level_roughness(chain);
+  light.roughness = chain.roughness();
   light.level_mapping = lighting::kGgxLevelMapping;
-  const auto ktx2 = specular_ktx2(light);
-  write_file_atomically(fs::path(o.out) / "specular.ktx2",
-                        std::string_view(reinterpret_cast<const char*>(ktx2.data()), ktx2.size()));
+  write_specular_ktx2(fs::path(o.out) / "specular.ktx2", light);
 
   nlohmann::json j;
   j["input"] = o.input;
@@ -89,13 +74,15 @@ int run_ggx(const GgxOptions& o) {
                            {"face", l.map.layout.face_size()}, {"seconds", l.seconds}});
   if (o.latlong) {
     // Each level again in the probe's own lat-long layout, so that probe and level compare
-    // texel by texel (level 0, the mirror, is the probe itself).
-    const EnvLayout layout = probe.env.layout.projection() == Projection::LatLong
-                                 ? probe.env.layout
-                                 : EnvLayout::for_size(Projection::LatLong, o.face);
+    // texel by texel (level 0, the mirror, is the probe itself), over one pyramid of the probe.
+    const bool latlong_input = probe.env.layout.projection() == Projection::LatLong;
+    const EnvLayout layout =
+        latlong_input ? probe.env.layout : EnvLayout::for_size(Projection::LatLong, o.face);
+    const std::vector<double> rough(light.roughness.begin() + 1, light.roughness.end());
+    std::vector<EnvMap> levels = lighting::ggx_prefilter(probe.env, rough, layout);
+    levels.insert(levels.begin(), latlong_input ? probe.env : resample(probe.env, layout));
     for (const auto& l : chain.levels) {
-      const EnvMap map = l.level == 0 ? resample(probe.env, layout)
-                                      : lighting::ggx_prefilter(probe.env, l.roughness, layout);
+      const EnvMap& map = levels[std::size_t(l.level)];
       ImageMetadata md;
       md.projection = Projection::LatLong;
       md.description = "GGX prefilter of " + o.input + ", level " + std::to_string(l.level) +
@@ -114,12 +101,12 @@ int run_ggx(const GgxOptions& o) {
 int run_export(const GgxOptions& o) {
   const LoadedEnvMap probe = load_probe(o.input);
   const lighting::GgxChain chain = chain_of(probe.env, o);
-  const auto maps = level_maps(chain);
+  const auto maps = chain.maps();
   LightFilesInput light;
   light.sh = sh_project(probe.env, 3);
   light.primary = sh_dominant_light(light.sh);
   light.specular = maps;
-  light.roughness = level_roughness(chain);
+  light.roughness = chain.roughness();
   light.level_mapping = lighting::kGgxLevelMapping;
   light.source = o.input;
   write_light_files(o.out, light);

@@ -239,9 +239,9 @@ struct Daemon::Impl {
           session = it->second;
         }
         // Computed outside the sessions' lock: the chain takes ~0.2 s.
-        Session::LightFiles files = session->light_files();
-        if (file == admin::AdminHandlers::LightFile::Json) return std::move(files.light_json);
-        return std::string(files.specular_ktx2.begin(), files.specular_ktx2.end());
+        const auto files = session->light_files();
+        if (file == admin::AdminHandlers::LightFile::Json) return files->light_json;
+        return std::string(files->specular_ktx2.begin(), files->specular_ktx2.end());
       };
       h.healthy = [this] { return accepting.load(); };
       const bool default_file = config.admin_token_file.empty();

@@ -559,7 +559,7 @@ std::vector<std::uint8_t> Session::envmap_png() const {
   return png;
 }
 
-Session::LightFiles Session::light_files() const {
+std::shared_ptr<const Session::LightFiles> Session::light_files() const {
   std::lock_guard cached(light_files_mutex_);
   std::optional<EnvMap> env;
   ShCoeffs sh;
@@ -568,7 +568,7 @@ Session::LightFiles Session::light_files() const {
     std::lock_guard serial(process_mutex_);
     std::lock_guard lock(mutex_);
     frames = processed_;
-    if (light_files_ && light_files_frames_ == frames) return *light_files_;
+    if (light_files_ && light_files_frames_ == frames) return light_files_;
     if (capture_) {
       env = capture_->environment();
       sh = capture_->sh();
@@ -577,12 +577,9 @@ Session::LightFiles Session::light_files() const {
   if (!env) throw admin::NotReady("session '" + id_ + "' has no map yet (no frame received)");
   const lighting::GgxChain chain =
       lighting::compute_ggx_chain(*env, {.face = kLightFileFace, .min_face = 16});
-  std::vector<EnvMap> maps;
+  const std::vector<EnvMap> maps = chain.maps();
   LightFilesInput light;
-  for (const auto& level : chain.levels) {
-    maps.push_back(level.map);
-    light.roughness.push_back(level.roughness);
-  }
+  light.roughness = chain.roughness();
   light.sh = sh;
   light.primary = sh_dominant_light(sh);
   light.specular = maps;
@@ -591,7 +588,7 @@ Session::LightFiles Session::light_files() const {
   light_files_ = std::make_shared<const LightFiles>(LightFiles{light_json(light), specular_ktx2(light)});
   light_files_frames_ = frames;
   if (env_.light_files) env_.light_files->inc();
-  return *light_files_;
+  return light_files_;
 }
 
 }  // namespace arlight::daemon

@@ -136,7 +136,7 @@ class Session : public std::enable_shared_from_this<Session> {
     std::vector<std::uint8_t> specular_ktx2;
   };
   static constexpr int kLightFileFace = 128;
-  LightFiles light_files() const;
+  std::shared_ptr<const LightFiles> light_files() const;
 
  private:
   void process();  // on the worker pool
@@ -179,12 +179,12 @@ class Session : public std::enable_shared_from_this<Session> {
   // Held while a frame is processed, and by all else that reads or changes capture_ (not
   // thread-safe: even its const reads refit the fill when it is due); taken before mutex_.
   mutable std::mutex process_mutex_;
-  mutable std::mutex checkpoint_mutex_;
+  mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
   // light_files() of the map after `light_files_frames_` processed frames; taken before
   // process_mutex_ and mutex_, and held while computing (one computation a session at a time).
   mutable std::mutex light_files_mutex_;
   mutable std::shared_ptr<const LightFiles> light_files_;
-  mutable std::uint64_t light_files_frames_ = 0;  // one checkpoint at a time (periodic, Bye, idle, ...)
+  mutable std::uint64_t light_files_frames_ = 0;
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
 };
 

@@ -16,11 +16,10 @@ namespace arlight::lighting {
 
 namespace detail {
 
-OutputTexels::OutputTexels(const EnvLayout& layout)
+OutputTexels::OutputTexels(const EnvLayout& layout, int kTile)
     : table_(texel_table(layout)), entry_(layout.texel_count(), -1) {
   for (std::size_t i = 0; i < table_->size(); ++i) entry_[table_->index[i]] = std::int32_t(i);
-  // 32x32 tiles; cube faces split at face borders so a tile never spans two faces.
-  constexpr int kTile = 32;
+  // Cube faces split at face borders so a tile never spans two faces.
   const int w = layout.width(), h = layout.height();
   const int band = layout.projection() == Projection::Cube ? layout.face_size() : h;
   for (int y0 = 0; y0 < h; y0 += band)

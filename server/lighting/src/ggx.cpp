@@ -402,21 +402,6 @@ void gather(const Pyramid& p, glm::dvec3 centre, double tau, double sigma, doubl
   }
 }
 
-struct OutputTile {
-  int x, y, width, height;
-};
-
-std::vector<OutputTile> output_tiles(const EnvLayout& layout, int size) {
-  std::vector<OutputTile> tiles;
-  const int w = layout.width(), h = layout.height();
-  const int band = layout.projection() == Projection::Cube ? layout.face_size() : h;
-  for (int y0 = 0; y0 < h; y0 += band)
-    for (int y = y0; y < y0 + band; y += size)
-      for (int x = 0; x < w; x += size)
-        tiles.push_back({x, y, std::min(size, w - x), std::min(size, y0 + band - y)});
-  return tiles;
-}
-
 void check_input(const EnvMap& input) {
   const auto& s = input.image.storage();
   for (std::size_t i = 0; i < s.size(); ++i)
@@ -437,33 +422,21 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
   const double sigma = 2.0 * alpha;
   // f'(0), the lobe's slope in c at the horizon.
   const double horizon_slope = 1.0 / (double(lobe.a2 + lobe.k) * double(lobe.a2 + lobe.k));
-  const TexelTable& table = *texel_table(output);
-  std::vector<std::int32_t> entry(output.texel_count(), -1);
-  for (std::size_t e = 0; e < table.size(); ++e) entry[table.index[e]] = std::int32_t(e);
-
+  const detail::OutputTexels texels_of(output, kTileSize);
   EnvMap result(output);
-  const auto tiles = output_tiles(output, kTileSize);
+  const auto& tiles = texels_of.tiles();
   tbb::enumerable_thread_specific<Interactions> scratch;
   tbb::parallel_for(std::size_t(0), tiles.size(), [&](std::size_t ti) {
     progress.check();
     detail::FlushDenormals ftz;
-    const OutputTile& tile = tiles[ti];
-    std::vector<std::pair<std::size_t, glm::dvec3>> texels;
+    const detail::Tile& tile = tiles[ti];
+    const detail::TileTexels texels = texels_of.collect(tile);
+    if (texels.dirs.empty()) return;
     glm::dvec3 sum(0.0);
-    for (int y = tile.y; y < tile.y + tile.height; ++y)
-      for (int x = tile.x; x < tile.x + tile.width; ++x) {
-        const std::size_t pixel = std::size_t(y) * std::size_t(output.width()) + std::size_t(x);
-        const std::int32_t e = entry[pixel];
-        if (e < 0) continue;
-        const glm::dvec3 d(table.x[std::size_t(e)], table.y[std::size_t(e)], table.z[std::size_t(e)]);
-        texels.emplace_back(pixel, d);
-        sum += d;
-      }
-    if (texels.empty()) return;
-    const glm::dvec3 centre =
-        glm::length(sum) > 1e-9 ? glm::normalize(sum) : texels.front().second;
+    for (const glm::dvec3& d : texels.dirs) sum += d;
+    const glm::dvec3 centre = glm::length(sum) > 1e-9 ? glm::normalize(sum) : texels.dirs.front();
     double tau = 0.0;
-    for (const auto& t : texels) tau = std::max(tau, angle_between(centre, t.second));
+    for (const glm::dvec3& d : texels.dirs) tau = std::max(tau, angle_between(centre, d));
     Interactions& in = scratch.local();
     // A coarse first pass bounds the tile's sums from below; the second spends on the horizon
     // and on the cells' expansions only what that bound says can matter.
@@ -471,9 +444,9 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
     gather(pyramid, centre, tau + 1e-6, sigma, kFirstPassOpening, horizon_slope, kNone, lobe, kNone,
            kNone, false, in);
     double least = std::numeric_limits<double>::infinity(), least_weight = least;
-    for (const auto& t : texels) {
+    for (const glm::dvec3& d : texels.dirs) {
       double acc[4] = {0, 0, 0, 0};
-      sum_direction(in, lobe, glm::vec3(t.second), acc);
+      sum_direction(in, lobe, glm::vec3(d), acc);
       const double top = std::max({acc[0], acc[1], acc[2]});
       least = std::min(least, std::max(std::min({acc[0], acc[1], acc[2]}), 0.01 * top));
       least_weight = std::min(least_weight, acc[3]);
@@ -482,13 +455,14 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
            kHorizonTolerance * std::max(least, 0.0), lobe, kExpansionTolerance * std::max(least, 0.0),
            kExpansionTolerance * std::max(least_weight, 0.0), true, in);
     float* out = result.image.data();
-    for (const auto& [pixel, d] : texels) {
+    for (std::size_t i = 0; i < texels.dirs.size(); ++i) {
       double acc[4] = {0, 0, 0, 0};
-      sum_direction(in, lobe, glm::vec3(d), acc);
+      sum_direction(in, lobe, glm::vec3(texels.dirs[i]), acc);
       for (int ch = 0; ch < 3; ++ch)
-        out[3 * pixel + std::size_t(ch)] = acc[3] > 0.0 ? float(std::max(0.0, acc[ch] / acc[3])) : 0.0f;
+        out[3 * texels.pixels[i] + std::size_t(ch)] =
+            acc[3] > 0.0 ? float(std::max(0.0, acc[ch] / acc[3])) : 0.0f;
     }
-    progress.tile_done(map_index, {tile.x, tile.y, tile.width, tile.height});
+    progress.tile_done(map_index, tile);
   });
   progress.check();
   return result;
@@ -496,12 +470,21 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
 
 }  // namespace
 
-EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& output,
-                     double opening, const Hooks& hooks) {
+std::vector<EnvMap> ggx_prefilter(const EnvMap& input, std::span<const double> roughness,
+                                  const EnvLayout& output, double opening, const Hooks& hooks) {
   check_input(input);
   const Pyramid pyramid = build_pyramid(input);
-  detail::Progress progress(hooks, output_tiles(output, kTileSize).size());
-  return prefilter(pyramid, roughness, output, opening, 0, progress);
+  detail::Progress progress(
+      hooks, roughness.size() * detail::OutputTexels(output, kTileSize).tiles().size());
+  std::vector<EnvMap> maps;
+  for (std::size_t k = 0; k < roughness.size(); ++k)
+    maps.push_back(prefilter(pyramid, roughness[k], output, opening, int(k), progress));
+  return maps;
+}
+
+EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& output,
+                     double opening, const Hooks& hooks) {
+  return std::move(ggx_prefilter(input, std::span(&roughness, 1), output, opening, hooks)[0]);
 }
 
 GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const Hooks& hooks) {
@@ -517,7 +500,7 @@ GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const 
   std::size_t total = 0;
   for (int k = 1; k < levels; ++k) {
     const int f = spec.face >> k;
-    total += output_tiles(EnvLayout(Projection::Cube, f, 6 * f), kTileSize).size();
+    total += detail::OutputTexels(EnvLayout(Projection::Cube, f, 6 * f), kTileSize).tiles().size();
   }
   detail::Progress progress(hooks, total);
   GgxChain chain;

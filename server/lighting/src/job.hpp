@@ -30,7 +30,8 @@ struct TileTexels {
 // The output layout's valid texels, addressable by pixel.
 class OutputTexels {
  public:
-  explicit OutputTexels(const EnvLayout& layout);
+  // Tiles of tile x tile texels; cube faces split at face borders.
+  explicit OutputTexels(const EnvLayout& layout, int tile = 32);
   const EnvLayout& layout() const { return table_->layout; }
   const std::vector<Tile>& tiles() const { return tiles_; }
   // Calls fn(pixel, direction) for every valid texel of `tile` (pixel = y * width + x).

@@ -7,7 +7,6 @@
 #pragma once
 
 #include <cstdint>
-#include <filesystem>
 #include <span>
 #include <string>
 #include <utility>
@@ -26,9 +25,6 @@ using Ktx2KeyValues = std::vector<std::pair<std::string, std::string>>;
 // Throws std::invalid_argument for levels that do not form a chain.
 std::vector<std::uint8_t> encode_ktx2_cube(std::span<const EnvMap> levels,
                                            const Ktx2KeyValues& key_values = {});
-// Writes them atomically (a reader never sees half a file).
-void write_ktx2_cube(const std::filesystem::path& path, std::span<const EnvMap> levels,
-                     const Ktx2KeyValues& key_values = {});
 
 struct Ktx2Cube {
   std::vector<EnvMap> levels;
@@ -37,6 +33,5 @@ struct Ktx2Cube {
 // Reads a file encode_ktx2_cube's layout describes (RGBA16F or RGBA32F cube, uncompressed),
 // checking every offset and length. Throws InputError naming what is wrong.
 Ktx2Cube decode_ktx2_cube(std::span<const std::uint8_t> bytes);
-Ktx2Cube read_ktx2_cube(const std::filesystem::path& path);
 
 }  // namespace arlight

@@ -44,6 +44,8 @@ std::string light_json(const LightFilesInput& light);
 // specular.ktx2's bytes: the chain with its level mapping and roughness in the key
 // "arlight.ggx" (JSON). Needs only `specular`, `roughness` and `level_mapping`.
 std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light);
+// The same written to `path` atomically (a reader never sees half a file).
+void write_specular_ktx2(const std::filesystem::path& path, const LightFilesInput& light);
 
 // Writes dir/specular.ktx2, dir/light.json, dir/lighting.gltf and the glTF's face images
 // (dir/lighting/m<L>_<face>.png, RGBD as EXT_lights_image_based defines it). Creates dir.

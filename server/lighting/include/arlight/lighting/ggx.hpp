@@ -51,6 +51,18 @@ struct GgxLevel {
 struct GgxChain {
   std::vector<GgxLevel> levels;
   double total_seconds = 0.0;
+
+  // The levels' maps and roughness, level 0 first (what the light files take).
+  std::vector<EnvMap> maps() const {
+    std::vector<EnvMap> m;
+    for (const GgxLevel& l : levels) m.push_back(l.map);
+    return m;
+  }
+  std::vector<double> roughness() const {
+    std::vector<double> r;
+    for (const GgxLevel& l : levels) r.push_back(l.roughness);
+    return r;
+  }
 };
 
 // The chain of `input` (any projection; values finite and >= 0), on all cores. Level 0 is the
@@ -60,7 +72,11 @@ struct GgxChain {
 GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec = {},
                            const Hooks& hooks = {});
 
-// The prefilter for one roughness (> 0) in any output layout, by the hierarchical sum.
+// The prefilter for each roughness (> 0) in any output layout, by the hierarchical sum over
+// one pyramid of the input (hooks.on_tile reports tiles with map = the index in `roughness`).
+std::vector<EnvMap> ggx_prefilter(const EnvMap& input, std::span<const double> roughness,
+                                  const EnvLayout& output, double opening = GgxChainSpec{}.opening,
+                                  const Hooks& hooks = {});
 EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& output,
                      double opening = GgxChainSpec{}.opening, const Hooks& hooks = {});
 
