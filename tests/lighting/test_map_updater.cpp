@@ -8,6 +8,7 @@
 #include <numbers>
 #include <stop_token>
 
+#include "../support/env_fixtures.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/lighting.hpp"
@@ -29,18 +30,7 @@ EnvMap venice() {
   return env;
 }
 
-// `env` with every texel within `radius` of `centre` times `factor`; returns the share changed.
-double scale_cap(EnvMap& env, glm::dvec3 centre, double radius, float factor) {
-  const auto table = texel_table(env.layout);
-  double share = 0.0;
-  for (std::size_t i = 0; i < table->size(); ++i) {
-    if (glm::dot(glm::dvec3(table->x[i], table->y[i], table->z[i]), centre) < std::cos(radius))
-      continue;
-    for (int c = 0; c < 3; ++c) env.image.data()[3 * std::size_t(table->index[i]) + c] *= factor;
-    share += 1.0 / double(table->size());
-  }
-  return share;
-}
+using test::scale_cap;
 
 const EnvLayout kOutput = EnvLayout::for_size(Projection::AngleMap, 64);
 

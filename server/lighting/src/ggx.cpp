@@ -38,6 +38,7 @@
 
 #include "arlight/common/error.hpp"
 #include "arlight/common/resample.hpp"
+#include "ggx_detail.hpp"
 #include "job.hpp"
 #include "kernels.hpp"
 
@@ -410,8 +411,11 @@ void check_input(const EnvMap& input) {
                        std::to_string(i / 3) + " (sanitize it first)");
 }
 
+// The prefilter at `roughness` in `output`; with `redo` (one flag per tile of
+// detail::ggx_tiles(output)) only the flagged tiles, the others copied from `previous`.
 EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& output,
-                 double opening, int map_index, detail::Progress& progress) {
+                 double opening, int map_index, detail::Progress& progress,
+                 const std::vector<char>* redo = nullptr, const EnvMap* previous = nullptr) {
   if (!(roughness > 0.0 && roughness <= 1.0))
     throw InputError("GGX prefilter: roughness must lie in (0, 1], got " + std::to_string(roughness));
   if (!(opening > 0.0 && opening < 1.0))
@@ -422,11 +426,12 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
   const double sigma = 2.0 * alpha;
   // f'(0), the lobe's slope in c at the horizon.
   const double horizon_slope = 1.0 / (double(lobe.a2 + lobe.k) * double(lobe.a2 + lobe.k));
-  const detail::OutputTexels texels_of(output, kTileSize);
-  EnvMap result(output);
+  const detail::OutputTexels texels_of = detail::ggx_tiles(output);
+  EnvMap result = previous ? *previous : EnvMap(output);
   const auto& tiles = texels_of.tiles();
   tbb::enumerable_thread_specific<Interactions> scratch;
   tbb::parallel_for(std::size_t(0), tiles.size(), [&](std::size_t ti) {
+    if (redo && !(*redo)[ti]) return;
     progress.check();
     detail::FlushDenormals ftz;
     const detail::Tile& tile = tiles[ti];
@@ -474,8 +479,7 @@ std::vector<EnvMap> ggx_prefilter(const EnvMap& input, std::span<const double> r
                                   const EnvLayout& output, double opening, const Hooks& hooks) {
   check_input(input);
   const Pyramid pyramid = build_pyramid(input);
-  detail::Progress progress(
-      hooks, roughness.size() * detail::OutputTexels(output, kTileSize).tiles().size());
+  detail::Progress progress(hooks, roughness.size() * detail::ggx_tiles(output).tiles().size());
   std::vector<EnvMap> maps;
   for (std::size_t k = 0; k < roughness.size(); ++k)
     maps.push_back(prefilter(pyramid, roughness[k], output, opening, int(k), progress));
@@ -487,44 +491,81 @@ EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& out
   return std::move(ggx_prefilter(input, std::span(&roughness, 1), output, opening, hooks)[0]);
 }
 
-GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const Hooks& hooks) {
+namespace detail {
+
+OutputTexels ggx_tiles(const EnvLayout& output) { return OutputTexels(output, kTileSize); }
+
+int ggx_chain_levels(const GgxChainSpec& spec) {
   if (spec.face < 1 || !std::has_single_bit(unsigned(spec.face)))
     throw InputError("GGX chain: the face size must be a power of two, got " + std::to_string(spec.face));
   if (spec.min_face < 1 || spec.min_face > spec.face || !std::has_single_bit(unsigned(spec.min_face)))
     throw InputError("GGX chain: the smallest face must be a power of two from 1 to the face size (" +
                      std::to_string(spec.face) + "), got " + std::to_string(spec.min_face));
+  return std::countr_zero(unsigned(spec.face)) - std::countr_zero(unsigned(spec.min_face)) + 1;
+}
+
+double ggx_lobe_value(double roughness, double cos_angle) {
+  if (!(cos_angle > 0.0)) return 0.0;
+  const double alpha = roughness * roughness, a2 = alpha * alpha, k = (1.0 - a2) / 2.0;
+  const double t = a2 + (1.0 - cos_angle) * k;
+  return cos_angle / (t * t);
+}
+
+double ggx_lobe_integral(double roughness) {
+  const double alpha = roughness * roughness, a2 = alpha * alpha, k = (1.0 - a2) / 2.0;
+  // 2 pi x integral over c in [0, 1] of c / (a2 + (1 - c) k)^2; with s = a2 + (1 - c) k it is
+  // (1 / k) [(1 + a2 / k)(1 / a2 - 1 / (a2 + k)) - ln((a2 + k) / a2) / k].
+  if (k < 1e-6) return std::numbers::pi / (a2 * a2);  // r = 1: the cosine lobe / a2^2
+  const double b = a2 + k;
+  return 2.0 * std::numbers::pi / k *
+         ((1.0 + a2 / k) * (1.0 / a2 - 1.0 / b) - std::log(b / a2) / k);
+}
+
+GgxChain ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const Hooks& hooks,
+                   const GgxChain* previous, const std::vector<std::vector<char>>* redo) {
+  const int levels = ggx_chain_levels(spec);
   check_input(input);
   const auto t0 = std::chrono::steady_clock::now();
-  const int levels = std::countr_zero(unsigned(spec.face)) -
-                     std::countr_zero(unsigned(spec.min_face)) + 1;
   std::size_t total = 0;
   for (int k = 1; k < levels; ++k) {
     const int f = spec.face >> k;
-    total += detail::OutputTexels(EnvLayout(Projection::Cube, f, 6 * f), kTileSize).tiles().size();
+    if (redo)
+      total += std::size_t(std::count((*redo)[std::size_t(k)].begin(), (*redo)[std::size_t(k)].end(), 1));
+    else
+      total += ggx_tiles(EnvLayout(Projection::Cube, f, 6 * f)).tiles().size();
   }
-  detail::Progress progress(hooks, total);
+  Progress progress(hooks, std::max<std::size_t>(total, 1));
   GgxChain chain;
   {
     const auto t = std::chrono::steady_clock::now();
-    GgxLevel mirror{0, 0.0, resample(input, EnvLayout(Projection::Cube, spec.face, 6 * spec.face)), 0.0};
-    mirror.seconds = detail::seconds_since(t);
+    const EnvLayout mirror_layout(Projection::Cube, spec.face, 6 * spec.face);
+    GgxLevel mirror{0, 0.0,
+                    input.layout == mirror_layout ? input : resample(input, mirror_layout), 0.0};
+    mirror.seconds = seconds_since(t);
     chain.levels.push_back(std::move(mirror));
   }
   const auto tp = std::chrono::steady_clock::now();
   const Pyramid pyramid = build_pyramid(input);
-  const double pyramid_seconds = detail::seconds_since(tp);
+  const double pyramid_seconds = seconds_since(tp);
   for (int k = 1; k < levels; ++k) {
     const auto t = std::chrono::steady_clock::now();
     const int f = spec.face >> k;
     const double r = ggx_level_roughness(k, levels);
-    EnvMap map =
-        prefilter(pyramid, r, EnvLayout(Projection::Cube, f, 6 * f), spec.opening, k, progress);
+    EnvMap map = prefilter(pyramid, r, EnvLayout(Projection::Cube, f, 6 * f), spec.opening, k,
+                           progress, redo ? &(*redo)[std::size_t(k)] : nullptr,
+                           previous ? &previous->levels[std::size_t(k)].map : nullptr);
     // The pyramid serves every level; its build counts towards the first.
-    const double s = detail::seconds_since(t) + (k == 1 ? pyramid_seconds : 0.0);
+    const double s = seconds_since(t) + (k == 1 ? pyramid_seconds : 0.0);
     chain.levels.push_back({k, r, std::move(map), s});
   }
-  chain.total_seconds = detail::seconds_since(t0);
+  chain.total_seconds = seconds_since(t0);
   return chain;
+}
+
+}  // namespace detail
+
+GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec, const Hooks& hooks) {
+  return detail::ggx_chain(input, spec, hooks, nullptr, nullptr);
 }
 
 }  // namespace arlight::lighting

@@ -163,6 +163,24 @@ struct AutoMemory {
 
 ComputedMapSet run_auto(const Job& job, AutoMemory* memory = nullptr);
 
+// Where an input changed since `base` (same layout), which takes the changed texels' new values
+// (MapUpdater, GgxUpdater). A texel counts as changed when a channel moved by more than
+// `tolerance` x (its larger value + a tenth of the mean luminance), or by `estimated_tolerance`
+// x that where `measured` (one share per texel, or empty: all measured) says it was estimated.
+struct InputChanges {
+  // Cones holding every changed texel: unit centre, angular radius and the sum of
+  // max_c |change_c| x solid angle over their texels.
+  std::vector<glm::dvec3> centre;
+  std::vector<double> radius, power;
+  double max_radius = 0.0, changed_power = 0.0;  // over all cones
+  double mean = 0.0;   // the input's mean luminance
+  double share = 0.0;  // of the input's texels that changed
+};
+InputChanges find_changes(const EnvMap& input, EnvMap& base, double tolerance,
+                          std::span<const float> measured, double estimated_tolerance);
+// Throws std::invalid_argument unless `measured` is empty or has one share per input texel.
+void check_measured(const EnvMap& input, std::span<const float> measured, const char* who);
+
 // Throws std::invalid_argument for an empty list or a shininess below 1.
 void check_shininess(std::span<const double> shininess);
 // compute_maps() over prepared output texels, with method auto's memory (may be null).

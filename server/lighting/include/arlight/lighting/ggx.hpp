@@ -9,6 +9,7 @@
 // at every roughness; r = 1 (D constant) gives the cosine-weighted mean, the irradiance map.
 #pragma once
 
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -71,6 +72,35 @@ struct GgxChain {
 // when hooks.stop is requested (hooks.on_tile reports tiles with map = the level).
 GgxChain compute_ggx_chain(const EnvMap& input, const GgxChainSpec& spec = {},
                            const Hooks& hooks = {});
+
+// A GGX chain that follows a changing environment, as MapUpdater does for the Phong set (issue
+// 34 §2): each update finds the input texels that changed (in cones, with the power of their
+// change) and recomputes only the output tiles of each level those changes can move by more
+// than `tolerance` of the tile's smallest value, bounded by the lobe's peak value over the
+// cone's nearest approach. What a tile skips adds up (its debt) until it is recomputed, so many
+// small changes do not drift past the tolerance either. Level 0 (the mirror) is made afresh.
+// The first update, and one with another input layout, computes everything.
+class GgxUpdater {
+ public:
+  explicit GgxUpdater(GgxChainSpec spec = {}, double tolerance = 0.02);
+  ~GgxUpdater();
+  GgxUpdater(GgxUpdater&&) noexcept;
+  GgxUpdater& operator=(GgxUpdater&&) noexcept;
+
+  // Throws as compute_ggx_chain does; `measured` as MapUpdater::update takes it. After a throw
+  // (Cancelled too) the next update judges against the last chain that completed.
+  const GgxChain& update(const EnvMap& input, const Hooks& hooks = {},
+                         std::span<const float> measured = {});
+  // Of the last update: the share of each level's tiles recomputed, and of the input's texels
+  // that counted as changed.
+  std::span<const double> recomputed() const;
+  double changed() const;
+  const GgxChainSpec& spec() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // The prefilter for each roughness (> 0) in any output layout, by the hierarchical sum over
 // one pyramid of the input (hooks.on_tile reports tiles with map = the index in `roughness`).
