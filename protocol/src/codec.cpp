@@ -89,7 +89,8 @@ Offset<void> build(FlatBufferBuilder& b, const CalibrationSet& m) {
 
 Offset<void> build(FlatBufferBuilder& b, const RequestMaps& m) {
   return fb::CreateRequestMaps(b, b.CreateVector(m.shininess), m.size,
-                               fb::Projection(int(m.projection)), text(b, m.method))
+                               fb::Projection(int(m.projection)), text(b, m.method),
+                               fb::MapKind(int(m.kind)), m.levels)
       .Union();
 }
 
@@ -132,7 +133,8 @@ Offset<void> build(FlatBufferBuilder& b, const MapTile& m) {
   const auto data = b.CreateVector(m.data);
   return fb::CreateMapTile(b, m.map_set, m.map_index, m.shininess,
                            fb::Projection(int(m.projection)), m.map_width, m.map_height, m.level,
-                           m.x, m.y, m.width, m.height, data, fb::TileCoding(int(m.coding)))
+                           m.x, m.y, m.width, m.height, data, fb::TileCoding(int(m.coding)),
+                           fb::MapKind(int(m.kind)), m.roughness)
       .Union();
 }
 
@@ -190,6 +192,13 @@ Projection projection(fb::Projection p, const char* message) {
   if (v < int(Projection::AngleMap) || v > int(Projection::Cube))
     refuse(Fault::OutOfRange, message, "projection", "unknown projection " + std::to_string(v));
   return Projection(v);
+}
+
+MapKind map_kind(fb::MapKind k, const char* message) {
+  const int v = int(k);
+  if (v < int(MapKind::Phong) || v > int(MapKind::Ggx))
+    refuse(Fault::OutOfRange, message, "kind", "unknown map kind " + std::to_string(v));
+  return MapKind(v);
 }
 
 Hello read(const fb::Hello& m, const WireLimits&) {
@@ -299,6 +308,8 @@ RequestMaps read(const fb::RequestMaps& m, const WireLimits& limits) {
   r.size = m.size();
   r.projection = projection(m.projection(), "RequestMaps");
   r.method = text(m.method(), "RequestMaps", "method");
+  r.kind = map_kind(m.kind(), "RequestMaps");
+  r.levels = m.levels();
   return r;
 }
 
@@ -391,6 +402,11 @@ MapTile read(const fb::MapTile& m, const WireLimits&) {
   if (coding < int(TileCoding::ZstdHalf) || coding > int(TileCoding::Half))
     refuse(Fault::OutOfRange, name, "coding", "unknown tile coding " + std::to_string(coding));
   t.coding = TileCoding(coding);
+  t.kind = map_kind(m.kind(), name);
+  t.roughness = m.roughness();
+  if (t.kind == MapKind::Ggx && !(t.roughness >= 0.0f && t.roughness <= 1.0f))
+    refuse(Fault::OutOfRange, name, "roughness",
+           std::to_string(t.roughness) + " is not a roughness in [0, 1]");
   if (t.map_index >= kMaxMapIndex)
     refuse(Fault::OutOfRange, name, "map_index", std::to_string(t.map_index) + " is over 63");
   if (t.map_width == 0 || t.map_height == 0 || t.map_width > kMaxMapSide ||

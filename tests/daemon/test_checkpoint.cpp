@@ -58,6 +58,8 @@ void expect_same(const SessionCheckpoint& a, const SessionCheckpoint& b) {
     EXPECT_EQ(a.request->size, b.request->size);
     EXPECT_EQ(a.request->projection, b.request->projection);
     EXPECT_EQ(a.request->method, b.request->method);
+    EXPECT_EQ(a.request->kind, b.request->kind);
+    EXPECT_EQ(a.request->levels, b.request->levels);
   }
   EXPECT_EQ(a.accumulators.weight, b.accumulators.weight);
   EXPECT_EQ(a.accumulators.weighted_radiance, b.accumulators.weighted_radiance);
@@ -85,6 +87,18 @@ TEST(Checkpoint, RoundTripsEverythingAndKeepsOnlyTheNewestGeneration) {
   EXPECT_EQ(meta.at("version"), kCheckpointVersion);
   EXPECT_EQ(meta.at("checksum_xxh3").get<std::uint64_t>(),
             checkpoint_xxh3(read_bytes(dir / "accum-2.bin")));
+}
+
+// A session that asked for a GGX chain resumes asking for it (issue 34 §2).
+TEST(Checkpoint, KeepsAGgxChainRequest) {
+  const fs::path dir = fresh_dir("ggx");
+  SessionCheckpoint c = sample();
+  c.request = MapRequest{.shininess = {}, .size = 256, .kind = wire::MapKind::Ggx, .levels = 5};
+  write_checkpoint(dir, c, 1);
+  const auto back = read_checkpoint(dir);
+  ASSERT_TRUE(back);
+  expect_same(c, *back);
+  EXPECT_EQ(back->request->ggx_min_face(), 16);
 }
 
 // A version 1 checkpoint exactly as arlightd wrote it before this format (FNV-1a checksum).

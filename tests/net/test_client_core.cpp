@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "arlight/net/client_messages.hpp"
 #include "arlight/net/lighting_state.hpp"
 #include "arlight/net/map_assembly.hpp"
 
@@ -38,6 +39,36 @@ std::vector<wire::MapTile> tiles_of(std::uint32_t set, int maps) {
   return out;
 }
 
+wire::RequestMaps phong(const std::vector<double>& shininess) {
+  return map_request(shininess, kSize, Projection::AngleMap);
+}
+
+// A GGX chain from face 16 down to `last` (16x96 cubes, then 8x48, ...), in 8x8 tiles; the
+// roughness per level as given.
+std::vector<wire::MapTile> chain_of(std::uint32_t set, const std::vector<float>& roughness) {
+  std::vector<wire::MapTile> out;
+  for (std::size_t k = 0; k < roughness.size(); ++k) {
+    const int face = kSize >> k, tile = std::min(kTile, face);
+    for (int y = 0; y < 6 * face; y += tile)
+      for (int x = 0; x < face; x += tile) {
+        const std::vector<float> px(std::size_t(tile * tile * 3), float(k + 1));
+        out.push_back({.map_set = set,
+                       .map_index = std::uint16_t(k),
+                       .projection = Projection::Cube,
+                       .map_width = std::uint32_t(face),
+                       .map_height = std::uint32_t(6 * face),
+                       .x = std::uint32_t(x),
+                       .y = std::uint32_t(y),
+                       .width = std::uint32_t(tile),
+                       .height = std::uint32_t(tile),
+                       .data = wire::encode_half_rgb(px.data(), px.size() / 3),
+                       .kind = wire::MapKind::Ggx,
+                       .roughness = roughness[k]});
+      }
+  }
+  return out;
+}
+
 wire::MapSetComplete done(std::uint32_t set, int maps) {
   return {
       .map_set = set, .maps = std::uint16_t(maps), .seconds = 0.1f, .coverage = 0.5f, .frames = 7};
@@ -47,7 +78,7 @@ wire::MapSetComplete done(std::uint32_t set, int maps) {
 
 TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
   MapSetAssembler a;
-  a.expect({10.0, 20.0});
+  a.expect(phong({10.0, 20.0}));
   for (const auto& t : tiles_of(3, 2)) a.add_tile(t);
   const auto set = a.complete(done(3, 2));
   ASSERT_TRUE(set);
@@ -63,7 +94,7 @@ TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
 // and the next whole set is used.
 TEST(MapSetAssembler, ASetMissingItsFirstTilesIsDroppedAndTheNextWholeOneUsed) {
   MapSetAssembler a;
-  a.expect({10.0, 20.0, 30.0});
+  a.expect(phong({10.0, 20.0, 30.0}));
   const auto tiles = tiles_of(4, 3);
   for (std::size_t i = 5; i < tiles.size(); ++i)
     a.add_tile(tiles[i]);  // map 0 and part of map 1 lost
@@ -84,12 +115,46 @@ TEST(MapSetAssembler, ASetThisConnectionDidNotAskForIsNotUsed) {
   MapSetAssembler a;
   for (const auto& t : tiles_of(7, 2)) a.add_tile(t);
   EXPECT_FALSE(a.complete(done(7, 2)));  // no request yet
-  a.expect({10.0, 40.0});
+  a.expect(phong({10.0, 40.0}));
   for (const auto& t : tiles_of(8, 2)) a.add_tile(t);
   EXPECT_FALSE(a.complete(done(8, 2)));  // 10, 20: not what was asked
-  a.expect({10.0, 20.0});
+  a.expect(phong({10.0, 20.0}));
   for (const auto& t : tiles_of(9, 2)) a.add_tile(t);
   EXPECT_TRUE(a.complete(done(9, 2)));
+}
+
+// A GGX chain (issue 34 §2): whole, with as many levels as asked, each half the face of the one
+// before and rising roughness from the mirror; it goes to Lighting::ggx, not the Phong maps.
+TEST(MapSetAssembler, AGgxChainCompletesOnlyAsAsked) {
+  MapSetAssembler a;
+  a.expect(ggx_request(16, 3));
+  for (const auto& t : chain_of(1, {0.0f, 0.3f, 1.0f})) a.add_tile(t);
+  const auto set = a.complete(done(1, 3));
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->kind, wire::MapKind::Ggx);
+  EXPECT_EQ(set->roughness, (std::vector<double>{0.0, double(0.3f), 1.0}));
+  ASSERT_EQ(set->maps.size(), 3u);
+  EXPECT_EQ(set->maps[2].layout.width(), 4);
+  EXPECT_EQ(set->maps[2].image.at(3, 23).b, 3.0f);
+  // Two levels where three were asked; roughness that falls; a Phong set for a chain request.
+  for (const auto& t : chain_of(2, {0.0f, 0.3f})) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(2, 2)));
+  for (const auto& t : chain_of(3, {0.0f, 0.5f, 0.3f})) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(3, 3)));
+  for (const auto& t : tiles_of(4, 3)) a.add_tile(t);
+  EXPECT_FALSE(a.complete(done(4, 3)));
+  // Levels 0 asks for the face down to 16: one level from 16.
+  a.expect(ggx_request(16));
+  for (const auto& t : chain_of(5, {0.0f})) a.add_tile(t);
+  EXPECT_TRUE(a.complete(done(5, 1)));
+
+  LightingState state;
+  state.expect_maps(ggx_request(16, 2));
+  for (const auto& t : chain_of(6, {0.0f, 1.0f})) state.receive(wire::MapTile(t));
+  EXPECT_EQ(state.receive(done(6, 2)), LightingState::Change::MapSet);
+  ASSERT_TRUE(state.lighting().ggx);
+  EXPECT_FALSE(state.lighting().maps);
+  EXPECT_EQ(state.lighting().ggx_version, 1u);
 }
 
 TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
@@ -124,7 +189,7 @@ TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
     EXPECT_EQ(state.receive(wire::MapTile(t)), Change::Nothing);
   EXPECT_EQ(state.receive(done(1, 2)), Change::Nothing);
   EXPECT_FALSE(l.maps);
-  state.expect_maps({10.0, 20.0});
+  state.expect_maps(client::map_request({10.0, 20.0}, 16, Projection::AngleMap));
   for (const auto& t : tiles_of(2, 2)) state.receive(wire::MapTile(t));
   EXPECT_EQ(state.receive(done(2, 2)), Change::MapSet);
   ASSERT_TRUE(l.maps);

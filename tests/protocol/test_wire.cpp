@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 
 #include "arlight/protocol/wire.hpp"
@@ -125,6 +126,12 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   EXPECT_EQ(e.field(), "coding");
   EXPECT_EQ(e.code(), wire::ErrorCode::Unsupported);
 
+  wire::RequestMaps kind{{1.0f}, 64, Projection::Cube, "auto"};
+  kind.kind = wire::MapKind(3);
+  e = refusal(wire::encode(kind));
+  EXPECT_EQ(e.message(), "RequestMaps");
+  EXPECT_EQ(e.field(), "kind");
+
   e = refusal(wire::encode(wire::Error{wire::ErrorCode(99), "?"}));
   EXPECT_EQ(e.fault(), Fault::OutOfRange);
   EXPECT_EQ(e.field(), "code");
@@ -136,6 +143,29 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   e = refusal(
       wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 13, 0, 0, 1, 1, {1}}));
   EXPECT_EQ(e.field(), "level");
+  e = refusal(wire::encode(wire::MapTile{1, 0, 0.0f, Projection::Cube, 8, 48, 0, 0, 0, 8, 8, {1},
+                                         wire::TileCoding::Half, wire::MapKind::Ggx, 1.5f}));
+  EXPECT_EQ(e.field(), "roughness");
+}
+
+// Messages from before the GGX chain (issue 34 §2) carry no kind: they read as the Phong set.
+TEST(WireCodec, OldMapMessagesReadAsPhong) {
+  const fs::path valid = fs::path(ARLIGHT_SOURCE_DIR) / "tests/protocol/corpus/valid";
+  for (const char* name : {"4-RequestMaps", "9-MapTile"}) {
+    std::ifstream in(valid / name, std::ios::binary);
+    ASSERT_TRUE(in) << name;
+    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+    const wire::Message m = wire::decode(bytes);
+    if (const auto* r = std::get_if<wire::RequestMaps>(&m)) {
+      EXPECT_EQ(r->kind, wire::MapKind::Phong);
+      EXPECT_EQ(r->levels, 0);
+      EXPECT_EQ(r->size, 256u);
+    } else {
+      const auto& t = std::get<wire::MapTile>(m);
+      EXPECT_EQ(t.kind, wire::MapKind::Phong);
+      EXPECT_EQ(t.shininess, 40.0f);
+    }
+  }
 }
 
 // LightingUpdate's fractions and exposure (issue 16): outside their ranges a message is

@@ -38,7 +38,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::CameraIntrinsicsMessage{k},
       sample_frame(7, true),
       wire::CalibrationSet{"debevec", {sample_frame(1, true), sample_frame(2, false)}},
-      wire::RequestMaps{{1.0f, 10.0f, 1280.0f}, 256, Projection::Cube, "sh:12"},
+      wire::RequestMaps{{1.0f, 10.0f, 1280.0f}, 256, Projection::Cube, "sh:12", wire::MapKind::Ggx, 5},
       wire::Ping{0xfeedfacecafebeefull},
       wire::Bye{},
       wire::Welcome{
@@ -56,7 +56,8 @@ inline std::vector<wire::Message> messages_with_every_field() {
                            .frame_exposure = 0.0125,
                            .sun_state = SunState::Confirmed,
                            .sun_direction = {0.0f, 0.6f, -0.8f}},
-      wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3}, wire::TileCoding::Half},
+      wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3},
+                    wire::TileCoding::Half, wire::MapKind::Ggx, 0.25f},
       wire::MapSetComplete{3, 8, 0.25f, 0.5f, 120},
       wire::Progress{3, 5, 10},
       wire::Error{wire::ErrorCode::SessionNotFound, "no session 42 for this device"},

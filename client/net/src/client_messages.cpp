@@ -22,6 +22,15 @@ wire::RequestMaps map_request(const std::vector<double>& shininess, int size, Pr
                            std::uint32_t(size), projection, method};
 }
 
+wire::RequestMaps ggx_request(int face, int levels) {
+  wire::RequestMaps r;
+  r.size = std::uint32_t(face);
+  r.projection = Projection::Cube;
+  r.kind = wire::MapKind::Ggx;
+  r.levels = std::uint8_t(levels);
+  return r;
+}
+
 wire::Location make_location(const GeoLocation& where, double utc_seconds,
                              std::optional<double> north_offset_deg) {
   if (north_offset_deg && !(std::abs(*north_offset_deg) <= 180.0))

@@ -247,11 +247,15 @@ void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int 
 
 void Client::request_maps(const std::vector<double>& shininess, int size, Projection projection,
                           const std::string& method) {
+  request_maps(map_request(shininess, size, projection, method));
+}
+
+void Client::request_maps(const wire::RequestMaps& request) {
   {
     std::lock_guard lock(impl_->mutex);
-    impl_->state.expect_maps(shininess);
+    impl_->state.expect_maps(request);
   }
-  impl_->send(map_request(shininess, size, projection, method));
+  impl_->send(request);
 }
 
 void Client::send_calibration_set(const std::string& method, int width, int height,
@@ -305,6 +309,11 @@ std::optional<ReceivedMapSet> Client::last_complete_maps() const {
   std::lock_guard lock(impl_->mutex);
   const auto& maps = impl_->state.lighting().maps;
   return maps ? std::optional<ReceivedMapSet>(*maps) : std::nullopt;
+}
+std::optional<ReceivedMapSet> Client::last_complete_ggx() const {
+  std::lock_guard lock(impl_->mutex);
+  const auto& ggx = impl_->state.lighting().ggx;
+  return ggx ? std::optional<ReceivedMapSet>(*ggx) : std::nullopt;
 }
 std::optional<std::pair<std::string, std::string>> Client::server_error() const {
   std::lock_guard lock(impl_->mutex);

@@ -17,8 +17,13 @@ void Lighting::apply(const wire::LightingUpdate& u) {
 }
 
 void Lighting::apply(std::shared_ptr<const ReceivedMapSet> set) {
-  maps = std::move(set);
-  ++maps_version;
+  if (set->kind == wire::MapKind::Ggx) {
+    ggx = std::move(set);
+    ++ggx_version;
+  } else {
+    maps = std::move(set);
+    ++maps_version;
+  }
 }
 
 LightingState::Change LightingState::receive(wire::Message&& message) {

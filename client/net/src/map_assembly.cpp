@@ -5,8 +5,17 @@
 
 namespace arlight::client {
 
-void MapSetAssembler::expect(const std::vector<double>& shininess) {
-  expected_.assign(shininess.begin(), shininess.end());
+void MapSetAssembler::expect(const wire::RequestMaps& request) {
+  requested_ = true;
+  kind_ = request.kind;
+  expected_ = request.shininess;
+  // A chain's levels: as asked, or from the face down to face 16 (PROTOCOL.md, RequestMaps).
+  levels_ = request.levels;
+  if (levels_ == 0 && request.size > 0)
+    for (std::uint32_t f = request.size; ; f /= 2) {
+      ++levels_;
+      if (f <= 16 || f == 1) break;
+    }
 }
 
 // The codec has checked the tile's rectangle against its map's size at its level.
@@ -14,14 +23,17 @@ void MapSetAssembler::add_tile(const wire::MapTile& t) {
   if (!EnvLayout::guess_projection(int(t.map_width), int(t.map_height))) return;
   ReceivedMapSet& set = building_[t.map_set];
   set.id = t.map_set;
+  set.kind = t.kind;
   const std::size_t index = t.map_index;
   if (set.maps.size() <= index) {
     const EnvLayout layout(t.projection, int(t.map_width), int(t.map_height));
     while (set.maps.size() <= index) set.maps.emplace_back(layout);
     set.shininess.resize(set.maps.size(), 0.0);
+    set.roughness.resize(set.maps.size(), 0.0);
     set.texels_received.resize(set.maps.size(), 0);
   }
   set.shininess[index] = t.shininess;
+  set.roughness[index] = t.roughness;
   if (t.level > 0) {
     set.preview_received = true;
     return;
@@ -46,12 +58,27 @@ std::optional<ReceivedMapSet> MapSetAssembler::complete(const wire::MapSetComple
   building_.erase(building_.begin(), std::next(it));  // older sets are stale
   // Whole or not at all: a set whose first tiles went to an earlier connection of the session
   // (arlightd streams an in-flight set on to the one that resumed it) lacks maps or texels.
-  if (set.maps.size() != c.maps || set.maps.size() != expected_.size()) return std::nullopt;
+  if (!requested_ || set.kind != kind_ || set.maps.size() != c.maps) return std::nullopt;
   for (std::size_t i = 0; i < set.maps.size(); ++i)
     if (set.texels_received[i] !=
-            std::size_t(set.maps[i].image.width()) * set.maps[i].image.height() ||
-        !(set.shininess[i] > 0.0) || float(set.shininess[i]) != expected_[i])
+        std::size_t(set.maps[i].image.width()) * set.maps[i].image.height())
       return std::nullopt;
+  if (kind_ == wire::MapKind::Phong) {
+    if (set.maps.size() != expected_.size()) return std::nullopt;
+    for (std::size_t i = 0; i < set.maps.size(); ++i)
+      if (!(set.shininess[i] > 0.0) || float(set.shininess[i]) != expected_[i]) return std::nullopt;
+  } else {
+    // A chain: cube maps halving their face, level 0 the mirror, roughness rising to 1 at most.
+    if (set.maps.size() != levels_) return std::nullopt;
+    for (std::size_t i = 0; i < set.maps.size(); ++i) {
+      const EnvLayout& l = set.maps[i].layout;
+      if (l.projection() != Projection::Cube || l.height() != 6 * l.width() ||
+          l.width() != set.maps[0].layout.width() >> i ||
+          (i > 0 && !(set.roughness[i] > set.roughness[i - 1])) || set.roughness[i] > 1.0)
+        return std::nullopt;
+    }
+    if (set.roughness[0] != 0.0) return std::nullopt;
+  }
   set.complete = true;
   set.server_seconds = c.seconds;
   set.coverage = c.coverage;

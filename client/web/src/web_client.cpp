@@ -65,9 +65,10 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
 }
 
 val WebClient::request_maps() {
-  state_.expect_maps(kShininess);
-  return bytes_to_js(
-      wire::encode(client::map_request(kShininess, kMapSize, Projection::LatLong, "auto")));
+  const wire::RequestMaps request =
+      client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
+  state_.expect_maps(request);
+  return bytes_to_js(wire::encode(request));
 }
 
 val WebClient::location(double latitude, double longitude, double altitude, double utc_seconds,

@@ -100,7 +100,9 @@ void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int gener
     meta["request"] = {{"shininess", c.request->shininess},
                        {"size", c.request->size},
                        {"projection", std::string(projection_name(c.request->projection))},
-                       {"method", c.request->method}};
+                       {"method", c.request->method},
+                       {"kind", c.request->kind == wire::MapKind::Ggx ? "ggx" : "phong"},
+                       {"levels", c.request->levels}};
   fs::create_directories(dir);
   const std::string bytes = accumulator_bytes(c.accumulators);
   const std::string name = "accum-" + std::to_string(generation) + ".bin";
@@ -154,6 +156,12 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
       if (!projection) throw InputError(where + ": unknown projection");
       req.projection = *projection;
       req.method = r.at("method");
+      // Checkpoints from before the GGX chain (issue 34 §2) hold Phong requests only.
+      const std::string kind = r.value("kind", std::string("phong"));
+      if (kind != "phong" && kind != "ggx")
+        throw InputError(where + ": unknown map kind '" + kind + "'");
+      req.kind = kind == "ggx" ? wire::MapKind::Ggx : wire::MapKind::Phong;
+      req.levels = r.value("levels", 0);
       c.request = req;
     }
     const std::string file = meta.at("accumulators").get<std::string>();

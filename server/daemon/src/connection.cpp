@@ -112,6 +112,8 @@ void ClientConnection::handle(wire::Message&& message) {
   if (auto* f = std::get_if<wire::CameraFrame>(&message)) return handle_frame(std::move(*f));
   if (auto* r = std::get_if<wire::RequestMaps>(&message)) {
     MapRequest req;
+    req.kind = r->kind;
+    req.levels = r->levels;
     req.shininess.assign(r->shininess.begin(), r->shininess.end());
     req.size = int(std::min<std::uint32_t>(r->size, 1u << 16));
     req.projection = r->projection;

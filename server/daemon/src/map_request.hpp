@@ -1,20 +1,28 @@
-// A client's standing request for map sets (RequestMaps, protocol/PROTOCOL.md): which maps, at
-// what size and projection, by which method. The session computes against it, the map-set
-// stream sends it, a checkpoint keeps it for a resumed session.
+// A client's standing request for map sets (RequestMaps, protocol/PROTOCOL.md): the thesis's
+// Phong maps (which shininess, at what size and projection, by which method) or a GGX chain
+// (level 0's face, how many levels). The session computes against it, the map-set stream sends
+// it, a checkpoint keeps it for a resumed session.
 #pragma once
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
 #include "arlight/common/projection.hpp"
+#include "arlight/protocol/wire.hpp"
 
 namespace arlight::daemon {
 
 struct MapRequest {
-  std::vector<double> shininess;
-  int size = 128;
-  Projection projection = Projection::AngleMap;
-  std::string method = "auto";
+  std::vector<double> shininess;  // Phong
+  int size = 128;                 // Phong: --size N of arlight-maps; Ggx: level 0's face
+  Projection projection = Projection::AngleMap;  // Phong (a chain is cube maps)
+  std::string method = "auto";                   // Phong
+  wire::MapKind kind = wire::MapKind::Phong;
+  int levels = 0;                 // Ggx: levels of the chain, each half the face before
+
+  // Ggx: the last level's face.
+  int ggx_min_face() const { return levels > 0 ? size >> (levels - 1) : std::min(size, 16); }
 };
 
 }  // namespace arlight::daemon

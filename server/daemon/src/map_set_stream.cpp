@@ -35,46 +35,91 @@ EnvLayout preview_input_layout(const EnvLayout& output) {
   return EnvLayout::for_size(Projection::Cube, face);
 }
 
+lighting::GgxChainSpec ggx_spec(const MapRequest& request) {
+  return {.face = request.size, .min_face = request.ggx_min_face()};
+}
+
+lighting::GgxChainSpec ggx_preview_spec(const MapRequest& request) {
+  lighting::GgxChainSpec spec = ggx_spec(request);
+  while (spec.face > kGgxPreviewFace) {
+    spec.face /= 2;
+    spec.min_face = std::max(1, spec.min_face / 2);
+  }
+  return spec;
+}
+
+namespace {
+
+// A set's maps as they go on the wire: each with its shininess (Phong) or roughness (GGX).
+struct SetMaps {
+  wire::MapKind kind = wire::MapKind::Phong;
+  std::vector<EnvMap> maps;
+  std::vector<float> shininess, roughness;
+};
+
+SetMaps compute_set(const MapSetJob& job, const lighting::Hooks& hooks) {
+  const MapRequest& request = job.request;
+  SetMaps set;
+  set.kind = request.kind;
+  if (request.kind == wire::MapKind::Ggx) {
+    const lighting::GgxChain chain =
+        job.ggx_previews ? job.ggx_previews->update(job.input, hooks, job.measured)
+                         : lighting::compute_ggx_chain(job.input, ggx_spec(request), hooks);
+    for (const lighting::GgxLevel& l : chain.levels) {
+      set.maps.push_back(l.map);
+      set.shininess.push_back(0.0f);
+      set.roughness.push_back(float(l.roughness));
+    }
+    return set;
+  }
+  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
+  lighting::ComputedMapSet maps =
+      job.previews ? job.previews->update(job.input, hooks, job.measured)
+                   : lighting::compute_maps(job.input, request.shininess, layout,
+                                            lighting::parse_method(request.method), hooks);
+  for (std::size_t k = 0; k < maps.maps.size(); ++k) {
+    set.maps.push_back(std::move(maps.maps[k]));
+    set.shininess.push_back(float(request.shininess[k]));
+    set.roughness.push_back(0.0f);
+  }
+  return set;
+}
+
+}  // namespace
+
 double stream_map_set(const MapSetJob& job, std::stop_token stop,
                       const std::function<void(const wire::Message&)>& send) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  const MapRequest& request = job.request;
-  const std::uint32_t set = job.id;
+  const std::uint32_t id = job.id;
   lower_thread_priority(BackgroundWork::MapSet);
-  const EnvLayout layout = EnvLayout::for_size(request.projection, request.size);
   lighting::Hooks hooks;
   hooks.stop = stop;
   std::size_t last_reported = 0;
   hooks.on_tile = [&](const lighting::TileDone& t) {
     if (t.done * 10 / t.total == last_reported) return;  // every tenth
     last_reported = t.done * 10 / t.total;
-    send(wire::Progress{set, std::uint32_t(t.done), std::uint32_t(t.total)});
+    send(wire::Progress{id, std::uint32_t(t.done), std::uint32_t(t.total)});
   };
   try {
-    lighting::ComputedMapSet maps;
+    SetMaps set;
     // Below the live path: the frames of every session come first.
     tbb::task_arena arena(tbb::task_arena::automatic, 1, tbb::task_arena::priority::low);
     arena.initialize();
     const BackgroundPriority background(arena);
-    arena.execute([&] {
-      if (job.previews)
-        maps = job.previews->update(job.input, hooks, job.measured);
-      else
-        maps = lighting::compute_maps(job.input, request.shininess, layout,
-                                      lighting::parse_method(request.method), hooks);
-    });
-    const auto tile_message = [&](int map, const Image& img, int level, int x, int y, int w,
-                                  int h) {
+    arena.execute([&] { set = compute_set(job, hooks); });
+    const auto tile_message = [&](std::size_t map, const Image& img, int level, int x, int y,
+                                  int w, int h) {
       const wire::TileCoding coding = job.tile_coding();
       std::vector<float> px(std::size_t(w) * h * 3);
       for (int r = 0; r < h; ++r)
         std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
                     sizeof(float) * 3 * std::size_t(w));
-      return wire::MapTile{.map_set = set,
+      const EnvLayout& layout = set.maps[map].layout;
+      return wire::MapTile{.map_set = id,
                            .map_index = std::uint16_t(map),
-                           .shininess = float(request.shininess[std::size_t(map)]),
-                           .projection = request.projection,
+                           .shininess = set.shininess[map],
+                           .projection = layout.projection(),
                            .map_width = std::uint32_t(layout.width()),
                            .map_height = std::uint32_t(layout.height()),
                            .level = std::uint8_t(level),
@@ -83,23 +128,27 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
                            .width = std::uint32_t(w),
                            .height = std::uint32_t(h),
                            .data = wire::encode_half_rgb(px.data(), px.size() / 3, coding),
-                           .coding = coding};
+                           .coding = coding,
+                           .kind = set.kind,
+                           .roughness = set.roughness[map]};
     };
-    // Coarse first: each map 4x smaller in one tile (a preview the client can use at once),
-    // then the full-resolution tiles.
-    for (std::size_t k = 0; k < maps.maps.size() && !stop.stop_requested(); ++k) {
-      Image coarse = downsample2x(downsample2x(maps.maps[k].image.view()).view());
-      send(tile_message(int(k), coarse, 2, 0, 0, coarse.width(), coarse.height()));
-    }
-    for (std::size_t k = 0; k < maps.maps.size(); ++k)
+    // Phong: coarse first, each map 4x smaller in one tile (a preview the client can use at
+    // once), then the full-resolution tiles.
+    if (set.kind == wire::MapKind::Phong)
+      for (std::size_t k = 0; k < set.maps.size() && !stop.stop_requested(); ++k) {
+        Image coarse = downsample2x(downsample2x(set.maps[k].image.view()).view());
+        send(tile_message(k, coarse, 2, 0, 0, coarse.width(), coarse.height()));
+      }
+    for (std::size_t k = 0; k < set.maps.size(); ++k) {
+      const EnvLayout& layout = set.maps[k].layout;
       for (int y = 0; y < layout.height() && !stop.stop_requested(); y += kTileSide)
         for (int x = 0; x < layout.width(); x += kTileSide)
-          send(tile_message(int(k), maps.maps[k].image, 0, x, y,
-                            std::min(kTileSide, layout.width() - x),
+          send(tile_message(k, set.maps[k].image, 0, x, y, std::min(kTileSide, layout.width() - x),
                             std::min(kTileSide, layout.height() - y)));
+    }
     if (stop.stop_requested()) return -1.0;
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    send(wire::MapSetComplete{set, std::uint16_t(maps.maps.size()), float(seconds),
+    send(wire::MapSetComplete{id, std::uint16_t(set.maps.size()), float(seconds),
                               float(job.coverage), job.frames});
     return seconds;
   } catch (const lighting::Cancelled&) {

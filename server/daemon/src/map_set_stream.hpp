@@ -1,7 +1,8 @@
 // One map set for a session's client: computed from a snapshot of the captured map below the
 // live path's priority (its own low-priority oneTBB arena, threads at nice 19), then streamed as
-// messages — Progress every tenth of the tiles, a coarse preview of each map (level 2, one
+// messages — Progress every tenth of the tiles, a coarse preview of each Phong map (level 2, one
 // tile), the full-resolution 64x64 tiles, then MapSetComplete (protocol/PROTOCOL.md, item 7).
+// A GGX chain's set sends each level's tiles, level 0 first (its small levels are its preview).
 #pragma once
 
 #include <cstdint>
@@ -11,12 +12,9 @@
 #include <vector>
 
 #include "arlight/common/projection.hpp"
+#include "arlight/lighting/ggx.hpp"
 #include "arlight/protocol/wire.hpp"
 #include "map_request.hpp"
-
-namespace arlight::lighting {
-class MapUpdater;
-}
 
 namespace arlight::daemon {
 
@@ -37,6 +35,8 @@ struct MapSetJob {
   // by one set at a time), and the share of each texel of `input` that was measured.
   std::shared_ptr<lighting::MapUpdater> previews = nullptr;
   std::vector<float> measured = {};
+  // A GGX chain's preview: the session's preview chains so far (at ggx_preview_spec()).
+  std::shared_ptr<lighting::GgxUpdater> ggx_previews = nullptr;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };
@@ -47,6 +47,13 @@ struct MapSetJob {
 // so its texels are about 0.7 of the output's apart, fine enough for every lobe the output
 // can show but the narrowest next to a light.
 EnvLayout preview_input_layout(const EnvLayout& output);
+
+// A GGX chain's preview while frames arrive (issue 34 §2): at most kGgxPreviewFace a face, with
+// as many levels as the request (so each level keeps its roughness), from the map reduced to
+// the preview's face (GgxUpdater then recomputes ~60-70 ms a chain on two cores).
+inline constexpr int kGgxPreviewFace = 128;
+lighting::GgxChainSpec ggx_preview_spec(const MapRequest& request);
+lighting::GgxChainSpec ggx_spec(const MapRequest& request);
 
 // Computes and sends the set; returns its seconds when it completed, or a negative number when
 // it was stopped. A failure of the computation is sent as Error{Internal}.

@@ -128,6 +128,7 @@ std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
   // reconnected mid-set with the same request can use it; others drop it).
   request_.reset();
   previews_.reset();
+  ggx_previews_.reset();
   maps_.resume();
   last_activity_ = Clock::now();
   return ++attachment_;
@@ -270,22 +271,33 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
 }
 
 std::string Session::request_maps(MapRequest r) {
-  if (r.shininess.empty() || r.shininess.size() > env_.limits.max_maps)
-    return "RequestMaps: between 1 and " + std::to_string(env_.limits.max_maps) +
-           " shininess values";
-  for (double s : r.shininess)
-    if (!(s >= 1.0 && s <= 1e6)) return "RequestMaps: shininess must be in [1, 1e6]";
-  if (r.size < 8 || std::uint32_t(r.size) > env_.limits.max_map_size)
-    return "RequestMaps: size must be in [8, " + std::to_string(env_.limits.max_map_size) + "]";
-  try {
-    lighting::parse_method(r.method);
-  } catch (const InputError& e) {
-    return std::string("RequestMaps: ") + e.what();
+  if (r.kind == wire::MapKind::Ggx) {
+    const int max_face = int(std::min<std::uint32_t>(env_.limits.max_map_size, 1u << 12));
+    if (r.size < 1 || r.size > max_face || !std::has_single_bit(unsigned(r.size)))
+      return "RequestMaps: a GGX chain's size (level 0's face) must be a power of two up to " +
+             std::to_string(max_face) + ", not " + std::to_string(r.size);
+    if (r.levels < 0 || (r.levels > 0 && (r.size >> (r.levels - 1)) < 1))
+      return "RequestMaps: " + std::to_string(r.levels) + " levels from face " +
+             std::to_string(r.size) + " go below one texel a face";
+  } else {
+    if (r.shininess.empty() || r.shininess.size() > env_.limits.max_maps)
+      return "RequestMaps: between 1 and " + std::to_string(env_.limits.max_maps) +
+             " shininess values";
+    for (double s : r.shininess)
+      if (!(s >= 1.0 && s <= 1e6)) return "RequestMaps: shininess must be in [1, 1e6]";
+    if (r.size < 8 || std::uint32_t(r.size) > env_.limits.max_map_size)
+      return "RequestMaps: size must be in [8, " + std::to_string(env_.limits.max_map_size) + "]";
+    try {
+      lighting::parse_method(r.method);
+    } catch (const InputError& e) {
+      return std::string("RequestMaps: ") + e.what();
+    }
   }
   std::lock_guard serial(process_mutex_);  // a set's input is read from the capture
   std::lock_guard lock(mutex_);
   request_ = std::move(r);
   previews_.reset();
+  ggx_previews_.reset();
   maps_.request_changed();  // a new request is computed at once
   dirty_ = true;
   maybe_start_maps();
@@ -306,10 +318,13 @@ void Session::maybe_start_maps() {
 }
 
 void Session::start_map_set(bool preview) {
-  const EnvLayout output = EnvLayout::for_size(request_->projection, request_->size);
-  // A preview's input: the map reduced to preview_input_layout() (when that is smaller), with
-  // the share of each texel that was measured; a full set's: the map itself.
-  EnvLayout reduced = preview_input_layout(output);
+  const bool ggx = request_->kind == wire::MapKind::Ggx;
+  // A preview's input: the map reduced (when that is smaller) to preview_input_layout() of the
+  // output, or for a GGX chain to the preview chain's face, with the share of each texel that
+  // was measured; a full set's: the map itself.
+  EnvLayout reduced =
+      ggx ? EnvLayout::for_size(Projection::Cube, ggx_preview_spec(*request_).face)
+          : preview_input_layout(EnvLayout::for_size(request_->projection, request_->size));
   if (reduced.texel_count() >= capture_->layout().texel_count()) reduced = capture_->layout();
   capture::CaptureSession::Reduced snapshot =
       preview ? capture_->reduced_environment(reduced)
@@ -324,10 +339,16 @@ void Session::start_map_set(bool preview) {
                   std::lock_guard lock(mutex_);
                   return tile_coding_;
                 }};
-  if (preview) {
+  if (preview && ggx) {
+    if (!ggx_previews_)
+      ggx_previews_ = std::make_shared<lighting::GgxUpdater>(ggx_preview_spec(*request_));
+    job.ggx_previews = ggx_previews_;
+    job.measured = std::move(snapshot.measured);
+  } else if (preview) {
     if (!previews_)
-      previews_ = std::make_shared<lighting::MapUpdater>(request_->shininess, output,
-                                                         lighting::parse_method(request_->method));
+      previews_ = std::make_shared<lighting::MapUpdater>(
+          request_->shininess, EnvLayout::for_size(request_->projection, request_->size),
+          lighting::parse_method(request_->method));
     job.previews = previews_;
     job.measured = std::move(snapshot.measured);
   }

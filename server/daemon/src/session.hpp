@@ -171,6 +171,7 @@ class Session : public std::enable_shared_from_this<Session> {
   Clock::time_point last_activity_ = Clock::now();
   std::optional<MapRequest> request_;
   std::shared_ptr<lighting::MapUpdater> previews_;  // for request_, made by its first preview
+  std::shared_ptr<lighting::GgxUpdater> ggx_previews_;  // the same for a GGX chain
   std::uint32_t map_set_ = 0;
   MapSetScheduler maps_;  // when the next set starts
   std::unique_ptr<boost::asio::steady_timer> maps_timer_;  // a set the interval deferred

@@ -15,6 +15,12 @@
 
 namespace arlight {
 
+// The GGX chain's level <-> roughness mapping (Filament's; lighting/ggx.hpp computes it), stated
+// in every file that holds a chain.
+inline constexpr const char* kGgxLevelMapping =
+    "roughness = 1 - sqrt(1 - level / (levels - 1)) (Filament's perceptualRoughnessToLod "
+    "inverse); alpha = roughness^2; level 0 is the mirror";
+
 struct LightFilesInput {
   ShCoeffs sh;                      // radiance SH of the room, order >= 3 (bands above 2 unused)
   DominantLight primary;            // direction towards the light (unit), RGB intensity

@@ -100,11 +100,18 @@ struct CalibrationSet {  // one view at several exposures (response calibration)
   bool operator==(const CalibrationSet&) const = default;
 };
 
+// Which maps a RequestMaps asks for and a MapTile belongs to (arlight.fbs MapKind).
+enum class MapKind : std::uint8_t { Phong = 0, Ggx = 1 };
+
 struct RequestMaps {
   std::vector<float> shininess;  // e.g. 1, 10, 20, 40, 80, 160, 320, 1280
-  std::uint32_t size = 0;        // --size N of arlight-maps
+  std::uint32_t size = 0;        // --size N of arlight-maps; Ggx: level 0's face
   Projection projection = Projection::AngleMap;
   std::string method;  // "auto" when empty
+  // Ggx: the GGX chain (shininess, projection and method unused), `levels` levels from face
+  // `size` (0: down to face 16).
+  MapKind kind = MapKind::Phong;
+  std::uint8_t levels = 0;
   bool operator==(const RequestMaps&) const = default;
 };
 
@@ -184,6 +191,9 @@ struct MapTile {
   std::uint32_t x = 0, y = 0, width = 0, height = 0;  // tile rectangle at that level
   std::vector<std::uint8_t> data;                     // encode_half_rgb of width*height RGB texels
   TileCoding coding = TileCoding::ZstdHalf;           // of data
+  // Ggx: map_index is the chain's level, `roughness` its perceptual roughness (shininess 0).
+  MapKind kind = MapKind::Phong;
+  float roughness = 0;
   bool operator==(const MapTile&) const = default;
 };
 

@@ -92,6 +92,8 @@ class Client {
   void request_maps(const std::vector<double>& shininess, int size,
                     Projection projection = Projection::AngleMap,
                     const std::string& method = "auto");
+  // Any request: the Phong set above, or a GGX chain (ggx_request()).
+  void request_maps(const wire::RequestMaps& request);
   // One view at several exposures; the server answers with a CalibrationResult.
   void send_calibration_set(const std::string& method, int width, int height,
                             const std::vector<CalibrationFrame>& frames);
@@ -114,7 +116,8 @@ class Client {
 
   // State, read under the lock in wait_for predicates or via these copies.
   std::optional<LightingUpdate> last_update() const;
-  std::optional<ReceivedMapSet> last_complete_maps() const;
+  std::optional<ReceivedMapSet> last_complete_maps() const;  // the Phong set
+  std::optional<ReceivedMapSet> last_complete_ggx() const;   // the GGX chain
   std::optional<std::pair<std::string, std::string>> server_error() const;  // code, message
   std::optional<CalibrationResult> calibration_result() const;
   bool connected() const;

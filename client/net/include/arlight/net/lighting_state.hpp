@@ -19,12 +19,13 @@
 
 namespace arlight::client {
 
-// The newest lighting: live SH (from every LightingUpdate) and the newest complete map set.
-// Versions increase with every change so a renderer re-uploads only what changed.
+// The newest lighting: live SH (from every LightingUpdate) and the newest complete map set of
+// each kind. Versions increase with every change so a renderer re-uploads only what changed.
 struct Lighting {
-  std::uint64_t sh_version = 0, maps_version = 0;
+  std::uint64_t sh_version = 0, maps_version = 0, ggx_version = 0;
   std::optional<ShCoeffs> sh;
-  std::shared_ptr<const ReceivedMapSet> maps;
+  std::shared_ptr<const ReceivedMapSet> maps;  // the thesis's Phong maps
+  std::shared_ptr<const ReceivedMapSet> ggx;   // the GGX chain
   glm::vec3 dominant_direction{0.0f};  // world frame, towards the light
   glm::vec3 dominant_colour{0.0f};
   double coverage = 0;                     // fraction of the sphere measured
@@ -48,7 +49,7 @@ class LightingState {
   enum class Change { Nothing, Welcome, Error, Update, MapSet, Calibration, ExposureAdvice };
 
   // The maps this connection asked for (RequestMaps): only a set of exactly these is used.
-  void expect_maps(const std::vector<double>& shininess) { assembler_.expect(shininess); }
+  void expect_maps(const wire::RequestMaps& request) { assembler_.expect(request); }
   Change receive(wire::Message&& message);
 
   const Lighting& lighting() const { return lighting_; }

@@ -14,9 +14,13 @@
 namespace arlight::client {
 
 // A map set as it arrives: level-0 tiles fill `maps`; complete once MapSetComplete came.
+// Phong: a map per shininess. Ggx: the GGX chain, maps[k] level k (cube maps, each half the
+// face of the one before) at perceptual roughness[k].
 struct ReceivedMapSet {
   std::uint32_t id = 0;
-  std::vector<double> shininess;
+  wire::MapKind kind = wire::MapKind::Phong;
+  std::vector<double> shininess;  // Phong
+  std::vector<double> roughness;  // Ggx
   std::vector<EnvMap> maps;
   std::vector<std::size_t> texels_received;  // per map, level 0
   bool preview_received = false;             // the coarse tiles of every map
@@ -28,11 +32,12 @@ struct ReceivedMapSet {
 
 class MapSetAssembler {
  public:
-  // The shininess list this connection asked for (RequestMaps). Only a set of exactly these maps
-  // is used, and none before a request: a resumed session's set still in flight for an earlier
-  // connection's request reaches the new connection too (a client that asked for no maps was
-  // then drawn with them).
-  void expect(const std::vector<double>& shininess);
+  // What this connection asked for (RequestMaps). Only a set of exactly these maps is used
+  // (Phong: the shininess list; Ggx: a chain of as many levels, each level's face half the one
+  // before, roughness rising), and none before a request: a resumed session's set still in
+  // flight for an earlier connection's request reaches the new connection too (a client that
+  // asked for no maps was then drawn with them).
+  void expect(const wire::RequestMaps& request);
   // A tile whose size disagrees with its set's first tiles, or whose data does not decode, is
   // dropped (the set then never completes its texel count).
   void add_tile(const wire::MapTile& tile);
@@ -42,7 +47,10 @@ class MapSetAssembler {
 
  private:
   std::map<std::uint32_t, ReceivedMapSet> building_;
-  std::vector<float> expected_;  // as the wire carries them
+  bool requested_ = false;
+  wire::MapKind kind_ = wire::MapKind::Phong;
+  std::vector<float> expected_;  // Phong: as the wire carries them
+  std::size_t levels_ = 0;       // Ggx
 };
 
 }  // namespace arlight::client

@@ -17,6 +17,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "arlight/common/light_files.hpp"
 #include "arlight/common/projection.hpp"
 #include "arlight/lighting/lighting.hpp"
 
@@ -27,10 +28,8 @@ namespace arlight::lighting {
 double ggx_level_roughness(int level, int levels);
 // Its inverse: the (fractional) level an engine samples for roughness r.
 double ggx_roughness_level(double roughness, int levels);
-// The mapping's one-line statement, written into every file that holds a chain.
-inline constexpr const char* kGgxLevelMapping =
-    "roughness = 1 - sqrt(1 - level / (levels - 1)) (Filament's perceptualRoughnessToLod "
-    "inverse); alpha = roughness^2; level 0 is the mirror";
+// The mapping's one-line statement (common's, as clients write chains too).
+using arlight::kGgxLevelMapping;
 
 struct GgxChainSpec {
   int face = 256;      // level 0's face edge (a power of two)
