@@ -5,7 +5,8 @@
 # median session's and the slowest session's median interval between its map sets while it
 # sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD,
 # each run is made with that daemon first, then with this build's, alternately (the machine is
-# noisy).
+# noisy). MAPS_FLAGS replaces what the sessions ask for (default --maps; e.g. "--ggx 256" for
+# GGX chains, issue 34 §2).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
 build=${1:-build}
@@ -43,7 +44,7 @@ run() {  # run DAEMON LABEL SESSIONS
     --device load --sessions 1 --duration 3 > /dev/null
   cpu_before=$(cpu_ticks $pid)
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
-    --device load --sessions "$3" --duration 10 --rate 30 --maps --json "$out/$2-$3.json" \
+    --device load --sessions "$3" --duration 10 --rate 30 ${MAPS_FLAGS:---maps} --json "$out/$2-$3.json" \
     > /dev/null || true
   cpu=$(( $(cpu_ticks $pid) - cpu_before ))
   kill $pid

@@ -126,3 +126,55 @@ TEST(MapSetStream, TheSetsThreadRunsAtTheIdlePolicyAndACheckpointsAtNice10) {
   EXPECT_EQ(policy, SCHED_OTHER);
   EXPECT_EQ(nice, 10);
 }
+
+// Issue 34 §2: a GGX chain's set. Its preview keeps the request's levels (so each level keeps its
+// roughness) at a face <= 128, from the capture reduced by a whole factor; its tiles carry the
+// kind and the roughness, and put back together they are the chain, in half precision.
+TEST(MapSetStream, AGgxChainsPreviewAndTilesSayWhatTheyAre) {
+  const MapRequest request{.size = 256, .kind = wire::MapKind::Ggx};
+  const lighting::GgxChainSpec preview = ggx_preview_spec(request);
+  EXPECT_EQ(preview.face, 128);
+  EXPECT_EQ(preview.min_face, 8);  // 5 levels, as 256 -> 16
+  EXPECT_EQ(ggx_preview_spec(MapRequest{.size = 64, .kind = wire::MapKind::Ggx}).face, 64);
+  EXPECT_EQ(ggx_preview_input(request, EnvLayout::for_size(Projection::Cube, 192)).face_size(), 96);
+  EXPECT_EQ(ggx_preview_input(request, EnvLayout::for_size(Projection::Cube, 256)).face_size(), 128);
+
+  const EnvMap venice = resample(
+      load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
+      EnvLayout::for_size(Projection::Cube, 32));
+  const MapRequest small{.size = 32, .kind = wire::MapKind::Ggx, .levels = 3};
+  const lighting::GgxChain chain = lighting::compute_ggx_chain(venice, ggx_spec(small));
+  std::vector<EnvMap> got;
+  for (const auto& l : chain.levels) got.emplace_back(l.map.layout);
+  std::size_t tiles = 0, complete_maps = 0;
+  MapSetJob job{.request = small, .input = venice, .id = 4, .tile_coding = [] {
+                  return wire::TileCoding::Half;
+                }};
+  const double seconds = stream_map_set(job, {}, [&](const wire::Message& m) {
+    if (const auto* done = std::get_if<wire::MapSetComplete>(&m)) complete_maps = done->maps;
+    const auto* t = std::get_if<wire::MapTile>(&m);
+    if (!t) return;
+    ++tiles;
+    ASSERT_EQ(t->kind, wire::MapKind::Ggx);
+    ASSERT_LT(t->map_index, 3);
+    EXPECT_EQ(t->level, 0) << "a chain has no coarse preview tiles";
+    EXPECT_FLOAT_EQ(t->roughness, float(chain.levels[t->map_index].roughness));
+    EXPECT_EQ(t->projection, Projection::Cube);
+    EnvMap& map = got[t->map_index];
+    ASSERT_EQ(t->map_width, std::uint32_t(map.layout.width()));
+    ASSERT_EQ(t->map_height, std::uint32_t(map.layout.height()));
+    std::string why;
+    const auto px = wire::decode_half_rgb(t->data, std::size_t(t->width) * t->height, t->coding, why);
+    ASSERT_TRUE(px) << why;
+    for (std::uint32_t y = 0; y < t->height; ++y)
+      for (std::uint32_t x = 0; x < t->width; ++x)
+        for (int c = 0; c < 3; ++c)
+          map.image.data()[3 * ((t->y + y) * std::size_t(map.layout.width()) + t->x + x) + c] =
+              (*px)[3 * (std::size_t(y) * t->width + x) + std::size_t(c)];
+  });
+  ASSERT_GT(seconds, 0.0);
+  EXPECT_EQ(complete_maps, 3u);
+  EXPECT_EQ(tiles, 3u + 2u + 1u);  // 32x192, 16x96, 8x48 in 64x64 tiles
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_LT(lighting::map_error(chain.levels[k].map, got[k]).max, 1e-3) << "level " << k;
+}

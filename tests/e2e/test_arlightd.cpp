@@ -21,6 +21,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <glm/geometric.hpp>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
@@ -29,6 +31,7 @@
 
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/ktx2.hpp"
+#include "arlight/lighting/lighting.hpp"
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
 #include "arlight/protocol/wire.hpp"
@@ -49,6 +52,12 @@ namespace {
 const fs::path& sample_recording() { return test::daemon_sample_recording(); }
 
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
+
+Ktx2Cube read_ktx2(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  return decode_ktx2_cube(bytes);
+}
 
 // Sends frame `seq` (the recording's frames in turn) and waits up to 20 s for the LightingUpdate
 // that answers it: whether it came.
@@ -559,6 +568,62 @@ TEST(Arlightd, AdminServesALiveSessionsLightFiles) {
   const auto [ns, why] = d.admin_get("/sessions/" + w.session_id + "/light.json");
   EXPECT_EQ(ns, 409);
   EXPECT_NE(why.find("no map yet"), std::string::npos) << why;
+}
+
+// Issue 34 §2 and §4: a client that asks for a GGX chain gets one computed from the session's
+// map, the same chain arlight-maps ggx makes of the offline capture, and arlight-replay --ggx
+// writes it with the SH and the primary light as the light files.
+TEST(Arlightd, ReplayStreamsTheGgxChainAndWritesTheLightFiles) {
+  const fs::path dir = test::fresh_temp_dir("daemon_ggx");
+  DaemonProcess d(dir / "daemon");
+  const auto r = test::run_tool(ARLIGHT_REPLAY_EXE, "--server " + d.server() + " --token " + kToken +
+                                                        " --recording " + sample_recording().string() +
+                                                        " --ggx 64 --out " + (dir / "replay").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json replay = read_json(dir / "replay" / "replay.json");
+  ASSERT_TRUE(replay.contains("ggx")) << replay.dump();
+  EXPECT_EQ(replay["ggx"]["frames"], 60);  // the full chain, once the frames stopped
+  EXPECT_EQ(replay["ggx"]["levels"], 3);    // faces 64, 32, 16
+  EXPECT_EQ(replay["maps"].size(), 0u);     // no Phong set was asked for
+  const Ktx2Cube streamed = read_ktx2(dir / "replay" / "specular.ktx2");
+  ASSERT_EQ(streamed.levels.size(), 3u);
+  const json light = read_json(dir / "replay" / "light.json");
+  EXPECT_EQ(light["sh9"]["webxr"].size(), 27u);
+  EXPECT_NEAR(glm::length(glm::vec3(light["primary_light"]["direction"][0].get<float>(),
+                                    light["primary_light"]["direction"][1].get<float>(),
+                                    light["primary_light"]["direction"][2].get<float>())),
+              1.0f, 1e-3f);
+  EXPECT_TRUE(fs::exists(dir / "replay" / "lighting.gltf"));
+  // The offline capture with the daemon's settings, and its chain by arlight-maps ggx.
+  const auto c = test::run_tool(
+      ARLIGHT_CAPTURE_EXE, "--recording " + sample_recording().string() + " --out " +
+                               (dir / "env.exr").string() +
+                               " --projection cube --size 192 --align-every 4 --align-width 160"
+                               " --align-async");
+  ASSERT_EQ(c.status, 0) << c.output;
+  const auto g = test::run_tool(ARLIGHT_MAPS_EXE, "ggx --input " + (dir / "env.exr").string() +
+                                                      " --face 64 --out " + (dir / "offline").string() +
+                                                      " --json " + (dir / "g.json").string());
+  ASSERT_EQ(g.status, 0) << g.output;
+  const Ktx2Cube offline = read_ktx2(dir / "offline" / "specular.ktx2");
+  ASSERT_EQ(offline.levels.size(), 3u);
+  const auto roughness = [](const Ktx2Cube& cube) {
+    for (const auto& [key, value] : cube.key_values)
+      if (key == "arlight.ggx") return json::parse(value)["roughness"].get<std::vector<double>>();
+    return std::vector<double>{};
+  };
+  ASSERT_EQ(roughness(streamed).size(), 3u);
+  ASSERT_EQ(roughness(offline).size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(roughness(streamed)[k], roughness(offline)[k], 1e-6) << "level " << k;
+    const lighting::MapError e = lighting::map_error(offline.levels[k], streamed.levels[k]);
+    std::printf("level %zu: streamed vs offline mean %.5f max %.5f\n", k, e.mean, e.max);
+    // The mirror is the captured texels themselves: the daemon's and the offline capture of one
+    // recording differ at a few texels where the asynchronous alignment lands on another frame
+    // (mean 0.2 %, max 13 %); the prefiltered levels average that away (max <= 0.4 %).
+    EXPECT_LT(e.mean, 0.005) << "level " << k;
+    EXPECT_LT(e.max, k == 0 ? 0.25 : 0.02) << "level " << k;
+  }
 }
 
 TEST(Arlightd, AdminTokenFromAFileAndProtectAll) {

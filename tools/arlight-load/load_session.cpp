@@ -5,6 +5,7 @@
 #include <optional>
 #include <thread>
 
+#include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
 
 namespace arlight::load {
@@ -51,7 +52,10 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec,
       if (!resume.empty() && !w.resumed)
         throw client::ClientError("SessionNotFound", "the daemon did not resume " + resume);
       c->send_intrinsics(rec.camera);
-      if (plan.maps) c->request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
+      if (plan.ggx_face > 0)
+        c->request_maps(client::ggx_request(plan.ggx_face));
+      else if (plan.maps)
+        c->request_maps({1, 10, 20, 40, 80, 160, 320, 1280}, 128);
       return std::pair{std::move(c), w};
     };
     auto [c, welcome] = open("");

@@ -41,6 +41,7 @@ struct SessionPlan {
   std::uint16_t port = 0;
   double rate = 30, duration = 10;
   bool maps = false;
+  int ggx_face = 0;  // > 0: request the GGX chain from this face instead of the thesis's maps
   double phase = 0;
   std::size_t first_frame = 0;
   tools::ConnectionFlags connection;  // TLS, WebSocket

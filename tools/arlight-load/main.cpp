@@ -31,6 +31,10 @@ int main(int argc, char** argv) {
   app.add_option("--rate", rate, "frames per second per session")->capture_default_str();
   app.add_option("--device", device, "device id (default: the recording's)");
   app.add_flag("--maps", maps, "also request the 8 thesis maps at 128 in every session");
+  int ggx_face = 0;
+  app.add_option("--ggx", ggx_face,
+                 "request the GGX chain from this face (a power of two) down to 16 in every "
+                 "session instead of --maps");
   std::string phases = "spread";
   app.add_option("--phases", phases,
                  "spread: session s sends at s/N of the frame period and starts at s/N of the "
@@ -72,7 +76,8 @@ int main(int argc, char** argv) {
     }
     if (usable.empty()) throw InputError("'" + recording_dir + "' has no usable frames");
     base.token = token, base.device = device.empty() ? rec.device_id : device;
-    base.rate = rate, base.duration = duration, base.maps = maps;
+    if (ggx_face < 0 || ggx_face > 4096) throw InputError("--ggx must be a face in [1, 4096]");
+    base.rate = rate, base.duration = duration, base.maps = maps, base.ggx_face = ggx_face;
     base.connection = connection, base.reconnect_s = reconnect_s;
 
     std::vector<SessionReport> reports(static_cast<std::size_t>(sessions));

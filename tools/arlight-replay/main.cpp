@@ -7,6 +7,7 @@
 #include "arlight/common/error.hpp"
 #include "arlight/common/number_list.hpp"
 #include "arlight/flags/connection_flags.hpp"
+#include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
 #include "arlight/protocol/wire.hpp"
@@ -19,7 +20,7 @@ int main(int argc, char** argv) {
   CLI::App app{"arlight-replay: stream a recording to arlightd and save what it sends back"};
   std::string server, token, recording_dir, device, resume, out = "out/replay", json_path;
   std::string maps = "1,10,20,40,80,160,320,1280";
-  int map_size = 128;
+  int map_size = 128, ggx_face = 0;
   double timeout_s = 120;
   bool realtime = false;
   app.add_option("--server", server, "arlightd HOST:PORT")->required();
@@ -32,6 +33,10 @@ int main(int argc, char** argv) {
   app.add_option("--maps", maps, "shininess list to request; '' requests none")
       ->capture_default_str();
   app.add_option("--map-size", map_size, "size of the requested maps")->capture_default_str();
+  app.add_option("--ggx", ggx_face,
+                 "request the GGX chain from this face (a power of two) down to 16 instead of "
+                 "--maps, and write it with the SH and primary light as the light files "
+                 "(specular.ktx2, light.json, lighting.gltf) in --out");
   app.add_option("--resume", resume, "continue this session id");
   app.add_option("--out", out, "folder for replay.json and maps/")->capture_default_str();
   app.add_option("--json", json_path, "also write the summary here");
@@ -68,7 +73,11 @@ int main(int argc, char** argv) {
       std::printf("told arlightd where and when the recording was made (%.5f, %.5f)\n",
                   rec.place->where.latitude_deg, rec.place->where.longitude_deg);
     }
-    if (!shininess.empty()) c.request_maps(shininess, map_size);
+    const bool ggx = ggx_face > 0, maps_wanted = ggx || !shininess.empty();
+    if (ggx)
+      c.request_maps(client::ggx_request(ggx_face));
+    else if (!shininess.empty())
+      c.request_maps(shininess, map_size);
 
     std::size_t sent = 0;
     std::uint64_t last_sequence = 0;
@@ -99,12 +108,12 @@ int main(int argc, char** argv) {
         },
         timeout);
     const std::uint64_t processed = c.last_update() ? c.last_update()->frames_processed : 0;
-    if (!shininess.empty() && !c.wait_for(
-                                  [&] {
-                                    const auto m = c.last_complete_maps();
-                                    return (m && m->frames >= processed) || c.server_error();
-                                  },
-                                  timeout))
+    if (maps_wanted && !c.wait_for(
+                           [&] {
+                             const auto m = ggx ? c.last_complete_ggx() : c.last_complete_maps();
+                             return (m && m->frames >= processed) || c.server_error();
+                           },
+                           timeout))
       std::fprintf(stderr, "arlight-replay: no map set with all frames within the timeout\n");
     if (const auto e = c.server_error()) throw client::ClientError(e->first, e->second);
 

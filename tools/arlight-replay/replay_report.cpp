@@ -5,6 +5,7 @@
 
 #include "arlight/common/atomic_file.hpp"
 #include "arlight/common/hdr_io.hpp"
+#include "arlight/net/session_light_files.hpp"
 
 namespace fs = std::filesystem;
 
@@ -50,6 +51,18 @@ void write_replay_results(const fs::path& out, const std::string& json_path,
     }
     j["map_set_seconds"] = m->server_seconds;
     j["map_set_frames"] = m->frames;
+  }
+  if (const auto chain = c.last_complete_ggx(); chain && u) {
+    client::write_session_light_files(out, *chain, *u,
+                                      "arlightd session " + w.session_id + ", " +
+                                          std::to_string(chain->frames) + " frames");
+    j["ggx"] = {{"file", (fs::path(out) / "specular.ktx2").string()},
+                {"light_json", (fs::path(out) / "light.json").string()},
+                {"levels", chain->maps.size()},
+                {"face", chain->maps.front().layout.width()},
+                {"roughness", chain->roughness},
+                {"seconds", chain->server_seconds},
+                {"frames", chain->frames}};
   }
   const std::string text = j.dump(2) + "\n";
   write_file_atomically(fs::path(out) / "replay.json", text);

@@ -1,6 +1,7 @@
 // What arlight-replay writes once a recording is streamed: OUT/replay.json (and --json) with
 // the session, the counts, the last live SH, the dominant light and the sun, and the last
-// complete map set as OUT/maps/s<S>.exr.
+// complete map set as OUT/maps/s<S>.exr, or with a GGX chain its light files (OUT/specular.ktx2,
+// light.json, lighting.gltf).
 #pragma once
 
 #include <cstddef>

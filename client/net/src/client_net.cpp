@@ -112,7 +112,7 @@ struct Client::Impl {
         }
         case LightingState::Change::MapSet:
           maps_cb = owner->on_map_set_complete;
-          maps_copy = *state.lighting().maps;
+          maps_copy = *state.newest_set();
           break;
         case LightingState::Change::ExposureAdvice:
           advice_cb = owner->on_exposure_advice;

@@ -103,7 +103,8 @@ std::string WebClient::receive(const val& bytes) {
       if (!lighting.maps) renderer_.set_sh(*lighting.sh);
       break;
     case client::LightingState::Change::MapSet:
-      renderer_.set_maps(lighting.maps->shininess, lighting.maps->maps);
+      if (state_.newest_set()->kind == wire::MapKind::Phong)
+        renderer_.set_maps(lighting.maps->shininess, lighting.maps->maps);
       break;
     default:
       break;

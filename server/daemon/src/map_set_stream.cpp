@@ -48,6 +48,17 @@ lighting::GgxChainSpec ggx_preview_spec(const MapRequest& request) {
   return spec;
 }
 
+EnvLayout ggx_preview_input(const MapRequest& request, const EnvLayout& capture) {
+  const int target = ggx_preview_spec(request).face;
+  if (capture.projection() != Projection::Cube)
+    return EnvLayout::for_size(Projection::Cube, target);
+  const int face = capture.face_size();
+  int best = 1;
+  for (int d = 1; d <= std::min(face, target); ++d)
+    if (face % d == 0) best = d;
+  return EnvLayout::for_size(Projection::Cube, best);
+}
+
 namespace {
 
 // A set's maps as they go on the wire: each with its shininess (Phong) or roughness (GGX).

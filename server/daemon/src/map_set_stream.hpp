@@ -50,9 +50,13 @@ EnvLayout preview_input_layout(const EnvLayout& output);
 
 // A GGX chain's preview while frames arrive (issue 34 §2): at most kGgxPreviewFace a face, with
 // as many levels as the request (so each level keeps its roughness), from the map reduced to
-// the preview's face (GgxUpdater then recomputes ~60-70 ms a chain on two cores).
+// ggx_preview_input(): GgxUpdater then recomputes a chain in ~60-70 ms on two cores.
 inline constexpr int kGgxPreviewFace = 128;
 lighting::GgxChainSpec ggx_preview_spec(const MapRequest& request);
+// The layout a GGX preview's input is reduced to from a capture in `capture`: a cube of the
+// largest face up to the preview's that divides the capture's face (a box filter the capture
+// makes cheaply on the frame's path: 192 -> 96; another ratio resamples the whole map there).
+EnvLayout ggx_preview_input(const MapRequest& request, const EnvLayout& capture);
 lighting::GgxChainSpec ggx_spec(const MapRequest& request);
 
 // Computes and sends the set; returns its seconds when it completed, or a negative number when

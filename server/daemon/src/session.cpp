@@ -323,7 +323,7 @@ void Session::start_map_set(bool preview) {
   // output, or for a GGX chain to the preview chain's face, with the share of each texel that
   // was measured; a full set's: the map itself.
   EnvLayout reduced =
-      ggx ? EnvLayout::for_size(Projection::Cube, ggx_preview_spec(*request_).face)
+      ggx ? ggx_preview_input(*request_, capture_->layout())
           : preview_input_layout(EnvLayout::for_size(request_->projection, request_->size));
   if (reduced.texel_count() >= capture_->layout().texel_count()) reduced = capture_->layout();
   capture::CaptureSession::Reduced snapshot =

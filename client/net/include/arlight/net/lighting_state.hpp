@@ -59,12 +59,15 @@ class LightingState {
   const std::optional<wire::LightingUpdate>& last_update() const { return last_update_; }
   const std::optional<wire::CalibrationResult>& calibration() const { return calibration_; }
   const std::optional<wire::ExposureAdvice>& exposure_advice() const { return advice_; }
+  // The set the last Change::MapSet completed (of either kind).
+  const std::shared_ptr<const ReceivedMapSet>& newest_set() const { return newest_set_; }
   std::uint64_t updates() const { return updates_; }
   std::uint64_t map_sets() const { return map_sets_; }
 
  private:
   MapSetAssembler assembler_;
   Lighting lighting_;
+  std::shared_ptr<const ReceivedMapSet> newest_set_;
   std::optional<wire::Welcome> welcome_;
   std::optional<std::pair<std::string, std::string>> error_;
   std::optional<wire::LightingUpdate> last_update_;

@@ -1,0 +1,19 @@
+// What a session streamed, as the light files engines read (common/light_files.hpp): its GGX
+// chain, the live SH and the primary light of its newest LightingUpdate. The native tools'
+// --out (arlight-replay); the page does not write files.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "arlight/net/map_assembly.hpp"
+#include "arlight/protocol/wire.hpp"
+
+namespace arlight::client {
+
+// Writes dir/specular.ktx2, dir/light.json and dir/lighting.gltf (with its images). Throws
+// InputError when `chain` is not a GGX chain or the update carries no SH of order >= 3.
+void write_session_light_files(const std::filesystem::path& dir, const ReceivedMapSet& chain,
+                               const wire::LightingUpdate& update, const std::string& source);
+
+}  // namespace arlight::client

@@ -1,0 +1,25 @@
+#include "arlight/net/session_light_files.hpp"
+
+#include "arlight/common/error.hpp"
+#include "arlight/common/light_files.hpp"
+
+namespace arlight::client {
+
+void write_session_light_files(const std::filesystem::path& dir, const ReceivedMapSet& chain,
+                               const wire::LightingUpdate& update, const std::string& source) {
+  if (chain.kind != wire::MapKind::Ggx || chain.maps.empty())
+    throw InputError("light files: the session sent no GGX chain");
+  if (update.sh.order < 3)
+    throw InputError("light files: the session's SH has order " + std::to_string(update.sh.order) +
+                     ", below the 3 of SH-9");
+  LightFilesInput light;
+  light.sh = update.sh;
+  light.primary = {update.dominant_direction, update.dominant_colour};
+  light.specular = chain.maps;
+  light.roughness = chain.roughness;
+  light.level_mapping = kGgxLevelMapping;  // the server's; each level's roughness came with it
+  light.source = source;
+  write_light_files(dir, light);
+}
+
+}  // namespace arlight::client
