@@ -24,6 +24,7 @@
 #include <glm/geometric.hpp>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <mutex>
 #include <optional>
 #include <regex>
 #include <string>
@@ -32,6 +33,7 @@
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/ktx2.hpp"
 #include "arlight/lighting/lighting.hpp"
+#include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
 #include "arlight/protocol/wire.hpp"
@@ -915,6 +917,47 @@ TEST(Arlightd, MapSetsFollowTheMapAtTheMapInterval) {
   ASSERT_GT(frequent.set_seconds, 0.0);
   EXPECT_GE(frequent.sets, 2u);  // the old rule: 1
   EXPECT_GE(double(frequent.sets), 0.5 * seconds / std::max(frequent.set_seconds, 0.1));
+}
+
+// Issue 34 §2: while frames arrive a GGX chain follows the map as previews (face <= 128, as many
+// levels as asked); when they stop, the full chain of the request's face follows.
+TEST(Arlightd, GgxChainsFollowTheMapWhileCapturingAndTheFullOneFollows) {
+  const fs::path dir = test::fresh_temp_dir("daemon_ggx_follow");
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  DaemonProcess d(dir / "daemon", {"--map-interval", "0.1"});
+  client::Client c;
+  std::mutex m;
+  std::vector<std::pair<int, std::size_t>> chains;  // face, levels of each completed chain
+  c.on_map_set_complete = [&](const client::ReceivedMapSet& set) {
+    std::lock_guard lock(m);
+    if (set.kind == wire::MapKind::Ggx)
+      chains.emplace_back(set.maps.front().layout.width(), set.maps.size());
+  };
+  c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  c.send_intrinsics(rec.camera);
+  c.request_maps(client::ggx_request(256));
+  const auto period = test::kSanitized ? 250ms : 50ms;
+  for (std::uint64_t seq = 1; seq <= 40; ++seq) {
+    const std::size_t i = (seq - 1) % rec.frames.size();
+    FrameInfo info = rec.frames[i];
+    info.timestamp = std::chrono::duration<double>(period).count() * double(seq);
+    c.send_jpeg_frame(seq, info, rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, i));
+    std::this_thread::sleep_for(period);
+  }
+  ASSERT_TRUE(c.wait_for([&] { return c.last_complete_ggx() && c.last_complete_ggx()->maps[0].layout.width() == 256; },
+                         60s));
+  std::lock_guard lock(m);
+  ASSERT_GE(chains.size(), 2u);
+  std::size_t previews = 0;
+  for (const auto& [face, levels] : chains) {
+    EXPECT_EQ(levels, 5u) << "face " << face;  // 256 -> 16 and its previews 128 -> 8
+    EXPECT_TRUE(face == 128 || face == 256) << face;
+    previews += face == 128;
+  }
+  EXPECT_GE(previews, 1u);
+  EXPECT_EQ(chains.back().first, 256);
+  EXPECT_EQ(c.last_complete_ggx()->frames, c.last_update()->frames_processed);
 }
 
 // A connection's map request is its own: a client that resumes a session without asking for
