@@ -1,5 +1,5 @@
-// arlight_lighting's split-sum parts: the GGX chain against the exact prefilter on real probes,
-// its level <-> roughness mapping, and the DFG table against its limits and Filament's cmgen.
+// arlight_lighting's split-sum part: the GGX chain against the exact prefilter on real probes
+// and its level <-> roughness mapping (the DFG table is common's: tests/common/test_brdf.cpp).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -145,49 +145,4 @@ TEST(GgxChain, StopsWhenAsked) {
     if (++tiles == 3) stop.request_stop();
   };
   EXPECT_THROW(compute_ggx_chain(env, {.face = 64, .min_face = 8}, hooks), Cancelled);
-}
-
-TEST(Dfg, KnownLimits) {
-  // A smooth surface (r -> 0) seen head-on reflects F0: a ~ 0, b ~ 1 (V = 1 / (4 n.l n.v)).
-  const glm::vec2 smooth = dfg_value(1.0, 0.02);
-  EXPECT_NEAR(smooth.x, 0.0, 1e-3);
-  EXPECT_NEAR(smooth.y, 1.0, 2e-3);
-  // At grazing view the Fresnel term takes over: a -> b.
-  const glm::vec2 grazing = dfg_value(0.01, 0.05);
-  EXPECT_GT(grazing.x / grazing.y, 0.9);
-  // Rough surfaces lose energy to single scattering (what the compensation restores).
-  EXPECT_LT(dfg_value(0.5, 1.0).y, 0.8);
-}
-
-TEST(Dfg, MatchesFilamentsCmgen) {
-  // Issue 34: the table within 1 % of `cmgen --ibl-dfg --ibl-dfg-multiscatter` (Debian
-  // libfilament-tools, installed by make deps).
-  const auto dir = std::filesystem::temp_directory_path() / ("arlight_dfg_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const auto file = dir / "dfg.exr";
-  const std::string cmd = "cmgen --ibl-dfg=" + file.string() + " --ibl-dfg-multiscatter >/dev/null 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << "cmgen failed (is libfilament-tools installed?)";
-  const LoadedImage cm = load_image(file);
-  std::filesystem::remove_all(dir);
-  ASSERT_EQ(cm.image.width(), 128);
-  ASSERT_EQ(cm.image.height(), 128);
-  // cmgen's row j holds roughness (128 - j + 0.5) / 128, clamped to 1 (CubemapIBL::DFG): one
-  // row above the texel centre our table (and a bilinear lookup) uses, so the integrals are
-  // compared at cmgen's roughness; the tables themselves differ by that row.
-  double worst = 0, mean = 0;
-  for (int j = 0; j < 128; ++j)
-    for (int i = 0; i < 128; ++i) {
-      const glm::vec3 theirs = cm.image.at(i, j);
-      const glm::vec2 v = dfg_value((i + 0.5) / 128, std::min(1.0, (128 - j + 0.5) / 128));
-      for (int c = 0; c < 2; ++c) {
-        const double err = std::abs(double(v[c]) - theirs[c]);
-        worst = std::max(worst, err);
-        mean += err / (2 * 128 * 128);
-      }
-    }
-  EXPECT_LT(worst, 0.005);
-  EXPECT_LT(mean, 0.0005);
-  // Our table's rows are at texel centres.
-  const DfgTable ours = dfg_table(16, 256);
-  EXPECT_EQ(ours.at(3, 5), dfg_value(3.5 / 16, 1.0 - 5.5 / 16, 256));
 }

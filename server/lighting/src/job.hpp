@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "arlight/common/brdf.hpp"
 #include "arlight/common/sh.hpp"
 #include "arlight/lighting/lighting.hpp"
 
@@ -90,15 +91,7 @@ struct Job {
   Progress& progress;
 };
 
-// The base-2 radical inverse of i (Van der Corput), the second coordinate of a Hammersley set.
-inline double radical_inverse(std::uint32_t i) {
-  i = (i << 16u) | (i >> 16u);
-  i = ((i & 0x55555555u) << 1u) | ((i & 0xAAAAAAAAu) >> 1u);
-  i = ((i & 0x33333333u) << 2u) | ((i & 0xCCCCCCCCu) >> 2u);
-  i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
-  i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
-  return double(i) * 0x1p-32;
-}
+using arlight::radical_inverse;  // common/brdf.hpp
 
 // Seconds since t0.
 double seconds_since(std::chrono::steady_clock::time_point t0);

@@ -114,20 +114,6 @@ EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& out
 std::vector<glm::dvec3> ggx_prefilter_exact(const EnvMap& input, double roughness,
                                             std::span<const glm::dvec3> dirs);
 
-// The split sum's DFG term (Karis 2013; Filament's DFV_Multiscatter): for n.v = x and perceptual
-// roughness y, the GGX BRDF's directional albedo split by the Schlick Fresnel as
-//   a = integral of V * F_c,   b = integral of V,   F_c = (1 - v.h)^5,
-// so the specular albedo for F0 is a + (b - a) F0 = mix(a, b, F0) and the multiple-scattering
-// compensation 1 + F0 (1 / b - 1). Texel (i, j) of a size x size table holds
-// x = (i + 0.5) / size and y = 1 - (j + 0.5) / size (row 0 is roughness 1, as cmgen writes it).
-struct DfgTable {
-  int size = 0;
-  std::vector<glm::vec2> ab;  // row-major, (a, b) per texel
-  glm::vec2 at(int i, int j) const { return ab[std::size_t(j) * std::size_t(size) + std::size_t(i)]; }
-};
-// Importance-sampled with `samples` Hammersley points of the GGX distribution per texel.
-DfgTable dfg_table(int size = 128, int samples = 1024);
-// One texel's (a, b) for n.v and perceptual roughness.
-glm::vec2 dfg_value(double n_dot_v, double roughness, int samples = 1024);
+// The split sum's DFG table is common's (arlight/common/brdf.hpp): the client shades with it.
 
 }  // namespace arlight::lighting
