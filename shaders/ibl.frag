@@ -1,10 +1,14 @@
 #version 300 es
 // Image-based lighting with the Phong BRDF (thesis Alg. 5.1), light mapping (Alg. 5.2) and
 // tangent-space normal mapping (Alg. 5.4). Map texels are lobe-weighted average radiance
-// (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls. The renderer compiles one variant per
-// projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
-// USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB), so no fragment
-// pays for a feature its material lacks.
+// (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls. METALLIC_ROUGHNESS shades glTF 2.0's
+// metallic-roughness instead, with the split sum (Karis 2013; Filament): the GGX chain (or, without
+// GGX_CHAIN, the reflection maps) times the DFG table's specular albedo and multiple-scattering
+// compensation, plus the Lambertian part from the irradiance map. The renderer compiles one variant
+// per projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
+// USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB,
+// METALLIC_ROUGHNESS, GGX_CHAIN, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP, ALPHA_MASK), so
+// no fragment pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
 precision highp samplerCube;
@@ -35,6 +39,24 @@ uniform sampler2D u_albedo;
 uniform sampler2D u_normal_map;
 uniform float u_normal_strength;
 uniform sampler2D u_light_map;
+
+#ifdef METALLIC_ROUGHNESS
+// glTF 2.0 pbrMetallicRoughness (arlight/render/material.hpp MetallicRoughness).
+uniform vec4 u_base_colour;          // linear RGBA, times the base colour texture (u_albedo)
+uniform vec2 u_metallic_roughness;   // factors, times the texture's B and G
+uniform sampler2D u_mr_map;
+uniform sampler2D u_occlusion_map;   // R
+uniform float u_occlusion_strength;
+uniform vec3 u_emissive;
+uniform sampler2D u_emissive_map;
+uniform float u_alpha_cutoff;
+uniform sampler2D u_dfg;             // the split sum's (a, b) at (n.v, 1 - roughness)
+#ifdef GGX_CHAIN
+uniform samplerCube u_ggx;           // mip level k: roughness 1 - sqrt(1 - k / max_lod)
+uniform float u_ggx_max_lod;         // levels - 1
+
+#endif
+#endif
 
 #ifdef HEMISPHERE
 // Hemisphere shading (dissertation §5.4): the colour priors c_u, c_l and the occlusion
@@ -170,11 +192,57 @@ void main() {
 #ifdef USE_LIGHT_MAP
   ld *= texture(u_light_map, v_uv).rgb;  // Alg. 5.2 lines 7-8
 #endif
+#ifndef METALLIC_ROUGHNESS
   vec3 kd = u_kd;
 #ifdef USE_ALBEDO
   kd *= texture(u_albedo, v_uv).rgb;
 #endif
   lo += kd * ld;
+#endif
+#endif
+#ifdef METALLIC_ROUGHNESS
+  {
+    vec4 base = u_base_colour;
+#ifdef USE_ALBEDO
+    base *= texture(u_albedo, v_uv);
+#endif
+#ifdef ALPHA_MASK
+    if (base.a < u_alpha_cutoff) discard;
+#endif
+    vec2 mr = u_metallic_roughness;
+#ifdef USE_MR_MAP
+    mr *= texture(u_mr_map, v_uv).bg;
+#endif
+    float metallic = clamp(mr.x, 0.0, 1.0), roughness = clamp(mr.y, 0.0, 1.0);
+    vec3 v = normalize(u_camera_position - v_position);
+    float nv = clamp(dot(n, v), 1e-4, 1.0);  // interpolated normals at the silhouette may face away
+    // The split sum: the specular albedo E = mix(a, b, F0) of the DFG table, and Filament's
+    // multiple-scattering compensation 1 + F0 (1 / b - 1); the diffuse part keeps what the
+    // specular leaves (1 - E), as Filament's IBL does.
+    vec2 dfg = texture(u_dfg, vec2(nv, 1.0 - roughness)).rg;
+    vec3 f0 = mix(vec3(0.04), base.rgb, metallic);
+    vec3 e = mix(dfg.xxx, dfg.yyy, f0);
+    vec3 energy = 1.0 + f0 * (1.0 / max(dfg.y, 1e-4) - 1.0);
+    // The lobe's dominant direction leans from the mirror direction towards the normal as the
+    // surface roughens (Lagarde & de Rousiers 2014, Frostbite; Filament's
+    // getSpecularDominantDirection): the prefilter's n = v = R lobe is centred on R, the BRDF's
+    // is not, most at grazing views.
+    vec3 r = u_world_from_scene * normalize(mix(reflect(-v, n), n, roughness * roughness));
+#ifdef GGX_CHAIN
+    vec3 ls = textureLod(u_ggx, r, u_ggx_max_lod * roughness * (2.0 - roughness)).rgb;
+#else
+    vec3 ls = specular_environment(r);
+#endif
+    lo = base.rgb * (1.0 - metallic) * (1.0 - e) * ld + e * energy * ls;
+#ifdef USE_OCCLUSION_MAP
+    lo *= 1.0 + u_occlusion_strength * (texture(u_occlusion_map, v_uv).r - 1.0);
+#endif
+    vec3 emitted = u_emissive;
+#ifdef USE_EMISSIVE_MAP
+    emitted *= texture(u_emissive_map, v_uv).rgb;
+#endif
+    lo += emitted;
+  }
 #endif
 #if defined(USE_SPECULAR) || defined(GLASS)
   vec3 v = normalize(u_camera_position - v_position);  // towards the eye

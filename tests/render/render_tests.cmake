@@ -15,9 +15,10 @@ add_executable(render_tests
   render/test_light_count_control.cpp
   render/test_transfer.cpp
   render/test_light_sources.cpp
+  render/test_pbr.cpp
 )
 target_include_directories(render_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/render)
-target_link_libraries(render_tests PRIVATE arlight_render arlight_common arlight_warnings
+target_link_libraries(render_tests PRIVATE arlight_render arlight_lighting arlight_common arlight_warnings
   GTest::gtest_main opencv_core opencv_imgproc nlohmann_json::nlohmann_json)
 target_compile_definitions(render_tests PRIVATE
   ARLIGHT_ASSETS_DIR="${CMAKE_SOURCE_DIR}/data")

@@ -1,5 +1,6 @@
 #include "ibl_pass.hpp"
 
+#include <algorithm>
 #include <array>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -7,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "arlight/common/brdf.hpp"
 #include "textures.hpp"
 
 namespace arlight::render {
@@ -14,7 +16,10 @@ namespace arlight::render {
 namespace {
 
 // Texture units.
-enum Unit : GLint { kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, kResponseInverse };
+enum Unit : GLint {
+  kIrr = 0, kRefl0, kRefl1, kAlbedo, kNormal, kLight, kFrame, kResponseInverse,
+  kMrUnit, kOcclusionUnit, kEmissiveUnit, kDfgUnit, kGgxUnit
+};
 static_assert(kFrame == IblPass::kFrameUnit);
 
 // Features of an ibl.frag variant (bits of its cache key, above the projection's 2 bits).
@@ -30,7 +35,25 @@ enum Feature : unsigned {
   kLiveRefraction = 256,  // ... showing the camera frame (Refraction::LiveFrame)
   kFrameRgb = 512,        // ... whose copy holds R, G, B (the browser's), not B, G, R
   kTransfer = 1024,       // the mesh's SH-9 transfer dotted with the room's SH (not hemisphere)
+  kMetallicRoughness = 2048,  // glTF metallic-roughness (Material::pbr)
+  kGgxChain = 4096,           // ... with the room's GGX chain (else the reflection maps)
+  kMrMap = 8192,              // ... its textures
+  kOcclusionMap = 16384,
+  kEmissiveMap = 32768,
+  kAlphaMask = 65536,
 };
+
+// The split sum's DFG table the shader looks up: 64 x 64 (bilinear; the table is smooth) at
+// 512 samples a texel, ~0.05 s when the first metallic-roughness material is drawn.
+constexpr int kDfgSize = 64, kDfgSamples = 512;
+
+// The Phong shininess whose reflection lobe is about as wide as GGX's of perceptual roughness r
+// (Blinn-Phong's 2 / alpha^2 - 2 on the half vector is about 4x the exponent on the mirror
+// direction): the reflection map a metallic-roughness material samples without a GGX chain.
+double equivalent_shininess(double roughness) {
+  const double alpha = std::max(roughness * roughness, 1e-3);
+  return std::max(1.0, 0.5 / (alpha * alpha) - 0.5);
+}
 
 }  // namespace
 
@@ -45,7 +68,9 @@ struct IblPass::Variant {
   GLint model = -1, normal_matrix = -1, view_proj = -1, reflection_mix = -1, camera_position = -1,
         world_from_scene = -1, kd = -1, ks = -1, normal_strength = -1, sky = -1, ground = -1,
         occlusion = -1, ior = -1, transmission = -1, object_from_scene = -1, ellipsoid_centre = -1,
-        ellipsoid_axes = -1, inv_exposure_gain = -1, light_sh = -1;
+        ellipsoid_axes = -1, inv_exposure_gain = -1, light_sh = -1, base_colour = -1,
+        metallic_roughness = -1, occlusion_strength = -1, emissive = -1, alpha_cutoff = -1,
+        ggx_max_lod = -1;
 };
 
 IblPass::IblPass(const std::filesystem::path& shader_dir) : shader_dir_(shader_dir) {
@@ -83,7 +108,13 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
                                                    {kHemisphere, "HEMISPHERE"},
                                                    {kGlass, "GLASS"},
                                                    {kLiveRefraction, "LIVE_REFRACTION"},
-                                                   {kTransfer, "USE_TRANSFER"}};
+                                                   {kTransfer, "USE_TRANSFER"},
+                                                   {kMetallicRoughness, "METALLIC_ROUGHNESS"},
+                                                   {kGgxChain, "GGX_CHAIN"},
+                                                   {kMrMap, "USE_MR_MAP"},
+                                                   {kOcclusionMap, "USE_OCCLUSION_MAP"},
+                                                   {kEmissiveMap, "USE_EMISSIVE_MAP"},
+                                                   {kAlphaMask, "ALPHA_MASK"}};
   for (auto [bit, name] : names)
     if (features & bit) defines.emplace_back(name, "1");
   if (features & kLiveRefraction)
@@ -105,6 +136,11 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
   v.ellipsoid_axes = pr.uniform("u_ellipsoid_axes");
   v.inv_exposure_gain = pr.uniform("u_inv_exposure_gain");
   v.light_sh = pr.uniform("u_light_sh");
+  v.base_colour = pr.uniform("u_base_colour");
+  v.metallic_roughness = pr.uniform("u_metallic_roughness");
+  v.occlusion_strength = pr.uniform("u_occlusion_strength");
+  v.emissive = pr.uniform("u_emissive"), v.alpha_cutoff = pr.uniform("u_alpha_cutoff");
+  v.ggx_max_lod = pr.uniform("u_ggx_max_lod");
   glUseProgram(pr.id());
   glUniform1i(pr.uniform("u_irradiance"), kIrr);
   glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -114,6 +150,11 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
   glUniform1i(pr.uniform("u_light_map"), kLight);
   glUniform1i(pr.uniform("u_frame"), kFrame);
   glUniform1i(pr.uniform("u_response_inverse"), kResponseInverse);
+  glUniform1i(pr.uniform("u_mr_map"), kMrUnit);
+  glUniform1i(pr.uniform("u_occlusion_map"), kOcclusionUnit);
+  glUniform1i(pr.uniform("u_emissive_map"), kEmissiveUnit);
+  glUniform1i(pr.uniform("u_dfg"), kDfgUnit);
+  glUniform1i(pr.uniform("u_ggx"), kGgxUnit);
   return variants_.emplace(key, std::move(v)).first->second;
 }
 
@@ -121,21 +162,36 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
                    const DrawState& st, const SceneLighting& lighting, const RenderTargets& targets,
                    const LiveFrameInputs* live) {
   const EnvSet& env = lighting.maps();
-  const auto [a, b, t] = env.pick(m.shininess, lookup);
+  const MetallicRoughness* pbr = m.pbr ? &*m.pbr : nullptr;
+  const bool ggx = pbr && lighting.ggx_levels() > 0 && shading == Shading::ImageBased;
+  const auto [a, b, t] =
+      env.pick(pbr ? equivalent_shininess(pbr->roughness) : double(m.shininess), lookup);
   const bool use_normal = m.normal_map && mesh.has_tangents();
   const bool use_albedo = m.albedo && mesh.has_uvs(), use_light = m.light_map && mesh.has_uvs();
   const bool glass = m.transmissive();
-  const bool diffuse = m.kd != glm::vec3(0.0f), specular = m.ks != glm::vec3(0.0f) && !glass;
+  const bool diffuse = pbr || m.kd != glm::vec3(0.0f),
+             specular = !pbr && m.ks != glm::vec3(0.0f) && !glass;
   const bool hemisphere = shading != Shading::ImageBased;
   const bool transfer =
       diffuse && !hemisphere && mesh.has_transfer() && lighting.room_sh().order > 0;
   const unsigned live_bits = live ? kLiveRefraction | (live->frame_rgb ? kFrameRgb : 0u) : 0u;
-  const unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
-                            (use_normal ? kNormalMap : 0u) |
-                            (diffuse && use_light ? kLightMap : 0u) | (specular ? kSpecular : 0u) |
-                            ((specular || glass) && a != b && !hemisphere ? kMix : 0u) |
-                            (hemisphere ? kHemisphere : 0u) | (glass ? kGlass | live_bits : 0u) |
-                            (transfer ? kTransfer : 0u);
+  unsigned features = (diffuse ? kDiffuse : 0u) | (diffuse && use_albedo ? kAlbedoMap : 0u) |
+                      (use_normal ? kNormalMap : 0u) | (diffuse && use_light ? kLightMap : 0u) |
+                      (specular ? kSpecular : 0u) |
+                      ((specular || glass || (pbr && !ggx)) && a != b && !hemisphere ? kMix : 0u) |
+                      (hemisphere ? kHemisphere : 0u) | (glass ? kGlass | live_bits : 0u) |
+                      (transfer ? kTransfer : 0u);
+  if (pbr) {
+    const bool uvs = mesh.has_uvs();
+    features |= kMetallicRoughness | (ggx ? kGgxChain : 0u) |
+                (pbr->metallic_roughness && uvs ? kMrMap : 0u) |
+                (pbr->occlusion && uvs ? kOcclusionMap : 0u) |
+                (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u);
+    if (dfg_tex_.id == 0) {
+      const DfgTable table = dfg_table(kDfgSize, kDfgSamples);
+      dfg_tex_ = upload_dfg(table.size, table.ab);
+    }
+  }
   const Variant& u = variant(hemisphere ? Projection::LatLong : env.projection, features);
   glBindFramebuffer(GL_FRAMEBUFFER, targets.hdr_fbo.id);
   glViewport(0, 0, targets.w, targets.h);
@@ -160,6 +216,27 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
   glUniformMatrix3fv(u.world_from_scene, 1, GL_FALSE, glm::value_ptr(st.world_from_scene));
   glUniform3fv(u.kd, 1, glm::value_ptr(m.kd));
   glUniform3fv(u.ks, 1, glm::value_ptr(m.ks));
+  if (pbr) {
+    glUniform4fv(u.base_colour, 1, glm::value_ptr(pbr->base_colour));
+    glUniform2f(u.metallic_roughness, pbr->metallic, pbr->roughness);
+    glUniform1f(u.occlusion_strength, pbr->occlusion_strength);
+    glUniform3fv(u.emissive, 1, glm::value_ptr(pbr->emissive));
+    glUniform1f(u.alpha_cutoff, pbr->alpha_cutoff);
+    glActiveTexture(GL_TEXTURE0 + kDfgUnit);
+    glBindTexture(GL_TEXTURE_2D, dfg_tex_.id);
+    const bool uvs = mesh.has_uvs();
+    for (auto [unit, image] : {std::pair{kMrUnit, &pbr->metallic_roughness},
+                               std::pair{kOcclusionUnit, &pbr->occlusion},
+                               std::pair{kEmissiveUnit, &pbr->emissive_map}}) {
+      glActiveTexture(GL_TEXTURE0 + GLenum(unit));
+      glBindTexture(GL_TEXTURE_2D, *image && uvs ? texture_for(*image) : white_tex_.id);
+    }
+    if (ggx) {
+      glUniform1f(u.ggx_max_lod, float(lighting.ggx_levels() - 1));
+      glActiveTexture(GL_TEXTURE0 + kGgxUnit);
+      glBindTexture(GL_TEXTURE_CUBE_MAP, lighting.ggx_chain());
+    }
+  }
   if (glass) {
     glUniform1f(u.ior, m.ior);
     glUniform3fv(u.transmission, 1, glm::value_ptr(m.transmission));

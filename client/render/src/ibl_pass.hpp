@@ -58,6 +58,7 @@ class IblPass {
   };
   std::unordered_map<const TextureImage*, CachedTexture> textures_;
   gl::Texture white_tex_, flat_normal_tex_;  // a material's missing albedo and normal map
+  gl::Texture dfg_tex_;  // the split sum's DFG table, made for the first metallic-roughness draw
 };
 
 }  // namespace arlight::render

@@ -168,6 +168,13 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
 
 void Renderer::clear_maps() { p_->lighting.clear_maps(); }
 
+void Renderer::set_ggx_chain(const std::vector<EnvMap>& levels,
+                             const std::vector<double>& roughness) {
+  p_->lighting.set_ggx_chain(levels, roughness);
+}
+
+void Renderer::clear_ggx_chain() { p_->lighting.clear_ggx_chain(); }
+
 void Renderer::set_shadow(const ShadowSettings& settings) { p_->shadow.set_settings(settings); }
 
 const ShadowSettings& Renderer::shadow() const { return p_->shadow.settings(); }

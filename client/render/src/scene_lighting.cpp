@@ -48,6 +48,31 @@ std::tuple<std::size_t, std::size_t, float> EnvSet::pick(double s, ReflectionLoo
   return {i, i + 1, float(t)};
 }
 
+void SceneLighting::set_ggx_chain(const std::vector<EnvMap>& levels,
+                                  const std::vector<double>& roughness) {
+  if (levels.empty() || levels.size() != roughness.size())
+    throw std::invalid_argument("GGX chain: " + std::to_string(levels.size()) + " levels and " +
+                                std::to_string(roughness.size()) + " roughness values");
+  if (levels.size() > 16) throw std::invalid_argument("GGX chain: more than 16 levels");
+  const int n = int(levels.size());
+  for (int k = 0; k < n; ++k) {
+    const EnvLayout& l = levels[std::size_t(k)].layout;
+    if (l.projection() != Projection::Cube || l.face_size() != levels[0].layout.face_size() >> k ||
+        l.face_size() < 1)
+      throw std::invalid_argument("GGX chain: level " + std::to_string(k) +
+                                  " is not a cube map of half the face of the level before");
+    // The shader samples level (n - 1) r (2 - r), Filament's mapping: the chain must follow it.
+    const double lod = double(n - 1) * (1.0 - (1.0 - roughness[std::size_t(k)]) *
+                                                   (1.0 - roughness[std::size_t(k)]));
+    if (!(std::abs(lod - k) < 1e-3))
+      throw std::invalid_argument("GGX chain: level " + std::to_string(k) + "'s roughness " +
+                                  std::to_string(roughness[std::size_t(k)]) +
+                                  " does not follow Filament's level mapping");
+  }
+  ggx_ = upload_ggx_chain(levels);
+  ggx_levels_ = n;
+}
+
 SceneLighting::SceneLighting() {
   EnvMap zero(EnvLayout::for_size(Projection::LatLong, 1));
   black_.upload({1.0}, {zero});

@@ -43,6 +43,14 @@ class SceneLighting {
   void clear_maps();
   LightingSource source() const;
 
+  // Renderer::set_ggx_chain / clear_ggx_chain.
+  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness);
+  void clear_ggx_chain() { ggx_ = gl::Texture(), ggx_levels_ = 0; }
+  // The GGX chain's cube texture (mip level k = chain level k) and its level count; 0 levels:
+  // none (metallic-roughness then takes its specular from the reflection maps).
+  GLuint ggx_chain() const { return ggx_.id; }
+  int ggx_levels() const { return ggx_levels_; }
+
   // What the objects are shaded with now: the map set, the live SH's maps, or black.
   const EnvSet& maps() const;
   // The room's radiance SH, bands 0-2 (world frame), for the meshes' transfer: the sharpest
@@ -64,6 +72,8 @@ class SceneLighting {
   void set_room_sh(const ShCoeffs& sh);
 
   EnvSet maps_, sh_maps_, black_;
+  gl::Texture ggx_;
+  int ggx_levels_ = 0;
   ShCoeffs last_sh_, room_sh_;
   ShCoeffs irradiance_sh_;  // the live SH's irradiance / pi
   // The irradiance map's bands 0-2 (irradiance is smooth: they hold nearly all of it), so a

@@ -49,6 +49,43 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
   gl::check("uploading an environment map");
 }
 
+gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels) {
+  gl::Texture tex;
+  tex.create();
+  glBindTexture(GL_TEXTURE_CUBE_MAP, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    const EnvMap& m = levels[k];
+    const int n = m.layout.face_size();
+    std::vector<float> rgba(m.image.texel_count() * 4, 1.0f);
+    for (std::size_t i = 0; i < m.image.texel_count(); ++i)
+      for (int c = 0; c < 3; ++c) rgba[4 * i + std::size_t(c)] = m.image.data()[3 * i + std::size_t(c)];
+    for (int f = 0; f < 6; ++f)
+      glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), GLint(k), GL_RGBA16F, n, n, 0,
+                   GL_RGBA, GL_FLOAT, rgba.data() + std::size_t(f) * n * n * 4);
+  }
+  gl::set_sampling(GL_TEXTURE_CUBE_MAP, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_BASE_LEVEL, 0);
+  glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAX_LEVEL, GLint(levels.size()) - 1);
+  gl::check("uploading a GGX chain");
+  return tex;
+}
+
+gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab) {
+  gl::Texture tex;
+  tex.create();
+  glBindTexture(GL_TEXTURE_2D, tex.id);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG16F, size, size, 0, GL_RG, GL_FLOAT, ab.data());
+  gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  gl::check("uploading the DFG table");
+  return tex;
+}
+
 namespace {
 
 // Gray, RGB or RGBA texels as RGBA (alpha 1 where there was none).

@@ -3,6 +3,8 @@
 
 #include <array>
 #include <cstdint>
+#include <glm/vec2.hpp>
+#include <vector>
 
 #include "arlight/common/projection.hpp"
 #include "arlight/common/response.hpp"
@@ -18,6 +20,13 @@ GLenum env_target(Projection p);
 // bilinear, no mipmaps (the maps are already filtered by their lobes). Lat-long wraps in u and
 // clamps in v; angle maps clamp; cube maps sample seamlessly across faces (ES 3 always does).
 void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height);
+
+// Uploads a GGX chain (cube maps, level k of face face0 >> k) as one RGBA16F cube map whose mip
+// level k is the chain's level k: trilinear, GL_TEXTURE_MAX_LEVEL = levels - 1 (the chain
+// needs no 1 x 1 level), so textureLod(chain, r, lod) blends neighbouring roughness as engines do.
+gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels);
+// The split sum's DFG table as an RG16F texture (x: n.v, y: 1 - roughness), bilinear, clamped.
+gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab);
 
 // A 1 x 1 RGBA8 texture of one colour, nearest, repeating: a material's missing texture.
 gl::Texture upload_pixel_texture(std::array<std::uint8_t, 4> rgba);

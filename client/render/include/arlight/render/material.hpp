@@ -1,10 +1,12 @@
-// Phong materials for image-based lighting (thesis §5.3): kd, ks, shininess, and optional
-// albedo, tangent-space normal and light maps.
+// Materials for image-based lighting: the thesis's Phong materials (§5.3: kd, ks, shininess,
+// and optional albedo, tangent-space normal and light maps) and glTF 2.0's metallic-roughness.
 #pragma once
 
 #include <cstdint>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 #include <memory>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -32,7 +34,32 @@ std::shared_ptr<const TextureImage> make_texture(const ImageU8View& rgb, bool sr
 std::shared_ptr<const TextureImage> make_texture(int width, int height, int channels,
                                                  std::vector<float> linear);
 
+// glTF 2.0's metallic-roughness material (its `pbrMetallicRoughness` and the core textures),
+// shaded with the split sum (shaders/ibl.frag METALLIC_ROUGHNESS; common/brdf.hpp's BRDF): the
+// Lambertian diffuse of base x (1 - metallic) from the irradiance, the GGX specular of
+// F0 = mix(0.04, base, metallic) from the room's GGX chain (Renderer::set_ggx_chain) and the DFG
+// table, with Filament's multiple-scattering compensation. The base colour texture is the
+// Material's `albedo` (sRGB), the normal texture its `normal_map` (normal_strength its scale).
+struct MetallicRoughness {
+  glm::vec4 base_colour{1.0f};  // linear RGBA factor
+  float metallic = 1.0f, roughness = 1.0f;  // factors (glTF's defaults); perceptual roughness
+  // B: metallic, G: roughness (linear), times the factors.
+  std::shared_ptr<const TextureImage> metallic_roughness;
+  // R: the ambient occlusion of the indirect light (linear): 1 + strength x (R - 1).
+  std::shared_ptr<const TextureImage> occlusion;
+  float occlusion_strength = 1.0f;
+  glm::vec3 emissive{0.0f};  // linear radiance factor
+  std::shared_ptr<const TextureImage> emissive_map;  // sRGB, times `emissive`
+  // MASK: fragments whose alpha (base colour's) is below the cutoff are not drawn. (BLEND is
+  // not drawn blended yet: such a material renders opaque.)
+  bool alpha_mask = false;
+  float alpha_cutoff = 0.5f;
+};
+
 struct Material {
+  // Set: the material is glTF metallic-roughness (kd, ks, shininess, light_map and the glass
+  // fields are not used); unset: the thesis's Phong material.
+  std::optional<MetallicRoughness> pbr;
   glm::vec3 kd{0.8f};         // diffuse reflectance (multiplied by the albedo map, if any)
   glm::vec3 ks{0.0f};         // specular reflectance
   float shininess = 32.0f;    // Phong exponent: picks (interpolates) the reflection map
@@ -55,7 +82,7 @@ struct Material {
   glm::vec3 transmission{0.0f};
   float ior = 1.5f;  // index of refraction (crown glass 1.5, water 1.33, diamond 2.42)
 
-  bool transmissive() const { return transmission != glm::vec3(0.0f); }
+  bool transmissive() const { return !pbr && transmission != glm::vec3(0.0f); }
 };
 
 // Clear glass of an index of refraction, reflections as sharp as the shininess picks.

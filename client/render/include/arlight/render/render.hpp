@@ -266,6 +266,14 @@ class Renderer {
   // as half-float textures. Throws std::invalid_argument on an empty or inconsistent set.
   void set_maps(const std::vector<double>& shininess, const std::vector<EnvMap>& maps);
   void clear_maps();
+  // The room's GGX chain (issue 34: arlightd's RequestMaps kind Ggx, or lighting::
+  // compute_ggx_chain): cube maps, level k of half the face of level k - 1, at perceptual
+  // roughness 1 - sqrt(1 - k / (n - 1)) (Filament's mapping; std::invalid_argument otherwise).
+  // Metallic-roughness materials take their specular from it; without one, from the reflection
+  // map of the Phong shininess whose lobe is as wide (s = 1 / (2 alpha^2) - 1/2, at least 1).
+  // Uploaded once as one mipmapped RGBA16F cube texture.
+  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness);
+  void clear_ggx_chain();
   LightingSource lighting_source() const;
   // Reflection map for a material's shininess: interpolated in log shininess between the two
   // neighbouring maps (default) or the nearest one.
