@@ -24,7 +24,12 @@ void add_client_flags(CLI::App& app, ClientFlags& f) {
       ->required();
   app.add_option("--model", f.model, "glTF 2.0 model (.glb/.gltf, Draco ok) or 'sphere'")
       ->capture_default_str();
-  app.add_option("--material", f.material_text, "kd,ks,shininess (Phong)")->capture_default_str();
+  app.add_option("--material", f.material_text,
+                 "kd,ks,shininess (Phong) or pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-roughness)")
+      ->capture_default_str();
+  app.add_option("--ggx", f.ggx_face,
+                 "request the room's GGX chain from this face instead of --maps (default: 256 "
+                 "with a pbr: material, else none; 0: none)");
   app.add_option("--marker", f.marker_text, "ArUco DICT_4X4_50 marker ID,SIZE_M")
       ->capture_default_str();
   app.add_option("--object-height", f.object_height,
@@ -184,6 +189,7 @@ LinkOptions link_options(const ClientFlags& f, source::FrameSource& src,
                  : !src.device_id().empty() ? src.device_id()
                                             : "webcam";
   lo.camera = camera, lo.shininess = shininess, lo.map_size = f.map_size;
+  lo.ggx_face = f.ggx_face >= 0 ? f.ggx_face : f.material_text.rfind("pbr:", 0) == 0 ? 256 : 0;
   lo.exposure_advice = src.request_exposure(0.0);  // (0 asks nothing: can it at all?)
   if (!f.location.empty()) {
     if (f.north_offset && !(std::abs(*f.north_offset) <= 180.0))

@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
     FramePipeline pipeline(po, std::move(object.mesh));
     LightingLink link(link_options(f, *src, po.camera, shininess));
     link.wait_connected(std::chrono::seconds(10));
-    if (f.wait_maps_s > 0 && !shininess.empty())
+    if (f.wait_maps_s > 0 && (!shininess.empty() || link.options().ggx_face > 0))
       link.wait_for_maps(std::chrono::duration<double>(f.wait_maps_s));
     LinkChannel channel(link);
 

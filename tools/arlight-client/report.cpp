@@ -59,6 +59,7 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
                         {"frames", s.shadow_lights.size()}};
   j["lit_by_maps"] = s.lit_by_maps;
   j["lit_by_sh"] = s.lit_by_sh;
+  j["lit_by_ggx"] = s.lit_by_ggx;
   j["exposure_advice"] = {{"received", ls.exposure_advice},
                           {"frames_taken", s.exposure_requested}};
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},

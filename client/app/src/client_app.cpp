@@ -108,6 +108,15 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     renderer_.set_sh(*lighting.sh);
     sh_version_ = lighting.sh_version;
   }
+  // The room's GGX chain (metallic-roughness materials' specular), when the link asked for one.
+  if (lighting.ggx && lighting.ggx_version != ggx_version_) {
+    ggx_version_ = lighting.ggx_version;
+    try {
+      renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness);
+    } catch (const std::invalid_argument& e) {
+      spdlog::warn("GGX chain not used: {}", e.what());
+    }
+  }
 
   // Render where the marker is (held briefly through a lost frame), tone map, composite.
   renderer_.begin_frame();
@@ -120,6 +129,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     renderer_.set_shadow(shadow_budget_.settings(options_.shadow, lighting));
     renderer_.draw(mesh_, options_.material, model_matrix_);
     report.lit_by = renderer_.lighting_source();
+    report.lit_by_ggx = options_.material.pbr && renderer_.has_ggx_chain();
   }
   render::ToneMapping tone;
   tone.mode = options_.tone;
@@ -154,6 +164,17 @@ track::MarkerSpec parse_marker(const std::string& text) {
 }
 
 render::Material parse_material(const std::string& text) {
+  if (text.rfind("pbr:", 0) == 0) {
+    const std::vector<double> v = parse_number_list(text.substr(4), "--material pbr:");
+    if (v.size() != 5 || std::any_of(v.begin(), v.end(), [](double x) { return !(x >= 0 && x <= 1); }))
+      throw InputError("--material pbr:R,G,B,METALLIC,ROUGHNESS with every value in [0, 1]");
+    render::Material m;
+    m.pbr = render::MetallicRoughness{};
+    m.pbr->base_colour = glm::vec4(float(v[0]), float(v[1]), float(v[2]), 1.0f);
+    m.pbr->metallic = float(v[3]);
+    m.pbr->roughness = float(v[4]);
+    return m;
+  }
   const std::vector<double> mat = parse_number_list(text, "--material");
   if (mat.size() != 3 || mat[0] < 0 || mat[1] < 0 || !(mat[2] >= 1))
     throw InputError("--material: kd,ks,s with kd, ks >= 0 and s >= 1");
@@ -271,6 +292,7 @@ void RunStats::add(const FrameReport& r, double decode) {
   if (r.tracked) ++tracked;
   if (r.exposure_requested) ++exposure_requested;
   if (r.drawn) ++(r.lit_by == render::LightingSource::Maps ? lit_by_maps : lit_by_sh);
+  if (r.drawn && r.lit_by_ggx) ++lit_by_ggx;
   frame_ms.push_back(r.frame_ms);
   track_ms.push_back(r.track_ms);
   render_ms.push_back(r.render_ms);

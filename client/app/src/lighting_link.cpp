@@ -1,5 +1,7 @@
 #include "arlight/app/lighting_link.hpp"
 
+#include "arlight/net/client_messages.hpp"
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -44,8 +46,11 @@ void LightingLink::wait_connected(std::chrono::milliseconds timeout) {
 
 bool LightingLink::wait_for_maps(std::chrono::duration<double> timeout) {
   std::unique_lock lock(mutex_);
-  return changed_.wait_for(lock, timeout, [&] { return lighting_.maps != nullptr || stop_; }) &&
-         lighting_.maps != nullptr;
+  // The set this link asked for: the GGX chain or the Phong maps.
+  const auto arrived = [&] {
+    return options_.ggx_face > 0 ? lighting_.ggx != nullptr : lighting_.maps != nullptr;
+  };
+  return changed_.wait_for(lock, timeout, [&] { return arrived() || stop_; }) && arrived();
 }
 
 bool LightingLink::connect_once() {
@@ -86,7 +91,9 @@ bool LightingLink::connect_once() {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
       c->send_location(l);
     }
-    if (!options_.shininess.empty())
+    if (options_.ggx_face > 0)
+      c->request_maps(client::ggx_request(options_.ggx_face));
+    else if (!options_.shininess.empty())
       c->request_maps(options_.shininess, options_.map_size, options_.projection);
     std::lock_guard lock(mutex_);
     if (!stats_.session_id.empty() && w.session_id != stats_.session_id)

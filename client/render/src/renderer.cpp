@@ -174,6 +174,7 @@ void Renderer::set_ggx_chain(const std::vector<EnvMap>& levels,
 }
 
 void Renderer::clear_ggx_chain() { p_->lighting.clear_ggx_chain(); }
+bool Renderer::has_ggx_chain() const { return p_->lighting.ggx_levels() > 0; }
 
 void Renderer::set_shadow(const ShadowSettings& settings) { p_->shadow.set_settings(settings); }
 

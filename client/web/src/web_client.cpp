@@ -103,8 +103,15 @@ std::string WebClient::receive(const val& bytes) {
       if (!lighting.maps) renderer_.set_sh(*lighting.sh);
       break;
     case client::LightingState::Change::MapSet:
-      if (state_.newest_set()->kind == wire::MapKind::Phong)
+      if (state_.newest_set()->kind == wire::MapKind::Phong) {
         renderer_.set_maps(lighting.maps->shininess, lighting.maps->maps);
+      } else {
+        try {
+          renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness);
+        } catch (const std::invalid_argument& e) {
+          last_error_ = std::string("GGX chain not used: ") + e.what();
+        }
+      }
       break;
     default:
       break;

@@ -99,6 +99,7 @@ struct FrameReport {
   bool exposure_requested = false;  // taken at arlightd's exposure advice
   bool drawn = false;
   render::LightingSource lit_by = render::LightingSource::None;
+  bool lit_by_ggx = false;  // a metallic-roughness object shaded with the room's GGX chain
   double track_ms = 0, render_ms = 0, tonemap_ms = 0;
   double frame_ms = 0;  // the client's own work: tracking + render + tone map and composite
   int shadow_lights = 0;  // hard shadows blended into the soft one (0: none drawn)
@@ -126,13 +127,14 @@ class FramePipeline {
   track::WorldFromMarker world_from_marker_;
   track::OrientationEstimator webcam_orientation_;
   ShadowBudget shadow_budget_;
-  std::uint64_t sh_version_ = 0, maps_version_ = 0;
+  std::uint64_t sh_version_ = 0, maps_version_ = 0, ggx_version_ = 0;
   MarkerPlacement placement_;  // the smoothed pose, held through a briefly lost marker
 };
 
 // Flag values every client takes, with errors naming the flag.
 track::MarkerSpec parse_marker(const std::string& text);   // --marker ID,SIZE_M (DICT_4X4_50)
-render::Material parse_material(const std::string& text);  // --material kd,ks,shininess
+// --material kd,ks,shininess (Phong) or pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-roughness).
+render::Material parse_material(const std::string& text);
 render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
 // --tone MODE[,CORRECTION]: the tone mode and the colour correction (none when not given;
 // brightness, contrast or match: render::ColourCorrection).
@@ -164,7 +166,7 @@ std::filesystem::path default_bake_cache();
 struct RunStats {
   std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg;
   std::vector<double> shadow_lights;  // of the frames whose shadow was drawn
-  std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0;
+  std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0, lit_by_ggx = 0;
   std::size_t exposure_requested = 0;  // frames taken at arlightd's exposure advice
   void add(const FrameReport& r, double decode_ms);
 };

@@ -26,6 +26,7 @@ struct LinkOptions {
   CameraIntrinsics camera;
   std::vector<double> shininess;  // the map set to request
   int map_size = 256;
+  int ggx_face = 0;  // > 0: request the room's GGX chain from this face instead (issue 34)
   Projection projection = Projection::AngleMap;
   // After a loss the link retries at once, then backs off (doubling from 0.1 s) to this.
   double reconnect_interval_s = 1.0;
@@ -76,8 +77,10 @@ class LightingLink {
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg);
 
-  // Waits up to `timeout` for the first complete map set; whether one came.
+  // Waits up to `timeout` for the first complete map set (the GGX chain when the link asks for
+  // one); whether one came.
   bool wait_for_maps(std::chrono::duration<double> timeout);
+  const LinkOptions& options() const { return options_; }
 
   Lighting lighting() const;
   LinkStats stats() const;

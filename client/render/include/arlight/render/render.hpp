@@ -274,6 +274,7 @@ class Renderer {
   // Uploaded once as one mipmapped RGBA16F cube texture.
   void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness);
   void clear_ggx_chain();
+  bool has_ggx_chain() const;
   LightingSource lighting_source() const;
   // Reflection map for a material's shininess: interpolated in log shininess between the two
   // neighbouring maps (default) or the nearest one.
