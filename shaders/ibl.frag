@@ -216,13 +216,17 @@ void main() {
     float metallic = clamp(mr.x, 0.0, 1.0), roughness = clamp(mr.y, 0.0, 1.0);
     vec3 v = normalize(u_camera_position - v_position);
     float nv = clamp(dot(n, v), 1e-4, 1.0);  // interpolated normals at the silhouette may face away
-    // The split sum: the specular albedo E = mix(a, b, F0) of the DFG table, and Filament's
-    // multiple-scattering compensation 1 + F0 (1 / b - 1); the diffuse part keeps what the
-    // specular leaves (1 - E), as Filament's IBL does.
-    vec2 dfg = texture(u_dfg, vec2(nv, 1.0 - roughness)).rg;
+    // The split sum: single scattering is the prefiltered radiance times the specular albedo
+    // E = mix(a, b, F0) of the DFG table. What it loses comes back as Kulla & Conty's
+    // multiple-scattering lobe F_ms (1 - E(n.v)) (1 - E(n.l)) / (pi (1 - E_avg)) (common/brdf.hpp),
+    // whose integral over the room is taken as the irradiance map's cosine-weighted mean times
+    // pi (1 - E_avg): a white metal in a constant room reflects it exactly. The diffuse part,
+    // the dielectric's (glTF's fresnel_mix), keeps what its own specular (F0 = 0.04) leaves.
+    vec3 dfg = texture(u_dfg, vec2(nv, 1.0 - roughness)).rgb;  // a, b, E_avg
     vec3 f0 = mix(vec3(0.04), base.rgb, metallic);
     vec3 e = mix(dfg.xxx, dfg.yyy, f0);
-    vec3 energy = 1.0 + f0 * (1.0 / max(dfg.y, 1e-4) - 1.0);
+    vec3 f_avg = (20.0 * f0 + 1.0) / 21.0;
+    vec3 f_ms = f_avg * f_avg * dfg.z / (1.0 - f_avg * (1.0 - dfg.z));
     // The lobe's dominant direction leans from the mirror direction towards the normal as the
     // surface roughens (Lagarde & de Rousiers 2014, Frostbite; Filament's
     // getSpecularDominantDirection): the prefilter's n = v = R lobe is centred on R, the BRDF's
@@ -233,7 +237,9 @@ void main() {
 #else
     vec3 ls = specular_environment(r);
 #endif
-    lo = base.rgb * (1.0 - metallic) * (1.0 - e) * ld + e * energy * ls;
+    float e_dielectric = mix(dfg.x, dfg.y, 0.04);
+    lo = base.rgb * (1.0 - metallic) * (1.0 - e_dielectric) * ld + e * ls +
+         f_ms * (1.0 - dfg.y) * ld;
 #ifdef USE_OCCLUSION_MAP
     lo *= 1.0 + u_occlusion_strength * (texture(u_occlusion_map, v_uv).r - 1.0);
 #endif

@@ -33,12 +33,39 @@ glm::dvec3 metallic_roughness_brdf(const glm::dvec3& n, const glm::dvec3& l, con
   const glm::dvec3 h = glm::normalize(l + v);
   const double alpha = roughness * roughness, a2 = std::max(alpha * alpha, 1e-12);
   const double specular = ggx_distribution(glm::dot(n, h), a2) * ggx_visibility(nv, nl, a2);
-  const glm::dvec3 f0 = glm::mix(glm::dvec3(0.04), base, metallic);
-  const glm::dvec3 f = schlick_fresnel(f0, glm::dot(v, h));
-  const glm::dvec3 diffuse = (1.0 - metallic) * base / std::numbers::pi;
-  // glTF Appendix B: mix(dielectric, metal, metallic) with the dielectric's Fresnel taking its
-  // share from the diffuse: (1 - F) diffuse + F specular, F of F0 = 0.04 or base.
-  return (1.0 - f) * diffuse + f * specular;
+  // glTF Appendix B: mix(dielectric, metal, metallic), the dielectric's Fresnel (F0 = 0.04)
+  // taking its share from the diffuse: (1 - m)(1 - F_0.04) diffuse + F_mix specular, as F is
+  // linear in F0 (F_mix: F0 = mix(0.04, base, metallic)).
+  const double vh = glm::dot(v, h);
+  const glm::dvec3 f = schlick_fresnel(glm::mix(glm::dvec3(0.04), base, metallic), vh);
+  const double f_dielectric = schlick_fresnel(glm::dvec3(0.04), vh).x;
+  return (1.0 - f_dielectric) * (1.0 - metallic) * base / std::numbers::pi + f * specular;
+}
+
+GgxMultipleScattering::GgxMultipleScattering(double roughness, int table, int samples) {
+  if (table < 2 || samples < 1) throw InputError("multiple scattering: bad table or sample count");
+  albedo_.resize(std::size_t(table));
+  average_ = 0.0;
+  for (int i = 0; i < table; ++i) {
+    const double mu = (i + 0.5) / table;
+    albedo_[std::size_t(i)] = std::min(1.0, double(dfg_value(mu, roughness, samples).y));
+    average_ += 2.0 * albedo_[std::size_t(i)] * mu / table;
+  }
+}
+
+double GgxMultipleScattering::albedo(double n_dot_v) const {
+  const double x = std::clamp(n_dot_v, 0.0, 1.0) * double(albedo_.size()) - 0.5;
+  const int i = std::clamp(int(std::floor(x)), 0, int(albedo_.size()) - 2);
+  const double t = std::clamp(x - i, 0.0, 1.0);
+  return (1.0 - t) * albedo_[std::size_t(i)] + t * albedo_[std::size_t(i) + 1];
+}
+
+glm::dvec3 GgxMultipleScattering::brdf(double n_dot_l, double n_dot_v, const glm::dvec3& f0) const {
+  if (n_dot_l <= 0.0 || n_dot_v <= 0.0 || average_ >= 1.0) return glm::dvec3(0.0);
+  const glm::dvec3 f_avg = (20.0 * f0 + 1.0) / 21.0;
+  const glm::dvec3 f_ms = f_avg * f_avg * average_ / (1.0 - f_avg * (1.0 - average_));
+  return f_ms * ((1.0 - albedo(n_dot_l)) * (1.0 - albedo(n_dot_v)) /
+                 (std::numbers::pi * (1.0 - average_)));
 }
 
 glm::vec2 dfg_value(double n_dot_v, double roughness, int samples) {

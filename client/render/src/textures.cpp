@@ -1,5 +1,7 @@
 #include "textures.hpp"
 
+#include <algorithm>
+
 #include <vector>
 
 namespace arlight::render {
@@ -79,7 +81,18 @@ gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab) {
   glBindTexture(GL_TEXTURE_2D, tex.id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG16F, size, size, 0, GL_RG, GL_FLOAT, ab.data());
+  std::vector<float> rgba(std::size_t(size) * std::size_t(size) * 4, 1.0f);
+  for (int j = 0; j < size; ++j) {
+    double average = 0.0;  // midpoint rule: the row's texels are at mu = (i + 0.5) / size
+    for (int i = 0; i < size; ++i)
+      average += 2.0 * ab[std::size_t(j) * std::size_t(size) + std::size_t(i)].y * (i + 0.5) / size / size;
+    for (int i = 0; i < size; ++i) {
+      float* t = &rgba[4 * (std::size_t(j) * std::size_t(size) + std::size_t(i))];
+      const glm::vec2 v = ab[std::size_t(j) * std::size_t(size) + std::size_t(i)];
+      t[0] = v.x, t[1] = v.y, t[2] = float(std::min(average, 1.0));
+    }
+  }
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, size, size, 0, GL_RGBA, GL_FLOAT, rgba.data());
   gl::set_sampling(GL_TEXTURE_2D, GL_LINEAR, GL_CLAMP_TO_EDGE, GL_CLAMP_TO_EDGE);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
   gl::check("uploading the DFG table");

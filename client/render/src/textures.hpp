@@ -25,7 +25,9 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height);
 // level k is the chain's level k: trilinear, GL_TEXTURE_MAX_LEVEL = levels - 1 (the chain
 // needs no 1 x 1 level), so textureLod(chain, r, lod) blends neighbouring roughness as engines do.
 gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels);
-// The split sum's DFG table as an RG16F texture (x: n.v, y: 1 - roughness), bilinear, clamped.
+// The split sum's DFG table as an RGBA16F texture (x: n.v, y: 1 - roughness), bilinear, clamped:
+// (a, b) in R and G, and in B each row's average albedo E_avg = 2 integral b(mu) mu dmu (Kulla &
+// Conty's multiple-scattering lobe needs it).
 gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab);
 
 // A 1 x 1 RGBA8 texture of one colour, nearest, repeating: a material's missing texture.

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "arlight/common/atomic_file.hpp"
+#include "arlight/common/brdf.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/protocol/recording.hpp"
@@ -31,9 +32,13 @@ constexpr double kPi = std::numbers::pi;
 // The room's directions for the diffuse and shadow sums: a 64 x 32 lat-long (5.6 degree
 // texels) of the probe, each texel one direction with its radiance x solid angle.
 constexpr int kDirectionsWidth = 64;
+// Metallic-roughness's: 128 x 64 (2.8 degrees), summed directly for GGX lobes of alpha >=
+// kWideLobe (about 12 degrees wide and more), importance-sampled below.
+constexpr int kFineWidth = 128;
+constexpr double kWideLobe = 0.1;
 
-EnvMap room_for_sums(const EnvMap& room) {
-  return resample(room, EnvLayout(Projection::LatLong, kDirectionsWidth, kDirectionsWidth / 2));
+EnvMap room_for_sums(const EnvMap& room, int width = kDirectionsWidth) {
+  return resample(room, EnvLayout(Projection::LatLong, width, width / 2));
 }
 
 struct Direction {
@@ -90,6 +95,8 @@ struct ReferenceScene::Impl {
   double radius = 0, epsilon = 0;
   EnvSampler sampler;
   std::vector<Direction> directions;
+  std::vector<Direction> fine;  // metallic-roughness materials' sums (kFineWidth)
+  std::optional<GgxMultipleScattering> multiple_scattering;  // ... and their lobe's
   // The floor: the marker's plane through its centre, normal n, axes u, v; the shadow grid.
   glm::dvec3 floor_origin{0.0}, floor_normal{0, 1, 0}, floor_u{1, 0, 0}, floor_v{0, 0, 1};
   double grid_half = 1;
@@ -114,11 +121,66 @@ struct ReferenceScene::Impl {
     return ray.tfar < 0.0f;  // Embree sets -inf on a hit
   }
 
-  // kd Ld + ks Ls at a surface point (normal n, the ray arriving along `view`).
+  // glTF metallic-roughness at a surface point: the full BRDF (common/brdf.hpp) over the room,
+  // not the split sum, with Kulla & Conty's multiple-scattering lobe (what the renderer's
+  // compensation stands for). The diffuse part and wide specular lobes (alpha >= kWideLobe) are summed
+  // over the room's directions (`fine`: a 128 x 64 lat-long, 2.8 degree texels, each visible
+  // or not); a narrower lobe is importance-sampled (GGX half vectors, stratified, turned per
+  // pixel) with bilinear lookups of the full-resolution room.
+  glm::dvec3 shade_metallic_roughness(const glm::dvec3& origin, const glm::dvec3& n,
+                                      const glm::dvec3& v, std::uint32_t pixel_seed) const {
+    const render::MetallicRoughness& pbr = *material.pbr;
+    const glm::dvec3 base(pbr.base_colour);
+    const double metallic = pbr.metallic, roughness = pbr.roughness;
+    const double alpha = roughness * roughness, a2 = std::max(alpha * alpha, 1e-12);
+    const bool wide = alpha >= kWideLobe;
+    const glm::dvec3 f0 = glm::mix(glm::dvec3(0.04), base, metallic);
+    const double nv = glm::dot(n, v);
+    glm::dvec3 out(0.0);
+    for (const Direction& d : fine) {
+      const double nl = glm::dot(n, d.dir);
+      if (nl <= 0 || occluded(origin, d.dir)) continue;
+      out += d.weighted * multiple_scattering->brdf(nl, nv, f0) * nl;
+      if (wide) {
+        out += d.weighted * metallic_roughness_brdf(n, d.dir, v, base, metallic, roughness) * nl;
+      } else {  // the diffuse part only: (1 - F_0.04) x Lambert (glTF's fresnel_mix)
+        const double f = schlick_fresnel(glm::dvec3(0.04), glm::dot(v, glm::normalize(d.dir + v))).x;
+        out += d.weighted * (1.0 - f) * (1.0 - metallic) * base / kPi * nl;
+      }
+    }
+    if (wide) return out;
+    glm::dvec3 t, b;
+    basis(n, t, b);
+    const int side = std::max(1, int(std::lround(std::sqrt(double(options.ggx_samples)))));
+    const double shift_u = (hash(pixel_seed) & 0xFFFF) / 65536.0,
+                 shift_v = (hash(pixel_seed ^ 0x9E3779B9U) & 0xFFFF) / 65536.0;
+    glm::dvec3 specular(0.0);
+    for (int j = 0; j < side; ++j)
+      for (int i = 0; i < side; ++i) {
+        const double u1 = std::fmod((i + 0.5) / side + shift_u, 1.0),
+                     u2 = std::fmod((j + 0.5) / side + shift_v, 1.0);
+        const double cos2 = (1.0 - u2) / (1.0 + (a2 - 1.0) * u2);
+        const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
+        const double phi = 2 * kPi * u1;
+        const glm::dvec3 h = st * std::cos(phi) * t + st * std::sin(phi) * b + ct * n;
+        const double vh = glm::dot(v, h);
+        const glm::dvec3 l = 2.0 * vh * h - v;
+        const double nl = glm::dot(n, l);
+        if (nl <= 0 || vh <= 0 || occluded(origin, l)) continue;
+        // F D V n.l / pdf(l), pdf(l) = D n.h / (4 v.h): F V 4 v.h n.l / n.h.
+        specular += glm::dvec3(sampler.sample(l, 0.0)) * schlick_fresnel(f0, vh) *
+                    (ggx_visibility(nv, nl, a2) * 4.0 * vh * nl / ct);
+      }
+    return out + specular / double(side * side);
+  }
+
+  // kd Ld + ks Ls at a surface point (normal n, the ray arriving along `view`), or the
+  // metallic-roughness material's full BRDF.
   glm::dvec3 shade(const glm::dvec3& p, glm::dvec3 n, const glm::dvec3& view,
                    std::uint32_t pixel_seed) const {
     if (glm::dot(n, view) > 0) n = -n;  // seen from behind (an open mesh)
     const glm::dvec3 origin = p + epsilon * n;
+    if (material.pbr) return shade_metallic_roughness(origin, n, -view, pixel_seed);
     // Ld: sum L V max(0, n.w) / sum max(0, n.w) dOmega; the denominator is pi exactly.
     glm::dvec3 diffuse(0.0);
     for (const Direction& d : directions) {
@@ -201,13 +263,16 @@ ReferenceScene::ReferenceScene(const PlacedObject& object, const EnvMap& room,
   const render::Mesh& mesh = object.mesh;
   if (mesh.triangle_count() == 0 || mesh.normals.size() != mesh.positions.size())
     throw InputError("reference: the object has no triangles (or no normal per vertex)");
+  const render::MetallicRoughness* pbr = object.material.pbr ? &*object.material.pbr : nullptr;
   if (object.material.transmissive() || object.material.albedo || object.material.normal_map ||
-      object.material.light_map)
+      object.material.light_map ||
+      (pbr && (pbr->metallic_roughness || pbr->occlusion || pbr->emissive_map)))
     throw InputError(
         "reference: only opaque materials without textures can be traced (kd, ks, "
-        "shininess)");
+        "shininess, or metallic-roughness factors)");
   if (!(object.height_m > 0)) throw InputError("reference: the object's height must be > 0");
-  if (options.glossy_samples < 1 || options.shadow_grid < 2 || !(options.shadow_reach > 0))
+  if (options.glossy_samples < 1 || options.ggx_samples < 1 || options.shadow_grid < 2 ||
+      !(options.shadow_reach > 0))
     throw std::invalid_argument("reference: bad options");
   m.material = object.material;
 
@@ -250,6 +315,10 @@ ReferenceScene::ReferenceScene(const PlacedObject& object, const EnvMap& room,
 
   const EnvMap small = room_for_sums(room);
   m.directions = room_directions(small);
+  if (pbr) {
+    m.fine = room_directions(room_for_sums(room, kFineWidth));
+    m.multiple_scattering.emplace(pbr->roughness);
+  }
 
   // The floor: the marker's plane (its z axis is the floor's normal), the grid centred on the
   // object's foot.
@@ -284,7 +353,10 @@ std::optional<glm::vec3> ReferenceScene::object_radiance(const glm::dvec3& origi
   const glm::dvec3 d = glm::normalize(dir);
   const auto hit = impl_->intersect(origin, d);
   if (!hit) return std::nullopt;
-  return glm::vec3(impl_->shade(hit->point, hit->normal, d, 0));
+  // Each ray its own turn of the stratified samples (a hash of its direction).
+  std::uint32_t seed = 0;
+  for (int k = 0; k < 3; ++k) seed = hash(seed ^ std::uint32_t(std::lround((d[k] + 1.0) * 1e6)));
+  return glm::vec3(impl_->shade(hit->point, hit->normal, d, seed));
 }
 
 ReferenceView ReferenceScene::render(const CameraIntrinsics& intrinsics,

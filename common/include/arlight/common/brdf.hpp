@@ -28,11 +28,30 @@ double ggx_distribution(double n_dot_h, double a2);
 double ggx_visibility(double n_dot_v, double n_dot_l, double a2);
 // Schlick's Fresnel for F0 at v.h.
 glm::dvec3 schlick_fresnel(const glm::dvec3& f0, double v_dot_h);
-// The glTF metallic-roughness BRDF f(l, v) (per sr) for unit n, l, v: Lambert diffuse of
-// base x (1 - metallic) plus the GGX specular of F0 = mix(0.04, base, metallic), mixed by the
-// Fresnel term as glTF's Appendix B does (fresnel_mix, conductor_fresnel). 0 below either horizon.
+// The glTF metallic-roughness BRDF f(l, v) (per sr) for unit n, l, v, as glTF's Appendix B
+// mixes it: (1 - metallic)(1 - F(0.04)) x Lambert of base, plus F(mix(0.04, base, metallic)) x
+// the GGX specular (fresnel_mix, conductor_fresnel). 0 below either horizon.
 glm::dvec3 metallic_roughness_brdf(const glm::dvec3& n, const glm::dvec3& l, const glm::dvec3& v,
                                    const glm::dvec3& base, double metallic, double roughness);
+
+// The energy a GGX surface of one roughness loses to single scattering, given back as Kulla &
+// Conty's multiple-scattering lobe ("Revisiting Physically Based Shading at Imageworks", 2017):
+//   f_ms(l, v) = F_ms (1 - E(n.l)) (1 - E(n.v)) / (pi (1 - E_avg)),
+// E the single-scattering albedo for F = 1 (the DFG table's b), E_avg = 2 integral E(mu) mu dmu,
+// F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) with Schlick's average F_avg = (20 F0 + 1) / 21.
+// A white metal with it reflects a constant room exactly (the reference renderer's "full BRDF";
+// the renderer's split sum approximates it with Filament's 1 + F0 (1 / b - 1)).
+class GgxMultipleScattering {
+ public:
+  explicit GgxMultipleScattering(double roughness, int table = 64, int samples = 1024);
+  glm::dvec3 brdf(double n_dot_l, double n_dot_v, const glm::dvec3& f0) const;
+  double albedo(double n_dot_v) const;  // E(mu), interpolated
+  double average_albedo() const { return average_; }
+
+ private:
+  std::vector<double> albedo_;  // E at mu = (i + 0.5) / table
+  double average_ = 1.0;
+};
 
 // The split sum's DFG term (Karis 2013; Filament's DFV_Multiscatter): for n.v = x and perceptual
 // roughness y, the GGX BRDF's directional albedo split by the Schlick Fresnel as

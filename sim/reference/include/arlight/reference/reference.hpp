@@ -9,7 +9,10 @@
 //   cannot know: the diffuse average sums every direction texel of the room (a 64x32 lat-long
 //   of it) the object does not hide; the glossy average importance-samples the Phong lobe of
 //   the full-resolution probe. Light the object hides from itself counts as dark (no
-//   interreflection); opaque, untextured materials only.
+//   interreflection); opaque, untextured materials only. A glTF metallic-roughness material
+//   (render::MetallicRoughness factors) gets its full BRDF (common/brdf.hpp) integrated over
+//   the room, with the same visibility: the reference its split-sum rendering is measured
+//   against (issue 34 §3).
 // - the floor (the marker's plane): the camera frame's linear value times the shadow ratio,
 //   sum L V cos / sum L cos over the room's upper hemisphere texels (tutorial §6.3's ratio,
 //   differential rendering), computed once on a grid around the object.
@@ -45,6 +48,7 @@ struct PlacedObject {
 
 struct ReferenceOptions {
   int glossy_samples = 64;    // Phong-lobe samples per object pixel (stratified)
+  int ggx_samples = 1024;     // GGX-lobe samples of a narrow metallic-roughness lobe (stratified)
   int shadow_grid = 128;      // shadow ratio texels across the floor square around the object
   double shadow_reach = 6.0;  // that square's half side, in object bounding radii
   // A pixel counts as shadowed where the ratio is below this (the shadow mask).
