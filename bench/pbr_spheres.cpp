@@ -7,8 +7,9 @@
 // (face 256 -> 16, as arlightd streams it) and irradiance map, and sim/reference's Embree
 // reference integrates the full BRDF (common/brdf.hpp) over the probe at every other pixel.
 // Reported per sphere: the mean relative error (thesis eq. 6.1 over the channels, eps = 1e-4 x
-// the reference's mean), its share where n.v < 0.5 (the split sum's known grazing error), and
-// PSNR with the reference's brightest pixel as the peak.
+// the reference's mean) where n.v >= 0.5 and < 0.5 (the split sum's known grazing error), the
+// mean absolute error over the mean radiance (dark pixels beside a lamp count by their light, not
+// their ratio), and PSNR with the reference's brightest pixel as the peak.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -38,14 +39,33 @@ const double kMetallic[] = {0.0, 0.5, 1.0};
 const double kRoughness[] = {0.05, 0.2, 0.4, 0.6, 0.8, 1.0};
 const glm::vec3 kBase(0.9f, 0.64f, 0.3f);  // a warm base colour: F0 and the diffuse both tinted
 
+// The renderer's sphere tone-mapped for the picture: x / (1 + x) at an exposure that puts the
+// room's mean radiance at mid grey, sRGB-encoded, as RGBA rows.
+void paint_tile(const render::HdrReadback& hdr, double exposure, std::vector<std::uint8_t>& grid,
+                int grid_width, int column, int row) {
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const glm::vec3 c = hdr.radiance.at(x, y);
+      std::uint8_t* out =
+          &grid[4 * (std::size_t(row * kSize + y) * std::size_t(grid_width) + std::size_t(column * kSize + x))];
+      for (int ch = 0; ch < 3; ++ch) {
+        const double v = exposure * c[ch], t = v / (1.0 + v);
+        const double srgb = t <= 0.0031308 ? 12.92 * t : 1.055 * std::pow(t, 1.0 / 2.4) - 0.055;
+        out[ch] = std::uint8_t(std::clamp(std::lround(255.0 * srgb), 0L, 255L));
+      }
+      out[3] = 255;
+    }
+}
+
 struct SphereScore {
   double metallic = 0, roughness = 0, mean = 0, grazing = 0, head_on = 0, psnr = 0;
+  double weighted = 0;  // mean |error| over the mean radiance: dark pixels count by their light
   int values = 0;
 };
 
 SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render::GpuMesh& gpu,
                   const EnvMap& room, const CameraIntrinsics& k, double metallic, double roughness,
-                  int samples) {
+                  int samples, render::HdrReadback* picture) {
   render::Material m;
   m.pbr = render::MetallicRoughness{};
   m.pbr->base_colour = glm::vec4(kBase, 1.0f);
@@ -54,6 +74,7 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
   r.begin_frame();
   r.draw(gpu, m, glm::mat4(1.0f));
   const render::HdrReadback hdr = r.read_hdr();
+  if (picture) *picture = hdr;
   // The reference's object is the same sphere at the same place: its placement on a marker
   // undone (standing_on_marker of a sphere 2 high is rigid).
   const glm::dmat4 stand(render::standing_on_marker(sphere.bounds, 2.0f));
@@ -88,7 +109,7 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
     for (int c = 0; c < 3; ++c) mean_ref += p.want[c], peak = std::max(peak, double(p.want[c]));
   mean_ref /= 3.0 * double(std::max<std::size_t>(1, pixels.size()));
   const double eps = 1e-4 * mean_ref;
-  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0};
+  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0, 0};
   double se = 0;
   int n_grazing = 0, n_head_on = 0;
   for (const Pixel& p : pixels)
@@ -97,12 +118,14 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
       s.mean += err;
       ++s.values;
       se += (double(p.got[c]) - p.want[c]) * (double(p.got[c]) - p.want[c]);
+      s.weighted += std::abs(double(p.got[c]) - p.want[c]);
       if (p.nv < 0.5)
         s.grazing += err, ++n_grazing;
       else
         s.head_on += err, ++n_head_on;
     }
   s.mean /= std::max(1, s.values);
+  s.weighted /= std::max(1, s.values) * std::max(mean_ref, 1e-30);
   s.grazing /= std::max(1, n_grazing);
   s.head_on /= std::max(1, n_head_on);
   s.psnr = 10.0 * std::log10(peak * peak / std::max(se / std::max(1, s.values), 1e-30));
@@ -114,12 +137,13 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
 int main(int argc, char** argv) {
   CLI::App app{"arlight-bench-pbr: metallic-roughness spheres against the full BRDF"};
   std::vector<std::string> probes;
-  std::string json_path;
+  std::string json_path, grid_path;
   int samples = 1024;
   app.add_option("--probe", probes, "probe(s) (lat-long EXR)")->required();
   app.add_option("--samples", samples, "GGX samples per pixel of the reference's narrow lobes")
       ->capture_default_str();
   app.add_option("--json", json_path, "write every sphere's figures here");
+  app.add_option("--grid", grid_path, "write the first probe's spheres as a PNG (rows: metallic)");
   CLI11_PARSE(app, argc, argv);
   try {
     render::GlContext gl = render::GlContext::headless();
@@ -138,21 +162,36 @@ int main(int argc, char** argv) {
       r.set_ggx_chain(chain.maps(), chain.roughness());
       r.set_maps({1.0}, {lighting::ggx_prefilter(room, 1.0, EnvLayout::for_size(Projection::Cube, 32))});
       const std::string name = fs::path(probe).stem().string();
-      for (double metallic : kMetallic) {
+      const int columns = int(std::size(kRoughness)), rows = int(std::size(kMetallic));
+      std::vector<std::uint8_t> grid(std::size_t(columns * kSize) * std::size_t(rows * kSize) * 4, 0);
+      double mean_radiance = 0.0;
+      {
+        const TexelTable& t = *texel_table(room.layout);
+        for (std::size_t e = 0; e < t.size(); ++e)
+          mean_radiance += t.solid_angle[e] * room.image.data()[3 * std::size_t(t.index[e]) + 1];
+        mean_radiance /= 4.0 * 3.14159265358979;
+      }
+      for (const double& metallic : kMetallic) {
         std::string row = "| " + name + " | " + std::to_string(metallic).substr(0, 3) + " |";
-        for (double roughness : kRoughness) {
-          const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples);
+        for (const double& roughness : kRoughness) {
+          render::HdrReadback picture;
+          const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples, &picture);
+          paint_tile(picture, 0.5 / std::max(mean_radiance, 1e-9), grid, columns * kSize,
+                     int(&roughness - kRoughness), int(&metallic - kMetallic));
           char cell[96];
-          std::snprintf(cell, sizeof cell, " %.1f %% (%.1f / %.1f), %.1f dB |", 100 * s.mean,
-                        100 * s.head_on, 100 * s.grazing, s.psnr);
+          std::snprintf(cell, sizeof cell, " %.1f %% (%.1f / %.1f); %.1f %%; %.1f dB |",
+                        100 * s.mean, 100 * s.head_on, 100 * s.grazing, 100 * s.weighted, s.psnr);
           row += cell;
           out.push_back({{"probe", name}, {"metallic", metallic}, {"roughness", roughness},
                          {"mean", s.mean}, {"mean_nv_above_0_5", s.head_on},
-                         {"mean_nv_below_0_5", s.grazing}, {"psnr_db", s.psnr}, {"values", s.values}});
+                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted},
+                         {"psnr_db", s.psnr}, {"values", s.values}});
         }
         std::printf("%s\n", row.c_str());
         std::fflush(stdout);
       }
+      if (!grid_path.empty() && &probe == &probes.front())
+        write_png_rgba(grid_path, columns * kSize, rows * kSize, grid);
     }
     if (!json_path.empty()) write_file_atomically(json_path, out.dump(1) + "\n");
     return 0;

@@ -100,6 +100,22 @@ TEST(MetallicRoughness, AWhiteMetalInAConstantRoomReflectsItExactly) {
   }
 }
 
+// A red dielectric in a white room: the diffuse takes the base colour (R: what the dielectric's
+// 4 % Fresnel leaves of the room), green and blue only that Fresnel reflection.
+TEST(MetallicRoughness, ADielectricsDiffuseTakesTheBaseColour) {
+  SphereScene s;
+  const glm::vec3 c(1.0f);
+  set_constant_maps(s.r, Projection::Cube, c);
+  const EnvMap room = constant_env(Projection::Cube, 16, c);
+  set_chain(s.r, lighting::compute_ggx_chain(room, {.face = 16, .min_face = 2}));
+  const HdrReadback hdr = s.render(pbr(glm::vec3(1.0f, 0.0f, 0.0f), 0.0f, 0.5f));
+  const glm::vec3 centre = hdr.radiance.at(SphereScene::W / 2, SphereScene::H / 2);
+  EXPECT_GT(centre.r, 0.9f);
+  EXPECT_LT(centre.r, 1.02f);
+  EXPECT_NEAR(centre.g, 0.04f, 0.015f);  // F0 head-on (a little more with the rough lobe)
+  EXPECT_NEAR(centre.b, centre.g, 1e-3f);
+}
+
 // Spheres of three metal / roughness pairs under venice (a sun 10^4 times the sky): the split
 // sum against the full BRDF (multiple scattering included) summed over every room texel at each
 // pixel's surface point. The split sum assumes n = v = R; its known error grows at grazing views

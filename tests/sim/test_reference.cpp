@@ -51,6 +51,37 @@ TEST(Reference, ASpheresTopInAUniformRoomReflectsAllOfIt) {
   EXPECT_FALSE(scene.object_radiance(marker.position + glm::dvec3(2, 0.15, 0), {1, 0, 0}));
 }
 
+// glTF metallic-roughness (issue 34 §3): the full BRDF with Kulla & Conty's multiple scattering
+// passes the white furnace — a white metal reflects the whole room at every roughness, narrow
+// lobes (importance-sampled) and wide ones (summed) alike — and a black dielectric shows only
+// its Fresnel reflection (F0 = 0.04 head-on, rising at grazing views).
+TEST(Reference, MetallicRoughnessPassesTheWhiteFurnace) {
+  const Pose marker = marker_on_floor();
+  for (float roughness : {0.05f, 0.3f, 0.8f}) {
+    render::Material m;
+    m.pbr = render::MetallicRoughness{};
+    m.pbr->base_colour = glm::vec4(1.0f);
+    m.pbr->metallic = 1.0f;
+    m.pbr->roughness = roughness;
+    const ReferenceScene scene(sphere(m), uniform_room(2.0f), {});
+    const auto top = scene.object_radiance(marker.position + glm::dvec3(0, 2, 0), {0, -1, 0});
+    ASSERT_TRUE(top);
+    EXPECT_NEAR(top->x, 2.0f, 0.03f) << "roughness " << roughness;
+    const auto side = scene.object_radiance(marker.position + glm::dvec3(2, 0.15, 0.05), {-1, 0, 0});
+    ASSERT_TRUE(side);
+    EXPECT_NEAR(side->x, 2.0f, 0.05f) << "roughness " << roughness;
+  }
+  render::Material black;
+  black.pbr = render::MetallicRoughness{};
+  black.pbr->base_colour = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  black.pbr->metallic = 0.0f;
+  black.pbr->roughness = 0.3f;
+  const ReferenceScene scene(sphere(black), uniform_room(2.0f), {});
+  const auto top = scene.object_radiance(marker.position + glm::dvec3(0, 2, 0), {0, -1, 0});
+  ASSERT_TRUE(top);
+  EXPECT_NEAR(top->x, 2.0f * 0.045f, 0.02f);  // ~F0 (its albedo a + 0.04 (b - a) head-on)
+}
+
 TEST(Reference, TheShadowOfASphereInAUniformRoomIsItsProjectedSolidAngle) {
   // A sphere of radius r touching the floor, seen from a floor point at horizontal distance d:
   // it hides the cosine-weighted share cos(theta) r^2 / D^2 = r^3 / D^3 of a uniform sky
@@ -106,6 +137,10 @@ TEST(Reference, AViewChangesOnlyTheObjectAndItsShadow) {
 TEST(Reference, RefusesWhatItCannotTrace) {
   render::Material glass = render::glass();
   EXPECT_THROW(ReferenceScene(sphere(glass), uniform_room(1.0f), {}), InputError);
+  render::Material textured;
+  textured.pbr = render::MetallicRoughness{};
+  textured.pbr->occlusion = std::make_shared<const render::TextureImage>();
+  EXPECT_THROW(ReferenceScene(sphere(textured), uniform_room(1.0f), {}), InputError);
   PlacedObject empty = sphere(render::Material{});
   empty.mesh = render::Mesh{};
   EXPECT_THROW(ReferenceScene(empty, uniform_room(1.0f), {}), InputError);
