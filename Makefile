@@ -138,6 +138,8 @@ bench: deps
 	bench/load_maps.sh $(BUILD) out/bench/load_maps 1 4 8
 	for p in park venice studio; do $(BUILD)/bin/arlight-bench-ggx --probe data/probes/$$p.exr \
 	  --json out/bench/ggx_$$p.json; done
+	$(BUILD)/bin/arlight-bench-pbr --probe data/probes/park.exr --probe data/probes/venice.exr \
+	  --probe data/probes/studio.exr --json out/bench/pbr.json --grid out/bench/pbr-spheres.png
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out
