@@ -75,6 +75,20 @@ std::uint32_t hash(std::uint32_t x) {
   return x;
 }
 
+// Calls fn(u, v) at the centres of a side x side grid over [0, 1)^2 (side^2 ~ samples), the grid
+// turned by a shift of its own for each pixel (Cranley-Patterson rotation): stratified lobe
+// samples whose pattern does not repeat from pixel to pixel. Returns side^2.
+template <class Fn>
+int stratified(int samples, std::uint32_t pixel_seed, Fn&& fn) {
+  const int side = std::max(1, int(std::lround(std::sqrt(double(samples)))));
+  const double shift_u = (hash(pixel_seed) & 0xFFFF) / 65536.0,
+               shift_v = (hash(pixel_seed ^ 0x9E3779B9U) & 0xFFFF) / 65536.0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i)
+      fn(std::fmod((i + 0.5) / side + shift_u, 1.0), std::fmod((j + 0.5) / side + shift_v, 1.0));
+  return side * side;
+}
+
 // An orthonormal basis around unit n (Duff et al. 2017).
 void basis(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
   const double sign = std::copysign(1.0, n.z);
@@ -151,27 +165,21 @@ struct ReferenceScene::Impl {
     if (wide) return out;
     glm::dvec3 t, b;
     basis(n, t, b);
-    const int side = std::max(1, int(std::lround(std::sqrt(double(options.ggx_samples)))));
-    const double shift_u = (hash(pixel_seed) & 0xFFFF) / 65536.0,
-                 shift_v = (hash(pixel_seed ^ 0x9E3779B9U) & 0xFFFF) / 65536.0;
     glm::dvec3 specular(0.0);
-    for (int j = 0; j < side; ++j)
-      for (int i = 0; i < side; ++i) {
-        const double u1 = std::fmod((i + 0.5) / side + shift_u, 1.0),
-                     u2 = std::fmod((j + 0.5) / side + shift_v, 1.0);
-        const double cos2 = (1.0 - u2) / (1.0 + (a2 - 1.0) * u2);
-        const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
-        const double phi = 2 * kPi * u1;
-        const glm::dvec3 h = st * std::cos(phi) * t + st * std::sin(phi) * b + ct * n;
-        const double vh = glm::dot(v, h);
-        const glm::dvec3 l = 2.0 * vh * h - v;
-        const double nl = glm::dot(n, l);
-        if (nl <= 0 || vh <= 0 || occluded(origin, l)) continue;
-        // F D V n.l / pdf(l), pdf(l) = D n.h / (4 v.h): F V 4 v.h n.l / n.h.
-        specular += glm::dvec3(sampler.sample(l, 0.0)) * schlick_fresnel(f0, vh) *
-                    (ggx_visibility(nv, nl, a2) * 4.0 * vh * nl / ct);
-      }
-    return out + specular / double(side * side);
+    const int count = stratified(options.ggx_samples, pixel_seed, [&](double u1, double u2) {
+      const double cos2 = (1.0 - u2) / (1.0 + (a2 - 1.0) * u2);
+      const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
+      const double phi = 2 * kPi * u1;
+      const glm::dvec3 h = st * std::cos(phi) * t + st * std::sin(phi) * b + ct * n;
+      const double vh = glm::dot(v, h);
+      const glm::dvec3 l = 2.0 * vh * h - v;
+      const double nl = glm::dot(n, l);
+      if (nl <= 0 || vh <= 0 || occluded(origin, l)) return;
+      // F D V n.l / pdf(l), pdf(l) = D n.h / (4 v.h): F V 4 v.h n.l / n.h.
+      specular += glm::dvec3(sampler.sample(l, 0.0)) * schlick_fresnel(f0, vh) *
+                  (ggx_visibility(nv, nl, a2) * 4.0 * vh * nl / ct);
+    });
+    return out + specular / double(count);
   }
 
   // kd Ld + ks Ls at a surface point (normal n, the ray arriving along `view`), or the
@@ -191,28 +199,21 @@ struct ReferenceScene::Impl {
     glm::dvec3 out = glm::dvec3(material.kd) * diffuse;
     if (material.ks == glm::vec3(0.0f)) return out;
     // Ls: the Phong lobe around the mirror direction, importance sampled (pdf ~ cos^s, so the
-    // lobe-weighted average is the mean of what the samples see), stratified n x n and turned
-    // per pixel.
+    // lobe-weighted average is the mean of what the samples see), stratified and turned per pixel.
     const glm::dvec3 r = glm::reflect(view, n);
     glm::dvec3 t, b;
     basis(r, t, b);
-    const int side = std::max(1, int(std::lround(std::sqrt(double(options.glossy_samples)))));
     const double s = material.shininess;
-    const double shift_u = (hash(pixel_seed) & 0xFFFF) / 65536.0,
-                 shift_v = (hash(pixel_seed ^ 0x9E3779B9U) & 0xFFFF) / 65536.0;
     glm::dvec3 glossy(0.0);
-    for (int j = 0; j < side; ++j)
-      for (int i = 0; i < side; ++i) {
-        const double u = std::fmod((i + 0.5) / side + shift_u, 1.0),
-                     v = std::fmod((j + 0.5) / side + shift_v, 1.0);
-        const double cos_t = std::pow(u, 1.0 / (s + 1.0)),
-                     sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t)), phi = 2 * kPi * v;
-        const glm::dvec3 w = cos_t * r + sin_t * (std::cos(phi) * t + std::sin(phi) * b);
-        // Below the surface the object hides the lobe from itself.
-        if (glm::dot(w, n) <= 0 || occluded(origin, w)) continue;
-        glossy += glm::dvec3(sampler.sample(w, 0.0));
-      }
-    glossy /= double(side * side);
+    const int count = stratified(options.glossy_samples, pixel_seed, [&](double u, double v) {
+      const double cos_t = std::pow(u, 1.0 / (s + 1.0)),
+                   sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t)), phi = 2 * kPi * v;
+      const glm::dvec3 w = cos_t * r + sin_t * (std::cos(phi) * t + std::sin(phi) * b);
+      // Below the surface the object hides the lobe from itself.
+      if (glm::dot(w, n) <= 0 || occluded(origin, w)) return;
+      glossy += glm::dvec3(sampler.sample(w, 0.0));
+    });
+    glossy /= double(count);
     return out + glm::dvec3(material.ks) * glossy;
   }
 
