@@ -9,6 +9,7 @@
 
 #include "../support/env_fixtures.hpp"
 #include "arlight/common/hdr_io.hpp"
+#include "stopped_hooks.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/ggx.hpp"
 
@@ -94,11 +95,7 @@ TEST(GgxUpdater, ACancelledUpdateLeavesTheLastChainToJudgeAgainst) {
   EnvMap env = venice();
   updater.update(env);
   scale_cap(env, glm::dvec3(0, 1, 0), 0.3, 3.0f);
-  std::stop_source stop;
-  stop.request_stop();
-  Hooks hooks;
-  hooks.stop = stop.get_token();
-  EXPECT_THROW(updater.update(env, hooks), Cancelled);
+  EXPECT_THROW(updater.update(env, test::stopped_hooks()), Cancelled);
   const GgxChain& after = updater.update(env);
   EXPECT_GT(updater.changed(), 0.0);  // the change is still seen as one
   expect_chains_near(compute_ggx_chain(env, kSpec), after, 0.002, 0.02);

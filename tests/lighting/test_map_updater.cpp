@@ -10,6 +10,7 @@
 
 #include "../support/env_fixtures.hpp"
 #include "arlight/common/hdr_io.hpp"
+#include "stopped_hooks.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/lighting.hpp"
 
@@ -101,11 +102,7 @@ TEST(MapUpdater, ACancelledUpdateLeavesTheNextToComputeEverything) {
   EnvMap env = venice();
   updater.update(env);
   scale_cap(env, glm::dvec3(0, 1, 0), 0.3, 2.0f);
-  std::stop_source stop;
-  stop.request_stop();
-  Hooks hooks;
-  hooks.stop = stop.get_token();
-  EXPECT_THROW(updater.update(env, hooks), Cancelled);
+  EXPECT_THROW(updater.update(env, test::stopped_hooks()), Cancelled);
   const ComputedMapSet& after = updater.update(env);
   const ComputedMapSet fresh = compute_maps(env, kShininess, kOutput, MethodSpec{});
   for (std::size_t k = 0; k < kShininess.size(); ++k) {
