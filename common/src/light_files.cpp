@@ -100,8 +100,9 @@ std::string light_json(const LightFilesInput& light) {
       {"primary_light",
        {{"direction", {d.x, d.y, d.z}},
         {"intensity", {i.x, i.y, i.z}},
-        {"from", "SH bands 0-1 (the luminance-weighted linear band's direction, its intensity "
-                 "by least squares)"}}},
+        {"from", "the light tree's brightest clusters (tutorial 6.2's median cut over the room's brightest texels, "
+                 "for a receiver facing the SH's dominant direction): their mean direction and "
+                 "illuminance at normal incidence"}}},
       {"specular",
        {{"file", "specular.ktx2"},
         {"format", "KTX 2.0 cube, VK_FORMAT_R16G16B16A16_SFLOAT, linear"},

@@ -14,7 +14,6 @@ add_executable(render_tests
   render/test_occlusion.cpp
   render/test_light_count_control.cpp
   render/test_transfer.cpp
-  render/test_light_sources.cpp
   render/test_pbr.cpp
 )
 target_include_directories(render_tests PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/render)

@@ -10,6 +10,7 @@
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/common/light_files.hpp"
+#include "arlight/common/light_sources.hpp"
 #include "arlight/common/sh.hpp"
 #include "arlight/lighting/ggx.hpp"
 #include "commands.hpp"
@@ -104,7 +105,7 @@ int run_export(const GgxOptions& o) {
   const auto maps = chain.maps();
   LightFilesInput light;
   light.sh = sh_project(probe.env, 3);
-  light.primary = sh_dominant_light(light.sh);
+  light.primary = primary_light(probe.env, light.sh);
   light.specular = maps;
   light.roughness = chain.roughness();
   light.level_mapping = lighting::kGgxLevelMapping;

@@ -2,6 +2,7 @@
 
 #include "arlight/common/error.hpp"
 #include "arlight/common/light_files.hpp"
+#include "arlight/common/light_sources.hpp"
 
 namespace arlight::client {
 
@@ -14,7 +15,8 @@ void write_session_light_files(const std::filesystem::path& dir, const ReceivedM
                      ", below the 3 of SH-9");
   LightFilesInput light;
   light.sh = update.sh;
-  light.primary = {update.dominant_direction, update.dominant_colour};
+  // The chain's level 0 is the room itself (the mirror), at the chain's face.
+  light.primary = primary_light(chain.maps.front(), update.sh);
   light.specular = chain.maps;
   light.roughness = chain.roughness;
   light.level_mapping = kGgxLevelMapping;  // the server's; each level's roughness came with it

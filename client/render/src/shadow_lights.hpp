@@ -7,7 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "arlight/render/light_sources.hpp"
+#include "arlight/common/light_sources.hpp"
 #include "arlight/render/render.hpp"
 #include "scene_lighting.hpp"
 

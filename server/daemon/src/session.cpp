@@ -14,6 +14,7 @@
 #include "arlight/common/error.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/light_files.hpp"
+#include "arlight/common/light_sources.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/ggx.hpp"
 #include "arlight/lighting/lighting.hpp"
@@ -602,7 +603,7 @@ std::shared_ptr<const Session::LightFiles> Session::light_files() const {
   LightFilesInput light;
   light.roughness = chain.roughness();
   light.sh = sh;
-  light.primary = sh_dominant_light(sh);
+  light.primary = primary_light(*env, sh);
   light.specular = maps;
   light.level_mapping = lighting::kGgxLevelMapping;
   light.source = "arlightd session " + id_;

@@ -23,7 +23,7 @@ inline constexpr const char* kGgxLevelMapping =
 
 struct LightFilesInput {
   ShCoeffs sh;                      // radiance SH of the room, order >= 3 (bands above 2 unused)
-  DominantLight primary;            // direction towards the light (unit), RGB intensity
+  DominantLight primary;  // light_sources.hpp's primary_light(): towards it (unit), RGB illuminance
   std::span<const EnvMap> specular;  // the GGX chain (cube maps, level 0 the mirror)
   std::vector<double> roughness;    // per level
   std::string level_mapping;        // the level <-> roughness rule, stated in every file

@@ -1,5 +1,6 @@
 // What a session streamed, as the light files engines read (common/light_files.hpp): its GGX
-// chain, the live SH and the primary light of its newest LightingUpdate. The native tools'
+// chain, the live SH of its newest LightingUpdate, and the primary light of the chain's mirror
+// level (the room itself: common/light_sources.hpp). The native tools'
 // --out (arlight-replay); the page does not write files.
 #pragma once
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "arlight/common/projection.hpp"
+#include "arlight/common/sh.hpp"
 
 namespace arlight {
 
@@ -44,5 +45,18 @@ LightTree build_light_tree(const EnvMap& map, glm::dvec3 normal,
 // the receiver the most light (luminance), until there are n or only leaves are left. Indices
 // into tree.nodes, brightest first; together they hold the whole source set.
 std::vector<int> select_lights(const LightTree& tree, int n);
+
+// The room's primary light, for engines that take one directional light beside the ambient
+// (light.json's primary_light; WebXR's primaryLightDirection / Intensity): the brightest of the
+// light tree's first kPrimaryClusters clusters with those within kPrimaryMergeRadians of it (the
+// median cut splits a bright lamp itself), the tree built for a receiver facing the SH's
+// dominant direction (so a light anywhere on the sphere can be it). `direction`: their
+// luminance-weighted mean (unit, towards the light); `colour`: their illuminance at normal
+// incidence (RGB: each cluster's irradiance on that receiver over the cosine there). A channel
+// more than 16x both others in a texel (lossy compression's ringing) is limited to that first.
+// A black room: colour 0, +Y.
+inline constexpr int kPrimaryClusters = 8;
+inline constexpr double kPrimaryMergeRadians = 0.35;  // 20 degrees
+DominantLight primary_light(const EnvMap& map, const ShCoeffs& sh);
 
 }  // namespace arlight

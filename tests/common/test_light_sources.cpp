@@ -10,7 +10,7 @@
 
 #include "../support/env_fixtures.hpp"
 #include "arlight/common/image.hpp"
-#include "arlight/render/light_sources.hpp"
+#include "arlight/common/light_sources.hpp"
 
 using namespace arlight;
 
@@ -145,4 +145,24 @@ TEST(LightTree, BlackSkyHasNoSourcesAndBadOptionsAreNamed) {
   EXPECT_THROW(build_light_tree(map, glm::dvec3(0.0)), std::invalid_argument);
   EXPECT_THROW(build_light_tree(map, kUp, {0.0, 8}), std::invalid_argument);
   EXPECT_THROW(build_light_tree(map, kUp, {0.7, 0}), std::invalid_argument);
+}
+
+// light.json's primary light (issue 34 §4): the brightest cluster, wherever it is — a lamp low
+// beside the horizon or below it is found as well as one above — with its illuminance at normal
+// incidence (the lamp's radiance x solid angle), and the brighter of two lamps wins.
+TEST(PrimaryLight, IsTheBrightestLampWhereverItIsWithItsIlluminance) {
+  const double radius = 6.0, radiance = 200.0;
+  const double lamp_power = radiance * 2 * kPi * (1 - std::cos(radius * kPi / 180.0));
+  for (const glm::dvec3 dir : {glm::dvec3(0.3, 0.9, -0.2), glm::dvec3(-0.8, 0.1, 0.5),
+                               glm::dvec3(0.2, -0.7, 0.6)}) {
+    const EnvMap map = room({{dir, radiance}}, radius);
+    const DominantLight p = primary_light(map, sh_project(map, 3));
+    EXPECT_LT(angle_deg(glm::dvec3(p.direction), dir), 2.0) << dir.x << " " << dir.y;
+    EXPECT_NEAR(p.colour.g, lamp_power, 0.15 * lamp_power) << dir.x << " " << dir.y;
+  }
+  const glm::dvec3 bright(-0.5, 0.6, -0.6), dim(0.7, 0.5, 0.4);
+  const EnvMap two = room({{bright, radiance}, {dim, radiance / 3}}, radius);
+  EXPECT_LT(angle_deg(glm::dvec3(primary_light(two, sh_project(two, 3)).direction), bright), 2.0);
+  const EnvMap black = room({}, radius, 0.0);
+  EXPECT_EQ(primary_light(black, sh_project(black, 3)).colour, glm::vec3(0.0f));
 }

@@ -1,4 +1,4 @@
-#include "arlight/render/light_sources.hpp"
+#include "arlight/common/light_sources.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -158,6 +158,40 @@ std::vector<int> select_lights(const LightTree& tree, int n) {
   }
   std::sort(chosen.begin(), chosen.end(), [&](int a, int b) { return light(a) > light(b); });
   return chosen;
+}
+
+namespace {
+constexpr float kChannelSpike = 16.0f;
+}  // namespace
+
+DominantLight primary_light(const EnvMap& map, const ShCoeffs& sh) {
+  const DominantLight broad = sh_dominant_light(sh);
+  const glm::dvec3 normal = glm::length(broad.direction) > 0.5f ? glm::dvec3(broad.direction)
+                                                                 : glm::dvec3(0, 1, 0);
+  // A texel with one channel far above the other two is lossy compression's ringing (park's
+  // probe: blue 11800 beside red 40 at the sun), not a light: limited to kChannelSpike x the
+  // larger of the other two before the lights are looked for.
+  EnvMap limited = map;
+  float* px = limited.image.data();
+  for (std::size_t i = 0; i < limited.image.texel_count(); ++i, px += 3)
+    for (int c = 0; c < 3; ++c)
+      px[c] = std::min(px[c], kChannelSpike * std::max(px[(c + 1) % 3], px[(c + 2) % 3]));
+  const LightTree tree = build_light_tree(limited, normal);
+  const std::vector<int> clusters = select_lights(tree, kPrimaryClusters);
+  if (clusters.empty()) return {};
+  // The median cut splits a bright lamp itself: the brightest cluster and those near it are the
+  // light, their illuminance summed, their direction the luminance-weighted mean.
+  const glm::vec3 first = tree.nodes[std::size_t(clusters.front())].direction;
+  glm::dvec3 sum_dir(0.0), colour(0.0);
+  for (const int k : clusters) {
+    const LightCluster& c = tree.nodes[std::size_t(k)];
+    if (glm::dot(c.direction, first) < std::cos(kPrimaryMergeRadians)) continue;
+    const double cosine = std::max(0.05, glm::dot(normal, glm::dvec3(c.direction)));
+    colour += glm::dvec3(c.irradiance) / cosine;
+    sum_dir += luminance(glm::dvec3(c.irradiance)) / cosine * glm::dvec3(c.direction);
+  }
+  const double len = glm::length(sum_dir);
+  return {len > 0.0 ? glm::vec3(sum_dir / len) : first, glm::vec3(colour)};
 }
 
 }  // namespace arlight
