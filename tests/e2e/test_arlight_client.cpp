@@ -98,7 +98,8 @@ TEST(ArlightClient, RendersTheBunnyOnTheMarkerLitByTheCapturedRoom) {
 }
 
 // Issue 34: a glTF metallic-roughness material asks arlightd for the room's GGX chain and is
-// shaded with it: every drawn frame used the chain, and a gold sphere is tinted by its F0
+// shaded with it (and --out gets it as light files): every drawn frame used the chain, and a
+// gold sphere is tinted by its F0
 // against a white metal's under the same room (its R / B ratio above the white one's, which
 // a material ignoring base colour, or a grey Phong fallback, would not give).
 TEST(ArlightClient, AMetallicRoughnessSphereIsLitByTheRoomsGgxChain) {
@@ -124,6 +125,10 @@ TEST(ArlightClient, AMetallicRoughnessSphereIsLitByTheRoomsGgxChain) {
   };
   const cv::Mat gold = run("gold", "pbr:1,0.78,0.34,1,0.3"), white = run("white", "pbr:1,1,1,1,0.3");
   ASSERT_FALSE(gold.empty());
+  // --out also holds the streamed chain as the light files engines read (face 64 -> 16).
+  const json light = read_json(dir / "gold" / "light.json");
+  EXPECT_EQ(light.at("specular").at("levels").size(), 3u) << light.dump();
+  EXPECT_TRUE(fs::exists(dir / "gold" / "specular.ktx2"));
   ASSERT_FALSE(white.empty());
   cv::Mat diff, object;
   cv::absdiff(in, white, diff);

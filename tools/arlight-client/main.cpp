@@ -11,6 +11,7 @@
 #include "arlight/common/error.hpp"
 #include "arlight/common/geo.hpp"
 #include "arlight/common/number_list.hpp"
+#include "arlight/net/session_light_files.hpp"
 #include "arlight/sim_source/sim_source.hpp"
 #include "flags.hpp"
 #include "report.hpp"
@@ -89,6 +90,12 @@ int main(int argc, char** argv) {
                    {"colour", render::colour_correction_name(po.colour)},
                    {"ior", f.ior},
                    {"sun", sun_json(channel.lighting())}});
+    // The room's light as engines read it, when arlightd sent its GGX chain (--ggx).
+    if (const Lighting lighting = link.lighting(); !f.out.empty() && lighting.ggx && lighting.sh) {
+      client::write_session_light_files(f.out, *lighting.ggx, *lighting.sh,
+                                        "arlight-client, arlightd session " + link.stats().session_id);
+      std::printf("light files (specular.ktx2, light.json, lighting.gltf) in %s\n", f.out.c_str());
+    }
     return stats.frames > 0 ? 0 : 1;
   } catch (const InputError& e) {
     std::fprintf(stderr, "arlight-client: bad input: %s\n", e.what());

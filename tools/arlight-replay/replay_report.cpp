@@ -53,7 +53,7 @@ void write_replay_results(const fs::path& out, const std::string& json_path,
     j["map_set_frames"] = m->frames;
   }
   if (const auto chain = c.last_complete_ggx(); chain && u) {
-    client::write_session_light_files(out, *chain, *u,
+    client::write_session_light_files(out, *chain, u->sh,
                                       "arlightd session " + w.session_id + ", " +
                                           std::to_string(chain->frames) + " frames");
     j["ggx"] = {{"file", (fs::path(out) / "specular.ktx2").string()},

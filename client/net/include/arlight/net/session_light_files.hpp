@@ -13,8 +13,8 @@
 namespace arlight::client {
 
 // Writes dir/specular.ktx2, dir/light.json and dir/lighting.gltf (with its images). Throws
-// InputError when `chain` is not a GGX chain or the update carries no SH of order >= 3.
+// InputError when `chain` is not a GGX chain or `sh` (the live radiance SH) is below order 3.
 void write_session_light_files(const std::filesystem::path& dir, const ReceivedMapSet& chain,
-                               const wire::LightingUpdate& update, const std::string& source);
+                               const ShCoeffs& sh, const std::string& source);
 
 }  // namespace arlight::client
