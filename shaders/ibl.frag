@@ -50,13 +50,23 @@ uniform float u_occlusion_strength;
 uniform vec3 u_emissive;
 uniform sampler2D u_emissive_map;
 uniform float u_alpha_cutoff;
-uniform sampler2D u_dfg;             // the split sum's (a, b) at (n.v, 1 - roughness)
+uniform sampler2D u_dfg;             // the split sum's (a, b, E_avg) at (n.v, 1 - roughness)
 #ifdef GGX_CHAIN
 uniform samplerCube u_ggx;           // mip level k: roughness 1 - sqrt(1 - k / max_lod)
 uniform float u_ggx_max_lod;         // levels - 1
+#endif
+#endif
 
+// The irradiance map's value (irradiance / pi) at a world-frame normal. A metallic-roughness
+// material with the room's GGX chain takes it from the chain's roughest level: roughness 1's
+// prefilter is the cosine-weighted mean, the irradiance map itself, as fresh as the chain.
+vec3 irradiance(vec3 d) {
+#if defined(METALLIC_ROUGHNESS) && defined(GGX_CHAIN)
+  return textureLod(u_ggx, d, u_ggx_max_lod).rgb;
+#else
+  return env_sample(u_irradiance, d);
 #endif
-#endif
+}
 
 #ifdef HEMISPHERE
 // Hemisphere shading (dissertation §5.4): the colour priors c_u, c_l and the occlusion
@@ -178,7 +188,7 @@ void main() {
   // bent normal (the open directions' mean; a normal map's tilt kept) and only its open share:
   // the ambient occlusion.
 #ifdef USE_TRANSFER
-  vec3 ld = env_sample(u_irradiance, u_world_from_scene * n) * v_shadowing;
+  vec3 ld = irradiance(u_world_from_scene * n) * v_shadowing;
 #else
   vec3 d = n;
   if (dot(v_bent_normal, v_bent_normal) > 1e-8)
@@ -186,7 +196,7 @@ void main() {
 #ifdef HEMISPHERE
   vec3 ld = hemisphere(normalize(u_world_from_scene * d)) * v_occlusion;
 #else
-  vec3 ld = env_sample(u_irradiance, u_world_from_scene * d) * v_occlusion;
+  vec3 ld = irradiance(u_world_from_scene * d) * v_occlusion;
 #endif
 #endif  // USE_TRANSFER
 #ifdef USE_LIGHT_MAP

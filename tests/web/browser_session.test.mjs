@@ -146,6 +146,27 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(Math.abs(Math.hypot(...lit.sun_direction) - 1) < 1e-3, `sun ${lit.sun_direction}`);
     assert.deepEqual(pageErrors, []);
 
+    // A metallic-roughness material (issue 34): the page asks arlightd for the room's GGX chain
+    // instead of the Phong maps, gets a whole one (128 -> 16) and renders with it, no error.
+    assert.equal(lit.maps_requested, 'phong');
+    assert.equal(lit.ggx_face, 0);
+    await page.evaluate(() => {
+      for (const [id, value] of [['shading', 'maps'], ['material', 'gold']]) {
+        const select = document.getElementById(id);
+        select.value = value;
+        select.dispatchEvent(new Event('change'));
+      }
+    });
+    await page.waitForFunction(() => window.arlight.status().ggx_face === 128, null, { timeout: 60000 });
+    const gold = await page.evaluate(() => window.arlight.status());
+    assert.equal(gold.material, 'gold');
+    assert.equal(gold.maps_requested, 'ggx');
+    // It keeps compositing (5 more video frames) with the chain, and shows no error.
+    await page.waitForFunction((t) => window.arlight.status().frame_media_time > t + 2.5,
+      gold.frame_media_time, { timeout: 30000 });
+    assert.equal(await page.evaluate(() => window.arlight.status().last_error), '');
+    assert.deepEqual(pageErrors, []);
+
     // A wrong token: the page says it was refused, and does not retry.
     const wrong = await context.newPage();
     await enableOrientationOverride(wrong);

@@ -40,9 +40,16 @@ Material preset_material(std::string_view name, float sharpest) {
     m.kd = glm::vec3(0.8f), m.ks = glm::vec3(0.0f), m.shininess = 10;
   } else if (name == "glass") {
     m = glass(1.5f, sharpest);
+  } else if (name == "gold" || name == "porcelain") {
+    // glTF metallic-roughness: gold's F0 (linear sRGB, Filament's table), a glazed white.
+    m.pbr = MetallicRoughness{};
+    const bool gold = name == "gold";
+    m.pbr->base_colour = gold ? glm::vec4(1.0f, 0.782f, 0.344f, 1.0f) : glm::vec4(0.9f, 0.9f, 0.86f, 1.0f);
+    m.pbr->metallic = gold ? 1.0f : 0.0f;
+    m.pbr->roughness = gold ? 0.3f : 0.15f;
   } else {
     throw std::invalid_argument("material '" + std::string(name) +
-                                "': matte, plastic, metal or glass");
+                                "': matte, plastic, metal, glass, gold or porcelain");
   }
   return m;
 }

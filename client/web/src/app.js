@@ -96,6 +96,10 @@ function wireUp(params, { camera, client, tracking, width, height }) {
   connection.onWelcome = sendPlace;
   wireLocation(place, params.location);
   connection.onFrameSent = (q) => coverage.add(q);
+  // A metallic-roughness material shades with the room's GGX chain, the others with the Phong
+  // maps: a change of kind asks arlightd for the other (the select's own listener ran first).
+  $('material').addEventListener('change',
+    () => connection.sendIfOpen(() => client.requestMapsIfChanged()));
   connection.open();
   tracking.follow(client, (f) => fov.setFocal(f));
   return { coverage, orientation, grabber, connection };

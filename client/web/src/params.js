@@ -1,5 +1,5 @@
 // The page's parameters, from its URL's fragment (never sent to the server in an HTTP request):
-//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass]
+//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass|gold|porcelain]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)

@@ -58,6 +58,7 @@ const kNoClient = {
   sh: [], model: 'sphere', model_vertices: 0, shadow_lights: 0, shadow_ms: 0,
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
+  ggx_face: 0, maps_requested: 'phong',
 };
 export function clientStatus() {
   return state.client ? state.client.status() : kNoClient;
@@ -75,6 +76,8 @@ export function report() {
     updates: object.updates,
     frames_processed: object.frames_processed,
     map_sets: object.map_sets,
+    ggx_face: object.ggx_face,
+    maps_requested: object.maps_requested,
     tracked_frames: state.trackedFrames,
     track_status: state.trackStatus,
     track_ms: state.trackMs,

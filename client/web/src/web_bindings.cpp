@@ -17,6 +17,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("intrinsics", &WebClient::intrinsics)
       .function("frame", &WebClient::frame)
       .function("requestMaps", &WebClient::request_maps)
+      .function("requestMapsIfChanged", &WebClient::request_maps_if_changed)
       .function("receive", &WebClient::receive)
       .function("lastSequence", &WebClient::last_sequence)
       .function("cameraTexture", &WebClient::camera_texture)

@@ -65,10 +65,17 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
 }
 
 val WebClient::request_maps() {
+  requested_ggx_ = material_.pbr.has_value();
   const wire::RequestMaps request =
-      client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
+      requested_ggx_ ? client::ggx_request(kGgxFace)
+                     : client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
   state_.expect_maps(request);
   return bytes_to_js(wire::encode(request));
+}
+
+val WebClient::request_maps_if_changed() {
+  if (material_.pbr.has_value() == requested_ggx_) return val::null();
+  return request_maps();
 }
 
 val WebClient::location(double latitude, double longitude, double altitude, double utc_seconds,

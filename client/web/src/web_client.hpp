@@ -36,6 +36,8 @@ using emscripten::val;
 // offers, small enough for a phone (lat-long 2N x N).
 inline const std::vector<double> kShininess = {1, 10, 40, 160, 640};
 inline constexpr int kMapSize = 128;
+// ... or, for a metallic-roughness material, the room's GGX chain from this face (128 -> 16).
+inline constexpr int kGgxFace = 128;
 
 // JavaScript values of the page's API.
 val bytes_to_js(const std::vector<std::uint8_t>& bytes);  // a Uint8Array (a copy)
@@ -51,7 +53,10 @@ class WebClient {
   val intrinsics();
   val frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
             const val& jpeg);
+  // The maps the material needs: the Phong set, or the GGX chain for a metallic-roughness one.
   val request_maps();
+  // The same when the material now needs the other kind than was last asked for, else null.
+  val request_maps_if_changed();
   // Where and when the phone is (the browser's geolocation, with its user's consent: the sun),
   // as a Location message to send, or null when the server does not take one. The orientation
   // is north-referenced when it comes from the absolute orientation sensor (a compass).
@@ -142,6 +147,7 @@ class WebClient {
   std::size_t model_vertices_ = 0;
   render::Material material_;
   std::string material_name_ = "plastic";
+  bool requested_ggx_ = false;  // the last RequestMaps asked for the GGX chain
   render::ColourCorrection colour_ = render::ColourCorrection::None;
   glm::mat4 model_{1.0f};
   double object_height_ = 0;

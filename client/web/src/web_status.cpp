@@ -15,6 +15,9 @@ val WebClient::status() const {
   s.set("last_sequence", double(l.frame_sequence));
   s.set("frames_processed", double(l.frames_processed));
   s.set("map_sets", double(state_.map_sets()));
+  // The room's GGX chain (a metallic-roughness material asks for it): its level 0's face, 0: none.
+  s.set("ggx_face", l.ggx ? l.ggx->maps.front().layout.face_size() : 0);
+  s.set("maps_requested", std::string(requested_ggx_ ? "ggx" : "phong"));
   s.set("coverage", l.coverage);
   s.set("estimated", l.estimated);
   s.set("frame_exposure", frame_exposure());

@@ -88,8 +88,9 @@ struct Material {
 // Clear glass of an index of refraction, reflections as sharp as the shininess picks.
 Material glass(float ior = 1.5f, float shininess = 1280.0f);
 
-// The page's materials by name: "plastic", "matte", "metal", "glass" (shininess up to
-// `sharpest`, the sharpest reflection map there is); std::invalid_argument otherwise.
+// The page's materials by name: the Phong "plastic", "matte", "metal", "glass" (shininess up to
+// `sharpest`, the sharpest reflection map there is) and the metallic-roughness "gold" and
+// "porcelain"; std::invalid_argument otherwise.
 Material preset_material(std::string_view name, float sharpest = 640.0f);
 
 }  // namespace arlight::render
