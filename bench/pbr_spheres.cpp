@@ -4,8 +4,7 @@
 //
 // For each probe and each sphere of a grid (metallic 0 / 0.5 / 1 x roughness 0.05 ... 1), one
 // sphere fills the middle of a 96 x 96 view; the renderer draws it with the probe's GGX chain
-// (face 256 -> 16, as arlightd streams it; its roughest level is the irradiance map), and
-// sim/reference's Embree
+// (face 256 -> 16, as arlightd streams it) and irradiance map, and sim/reference's Embree
 // reference integrates the full BRDF (common/brdf.hpp) over the probe at every other pixel.
 // Reported per sphere: the mean relative error (thesis eq. 6.1 over the channels, eps = 1e-4 x
 // the reference's mean) where n.v >= 0.5 and < 0.5 (the split sum's known grazing error), the
@@ -161,6 +160,8 @@ int main(int argc, char** argv) {
       for (float& v : room.image.storage()) v = std::max(v, 0.0f);  // compression's negatives
       const lighting::GgxChain chain = lighting::compute_ggx_chain(room, {.face = 256, .min_face = 16});
       r.set_ggx_chain(chain.maps(), chain.roughness());
+      // The irradiance map a map set would carry (finer than the chain's face-16 last level).
+      r.set_maps({1.0}, {lighting::ggx_prefilter(room, 1.0, EnvLayout::for_size(Projection::Cube, 32))});
       const std::string name = fs::path(probe).stem().string();
       const int columns = int(std::size(kRoughness)), rows = int(std::size(kMetallic));
       std::vector<std::uint8_t> grid(std::size_t(columns * kSize) * std::size_t(rows * kSize) * 4, 0);

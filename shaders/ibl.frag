@@ -7,7 +7,8 @@
 // compensation, plus the Lambertian part from the irradiance map. The renderer compiles one variant
 // per projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
 // USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB,
-// METALLIC_ROUGHNESS, GGX_CHAIN, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP, ALPHA_MASK), so
+// METALLIC_ROUGHNESS, GGX_CHAIN, GGX_DIFFUSE, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP,
+// ALPHA_MASK), so
 // no fragment pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
@@ -57,11 +58,12 @@ uniform float u_ggx_max_lod;         // levels - 1
 #endif
 #endif
 
-// The irradiance map's value (irradiance / pi) at a world-frame normal. A metallic-roughness
-// material with the room's GGX chain takes it from the chain's roughest level: roughness 1's
-// prefilter is the cosine-weighted mean, the irradiance map itself, as fresh as the chain.
+// The irradiance map's value (irradiance / pi) at a world-frame normal. GGX_DIFFUSE (a
+// metallic-roughness material with the room's GGX chain and no map set) takes it from the
+// chain's roughest level: roughness 1's prefilter is the cosine-weighted mean, the irradiance
+// map itself, as fresh as the chain (though at its face, 16).
 vec3 irradiance(vec3 d) {
-#if defined(METALLIC_ROUGHNESS) && defined(GGX_CHAIN)
+#if defined(METALLIC_ROUGHNESS) && defined(GGX_CHAIN) && defined(GGX_DIFFUSE)
   return textureLod(u_ggx, d, u_ggx_max_lod).rgb;
 #else
   return env_sample(u_irradiance, d);

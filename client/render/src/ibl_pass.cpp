@@ -41,6 +41,7 @@ enum Feature : unsigned {
   kOcclusionMap = 16384,
   kEmissiveMap = 32768,
   kAlphaMask = 65536,
+  kGgxDiffuse = 131072,       // ... its diffuse light from the chain's roughest level (no map set)
 };
 
 // The split sum's DFG table the shader looks up: 64 x 64 (bilinear; the table is smooth) at
@@ -114,7 +115,8 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
                                                    {kMrMap, "USE_MR_MAP"},
                                                    {kOcclusionMap, "USE_OCCLUSION_MAP"},
                                                    {kEmissiveMap, "USE_EMISSIVE_MAP"},
-                                                   {kAlphaMask, "ALPHA_MASK"}};
+                                                   {kAlphaMask, "ALPHA_MASK"},
+                                                   {kGgxDiffuse, "GGX_DIFFUSE"}};
   for (auto [bit, name] : names)
     if (features & bit) defines.emplace_back(name, "1");
   if (features & kLiveRefraction)
@@ -183,7 +185,10 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
                       (transfer ? kTransfer : 0u);
   if (pbr) {
     const bool uvs = mesh.has_uvs();
-    features |= kMetallicRoughness | (ggx ? kGgxChain : 0u) |
+    // The irradiance map of a map set is finer than the chain's last level (face 16); without
+    // one (a client that asked for the chain) the chain's is fresher than the live SH's.
+    const bool ggx_diffuse = ggx && lighting.source() != LightingSource::Maps;
+    features |= kMetallicRoughness | (ggx ? kGgxChain : 0u) | (ggx_diffuse ? kGgxDiffuse : 0u) |
                 (pbr->metallic_roughness && uvs ? kMrMap : 0u) |
                 (pbr->occlusion && uvs ? kOcclusionMap : 0u) |
                 (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u);
