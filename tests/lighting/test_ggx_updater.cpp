@@ -9,7 +9,7 @@
 
 #include "../support/env_fixtures.hpp"
 #include "arlight/common/hdr_io.hpp"
-#include "stopped_hooks.hpp"
+#include "updater_fixtures.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/ggx.hpp"
 
@@ -19,14 +19,8 @@ using test::scale_cap;
 
 namespace {
 
-// venice reduced to a face-64 cube map, as the daemon's previews reduce the capture.
-EnvMap venice() {
-  static const EnvMap env = resample(
-      load_envmap((std::filesystem::path(ARLIGHT_SOURCE_DIR) / "data/probes/venice.exr").string())
-          .env,
-      EnvLayout::for_size(Projection::Cube, 64));
-  return env;
-}
+// venice as a face-64 cube map (for 128^2 maps the wide lobes then go through SH).
+EnvMap venice() { return test::venice_cube64(); }
 
 const GgxChainSpec kSpec{.face = 64, .min_face = 8};
 

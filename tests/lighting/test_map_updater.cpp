@@ -10,7 +10,7 @@
 
 #include "../support/env_fixtures.hpp"
 #include "arlight/common/hdr_io.hpp"
-#include "stopped_hooks.hpp"
+#include "updater_fixtures.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/lighting.hpp"
 
@@ -21,15 +21,8 @@ namespace {
 
 const std::vector<double> kShininess = {1, 10, 20, 40, 80, 160, 320, 1280};
 
-// venice reduced to a face-64 cube map, as the daemon's previews reduce it for 128^2 maps (its
-// wide lobes then go through SH).
-EnvMap venice() {
-  static const EnvMap env = resample(
-      load_envmap((std::filesystem::path(ARLIGHT_SOURCE_DIR) / "data/probes/venice.exr").string())
-          .env,
-      EnvLayout::for_size(Projection::Cube, 64));
-  return env;
-}
+// venice as a face-64 cube map (for 128^2 maps the wide lobes then go through SH).
+EnvMap venice() { return test::venice_cube64(); }
 
 using test::scale_cap;
 
