@@ -47,7 +47,8 @@ demo: deps
 	node deploy/compositing-sheet.mjs $(DEMO_OUT)/compositing/contact_sheet.png \
 	  maps=$(DEMO_OUT)/ar/client/frames hemisphere=$(DEMO_OUT)/compositing/hemisphere/frames \
 	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames" \
-	  "glass (live refraction)=$(DEMO_OUT)/compositing/glass/frames"
+	  "glass (live refraction)=$(DEMO_OUT)/compositing/glass/frames" \
+	  "gold (metallic-roughness, GGX chain)=$(DEMO_OUT)/compositing/gold/frames"
 	node deploy/web-demo.mjs $(BUILD)/bin $(DEMO_OUT)/web $(DEMO_PROBE)
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
@@ -72,8 +73,11 @@ demo: deps
 	@echo "                            tone mapping); client.json: timings and pose error vs truth"
 	@echo "  compositing/contact_sheet.png  the bunny shaded with the maps, with hemisphere shading,"
 	@echo "                            with hemisphere shading and occlusion, and as glass showing"
-	@echo "                            the camera frame through it, side by side (rows: three"
-	@echo "                            frames); compositing/<mode>/ each run's frames and JSON"
+	@echo "                            the camera frame through it, and as gold (glTF metallic-"
+	@echo "                            roughness lit by the room's GGX chain), side by side (rows:"
+	@echo "                            three frames); compositing/<mode>/ each run's frames and"
+	@echo "                            JSON; compositing/gold/ also the room's light files"
+	@echo "                            (specular.ktx2, light.json, lighting.gltf)"
 	@echo "  eval/contact_sheet.png    the bunny ray traced under the true room (the reference,"
 	@echo "                            ar/recording/truth/reference/) beside arlight-client's"
 	@echo "                            composites at the true pose lit by the maps and by SH-9"

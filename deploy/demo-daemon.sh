@@ -5,7 +5,8 @@
 # room), runs arlight-client on it in the same session, so the virtual object is lit by the
 # room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
 # With COMPOSITING_OUT, the client runs again once per other compositing mode (hemisphere
-# shading, with and without occlusion; the object as glass showing the live frame through it)
+# shading, with and without occlusion; the object as glass showing the live frame through it; as
+# gold, glTF metallic-roughness lit by the room's GGX chain, whose light files land beside)
 # into COMPOSITING_OUT/<mode>/, for the side-by-side sheet. With EVAL_OUT (the AR recording
 # has references: arlight-sim --object), the client runs at the true pose with the maps and
 # with SH-9 alone, and arlight-eval scores those and the tracked run against the references
@@ -60,7 +61,8 @@ if [ -n "$ar_rec" ]; then
     mkdir -p "$compositing_out"
     # name:flags of each other mode.
     for mode in "hemisphere:--shading hemisphere" \
-      "hemisphere-occlusion:--shading hemisphere-occlusion" "glass:--glass live"; do
+      "hemisphere-occlusion:--shading hemisphere-occlusion" "glass:--glass live" \
+      "gold:--material pbr:1,0.78,0.34,1,0.3"; do
       name=${mode%%:*} flags=${mode#*:}
       # shellcheck disable=SC2086  # the flags are words
       "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
