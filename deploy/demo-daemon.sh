@@ -64,9 +64,12 @@ if [ -n "$ar_rec" ]; then
       "hemisphere-occlusion:--shading hemisphere-occlusion" "glass:--glass live" \
       "gold:--material pbr:1,0.78,0.34,1,0.3"; do
       name=${mode%%:*} flags=${mode#*:}
+      # The demo's Phong material, unless the mode brings its own.
+      material="--material 0.7,0.3,80"
+      case "$flags" in *--material*) material= ;; esac
       # shellcheck disable=SC2086  # the flags are words
       "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
-        --source "replay:$ar_rec" --model "$model" --marker 7,0.2 --material 0.7,0.3,80 \
+        --source "replay:$ar_rec" --model "$model" --marker 7,0.2 $material \
         --resume "$session" --wait-maps 60 $flags --out "$compositing_out/$name" \
         --json "$compositing_out/$name.json" > "$compositing_out/$name.log"
     done
