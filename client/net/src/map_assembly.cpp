@@ -9,13 +9,7 @@ void MapSetAssembler::expect(const wire::RequestMaps& request) {
   requested_ = true;
   kind_ = request.kind;
   expected_ = request.shininess;
-  // A chain's levels: as asked, or from the face down to face 16 (PROTOCOL.md, RequestMaps).
-  levels_ = request.levels;
-  if (levels_ == 0 && request.size > 0)
-    for (std::uint32_t f = request.size; ; f /= 2) {
-      ++levels_;
-      if (f <= 16 || f == 1) break;
-    }
+  levels_ = std::size_t(wire::ggx_level_count(request.size, request.levels));
 }
 
 // The codec has checked the tile's rectangle against its map's size at its level.

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "arlight/common/light_files.hpp"
 #include "textures.hpp"
 
 namespace arlight::render {
@@ -62,9 +63,7 @@ void SceneLighting::set_ggx_chain(const std::vector<EnvMap>& levels,
       throw std::invalid_argument("GGX chain: level " + std::to_string(k) +
                                   " is not a cube map of half the face of the level before");
     // The shader samples level (n - 1) r (2 - r), Filament's mapping: the chain must follow it.
-    const double lod = double(n - 1) * (1.0 - (1.0 - roughness[std::size_t(k)]) *
-                                                   (1.0 - roughness[std::size_t(k)]));
-    if (!(std::abs(lod - k) < 1e-3))
+    if (!(std::abs(ggx_roughness_level(roughness[std::size_t(k)], n) - k) < 1e-3))
       throw std::invalid_argument("GGX chain: level " + std::to_string(k) + "'s roughness " +
                                   std::to_string(roughness[std::size_t(k)]) +
                                   " does not follow Filament's level mapping");

@@ -4,7 +4,6 @@
 // it, a checkpoint keeps it for a resumed session.
 #pragma once
 
-#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -21,8 +20,10 @@ struct MapRequest {
   wire::MapKind kind = wire::MapKind::Phong;
   int levels = 0;                 // Ggx: levels of the chain, each half the face before
 
-  // Ggx: the last level's face.
-  int ggx_min_face() const { return levels > 0 ? size >> (levels - 1) : std::min(size, 16); }
+  // Ggx: the last level's face (the request checked: wire::ggx_level_count() > 0).
+  int ggx_min_face() const {
+    return size >> (wire::ggx_level_count(std::uint32_t(size), levels) - 1);
+  }
 };
 
 }  // namespace arlight::daemon

@@ -277,7 +277,7 @@ std::string Session::request_maps(MapRequest r) {
     if (r.size < 1 || r.size > max_face || !std::has_single_bit(unsigned(r.size)))
       return "RequestMaps: a GGX chain's size (level 0's face) must be a power of two up to " +
              std::to_string(max_face) + ", not " + std::to_string(r.size);
-    if (r.levels < 0 || (r.levels > 0 && (r.size >> (r.levels - 1)) < 1))
+    if (wire::ggx_level_count(std::uint32_t(r.size), r.levels) == 0)
       return "RequestMaps: " + std::to_string(r.levels) + " levels from face " +
              std::to_string(r.size) + " go below one texel a face";
   } else {

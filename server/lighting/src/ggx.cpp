@@ -44,17 +44,6 @@
 
 namespace arlight::lighting {
 
-double ggx_level_roughness(int level, int levels) {
-  if (levels < 2 || level <= 0) return 0.0;
-  const double lod = std::clamp(double(level) / double(levels - 1), 0.0, 1.0);
-  return 1.0 - std::sqrt(1.0 - lod);
-}
-
-double ggx_roughness_level(double roughness, int levels) {
-  const double r = std::clamp(roughness, 0.0, 1.0);
-  return (1.0 - (1.0 - r) * (1.0 - r)) * double(std::max(levels - 1, 0));
-}
-
 namespace {
 
 constexpr double kPi = std::numbers::pi;

@@ -3,7 +3,9 @@
 // and a glTF with EXT_lights_image_based as Babylon.js reads it.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -15,8 +17,20 @@
 
 namespace arlight {
 
-// The GGX chain's level <-> roughness mapping (Filament's; lighting/ggx.hpp computes it), stated
-// in every file that holds a chain.
+// The GGX chain's level <-> roughness mapping, Filament's (cmgen, IBLPrefilterContext,
+// perceptualRoughnessToLod's inverse): r = 1 - sqrt(1 - level / (levels - 1)), level 0 the
+// mirror (r = 0). The server computes chains at it, the renderer samples them by its inverse,
+// and every file that holds a chain states it.
+inline double ggx_level_roughness(int level, int levels) {
+  if (levels < 2 || level <= 0) return 0.0;
+  const double lod = std::clamp(double(level) / double(levels - 1), 0.0, 1.0);
+  return 1.0 - std::sqrt(1.0 - lod);
+}
+// Its inverse: the (fractional) level an engine samples for roughness r.
+inline double ggx_roughness_level(double roughness, int levels) {
+  const double r = std::clamp(roughness, 0.0, 1.0);
+  return (1.0 - (1.0 - r) * (1.0 - r)) * double(std::max(levels - 1, 0));
+}
 inline constexpr const char* kGgxLevelMapping =
     "roughness = 1 - sqrt(1 - level / (levels - 1)) (Filament's perceptualRoughnessToLod "
     "inverse); alpha = roughness^2; level 0 is the mirror";

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
@@ -114,6 +115,16 @@ struct RequestMaps {
   std::uint8_t levels = 0;
   bool operator==(const RequestMaps&) const = default;
 };
+
+// A GGX chain request's level count: `levels` as asked, or (0) from `face` down to face 16 (or
+// to face 1 from a smaller face). 0 for a face that is not a power of two, or `levels` that
+// would go below one texel a face: a request arlightd refuses.
+inline int ggx_level_count(std::uint32_t face, int levels) {
+  if (face == 0 || (face & (face - 1)) != 0 || levels < 0) return 0;
+  const int halvings = std::countr_zero(face);  // to face 1
+  if (levels > 0) return levels - 1 <= halvings ? levels : 0;
+  return halvings - (face > 16 ? 4 : halvings) + 1;
+}
 
 struct Ping {
   std::uint64_t nonce = 0;

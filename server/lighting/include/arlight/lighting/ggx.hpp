@@ -23,12 +23,10 @@
 
 namespace arlight::lighting {
 
-// Filament's level <-> roughness mapping (cmgen, IBLPrefilterContext, perceptualRoughnessToLod's
-// inverse): r = 1 - sqrt(1 - level / (levels - 1)); level 0 is the mirror (r = 0).
-double ggx_level_roughness(int level, int levels);
-// Its inverse: the (fractional) level an engine samples for roughness r.
-double ggx_roughness_level(double roughness, int levels);
-// The mapping's one-line statement (common's, as clients write chains too).
+// Filament's level <-> roughness mapping and its one-line statement (common's: clients sample
+// and write chains too).
+using arlight::ggx_level_roughness;
+using arlight::ggx_roughness_level;
 using arlight::kGgxLevelMapping;
 
 struct GgxChainSpec {
