@@ -73,11 +73,11 @@ SetMaps compute_set(const MapSetJob& job, const lighting::Hooks& hooks) {
   SetMaps set;
   set.kind = request.kind;
   if (request.kind == wire::MapKind::Ggx) {
-    const lighting::GgxChain chain =
+    lighting::GgxChain chain =
         job.ggx_previews ? job.ggx_previews->update(job.input, hooks, job.measured)
                          : lighting::compute_ggx_chain(job.input, ggx_spec(request), hooks);
-    for (const lighting::GgxLevel& l : chain.levels) {
-      set.maps.push_back(l.map);
+    for (lighting::GgxLevel& l : chain.levels) {
+      set.maps.push_back(std::move(l.map));
       set.shininess.push_back(0.0f);
       set.roughness.push_back(float(l.roughness));
     }

@@ -426,16 +426,12 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
     const detail::Tile& tile = tiles[ti];
     const detail::TileTexels texels = texels_of.collect(tile);
     if (texels.dirs.empty()) return;
-    glm::dvec3 sum(0.0);
-    for (const glm::dvec3& d : texels.dirs) sum += d;
-    const glm::dvec3 centre = glm::length(sum) > 1e-9 ? glm::normalize(sum) : texels.dirs.front();
-    double tau = 0.0;
-    for (const glm::dvec3& d : texels.dirs) tau = std::max(tau, angle_between(centre, d));
+    const auto [centre, tau] = detail::tile_cone(texels);
     Interactions& in = scratch.local();
     // A coarse first pass bounds the tile's sums from below; the second spends on the horizon
     // and on the cells' expansions only what that bound says can matter.
     constexpr double kNone = std::numeric_limits<double>::infinity();
-    gather(pyramid, centre, tau + 1e-6, sigma, kFirstPassOpening, horizon_slope, kNone, lobe, kNone,
+    gather(pyramid, centre, tau, sigma, kFirstPassOpening, horizon_slope, kNone, lobe, kNone,
            kNone, false, in);
     double least = std::numeric_limits<double>::infinity(), least_weight = least;
     for (const glm::dvec3& d : texels.dirs) {
@@ -445,7 +441,7 @@ EnvMap prefilter(const Pyramid& pyramid, double roughness, const EnvLayout& outp
       least = std::min(least, std::max(std::min({acc[0], acc[1], acc[2]}), 0.01 * top));
       least_weight = std::min(least_weight, acc[3]);
     }
-    gather(pyramid, centre, tau + 1e-6, sigma, opening, horizon_slope,
+    gather(pyramid, centre, tau, sigma, opening, horizon_slope,
            kHorizonTolerance * std::max(least, 0.0), lobe, kExpansionTolerance * std::max(least, 0.0),
            kExpansionTolerance * std::max(least_weight, 0.0), true, in);
     float* out = result.image.data();
@@ -483,6 +479,16 @@ EnvMap ggx_prefilter(const EnvMap& input, double roughness, const EnvLayout& out
 namespace detail {
 
 OutputTexels ggx_tiles(const EnvLayout& output) { return OutputTexels(output, kTileSize); }
+
+TileCone tile_cone(const TileTexels& texels) {
+  if (texels.dirs.empty()) return {};
+  glm::dvec3 sum(0.0);
+  for (const glm::dvec3& d : texels.dirs) sum += d;
+  const glm::dvec3 centre = glm::length(sum) > 1e-9 ? glm::normalize(sum) : texels.dirs.front();
+  double tau = 0.0;
+  for (const glm::dvec3& d : texels.dirs) tau = std::max(tau, angle_between(centre, d));
+  return {centre, tau + 1e-6};
+}
 
 int ggx_chain_levels(const GgxChainSpec& spec) {
   if (spec.face < 1 || !std::has_single_bit(unsigned(spec.face)))

@@ -10,6 +10,13 @@ namespace arlight::lighting::detail {
 
 // The output tiles the prefilter computes (and GgxUpdater judges) one at a time.
 OutputTexels ggx_tiles(const EnvLayout& output);
+// A cone around a tile's texels: their mean direction, and the widest angle from it to one of
+// them (plus a 1e-6 pad). An empty tile: +Z, 0.
+struct TileCone {
+  glm::dvec3 centre{0.0, 0.0, 1.0};
+  double tau = 0.0;
+};
+TileCone tile_cone(const TileTexels& texels);
 // The number of levels of spec's chain; throws InputError for a face or min_face that is not a
 // power of two, or a min_face above the face.
 int ggx_chain_levels(const GgxChainSpec& spec);

@@ -24,16 +24,9 @@ LevelTiles level_tiles(const EnvLayout& layout) {
   LevelTiles out;
   for (const detail::Tile& tile : texels_of.tiles()) {
     const detail::TileTexels t = texels_of.collect(tile);
-    glm::dvec3 sum(0.0);
-    for (const glm::dvec3& d : t.dirs) sum += d;
-    const glm::dvec3 centre =
-        t.dirs.empty() ? glm::dvec3(0, 0, 1)
-                       : (glm::length(sum) > 1e-9 ? glm::normalize(sum) : t.dirs.front());
-    double tau = 0.0;
-    for (const glm::dvec3& d : t.dirs)
-      tau = std::max(tau, std::acos(std::clamp(glm::dot(centre, d), -1.0, 1.0)));
-    out.centre.push_back(centre);
-    out.tau.push_back(tau + 1e-6);
+    const detail::TileCone cone = detail::tile_cone(t);
+    out.centre.push_back(cone.centre);
+    out.tau.push_back(cone.tau);
     out.pixels.push_back(t.pixels);
   }
   return out;
