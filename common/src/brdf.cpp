@@ -92,6 +92,12 @@ glm::vec2 dfg_value(double n_dot_v, double roughness, int samples) {
   return glm::vec2(float(4.0 * a / samples), float(4.0 * b / samples));
 }
 
+double DfgTable::average_albedo(int j) const {
+  double average = 0.0;
+  for (int i = 0; i < size; ++i) average += 2.0 * double(at(i, j).y) * (i + 0.5) / size / size;
+  return std::min(average, 1.0);
+}
+
 DfgTable dfg_table(int size, int samples) {
   if (size < 1 || size > 4096)
     throw InputError("DFG table: size must lie in [1, 4096], got " + std::to_string(size));

@@ -193,8 +193,7 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
                 (pbr->occlusion && uvs ? kOcclusionMap : 0u) |
                 (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u);
     if (dfg_tex_.id == 0) {
-      const DfgTable table = dfg_table(kDfgSize, kDfgSamples);
-      dfg_tex_ = upload_dfg(table.size, table.ab);
+      dfg_tex_ = upload_dfg(dfg_table(kDfgSize, kDfgSamples));
     }
   }
   const Variant& u = variant(hemisphere ? Projection::LatLong : env.projection, features);

@@ -1,10 +1,23 @@
 #include "textures.hpp"
 
 #include <algorithm>
-
 #include <vector>
 
 namespace arlight::render {
+
+namespace {
+
+// Gray, RGB or RGBA texels as RGBA (alpha 1 where there was none).
+template <class T>
+std::vector<T> to_rgba(const std::vector<T>& src, std::size_t texels, int channels, T one) {
+  std::vector<T> rgba(texels * 4, one);
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int c = 0; c < 4; ++c)
+      if (c < 3 || channels == 4) rgba[4 * i + c] = src[i * channels + (channels == 1 ? 0 : c)];
+  return rgba;
+}
+
+}  // namespace
 
 GLenum env_target(Projection p) {
   return p == Projection::Cube ? GL_TEXTURE_CUBE_MAP : GL_TEXTURE_2D;
@@ -22,10 +35,7 @@ void upload_env(const EnvMap& env, gl::Texture& tex, int& width, int& height) {
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   const int w = env.layout.width(), h = env.layout.height();
   // RGBA: llvmpipe fetches 3-channel formats through a slow generic path.
-  std::vector<float> rgba(env.image.texel_count() * 4, 1.0f);
-  for (std::size_t i = 0; i < env.image.texel_count(); ++i)
-    for (int c = 0; c < 3; ++c)
-      rgba[4 * i + std::size_t(c)] = env.image.data()[3 * i + std::size_t(c)];
+  const std::vector<float> rgba = to_rgba(env.image.storage(), env.image.texel_count(), 3, 1.0f);
   if (target == GL_TEXTURE_CUBE_MAP) {
     const int n = env.layout.face_size();
     for (int f = 0; f < 6; ++f) {
@@ -60,9 +70,7 @@ gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels) {
   for (std::size_t k = 0; k < levels.size(); ++k) {
     const EnvMap& m = levels[k];
     const int n = m.layout.face_size();
-    std::vector<float> rgba(m.image.texel_count() * 4, 1.0f);
-    for (std::size_t i = 0; i < m.image.texel_count(); ++i)
-      for (int c = 0; c < 3; ++c) rgba[4 * i + std::size_t(c)] = m.image.data()[3 * i + std::size_t(c)];
+    const std::vector<float> rgba = to_rgba(m.image.storage(), m.image.texel_count(), 3, 1.0f);
     for (int f = 0; f < 6; ++f)
       glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + GLenum(f), GLint(k), GL_RGBA16F, n, n, 0,
                    GL_RGBA, GL_FLOAT, rgba.data() + std::size_t(f) * n * n * 4);
@@ -75,7 +83,8 @@ gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels) {
   return tex;
 }
 
-gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab) {
+gl::Texture upload_dfg(const DfgTable& table) {
+  const int size = table.size;
   gl::Texture tex;
   tex.create();
   glBindTexture(GL_TEXTURE_2D, tex.id);
@@ -83,13 +92,10 @@ gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab) {
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   std::vector<float> rgba(std::size_t(size) * std::size_t(size) * 4, 1.0f);
   for (int j = 0; j < size; ++j) {
-    double average = 0.0;  // midpoint rule: the row's texels are at mu = (i + 0.5) / size
-    for (int i = 0; i < size; ++i)
-      average += 2.0 * ab[std::size_t(j) * std::size_t(size) + std::size_t(i)].y * (i + 0.5) / size / size;
+    const float average = float(table.average_albedo(j));
     for (int i = 0; i < size; ++i) {
       float* t = &rgba[4 * (std::size_t(j) * std::size_t(size) + std::size_t(i))];
-      const glm::vec2 v = ab[std::size_t(j) * std::size_t(size) + std::size_t(i)];
-      t[0] = v.x, t[1] = v.y, t[2] = float(std::min(average, 1.0));
+      t[0] = table.at(i, j).x, t[1] = table.at(i, j).y, t[2] = average;
     }
   }
   glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, size, size, 0, GL_RGBA, GL_FLOAT, rgba.data());
@@ -98,20 +104,6 @@ gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab) {
   gl::check("uploading the DFG table");
   return tex;
 }
-
-namespace {
-
-// Gray, RGB or RGBA texels as RGBA (alpha 1 where there was none).
-template <class T>
-std::vector<T> to_rgba(const std::vector<T>& src, std::size_t texels, int channels, T one) {
-  std::vector<T> rgba(texels * 4, one);
-  for (std::size_t i = 0; i < texels; ++i)
-    for (int c = 0; c < 4; ++c)
-      if (c < 3 || channels == 4) rgba[4 * i + c] = src[i * channels + (channels == 1 ? 0 : c)];
-  return rgba;
-}
-
-}  // namespace
 
 gl::Texture upload_pixel_texture(std::array<std::uint8_t, 4> rgba) {
   gl::Texture tex;

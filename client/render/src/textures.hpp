@@ -6,6 +6,7 @@
 #include <glm/vec2.hpp>
 #include <vector>
 
+#include "arlight/common/brdf.hpp"
 #include "arlight/common/projection.hpp"
 #include "arlight/common/response.hpp"
 #include "arlight/render/material.hpp"
@@ -28,7 +29,7 @@ gl::Texture upload_ggx_chain(const std::vector<EnvMap>& levels);
 // The split sum's DFG table as an RGBA16F texture (x: n.v, y: 1 - roughness), bilinear, clamped:
 // (a, b) in R and G, and in B each row's average albedo E_avg = 2 integral b(mu) mu dmu (Kulla &
 // Conty's multiple-scattering lobe needs it).
-gl::Texture upload_dfg(int size, const std::vector<glm::vec2>& ab);
+gl::Texture upload_dfg(const DfgTable& table);
 
 // A 1 x 1 RGBA8 texture of one colour, nearest, repeating: a material's missing texture.
 gl::Texture upload_pixel_texture(std::array<std::uint8_t, 4> rgba);

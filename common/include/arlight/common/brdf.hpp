@@ -63,6 +63,9 @@ struct DfgTable {
   int size = 0;
   std::vector<glm::vec2> ab;  // row-major, (a, b) per texel
   glm::vec2 at(int i, int j) const { return ab[std::size_t(j) * std::size_t(size) + std::size_t(i)]; }
+  // Row j's average albedo E_avg = 2 integral b(mu) mu dmu (the midpoint rule over the row's
+  // texels), at most 1: Kulla & Conty's lobe needs it (GgxMultipleScattering).
+  double average_albedo(int j) const;
 };
 // Importance-sampled with `samples` Hammersley points of the GGX distribution per texel, on one
 // thread (the browser's build has no threads for it; 64 x 64 at 512 samples takes ~0.05 s).
