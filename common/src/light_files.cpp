@@ -108,7 +108,7 @@ std::string light_json(const LightFilesInput& light) {
         {"format", "KTX 2.0 cube, VK_FORMAT_R16G16B16A16_SFLOAT, linear"},
         {"prefilter", "GGX, n = v = R, sum L D (R.l)+ / sum D (R.l)+ (the split sum's)"},
         {"face_order", "+X -X +Y -Y +Z -Z (Vulkan/OpenGL cube table, row 0 at the top)"},
-        {"level_mapping", light.level_mapping},
+        {"level_mapping", kGgxLevelMapping},
         {"levels", levels}}},
       {"gltf", {{"file", "lighting.gltf"}, {"extension", "EXT_lights_image_based"}}},
   };
@@ -116,7 +116,7 @@ std::string light_json(const LightFilesInput& light) {
 }
 
 std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light) {
-  const nlohmann::json meta = {{"level_mapping", light.level_mapping}, {"roughness", light.roughness}};
+  const nlohmann::json meta = {{"level_mapping", kGgxLevelMapping}, {"roughness", light.roughness}};
   return encode_ktx2_cube(light.specular, {{"arlight.ggx", meta.dump()}});
 }
 

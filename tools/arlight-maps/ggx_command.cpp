@@ -62,7 +62,6 @@ int run_ggx(const GgxOptions& o) {
   LightFilesInput light;
   light.specular = maps;
   light.roughness = chain.roughness();
-  light.level_mapping = lighting::kGgxLevelMapping;
   write_specular_ktx2(fs::path(o.out) / "specular.ktx2", light);
 
   nlohmann::json j;
@@ -108,7 +107,6 @@ int run_export(const GgxOptions& o) {
   light.primary = primary_light(probe.env, light.sh);
   light.specular = maps;
   light.roughness = chain.roughness();
-  light.level_mapping = lighting::kGgxLevelMapping;
   light.source = o.input;
   write_light_files(o.out, light);
   std::printf("light of %s -> %s/{specular.ktx2, light.json, lighting.gltf}\n", o.input.c_str(),

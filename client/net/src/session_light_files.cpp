@@ -19,7 +19,6 @@ void write_session_light_files(const std::filesystem::path& dir, const ReceivedM
   light.primary = primary_light(chain.maps.front(), sh);
   light.specular = chain.maps;
   light.roughness = chain.roughness;
-  light.level_mapping = kGgxLevelMapping;  // the server's; each level's roughness came with it
   light.source = source;
   write_light_files(dir, light);
 }

@@ -605,7 +605,6 @@ std::shared_ptr<const Session::LightFiles> Session::light_files() const {
   light.sh = sh;
   light.primary = primary_light(*env, sh);
   light.specular = maps;
-  light.level_mapping = lighting::kGgxLevelMapping;
   light.source = "arlightd session " + id_;
   light_files_ = std::make_shared<const LightFiles>(LightFiles{light_json(light), specular_ktx2(light)});
   light_files_frames_ = frames;

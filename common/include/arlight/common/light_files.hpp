@@ -40,7 +40,6 @@ struct LightFilesInput {
   DominantLight primary;  // light_sources.hpp's primary_light(): towards it (unit), RGB illuminance
   std::span<const EnvMap> specular;  // the GGX chain (cube maps, level 0 the mirror)
   std::vector<double> roughness;    // per level
-  std::string level_mapping;        // the level <-> roughness rule, stated in every file
   std::string source;               // what the light was measured from, for the record
 };
 
@@ -62,7 +61,7 @@ std::array<float, 27> sh9_unity(const ShCoeffs& sh);
 // light.json's text.
 std::string light_json(const LightFilesInput& light);
 // specular.ktx2's bytes: the chain with its level mapping and roughness in the key
-// "arlight.ggx" (JSON). Needs only `specular`, `roughness` and `level_mapping`.
+// "arlight.ggx" (JSON, with kGgxLevelMapping). Needs only `specular` and `roughness`.
 std::vector<std::uint8_t> specular_ktx2(const LightFilesInput& light);
 // The same written to `path` atomically (a reader never sees half a file).
 void write_specular_ktx2(const std::filesystem::path& path, const LightFilesInput& light);
