@@ -156,8 +156,7 @@ int main(int argc, char** argv) {
     std::printf("| probe | metallic | roughness 0.05 | 0.2 | 0.4 | 0.6 | 0.8 | 1 |\n");
     std::printf("|---|---|---|---|---|---|---|---|\n");
     for (const std::string& probe : probes) {
-      EnvMap room = load_envmap(probe).env;
-      for (float& v : room.image.storage()) v = std::max(v, 0.0f);  // compression's negatives
+      const EnvMap room = load_envmap(probe).env;  // its negative values set to 0
       const lighting::GgxChain chain = lighting::compute_ggx_chain(room, {.face = 256, .min_face = 16});
       r.set_ggx_chain(chain.maps(), chain.roughness());
       // The irradiance map a map set would carry (finer than the chain's face-16 last level).

@@ -3,13 +3,12 @@
 // tangent-space normal mapping (Alg. 5.4). Map texels are lobe-weighted average radiance
 // (Alg. 4.1), so the outgoing radiance is kd * Ld + ks * Ls. METALLIC_ROUGHNESS shades glTF 2.0's
 // metallic-roughness instead, with the split sum (Karis 2013; Filament): the GGX chain (or, without
-// GGX_CHAIN, the reflection maps) times the DFG table's specular albedo and multiple-scattering
-// compensation, plus the Lambertian part from the irradiance map. The renderer compiles one variant
-// per projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP, USE_LIGHT_MAP,
-// USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB,
+// GGX_CHAIN, the reflection maps) times the DFG table's specular albedo, Kulla & Conty's
+// multiple-scattering lobe and the Lambertian part lit by the irradiance. The renderer compiles
+// one variant per projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP,
+// USE_LIGHT_MAP, USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB,
 // METALLIC_ROUGHNESS, GGX_CHAIN, GGX_DIFFUSE, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP,
-// ALPHA_MASK), so
-// no fragment pays for a feature its material lacks.
+// ALPHA_MASK), so no fragment pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
 precision highp samplerCube;
@@ -63,7 +62,7 @@ uniform float u_ggx_max_lod;         // levels - 1
 // chain's roughest level: roughness 1's prefilter is the cosine-weighted mean, the irradiance
 // map itself, as fresh as the chain (though at its face, 16).
 vec3 irradiance(vec3 d) {
-#if defined(METALLIC_ROUGHNESS) && defined(GGX_CHAIN) && defined(GGX_DIFFUSE)
+#ifdef GGX_DIFFUSE  // only with METALLIC_ROUGHNESS and GGX_CHAIN
   return textureLod(u_ggx, d, u_ggx_max_lod).rgb;
 #else
   return env_sample(u_irradiance, d);

@@ -33,12 +33,10 @@ void set_chain(Renderer& r, const lighting::GgxChain& chain) {
 // The room the spheres stand in: venice as a face-64 cube (every texel one direction of the
 // reference's sum), and its GGX chain 64 -> 8 (4 levels: roughness 0, 0.18, 0.42, 1).
 const EnvMap& venice() {
-  static const EnvMap env = [] {
-    EnvMap e = resample(load_envmap(std::string(ARLIGHT_ASSETS_DIR) + "/probes/venice.exr").env,
-                        EnvLayout::for_size(Projection::Cube, 64));
-    for (float& v : e.image.storage()) v = std::max(v, 0.0f);
-    return e;
-  }();
+  // (load_envmap has set the probe's negative values, lossy compression's, to 0.)
+  static const EnvMap env =
+      resample(load_envmap(std::string(ARLIGHT_ASSETS_DIR) + "/probes/venice.exr").env,
+               EnvLayout::for_size(Projection::Cube, 64));
   return env;
 }
 
