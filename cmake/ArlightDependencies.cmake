@@ -67,6 +67,13 @@ arlight_find_pkgconfig(EGL egl DEB libegl-dev)
 arlight_find_pkgconfig(GLESV2 glesv2 DEB libgles-dev)
 arlight_find(embree DEB libembree-dev 3 CONFIG)
 arlight_find(draco DEB libdraco-dev CONFIG)
+# glTF's JSON, buffers and materials (tinygltf's header, compiled in: client/render's
+# tiny_gltf.hpp says why), its PNG / JPEG textures (stb_image)
+find_path(TINYGLTF_INCLUDE_DIR tiny_gltf.h)
+if(NOT TINYGLTF_INCLUDE_DIR)
+  message(FATAL_ERROR "arlight needs tiny_gltf.h: install the Debian package 'libtinygltf-dev' (or run `make deps`).")
+endif()
+arlight_find_pkgconfig(STB stb DEB libstb-dev)
 
 # the sun's position (libnova ships neither a CMake config nor a pkg-config file)
 find_path(NOVA_INCLUDE_DIR libnova/solar.h)

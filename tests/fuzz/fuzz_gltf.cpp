@@ -2,7 +2,7 @@
 // data: URIs; Draco-compressed primitives through libdraco). Every problem must be an
 // InputError; a mesh that loads has indices inside its vertices and one normal per position.
 #include "arlight/common/error.hpp"
-#include "arlight/render/mesh.hpp"
+#include "arlight/render/gltf.hpp"
 #include "fuzz_support.hpp"
 
 using namespace arlight;

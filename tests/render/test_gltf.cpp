@@ -6,11 +6,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include "arlight/common/error.hpp"
-#include "arlight/render/mesh.hpp"
+#include "arlight/render/gltf.hpp"
+#include "arlight/render/sample_models.hpp"
 
 namespace arlight::render {
 namespace {
@@ -296,6 +298,187 @@ TEST(Gltf, ANodesRotationTurnsTheTransferWithTheNormals) {
   for (int k = 4; k < 9; ++k)
     before += double(t[std::size_t(k)]) * t[std::size_t(k)], after += double(r[k]) * r[k];
   EXPECT_NEAR(after, before, 1e-6);
+}
+
+}  // namespace
+}  // namespace arlight::render
+
+namespace arlight::render {
+namespace {
+
+// The GLB's JSON, edited by `edit`, put back (the binary chunk as it was).
+std::vector<std::uint8_t> with_json(const std::vector<std::uint8_t>& glb,
+                                    const std::function<void(nlohmann::json&)>& edit) {
+  std::uint32_t json_len;
+  std::memcpy(&json_len, glb.data() + 12, 4);
+  nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
+  edit(doc);
+  std::string text = doc.dump();
+  while (text.size() % 4) text += ' ';
+  std::vector<std::uint8_t> out(glb.begin(), glb.begin() + 12);
+  const auto u32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
+  };
+  u32(std::uint32_t(text.size())), u32(0x4E4F534Au);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), glb.begin() + 20 + json_len, glb.end());
+  const std::uint32_t total = std::uint32_t(out.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  return out;
+}
+
+std::string load_error(const std::vector<std::uint8_t>& glb) {
+  try {
+    load_gltf_model(glb, "model.glb");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(loaded)";
+}
+
+// arlight's textured test model written with its materials and read back: two parts with their
+// materials, every factor, and every texture texel for texel (PNG is lossless) in the colour
+// space its field asks for.
+TEST(GltfMaterials, TheTiledBallReadsBackWithItsMaterialsAndTextures) {
+  const GltfModel made = make_tiled_ball(64);
+  const GltfModel back = load_gltf_model(encode_glb(made.mesh, made.materials), "tiles.glb");
+  EXPECT_TRUE(back.warnings.empty());
+  ASSERT_EQ(back.materials.size(), 2u);
+  ASSERT_EQ(back.mesh.parts.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.mesh.parts[i].material, int(i));
+    EXPECT_EQ(back.mesh.parts[i].first_index, made.mesh.parts[i].first_index);
+    EXPECT_EQ(back.mesh.parts[i].index_count, made.mesh.parts[i].index_count);
+  }
+  EXPECT_EQ(back.mesh.indices, made.mesh.indices);
+  const Material& tiles = back.materials[0];
+  ASSERT_TRUE(tiles.pbr && tiles.albedo && tiles.pbr->metallic_roughness && tiles.normal_map &&
+              tiles.pbr->occlusion);
+  EXPECT_TRUE(tiles.albedo->srgb);
+  EXPECT_FALSE(tiles.pbr->metallic_roughness->srgb);
+  EXPECT_FALSE(tiles.normal_map->srgb);
+  EXPECT_EQ(tiles.albedo->u8, made.materials[0].albedo->u8);
+  EXPECT_EQ(tiles.pbr->metallic_roughness->u8, made.materials[0].pbr->metallic_roughness->u8);
+  EXPECT_EQ(tiles.normal_map->u8, made.materials[0].normal_map->u8);
+  EXPECT_EQ(tiles.pbr->occlusion->u8, made.materials[0].pbr->occlusion->u8);
+  const Material& glaze = back.materials[1];
+  ASSERT_TRUE(glaze.pbr);
+  EXPECT_FALSE(glaze.albedo);
+  EXPECT_EQ(glaze.pbr->base_colour, made.materials[1].pbr->base_colour);
+  EXPECT_EQ(glaze.pbr->metallic, 0.0f);
+  EXPECT_FLOAT_EQ(glaze.pbr->roughness, 0.15f);
+  // The geometry alone: the parts keep their material indices, nothing decoded.
+  const Mesh geometry = load_gltf(encode_glb(made.mesh, made.materials), "tiles.glb");
+  ASSERT_EQ(geometry.parts.size(), 2u);
+  EXPECT_EQ(geometry.parts[1].material, 1);
+}
+
+// Bad or unsupported material parts: an error naming the material and the field, or (for what
+// is read but drawn otherwise) a warning naming them; the factors' extensions and a second uv
+// set are read.
+TEST(GltfMaterials, ProblemsNameTheMaterialAndTheField) {
+  const GltfModel made = make_tiled_ball(32);
+  const std::vector<std::uint8_t> glb = encode_glb(made.mesh, made.materials);
+  const auto error_after = [&](const std::function<void(nlohmann::json&)>& edit) {
+    return load_error(with_json(glb, edit));
+  };
+  std::string e = error_after([](nlohmann::json& d) {
+    d["materials"][1]["name"] = "glaze";
+    d["materials"][1]["pbrMetallicRoughness"]["roughnessFactor"] = 1.5;
+  });
+  EXPECT_NE(e.find("material 1 'glaze'"), std::string::npos) << e;
+  EXPECT_NE(e.find("roughnessFactor"), std::string::npos) << e;
+  e = error_after([](nlohmann::json& d) { d["materials"][0]["alphaMode"] = "SOMETIMES"; });
+  EXPECT_NE(e.find("material 0: alphaMode 'SOMETIMES'"), std::string::npos) << e;
+  e = error_after([](nlohmann::json& d) {
+    d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["index"] = 9;
+  });
+  EXPECT_NE(e.find("baseColorTexture: texture 9 out of range"), std::string::npos) << e;
+  e = error_after([](nlohmann::json& d) { d["materials"][0]["normalTexture"]["texCoord"] = 2; });
+  EXPECT_NE(e.find("normalTexture: texCoord 2"), std::string::npos) << e;
+  e = error_after([](nlohmann::json& d) {
+    d["materials"][0]["occlusionTexture"]["extensions"]["KHR_texture_transform"] = {{"scale", {2, 2}}};
+  });
+  EXPECT_NE(e.find("occlusionTexture: its KHR_texture_transform differs"), std::string::npos) << e;
+  e = error_after([](nlohmann::json& d) { d["materials"][0]["emissiveFactor"] = {1, 2}; });
+  EXPECT_NE(e.find("emissiveFactor"), std::string::npos) << e;
+  // An image whose bytes are not an image: named with the field that uses it.
+  std::vector<std::uint8_t> corrupt = glb;
+  {
+    std::uint32_t json_len;
+    std::memcpy(&json_len, glb.data() + 12, 4);
+    const nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
+    const nlohmann::json& view = doc["bufferViews"][doc["images"][0]["bufferView"].get<std::size_t>()];
+    const std::size_t at = 20 + json_len + 8 + view["byteOffset"].get<std::size_t>();
+    for (std::size_t i = at; i < at + 32; ++i) corrupt[i] = 0x5A;
+  }
+  e = load_error(corrupt);
+  EXPECT_NE(e.find("baseColorTexture: image 0 cannot be decoded"), std::string::npos) << e;
+  EXPECT_NO_THROW(load_gltf(corrupt, "model.glb"));  // the geometry alone decodes no image
+
+  // Read but drawn otherwise: warnings.
+  const GltfModel warned = load_gltf_model(with_json(glb, [](nlohmann::json& d) {
+    d["materials"][1]["alphaMode"] = "BLEND";
+    d["materials"][1]["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 1}};
+  }), "model.glb");
+  ASSERT_EQ(warned.warnings.size(), 2u);
+  EXPECT_NE(warned.warnings[0].find("material 1: extension KHR_materials_clearcoat"), std::string::npos);
+  EXPECT_NE(warned.warnings[1].find("material 1: alphaMode BLEND"), std::string::npos);
+
+  // KHR_materials_emissive_strength scales the factor; MASK keeps its cutoff.
+  const GltfModel glowing = load_gltf_model(with_json(glb, [](nlohmann::json& d) {
+    d["materials"][1]["emissiveFactor"] = {1.0, 0.5, 0.0};
+    d["materials"][1]["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", 4.0}};
+    d["materials"][1]["alphaMode"] = "MASK";
+    d["materials"][1]["alphaCutoff"] = 0.25;
+  }), "model.glb");
+  EXPECT_EQ(glowing.materials[1].pbr->emissive, glm::vec3(4.0f, 2.0f, 0.0f));
+  EXPECT_TRUE(glowing.materials[1].pbr->alpha_mask);
+  EXPECT_EQ(glowing.materials[1].pbr->alpha_cutoff, 0.25f);
+  // And back through the writer (factors above 1 as the extension).
+  const GltfModel again = load_gltf_model(encode_glb(glowing.mesh, glowing.materials), "again.glb");
+  EXPECT_EQ(again.materials[1].pbr->emissive, glm::vec3(4.0f, 2.0f, 0.0f));
+}
+
+// One KHR_texture_transform and TEXCOORD_1 for all of a material's textures: applied to the uvs
+// of its primitives (u' = sx u + ox with no rotation).
+TEST(GltfMaterials, TheMaterialsUvSetAndTransformReachTheUvs) {
+  const GltfModel made = make_tiled_ball(16);
+  const std::vector<std::uint8_t> glb = encode_glb(made.mesh, made.materials);
+  const nlohmann::json transform = {{"offset", {0.25, 0.5}}, {"scale", {2.0, 3.0}}};
+  const GltfModel moved = load_gltf_model(with_json(glb, [&](nlohmann::json& d) {
+    for (const char* field : {"normalTexture", "occlusionTexture"})
+      d["materials"][0][field]["extensions"]["KHR_texture_transform"] = transform;
+    for (const char* field : {"baseColorTexture", "metallicRoughnessTexture"})
+      d["materials"][0]["pbrMetallicRoughness"][field]["extensions"]["KHR_texture_transform"] = transform;
+  }), "moved.glb");
+  const std::uint32_t ball = moved.mesh.parts[0].index_count;
+  const std::uint32_t v = moved.mesh.indices[ball / 2];  // a vertex of the ball (material 0)
+  EXPECT_NEAR(moved.mesh.uvs[v].x, 2.0f * made.mesh.uvs[v].x + 0.25f, 1e-5f);
+  EXPECT_NEAR(moved.mesh.uvs[v].y, 3.0f * made.mesh.uvs[v].y + 0.5f, 1e-5f);
+  // The plinth's material reads no textures: its primitive keeps the uvs as they were (its own
+  // copy of the shared vertices, after the ball's).
+  const std::size_t n = made.mesh.vertex_count();
+  const std::uint32_t w = moved.mesh.indices[moved.mesh.parts[1].first_index];
+  ASSERT_GE(w, n);
+  EXPECT_EQ(moved.mesh.uvs[w], made.mesh.uvs[w - n]);
+
+  // TEXCOORD_1 asked for but missing: named; present (the same accessor): read.
+  auto all_texcoord1 = [](nlohmann::json& d) {
+    for (const char* field : {"normalTexture", "occlusionTexture"}) d["materials"][0][field]["texCoord"] = 1;
+    for (const char* field : {"baseColorTexture", "metallicRoughnessTexture"})
+      d["materials"][0]["pbrMetallicRoughness"][field]["texCoord"] = 1;
+  };
+  const std::string e = load_error(with_json(glb, all_texcoord1));
+  EXPECT_NE(e.find("material 0: has textures, but a primitive of mesh 0 that uses it has no TEXCOORD_1"),
+            std::string::npos) << e;
+  const GltfModel second = load_gltf_model(with_json(glb, [&](nlohmann::json& d) {
+    all_texcoord1(d);
+    for (nlohmann::json& prim : d["meshes"][0]["primitives"])
+      prim["attributes"]["TEXCOORD_1"] = prim["attributes"]["TEXCOORD_0"];
+  }), "second.glb");
+  EXPECT_EQ(std::vector<glm::vec2>(second.mesh.uvs.begin(), second.mesh.uvs.begin() + std::ptrdiff_t(n)),
+            made.mesh.uvs);
 }
 
 }  // namespace

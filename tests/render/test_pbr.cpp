@@ -8,6 +8,7 @@
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/ggx.hpp"
+#include "arlight/render/sample_models.hpp"
 #include "render_fixtures.hpp"
 
 namespace arlight::render {
@@ -172,4 +173,60 @@ TEST(MetallicRoughness, AChainThatIsNotFilamentsMappingOrNotHalvingIsRefused) {
   EXPECT_NO_THROW(s.r.set_ggx_chain(chain.maps(), chain.roughness()));
 }
 
+}  // namespace arlight::render
+
+namespace arlight::render {
+namespace {
+
+// arlight's textured test model drawn with its own materials in a white room: the gold tiles
+// (metal, base colour texture) come out yellow, the terracotta red, the grooves dark (base colour
+// and occlusion textures), the plinth's factor-only glaze near white; drawn with one grey
+// material instead, none of that holds. Picked by colour: a wrong texture path or a part drawn
+// with the wrong material moves pixels out of those classes.
+TEST(MetallicRoughness, AModelsOwnMaterialsDrawEachPartWithItsTextures) {
+  SphereScene s;
+  const glm::vec3 white(1.0f);
+  set_constant_maps(s.r, Projection::Cube, white);
+  set_chain(s.r, lighting::compute_ggx_chain(constant_env(Projection::Cube, 16, white),
+                                             {.face = 16, .min_face = 2}));
+  const GltfModel model = make_tiled_ball(256);
+  const GpuMesh mesh(model.mesh);
+  // 2 units tall, centred on the view: the ball above the centre, the plinth below.
+  const glm::mat4 place = glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, -1.0f, 0.0f)),
+                                     glm::vec3(2.0f));
+  struct Counts {
+    int gold = 0, terracotta = 0, groove = 0, glaze = 0, drawn = 0;
+  };
+  const auto classify = [&](const HdrReadback& hdr) {
+    Counts c;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        if (!hdr.mask[std::size_t(y) * W + std::size_t(x)]) continue;
+        ++c.drawn;
+        const glm::vec3 l = hdr.radiance.at(x, y);
+        if (y > H * 3 / 4) {  // the plinth's rows
+          c.glaze += l.b > 0.75f && l.r < 1.1f && std::abs(l.r - l.b) < 0.1f;
+          continue;
+        }
+        c.gold += l.r > 0.7f && l.g > 0.5f * l.r && l.b < 0.6f * l.r;
+        c.terracotta += l.r > 0.3f && l.r < 0.75f && l.g < 0.4f * l.r && l.b < 0.3f * l.r;
+        c.groove += l.r < 0.08f && l.g < 0.08f && l.b < 0.08f;
+      }
+    return c;
+  };
+  s.r.begin_frame();
+  s.r.draw(mesh, model.materials, Material{}, place);
+  const Counts own = classify(s.r.read_hdr());
+  EXPECT_GT(own.drawn, 4000);
+  EXPECT_GT(own.gold, own.drawn / 20) << "gold tiles";
+  EXPECT_GT(own.terracotta, own.drawn / 20) << "terracotta tiles";
+  EXPECT_GT(own.groove, own.drawn / 400) << "grooves";  // their floors are a pixel wide here
+  EXPECT_GT(own.glaze, own.drawn / 50) << "the plinth's glaze";
+  s.r.begin_frame();
+  s.r.draw(mesh, pbr(glm::vec3(0.5f), 0.0f, 0.5f), place);
+  const Counts grey = classify(s.r.read_hdr());
+  EXPECT_EQ(grey.gold + grey.terracotta + grey.groove, 0);
+}
+
+}  // namespace
 }  // namespace arlight::render

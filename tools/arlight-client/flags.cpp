@@ -25,7 +25,9 @@ void add_client_flags(CLI::App& app, ClientFlags& f) {
   app.add_option("--model", f.model, "glTF 2.0 model (.glb/.gltf, Draco ok) or 'sphere'")
       ->capture_default_str();
   app.add_option("--material", f.material_text,
-                 "kd,ks,shininess (Phong) or pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-roughness)")
+                 "kd,ks,shininess (Phong), pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-"
+                 "roughness) or model (the glTF's own materials; Phong's default where a part "
+                 "has none)")
       ->capture_default_str();
   app.add_option("--ggx", f.ggx_face,
                  "request the room's GGX chain from this face instead of --maps (default: 256 "
@@ -167,7 +169,14 @@ PipelineOptions pipeline_options(const ClientFlags& f, const source::FrameSource
 ClientObject load_client_object(const ClientFlags& f, render::Material& material) {
   if (!f.normal_map.empty()) material.normal_map = render::load_texture(f.normal_map, false);
   if (!f.light_map.empty()) material.light_map = render::load_texture(f.light_map, false);
-  ClientObject object{load_model(f.model)};
+  ClientObject object;
+  if (f.material_text == "model") {
+    render::GltfModel model = load_model_with_materials(f.model);
+    object.mesh = std::move(model.mesh), object.materials = std::move(model.materials);
+    if (object.materials.empty()) spdlog::warn("{}: --material model, but it has no materials", f.model);
+  } else {
+    object.mesh = load_model(f.model);
+  }
   if (f.occlusion == "none") {
     object.mesh.occlusion.clear(), object.mesh.transfer.clear(), object.mesh.ground = {};
     return object;
@@ -189,7 +198,8 @@ LinkOptions link_options(const ClientFlags& f, source::FrameSource& src,
                  : !src.device_id().empty() ? src.device_id()
                                             : "webcam";
   lo.camera = camera, lo.shininess = shininess, lo.map_size = f.map_size;
-  lo.ggx_face = f.ggx_face >= 0 ? f.ggx_face : f.material_text.rfind("pbr:", 0) == 0 ? 256 : 0;
+  const bool pbr = f.material_text.rfind("pbr:", 0) == 0 || f.material_text == "model";
+  lo.ggx_face = f.ggx_face >= 0 ? f.ggx_face : pbr ? 256 : 0;
   lo.exposure_advice = src.request_exposure(0.0);  // (0 asks nothing: can it at all?)
   if (!f.location.empty()) {
     if (f.north_offset && !(std::abs(*f.north_offset) <= 180.0))

@@ -41,6 +41,7 @@ PipelineOptions pipeline_options(const ClientFlags& f, const source::FrameSource
 // textures loaded (--normal-map, --light-map; needs a GL context).
 struct ClientObject {
   render::Mesh mesh;
+  std::vector<render::Material> materials;  // --material model: the glTF's
   std::string occlusion_state = "none";  // file, cached, baked or none
   double bake_ms = 0;
 };

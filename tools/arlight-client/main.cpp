@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
                  : render::GlContext::headless();
     spdlog::info("GL: {} ({})", gl.renderer(), gl.version());
     ClientObject object = load_client_object(f, po.material);
+    po.model_materials = std::move(object.materials);
     FramePipeline pipeline(po, std::move(object.mesh));
     LightingLink link(link_options(f, *src, po.camera, shininess));
     link.wait_connected(std::chrono::seconds(10));

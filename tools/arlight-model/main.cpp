@@ -1,6 +1,7 @@
-// arlight-model: what a model file holds (info), a copy without Draco compression for the
-// browser client, whose WebAssembly build has no Draco decoder (convert), and its radiance
-// transfer baked with Embree, timed (bake). A thin shell over arlight_render's glTF reader and
+// arlight-model: what a model file holds (info: geometry and materials), a copy without Draco
+// compression for the browser client, whose WebAssembly build has no Draco decoder (convert),
+// its radiance transfer baked with Embree, timed (bake), and arlight's textured test model
+// (sample). A thin shell over arlight_render's glTF reader and
 // writer and its transfer bake (model_reports.cpp).
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -9,7 +10,8 @@
 
 #include "arlight/common/atomic_file.hpp"
 #include "arlight/common/error.hpp"
-#include "arlight/render/mesh.hpp"
+#include "arlight/render/gltf.hpp"
+#include "arlight/render/sample_models.hpp"
 #include "arlight/render/transfer.hpp"
 #include "model_reports.hpp"
 
@@ -42,6 +44,16 @@ int main(int argc, char** argv) {
   convert->add_option("--directions", bake_options.directions, "rays per vertex for --bake")
       ->check(CLI::Range(16, 1 << 20))
       ->capture_default_str();
+  int sample_texture_size = 256;
+  CLI::App* sample = app.add_subcommand(
+      "sample",
+      "write arlight's textured glTF metallic-roughness test model (a tiled ball of gold and "
+      "terracotta on a glazed plinth: base colour, metal/roughness, normal and occlusion "
+      "textures; CC0) as a .glb");
+  sample->add_option("out", output, "the .glb to write")->required();
+  sample->add_option("--texture-size", sample_texture_size, "its textures' width and height")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
   CLI::App* bake_cmd = app.add_subcommand(
       "bake",
       "bake the radiance transfer of the model's vertices (ambient occlusion, bent "
@@ -67,15 +79,25 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(16, 1 << 20))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  const auto write_glb = [&](const std::vector<std::uint8_t>& glb) {
+    write_file_atomically(output,
+                          std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
+  };
   try {
-    render::Mesh mesh = render::load_gltf(input);
+    if (*sample) {
+      const render::GltfModel model = render::make_tiled_ball(sample_texture_size);
+      write_glb(render::encode_glb(model.mesh, model.materials));
+      input = output;  // described as written
+    }
+    render::GltfModel model = render::load_gltf_model(input);
+    for (const std::string& w : model.warnings) std::fprintf(stderr, "arlight-model: %s\n", w.c_str());
+    render::Mesh& mesh = model.mesh;
     if (*convert) {
       if (convert_bake) render::bake_occlusion(mesh, bake_options.directions);
-      const std::vector<std::uint8_t> glb = render::encode_glb(mesh);
-      write_file_atomically(
-          output, std::string_view(reinterpret_cast<const char*>(glb.data()), glb.size()));
+      write_glb(render::encode_glb(mesh, model.materials));
     }
     nlohmann::json out = model_tool::describe(mesh);
+    out["materials"] = model_tool::describe_materials(model);
     if (*light_map_cmd)
       out["light_map"] =
           model_tool::light_map(mesh, input, light_map_size, bake_options.directions, output);

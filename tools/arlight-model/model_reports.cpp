@@ -27,6 +27,35 @@ nlohmann::json describe(const render::Mesh& m) {
           {"bounds", {{"min", v3(m.bounds.min)}, {"max", v3(m.bounds.max)}}}};
 }
 
+nlohmann::json describe_materials(const render::GltfModel& model) {
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t i = 0; i < model.materials.size(); ++i) {
+    const render::Material& m = model.materials[i];
+    const render::MetallicRoughness& p = *m.pbr;
+    nlohmann::json textures = nlohmann::json::array();
+    const auto add = [&](const char* name, const auto& image) {
+      if (image) textures.push_back({{"field", name}, {"width", image->width}, {"height", image->height}});
+    };
+    add("baseColorTexture", m.albedo);
+    add("metallicRoughnessTexture", p.metallic_roughness);
+    add("normalTexture", m.normal_map);
+    add("occlusionTexture", p.occlusion);
+    add("emissiveTexture", p.emissive_map);
+    std::size_t triangles = 0;
+    for (const render::MeshPart& part : model.mesh.parts)
+      if (part.material == int(i)) triangles += part.index_count / 3;
+    out.push_back({{"name", model.material_names[i]},
+                   {"base_colour", {p.base_colour.r, p.base_colour.g, p.base_colour.b, p.base_colour.a}},
+                   {"metallic", p.metallic},
+                   {"roughness", p.roughness},
+                   {"alpha", p.alpha_mask ? "MASK" : "OPAQUE"},
+                   {"double_sided", m.double_sided},
+                   {"textures", textures},
+                   {"triangles", triangles}});
+  }
+  return out;
+}
+
 // Self-shadowing of the model's own vertices (tutorial §6.1): the bake's time and what it found.
 nlohmann::json bake(const render::Mesh& m, const TransferOptions& options) {
   const auto start = std::chrono::steady_clock::now();

@@ -5,13 +5,15 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "arlight/render/mesh.hpp"
+#include "arlight/render/gltf.hpp"
 #include "arlight/render/transfer.hpp"
 
 namespace arlight::model_tool {
 
 // Its vertex and triangle counts, what it carries (UVs, occlusion, transfer, ground), bounds.
 nlohmann::json describe(const render::Mesh& m);
+// Each glTF material: its factors, textures (field and size) and the triangles drawn with it.
+nlohmann::json describe_materials(const render::GltfModel& model);
 // Self-shadowing of the model's own vertices (tutorial §6.1): the bake's time and what it found.
 nlohmann::json bake(const render::Mesh& m, const TransferOptions& options);
 // Thesis Alg. 5.2's light map of the model's occlusion of itself over its UVs, written to

@@ -127,9 +127,12 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     renderer_.set_camera(options_.camera, track::view_matrix(*pose));
     renderer_.set_world_from_scene(*world_from_scene);
     renderer_.set_shadow(shadow_budget_.settings(options_.shadow, lighting));
-    renderer_.draw(mesh_, options_.material, model_matrix_);
+    renderer_.draw(mesh_, options_.model_materials, options_.material, model_matrix_);
     report.lit_by = renderer_.lighting_source();
-    report.lit_by_ggx = options_.material.pbr && renderer_.has_ggx_chain();
+    const bool pbr = options_.material.pbr ||
+                     std::any_of(options_.model_materials.begin(), options_.model_materials.end(),
+                                 [](const render::Material& m) { return m.pbr.has_value(); });
+    report.lit_by_ggx = pbr && renderer_.has_ggx_chain();
   }
   render::ToneMapping tone;
   tone.mode = options_.tone;
@@ -164,6 +167,7 @@ track::MarkerSpec parse_marker(const std::string& text) {
 }
 
 render::Material parse_material(const std::string& text) {
+  if (text == "model") return {};
   if (text.rfind("pbr:", 0) == 0) {
     const std::vector<double> v = parse_number_list(text.substr(4), "--material pbr:");
     if (v.size() != 5 || std::any_of(v.begin(), v.end(), [](double x) { return !(x >= 0 && x <= 1); }))
@@ -224,6 +228,13 @@ render::Mesh load_model(const std::string& name) {
       name == "sphere" ? render::make_sphere(0.5f, 64, 128) : render::load_gltf(name);
   if (mesh.positions.empty()) throw InputError(name + ": no triangles");
   return mesh;
+}
+
+render::GltfModel load_model_with_materials(const std::string& name) {
+  if (name == "sphere") return {load_model(name), {}, {}, {}};
+  render::GltfModel model = render::load_gltf_model(name);
+  for (const std::string& w : model.warnings) spdlog::warn("{}", w);
+  return model;
 }
 
 BakedModel bake_model(render::Mesh mesh, const std::filesystem::path& cache_dir) {

@@ -20,6 +20,10 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   has_transfer_ = mesh.transfer.size() == n * kTransferCoefficients;
   bounds_ = mesh.bounds;
   index_count_ = mesh.indices.size();
+  parts_ = mesh.parts.empty() ? std::vector<MeshPart>{{0, std::uint32_t(index_count_), -1}} : mesh.parts;
+  for (const MeshPart& p : parts_)
+    if (std::size_t(p.first_index) + p.index_count > index_count_)
+      throw std::invalid_argument("GpuMesh: a part reaches beyond the mesh's indices");
   const std::size_t pos_bytes = n * sizeof(glm::vec3),
                     uv_bytes = has_uvs_ ? n * sizeof(glm::vec2) : 0,
                     tan_bytes = has_tangents_ ? n * sizeof(glm::vec4) : 0,
@@ -101,7 +105,7 @@ GpuMesh& GpuMesh::operator=(GpuMesh&& o) noexcept {
     vao_ = std::exchange(o.vao_, 0), vbo_ = std::exchange(o.vbo_, 0), ibo_ = std::exchange(o.ibo_, 0);
     ground_tex_ = std::exchange(o.ground_tex_, 0), ground_rect_ = o.ground_rect_;
     ground_transfer_tex_ = std::exchange(o.ground_transfer_tex_, 0);
-    index_count_ = o.index_count_, has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
+    index_count_ = o.index_count_, parts_ = std::move(o.parts_), has_uvs_ = o.has_uvs_, has_tangents_ = o.has_tangents_;
     has_occlusion_ = o.has_occlusion_, has_transfer_ = o.has_transfer_;
     bounds_ = o.bounds_;
   }

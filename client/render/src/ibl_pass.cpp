@@ -162,7 +162,7 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
 
 void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model,
                    const DrawState& st, const SceneLighting& lighting, const RenderTargets& targets,
-                   const LiveFrameInputs* live) {
+                   const MeshPart& part, const LiveFrameInputs* live) {
   const EnvSet& env = lighting.maps();
   const MetallicRoughness* pbr = m.pbr ? &*m.pbr : nullptr;
   const bool ggx = pbr && lighting.ggx_levels() > 0 && shading == Shading::ImageBased;
@@ -296,7 +296,8 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
   if (!mesh.has_uvs()) glVertexAttrib2f(2, 0.0f, 0.0f);
   if (!mesh.has_tangents()) glVertexAttrib4f(3, 1.0f, 0.0f, 0.0f, 1.0f);
   if (!mesh.has_occlusion()) glVertexAttrib4f(4, 0.0f, 0.0f, 0.0f, 1.0f);  // nothing baked
-  glDrawElements(GL_TRIANGLES, GLsizei(mesh.index_count()), GL_UNSIGNED_INT, nullptr);
+  glDrawElements(GL_TRIANGLES, GLsizei(part.index_count), GL_UNSIGNED_INT,
+                 reinterpret_cast<const void*>(std::uintptr_t(part.first_index) * sizeof(std::uint32_t)));
   glBindVertexArray(0);
   gl::check("draw");
 }

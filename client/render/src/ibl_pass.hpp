@@ -40,10 +40,11 @@ class IblPass {
   Shading shading = Shading::ImageBased;
   ReflectionLookup lookup = ReflectionLookup::Interpolate;
 
-  // Draws the mesh into targets.hdr_fbo, depth tested; `live` for glass showing the frame.
+  // Draws the mesh's triangles of `part` into targets.hdr_fbo, depth tested; `live` for glass
+  // showing the frame.
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model,
             const DrawState& state, const SceneLighting& lighting, const RenderTargets& targets,
-            const LiveFrameInputs* live = nullptr);
+            const MeshPart& part, const LiveFrameInputs* live = nullptr);
 
  private:
   struct Variant;

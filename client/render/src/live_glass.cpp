@@ -24,7 +24,7 @@ double LiveGlass::draw(const RenderTargets& targets, const ToneMapping& tone, bo
   const LiveFrameInputs live{frame_copy_.id, rgb, response_inverse,
                              float(1.0 / (tone.exposure * tone.gain))};
   for (const Deferred& d : deferred_)
-    ibl.draw(*d.mesh, d.material, d.model, d.state, lighting, targets, &live);
+    ibl.draw(*d.mesh, d.material, d.model, d.state, lighting, targets, d.part, &live);
   deferred_.clear();
   // Back to the full-screen passes' state.
   glDisable(GL_DEPTH_TEST);

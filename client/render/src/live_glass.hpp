@@ -17,8 +17,8 @@ class LiveGlass {
   void begin_frame() { deferred_.clear(); }
   // The mesh must live until draw().
   void defer(const GpuMesh& mesh, const Material& material, const glm::mat4& model,
-             const DrawState& state) {
-    deferred_.push_back({&mesh, material, model, state});
+             const DrawState& state, const MeshPart& part) {
+    deferred_.push_back({&mesh, material, model, state, part});
   }
   // Copies the frame in targets.out_fbo and draws the deferred glass into the HDR target, with
   // the frame's exposure and the camera's inverse response; `rgb`: the output holds R, G, B.
@@ -33,6 +33,7 @@ class LiveGlass {
     Material material;
     glm::mat4 model;
     DrawState state;
+    MeshPart part;
   };
   std::vector<Deferred> deferred_;  // this frame's
   gl::Texture frame_copy_;          // what the glass samples, made when first used

@@ -237,11 +237,21 @@ void Renderer::begin_frame() {
 }
 
 void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model) {
+  draw(mesh, {}, m, model);
+}
+
+void Renderer::draw(const GpuMesh& mesh, std::span<const Material> materials,
+                    const Material& fallback, const glm::mat4& model) {
   Impl& p = *p_;
-  if (m.transmissive() && p.refraction == Refraction::LiveFrame)
-    p.glass.defer(mesh, m, model, p.draw_state());
-  else
-    p.ibl.draw(mesh, m, model, p.draw_state(), p.lighting, p.targets);
+  for (const MeshPart& part : mesh.parts()) {
+    const Material& m = part.material >= 0 && std::size_t(part.material) < materials.size()
+                            ? materials[std::size_t(part.material)]
+                            : fallback;
+    if (m.transmissive() && p.refraction == Refraction::LiveFrame)
+      p.glass.defer(mesh, m, model, p.draw_state(), part);
+    else
+      p.ibl.draw(mesh, m, model, p.draw_state(), p.lighting, p.targets, part);
+  }
   p.shadow.add_caster(mesh, model, p.world_from_scene);
 }
 

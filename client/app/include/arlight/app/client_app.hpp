@@ -67,6 +67,9 @@ struct PipelineOptions {
   track::MarkerSpec marker{"DICT_4X4_50", 0, 0.2};
   double object_height = 0;  // metres; 0: 1.5 x the marker
   render::Material material;
+  // The model's own materials (a glTF's, --material model), drawn on the parts that name one;
+  // `material` on the rest. Empty: `material` everywhere.
+  std::vector<render::Material> model_materials;
   bool shadow = true;  // shadows on the real floor (the marker's plane)
   // Soft shadows from the map set's light clusters (render::ShadowSettings::lights): at most
   // this many hard shadows, and as many as hold target_fps for the client's own work per frame
@@ -133,7 +136,9 @@ class FramePipeline {
 
 // Flag values every client takes, with errors naming the flag.
 track::MarkerSpec parse_marker(const std::string& text);   // --marker ID,SIZE_M (DICT_4X4_50)
-// --material kd,ks,shininess (Phong) or pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-roughness).
+// --material kd,ks,shininess (Phong) or pbr:R,G,B,METALLIC,ROUGHNESS (glTF metallic-roughness);
+// "model" (the glTF's own materials, PipelineOptions::model_materials) gives the Phong default
+// for the parts without one.
 render::Material parse_material(const std::string& text);
 render::ToneMode parse_tone(const std::string& name);      // --tone camera|reinhard|linear
 // --tone MODE[,CORRECTION]: the tone mode and the colour correction (none when not given;
@@ -146,6 +151,8 @@ std::optional<render::Refraction> parse_glass(const std::string& name);
 // --ior: clear glass (render::glass) of that index of refraction, in [1, 3].
 render::Material glass_material(double ior, double shininess);
 render::Mesh load_model(const std::string& name);          // --model a glTF file, or "sphere"
+// The same with the glTF's materials (none for "sphere"), for --material model.
+render::GltfModel load_model_with_materials(const std::string& name);
 
 // --occlusion baked: the mesh with its occlusion of itself and of the floor baked
 // (render::bake_occlusion), unless it came with one. Bakes are kept in `cache_dir` (one .glb per

@@ -1,6 +1,5 @@
 // Triangle meshes for the renderer: positions, normals, optional uvs and tangents, uint32
-// indices, bounds. Loaded from glTF 2.0 (.glb, .gltf; KHR_draco_mesh_compression decoded with
-// libdraco) or generated (a UV sphere).
+// indices, parts, bounds. Loaded from glTF 2.0 (gltf.hpp) or generated (a UV sphere).
 #pragma once
 
 #include <cstdint>
@@ -38,6 +37,14 @@ struct GroundOcclusion {
   bool empty() const { return size == 0; }
 };
 
+// A run of a mesh's triangles drawn with one material: indices [first_index, first_index +
+// index_count) of Mesh::indices, and the index of its material in the list that came with the
+// mesh (GltfModel::materials), or -1 for none (the caller's material).
+struct MeshPart {
+  std::uint32_t first_index = 0, index_count = 0;
+  int material = -1;
+};
+
 // uv (0,0) is the top-left of a texture image (as in glTF and image files). Tangents follow
 // glTF / MikkTSpace: xyz along increasing u, w = +-1 with bitangent = w * cross(normal, tangent)
 // pointing *up* the image (decreasing v), so normal maps are in the OpenGL (+Y up) convention.
@@ -57,6 +64,9 @@ struct Mesh {
   std::vector<float> transfer;
   GroundOcclusion ground;
   std::vector<std::uint32_t> indices;  // triangles
+  // Empty (the whole mesh, one material) or the runs of indices in order, one per glTF
+  // primitive, covering every index.
+  std::vector<MeshPart> parts;
   Bounds bounds;
 
   std::size_t vertex_count() const { return positions.size(); }
@@ -92,19 +102,6 @@ void bake_occlusion(Mesh& mesh, int directions = 1024);
 // filtering and mipmaps do not bleed white into the seams), and 1 beyond. Needs UVs
 // (std::invalid_argument without). Native only, as bake_occlusion.
 std::vector<float> bake_light_map(const Mesh& mesh, int width, int height, int directions = 1024);
-
-// Loads every triangle primitive of the default scene (or of all root nodes) of a glTF 2.0 file
-// into one mesh, with node transforms applied. Positions, normals (computed when absent),
-// TEXCOORD_0 (float) and indices (u8/u16/u32) are read; KHR_draco_mesh_compression primitives are
-// decoded with libdraco. Every problem (bad magic, chunk beyond the file, accessor out of range,
-// Draco decode failure, ...) throws arlight::InputError naming the file and what is wrong.
-Mesh load_gltf(const std::filesystem::path& path);
-// The same from a file's bytes (`name` for messages); buffers must be inside (GLB or data: URIs).
-Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name);
-// A binary glTF (.glb) of the mesh: positions, normals, uvs when present, uint32 indices, one
-// node, no compression (what the browser client loads: its build has no Draco). Throws
-// std::invalid_argument for a mesh whose arrays disagree.
-std::vector<std::uint8_t> encode_glb(const Mesh& mesh);
 
 // Visits every texel of a width x height texture whose centre lies inside one of the mesh's
 // UV triangles (either winding; texel (i, j) has its centre at uv ((i + .5) / width,

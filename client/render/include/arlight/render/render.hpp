@@ -39,6 +39,7 @@
 #include "arlight/render/colour.hpp"
 #include "arlight/render/gl_context.hpp"
 #include "arlight/render/material.hpp"
+#include "arlight/render/gltf.hpp"
 #include "arlight/render/mesh.hpp"
 #include "arlight/render/shader.hpp"
 
@@ -66,6 +67,8 @@ class GpuMesh {
   unsigned ground_transfer_texture() const { return ground_transfer_tex_; }
   const GroundOcclusion& ground_rect() const { return ground_rect_; }
   std::size_t index_count() const { return index_count_; }
+  // Mesh::parts, or one part of every index (material -1) for a mesh without.
+  const std::vector<MeshPart>& parts() const { return parts_; }
   const Bounds& bounds() const { return bounds_; }
   unsigned vao() const { return vao_; }
 
@@ -74,6 +77,7 @@ class GpuMesh {
   unsigned vao_ = 0, vbo_ = 0, ibo_ = 0, ground_tex_ = 0, ground_transfer_tex_ = 0;
   GroundOcclusion ground_rect_;  // min, max and size only
   std::size_t index_count_ = 0;
+  std::vector<MeshPart> parts_;
   bool has_uvs_ = false, has_tangents_ = false, has_occlusion_ = false, has_transfer_ = false;
   Bounds bounds_;
 };
@@ -316,6 +320,10 @@ class Renderer {
   // the mesh also casts a shadow in composite(), and a transmissive material under
   // Refraction::LiveFrame is drawn there too: the mesh must live until then.
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model);
+  // The same with the mesh's own materials (a glTF's, GltfModel::materials): each part with
+  // materials[part.material], a part without one (or one beyond the list) with `fallback`.
+  void draw(const GpuMesh& mesh, std::span<const Material> materials, const Material& fallback,
+            const glm::mat4& model);
   // Tone maps the virtual pixels and composites them over the camera frame (8-bit BGR, the
   // renderer's size) in one pass; pixels outside the mask keep the frame exactly (except the
   // shadow catcher's darkening, when shadows are on). `out` is reshaped to the frame's size
