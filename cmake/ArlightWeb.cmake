@@ -46,7 +46,7 @@ add_custom_command(OUTPUT ${ARLIGHT_WEB_PAGE_STAMP}
 # WebAssembly build cannot decode, with their occlusion of themselves baked in (the page cannot
 # ray-cast: it downloads the bake from arlightd with the model).
 set(ARLIGHT_WEB_MODELS)
-foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb")
+foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb" "tiles.glb;tiles.glb")
   list(GET pair 0 from)
   list(GET pair 1 to)
   set(out ${ARLIGHT_WEB_DIR}/models/${to})

@@ -94,3 +94,24 @@ test('export refuses a face that is not a power of two, naming it', () => {
     fs.rmSync(out, { recursive: true, force: true });
   }
 });
+
+// arlight's textured test model as arlight-model writes it (and the copy committed in
+// data/models): gltf-validator (the Khronos validator, npm, pinned) finds no error and no
+// warning, and sees the two materials with their four textures.
+test('the textured test model arlight-model writes is valid glTF', async () => {
+  const out = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-model-'));
+  try {
+    const file = path.join(out, 'tiles.glb');
+    execFileSync(path.join(BIN, 'arlight-model'), ['sample', file, '--texture-size', '64'], { stdio: 'pipe' });
+    const validator = require('gltf-validator');
+    for (const glb of [file, path.join(SOURCE, 'data/models/tiles.glb')]) {
+      const report = await validator.validateBytes(new Uint8Array(fs.readFileSync(glb)), { uri: 'tiles.glb' });
+      assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+      assert.equal(report.issues.numWarnings, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+      assert.equal(report.info.materialCount, 2);
+      assert.equal(report.info.resources.filter((r) => r.image && r.mimeType === 'image/png').length, 4);
+    }
+  } finally {
+    fs.rmSync(out, { recursive: true, force: true });
+  }
+});

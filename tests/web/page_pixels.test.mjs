@@ -1,6 +1,6 @@
 // The page composites the same pixels as the native client: the page's WebAssembly renderer in
 // headless Chromium (WebGL2 on SwiftShader) and the native renderer (GLES on Mesa's llvmpipe)
-// draw the bunny over the same frame with the same lighting (a LightingUpdate of venice's SH,
+// draw the bunny (and the textured tiled ball with its own materials) over the same frame with the same lighting (a LightingUpdate of venice's SH,
 // given to the page's WebClient.receive()) and the view the page reports (WebClient.view()), in
 // each compositing mode the page offers. Both are the same C++ and shaders; what may differ is
 // the two GPUs' arithmetic, so the object's pixels must agree within a quarter of a code on
@@ -23,10 +23,13 @@ const W = 320;
 const H = 240;
 
 const MODES = [
-  { material: 'plastic', shading: 'maps', refraction: 'live', colour: 'none' },
-  { material: 'metal', shading: 'hemisphere-occlusion', refraction: 'live', colour: 'none' },
-  { material: 'glass', shading: 'maps', refraction: 'live', colour: 'none' },
-  { material: 'matte', shading: 'maps', refraction: 'live', colour: 'match' },
+  { model: 'bunny', material: 'plastic', shading: 'maps', refraction: 'live', colour: 'none' },
+  { model: 'bunny', material: 'metal', shading: 'hemisphere-occlusion', refraction: 'live', colour: 'none' },
+  { model: 'bunny', material: 'glass', shading: 'maps', refraction: 'live', colour: 'none' },
+  { model: 'bunny', material: 'matte', shading: 'maps', refraction: 'live', colour: 'match' },
+  // The textured glTF metallic-roughness model with its own materials: its PNG textures decoded
+  // by the page's WebAssembly (stb_image) and natively, its two parts each with its material.
+  { model: 'tiles', material: 'model', shading: 'maps', refraction: 'live', colour: 'none' },
 ];
 
 // A frame of smooth colour waves (RGB, row 0 at the top): refraction and colour errors show.
@@ -88,13 +91,17 @@ test('the page composites the same pixels as the native renderer, in every mode'
       document.body.appendChild(canvas);
       const client = new m.WebClient('#pixels', w, h);
       client.setFov(30);  // the preview object fills more of the view
-      const glb = new Uint8Array(await (await fetch('/models/bunny.glb')).arrayBuffer());
-      const error = client.setModel('bunny', glb);
-      if (error) throw new Error(error);
+      let model = null;
       if (client.receive(new Uint8Array(lightingBytes)) !== 'LightingUpdate') throw new Error('lighting refused');
       const gl = m.GL.currentContext.GLctx;
       const out = [];
       for (const mode of modes) {
+        if (mode.model !== model) {
+          model = mode.model;
+          const glb = new Uint8Array(await (await fetch(`/models/${model}.glb`)).arrayBuffer());
+          const error = client.setModel(model, glb);
+          if (error) throw new Error(error);
+        }
         client.setMaterial(mode.material);
         client.setShading(mode.shading);
         client.setRefraction(mode.refraction);
@@ -121,7 +128,7 @@ test('the page composites the same pixels as the native renderer, in every mode'
       fs.writeFileSync(path.join(dir, `view${k}.json`), JSON.stringify({ view: r.view, camera: r.camera }));
       const nativePpm = path.join(dir, `native${k}.ppm`);
       execFileSync(REFERENCE, ['render', lighting, path.join(dir, `view${k}.json`), framePpm,
-        path.join(BIN, 'web', 'models', 'bunny.glb'), nativePpm]);
+        path.join(BIN, 'web', 'models', `${MODES[k].model}.glb`), nativePpm]);
       const native = readPnm(nativePpm).pixels;
       const mask = readPnm(path.join(dir, `native${k}_mask.pgm`)).pixels;
       // The canvas read back bottom row first.

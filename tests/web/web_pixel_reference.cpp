@@ -72,7 +72,8 @@ int render_view(const std::string& lighting_bin, const std::string& view_json,
 
   render::GlContext gl = render::GlContext::headless();
   render::Renderer r(frame.cols, frame.rows);
-  const render::GpuMesh mesh(render::load_gltf(model));
+  const render::GltfModel gltf = render::load_gltf_model(model);
+  const render::GpuMesh mesh(gltf.mesh);
   r.set_sh(update.sh);
   r.set_camera(k, matrix(view.at("camera_from_scene")));
   const auto& q = view.at("world_from_scene");
@@ -80,8 +81,12 @@ int render_view(const std::string& lighting_bin, const std::string& view_json,
   r.set_shading(*render::shading_named(view.at("shading").get<std::string>()));
   r.set_refraction(*render::refraction_named(view.at("refraction").get<std::string>()));
   r.begin_frame();
-  r.draw(mesh, render::preset_material(view.at("material").get<std::string>()),
-         glm::mat4(matrix(view.at("model"))));
+  // "model": the glTF's own materials, as the page draws them.
+  const std::string material = view.at("material").get<std::string>();
+  if (material == "model")
+    r.draw(mesh, gltf.materials, render::Material{}, glm::mat4(matrix(view.at("model"))));
+  else
+    r.draw(mesh, render::preset_material(material), glm::mat4(matrix(view.at("model"))));
   render::ToneMapping tone{render::ToneMode::CameraMatched, view.at("exposure").get<double>(), 1.0};
   tone.colour = *render::colour_correction_named(view.at("colour").get<std::string>());
   cv::Mat composited;

@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   try {
     if (*sample) {
       const render::GltfModel model = render::make_tiled_ball(sample_texture_size);
-      write_glb(render::encode_glb(model.mesh, model.materials));
+      write_glb(render::encode_glb(model));
       input = output;  // described as written
     }
     render::GltfModel model = render::load_gltf_model(input);
@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
     render::Mesh& mesh = model.mesh;
     if (*convert) {
       if (convert_bake) render::bake_occlusion(mesh, bake_options.directions);
-      write_glb(render::encode_glb(mesh, model.materials));
+      write_glb(render::encode_glb(model));
     }
     nlohmann::json out = model_tool::describe(mesh);
     out["materials"] = model_tool::describe_materials(model);

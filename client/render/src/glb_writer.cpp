@@ -37,7 +37,12 @@ std::vector<std::uint8_t> encode_png(const TextureImage& image) {
 
 }  // namespace
 
-std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material> materials) {
+std::vector<std::uint8_t> encode_glb(const GltfModel& model) {
+  return encode_glb(model.mesh, model.materials, model.material_names);
+}
+
+std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material> materials,
+                                     std::span<const std::string> material_names) {
   const std::size_t n = mesh.positions.size();
   if (n == 0 || mesh.normals.size() != n || (!mesh.uvs.empty() && mesh.uvs.size() != n) ||
       (!mesh.occlusion.empty() && mesh.occlusion.size() != n) ||
@@ -79,6 +84,9 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material>
   attributes["NORMAL"] = append(mesh.normals.data(), n * sizeof(glm::vec3), kArrayBuffer, kFloat, n, "VEC3");
   if (!mesh.uvs.empty())
     attributes["TEXCOORD_0"] = append(mesh.uvs.data(), n * sizeof(glm::vec2), kArrayBuffer, kFloat, n, "VEC2");
+  // The tangents normal maps were made against (glTF: a viewer that generates its own may differ).
+  if (!mesh.uvs.empty() && mesh.tangents.size() == n)
+    attributes["TANGENT"] = append(mesh.tangents.data(), n * sizeof(glm::vec4), kArrayBuffer, kFloat, n, "VEC4");
   if (!mesh.occlusion.empty())  // glTF's application-specific attributes start with '_'
     attributes["_OCCLUSION"] =
         append(mesh.occlusion.data(), n * sizeof(glm::vec4), kArrayBuffer, kFloat, n, "VEC4");
@@ -119,7 +127,8 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material>
     }
     return json{{"index", it->second}};
   };
-  for (const Material& m : materials) {
+  for (std::size_t i = 0; i < materials.size(); ++i) {
+    const Material& m = materials[i];
     if (!m.pbr)
       throw std::invalid_argument("encode_glb: only metallic-roughness materials are written");
     const MetallicRoughness& p = *m.pbr;
@@ -143,6 +152,7 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material>
     }
     if (p.emissive_map) g["emissiveTexture"] = texture(p.emissive_map);
     if (p.alpha_mask) g["alphaMode"] = "MASK", g["alphaCutoff"] = p.alpha_cutoff;
+    if (i < material_names.size() && !material_names[i].empty()) g["name"] = material_names[i];
     gltf_materials.push_back(std::move(g));
   }
   json extras = json::object();

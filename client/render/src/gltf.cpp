@@ -287,7 +287,10 @@ class GltfReader {
     for (int r : roots) visit(r, glm::dmat4(1.0), 0);
     if (mesh_.positions.empty()) throw InputError(where_ + "no triangle meshes in the scene");
     compute_bounds(mesh_);
-    if (has_uvs_) compute_tangents(mesh_);
+    // The file's tangents when every primitive gave them for the uvs as they are (no
+    // KHR_texture_transform applied); else MikkTSpace-style ones from the uvs.
+    if (has_uvs_ && !(file_tangents_ && mesh_.tangents.size() == mesh_.positions.size()))
+      compute_tangents(mesh_);
     read_ground();
     GltfModel out;
     out.mesh = std::move(mesh_);
@@ -598,6 +601,7 @@ class GltfReader {
   struct Primitive {
     std::vector<glm::vec3> positions, normals;
     std::vector<glm::vec2> uvs;
+    std::vector<glm::vec4> tangents;   // TANGENT (xyz along u, w the bitangent's sign)
     std::vector<glm::vec4> occlusion;  // _OCCLUSION (arlight's baked occlusion, Mesh::occlusion)
     std::vector<float> transfer;       // _SH_TRANSFER_0..2 (Mesh::transfer: 3 VEC3s, 9 per vertex)
     std::vector<std::uint32_t> indices;
@@ -678,6 +682,12 @@ class GltfReader {
     p.positions = as_vec<glm::vec3>(read_accessor(attr("POSITION"), 3));
     if (attrs.count("NORMAL")) p.normals = as_vec<glm::vec3>(read_accessor(attr("NORMAL"), 3));
     if (attrs.count(uv_name)) p.uvs = as_vec<glm::vec2>(read_accessor(attr(uv_name), 2));
+    if (attrs.count("TANGENT")) {
+      p.tangents = as_vec<glm::vec4>(read_accessor(attr("TANGENT"), 4));
+      for (const glm::vec4& t : p.tangents)
+        if (!std::isfinite(t.x + t.y + t.z) || !(std::abs(t.w) == 1.0f))
+          throw InputError(where_ + "TANGENT: a tangent not finite or its w not +-1");
+    }
     if (attrs.count("_OCCLUSION")) {
       p.occlusion = as_vec<glm::vec4>(read_accessor(attr("_OCCLUSION"), 4));
       for (const glm::vec4& o : p.occlusion)
@@ -792,6 +802,13 @@ class GltfReader {
         }
       }
       if (has_uvs_) mesh_.uvs.insert(mesh_.uvs.end(), p.uvs.begin(), p.uvs.end());
+      file_tangents_ = file_tangents_ && p.tangents.size() == n && uv.transform == glm::mat3(1.0f);
+      if (file_tangents_)
+        for (const glm::vec4& t : p.tangents) {  // turned with the node; a mirror flips w
+          const glm::vec3 tt = glm::mat3(M) * glm::vec3(t);
+          const float l = glm::length(tt);
+          mesh_.tangents.push_back(glm::vec4(l > 0.0f ? tt / l : glm::vec3(1, 0, 0), flip ? -t.w : t.w));
+        }
       if (has_transfer_) {
         const std::size_t first = mesh_.transfer.size();
         if (p.transfer.empty()) {
@@ -887,6 +904,7 @@ class GltfReader {
   std::map<std::pair<std::size_t, bool>, std::shared_ptr<const TextureImage>> images_;
   Mesh mesh_;
   bool has_uvs_ = false, has_occlusion_ = false, has_transfer_ = false;
+  bool file_tangents_ = true;  // every primitive so far gave TANGENT (mesh_.tangents holds them)
 };
 
 GltfModel load(const std::vector<std::uint8_t>& bytes, const std::filesystem::path& name,

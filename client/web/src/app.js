@@ -85,8 +85,9 @@ function wireUp(params, { camera, client, tracking, width, height }) {
   const orientation = startOrientation();
   const grabber = new FrameGrabber(camera.video, { width, height });
   camera.lockExposure().catch(() => {});
-  wireModel(client, params.model);
   const connection = new Connection(client, params);
+  // A model with metallic-roughness materials, drawn "from the model", needs the GGX chain.
+  wireModel(client, params.model, () => connection.sendIfOpen(() => client.requestMapsIfChanged()));
   fov.onDegrees = (degrees) => coverage.setFov(degrees, width / height);
   fov.onIntrinsics = () => connection.sendIntrinsics();
   // Where the phone is, for the sun: sent when the browser gives it and after every Welcome.

@@ -71,8 +71,9 @@ export function wireSelects(client, choices) {
   }
 }
 
-// Models other than the sphere are files beside the page (models/NAME.glb).
-async function setModel(client, name) {
+// Models other than the sphere are files beside the page (models/NAME.glb); `onLoaded` after one
+// is in use.
+async function setModel(client, name, onLoaded) {
   try {
     let bytes = new Uint8Array(0);
     if (name !== 'sphere') {
@@ -83,15 +84,19 @@ async function setModel(client, name) {
     const why = client.setModel(name, bytes);
     if (why) throw new Error(why);
     $('model').value = name;
+    onLoaded();
   } catch (e) {
     showError(String(e.message || e));
   }
 }
 
-/** The #model select, and the URL's model (a name, or null: the sphere the client starts with). */
-export function wireModel(client, fromUrl) {
-  $('model').addEventListener('change', (e) => setModel(client, e.target.value));
-  if (fromUrl) setModel(client, fromUrl);
+/**
+ * The #model select, and the URL's model (a name, or null: the sphere the client starts with);
+ * `onLoaded` after each model is in use.
+ */
+export function wireModel(client, fromUrl, onLoaded = () => {}) {
+  $('model').addEventListener('change', (e) => setModel(client, e.target.value, onLoaded));
+  if (fromUrl) setModel(client, fromUrl, onLoaded);
 }
 
 /** "The sun from my location" (ticked by the URL's &location=1, or kept by the browser). */

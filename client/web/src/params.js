@@ -1,7 +1,7 @@
 // The page's parameters, from its URL's fragment (never sent to the server in an HTTP request):
-//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass|gold|porcelain]
+//   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass|gold|porcelain|model]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
-//   [&model=sphere|bunny|suzanne][&session=ID]  (continue that session: its map so far)
+//   [&model=sphere|bunny|suzanne|tiles][&session=ID]  (continue that session: its map so far)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
 //   [&refraction=live|maps]  (what glass shows through it, as arlight-client's --glass)
 //   [&colour=none|match|brightness|contrast]  (as arlight-client's --tone camera,CORRECTION)

@@ -65,7 +65,7 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
 }
 
 val WebClient::request_maps() {
-  requested_ggx_ = material_.pbr.has_value();
+  requested_ggx_ = shades_metallic_roughness();
   const wire::RequestMaps request =
       requested_ggx_ ? client::ggx_request(kGgxFace)
                      : client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
@@ -74,7 +74,7 @@ val WebClient::request_maps() {
 }
 
 val WebClient::request_maps_if_changed() {
-  if (material_.pbr.has_value() == requested_ggx_) return val::null();
+  if (shades_metallic_roughness() == requested_ggx_) return val::null();
   return request_maps();
 }
 
@@ -173,7 +173,7 @@ double WebClient::render(double timestamp, double qw, double qx, double qy, doub
     renderer_.set_world_from_scene(world_from_scene);
     shadow_drawn_ = placement_.has_track();  // on the real floor: where a marker says it is
     renderer_.set_shadow(shadow_.settings(shadow_drawn_, state_.lighting()));
-    renderer_.draw(mesh_, material_, model_);
+    renderer_.draw(mesh_, draw_materials(), material_, model_);
   }
   render::ToneMapping tone{render::ToneMode::CameraMatched, frame_exposure(), 1.0};
   tone.colour = colour_;

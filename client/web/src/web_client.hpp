@@ -105,6 +105,8 @@ class WebClient {
   // max_lights hard shadows blended, as many as hold the page at target_fps (0: always
   // max_lights). Throws for max_lights outside [1, 32] or a negative or non-finite target.
   void set_shadow_lights(int max_lights, double target_fps);
+  // A preset (render::preset_material: plastic, matte, metal, glass, gold, porcelain) or "model":
+  // the model's own glTF materials (the Phong default on parts without one).
   void set_material(const std::string& name);
   // "live" (the camera frame behind the glass) or "maps" (render::Refraction, --glass).
   void set_refraction(const std::string& name);
@@ -114,7 +116,8 @@ class WebClient {
   // "none", "brightness", "contrast" or "match".
   void set_colour(const std::string& name);
   // The object: "sphere", or a model's .glb bytes (the page fetches models/NAME.glb; no Draco in
-  // this build). Returns why a file is unusable (naming it; the object stays what it was), or "".
+  // this build) with its materials and textures. Returns why a file is unusable (naming it, and
+  // the material and field where one is at fault; the object stays what it was), or "".
   std::string set_model(const std::string& name, const val& glb);
 
   // ---- what the page and its tests read back (web_status.cpp) ----
@@ -134,6 +137,10 @@ class WebClient {
  private:
   WebClient(const std::string& canvas, int width, int height, const render::Mesh& sphere);
   glm::dquat world_from_marker() const;
+  // The materials draw() gives the mesh's parts: the model's with material "model", else none
+  // (material_ everywhere); whether any of what is drawn is metallic-roughness (the GGX chain).
+  std::span<const render::Material> draw_materials() const;
+  bool shades_metallic_roughness() const;
   double frame_exposure() const;
   val pixel_of(const glm::dvec3& scene_point) const;
   YuvFrame& yuv();
@@ -147,6 +154,10 @@ class WebClient {
   std::size_t model_vertices_ = 0;
   render::Material material_;
   std::string material_name_ = "plastic";
+  // The model's own materials (a glTF's), drawn with material "model", and what its reader
+  // warned of (status's model_warnings).
+  std::vector<render::Material> model_materials_;
+  std::vector<std::string> model_warnings_;
   bool requested_ggx_ = false;  // the last RequestMaps asked for the GGX chain
   render::ColourCorrection colour_ = render::ColourCorrection::None;
   glm::mat4 model_{1.0f};

@@ -14,7 +14,10 @@ namespace {
 constexpr double kObjectHeightPerMarker = 1.5;
 constexpr double kDefaultMarkerSize = 0.2;  // metres: the native client's default marker
 
+// "model": the model's own materials (WebClient::draw_materials); the Phong default on parts
+// without one.
 render::Material material_named(const std::string& name) {
+  if (name == "model") return {};
   return render::preset_material(name, float(kShininess.back()));  // as sharp as the sharpest map
 }
 
@@ -99,17 +102,33 @@ void WebClient::set_colour(const std::string& name) {
   colour_ = *colour;
 }
 
+std::span<const render::Material> WebClient::draw_materials() const {
+  if (material_name_ != "model") return {};
+  return model_materials_;
+}
+
+bool WebClient::shades_metallic_roughness() const {
+  if (material_.pbr) return true;
+  for (const render::Material& m : draw_materials())
+    if (m.pbr) return true;
+  return false;
+}
+
 std::string WebClient::set_model(const std::string& name, const val& glb) {
-  render::Mesh mesh;
+  render::GltfModel model;
   try {
-    mesh = name == "sphere"
-               ? render::make_sphere(0.5f, 48, 96)
-               : render::load_gltf(emscripten::convertJSArrayToNumberVector<std::uint8_t>(glb),
-                                   name + ".glb");
+    if (name == "sphere")
+      model.mesh = render::make_sphere(0.5f, 48, 96);
+    else
+      model = render::load_gltf_model(emscripten::convertJSArrayToNumberVector<std::uint8_t>(glb),
+                                      name + ".glb");
   } catch (const InputError& e) {
     return e.what();
   }
+  const render::Mesh& mesh = model.mesh;
   mesh_ = render::GpuMesh(mesh);
+  model_materials_ = std::move(model.materials);
+  model_warnings_ = std::move(model.warnings);
   mesh_bounds_ = mesh.bounds;
   model_name_ = name;
   model_vertices_ = mesh.vertex_count();

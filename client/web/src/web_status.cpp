@@ -29,6 +29,10 @@ val WebClient::status() const {
                                                                        : "none"));
   s.set("shading", std::string(render::shading_name(renderer_.shading())));
   s.set("material", material_name_);
+  s.set("model_materials", double(model_materials_.size()));
+  val warnings = val::array();
+  for (const std::string& w : model_warnings_) warnings.call<void>("push", w);
+  s.set("model_warnings", warnings);
   s.set("refraction", std::string(render::refraction_name(renderer_.refraction())));
   s.set("colour", std::string(render::colour_correction_name(colour_)));
   s.set("sun", std::string(sun_state_name(l.sun_state)));

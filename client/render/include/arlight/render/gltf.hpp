@@ -49,6 +49,9 @@ Mesh load_gltf(std::span<const std::uint8_t> bytes, const std::string& name);
 // node, one primitive per part, no compression (what the browser client loads: its build has no
 // Draco); with `materials` (metallic-roughness only, indexed by the parts), their factors and
 // 8-bit textures as PNG; without, the parts are written without materials. Throws std::invalid_argument for a mesh whose arrays disagree.
-std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material> materials = {});
+std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material> materials = {},
+                                     std::span<const std::string> material_names = {});
+// The model with its materials and their names.
+std::vector<std::uint8_t> encode_glb(const GltfModel& model);
 
 }  // namespace arlight::render
