@@ -167,6 +167,26 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.equal(await page.evaluate(() => window.arlight.status().last_error), '');
     assert.deepEqual(pageErrors, []);
 
+    // A glTF's own materials: the textured tiled ball from the model menu, drawn "from the
+    // model" (its two metallic-roughness materials and four textures, decoded on the page).
+    await page.evaluate(() => {
+      for (const [id, value] of [['model', 'tiles'], ['material', 'model']]) {
+        const select = document.getElementById(id);
+        select.value = value;
+        select.dispatchEvent(new Event('change'));
+      }
+    });
+    await page.waitForFunction(() => window.arlight.status().model === 'tiles', null, { timeout: 30000 });
+    const tiles = await page.evaluate(() => window.arlight.status());
+    assert.equal(tiles.material, 'model');
+    assert.equal(tiles.model_materials, 2);
+    assert.deepEqual(tiles.model_warnings, []);
+    assert.equal(tiles.maps_requested, 'ggx');
+    await page.waitForFunction((t) => window.arlight.status().frame_media_time > t + 2.5,
+      tiles.frame_media_time, { timeout: 30000 });
+    assert.equal(await page.evaluate(() => document.getElementById('error').textContent), '');
+    assert.deepEqual(pageErrors, []);
+
     // A wrong token: the page says it was refused, and does not retry.
     const wrong = await context.newPage();
     await enableOrientationOverride(wrong);

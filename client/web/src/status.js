@@ -55,7 +55,8 @@ export function showError(message) {
 // before the page runs, nothing yet.
 const kNoClient = {
   updates: 0, frames_processed: 0, map_sets: 0, lighting: 'none', coverage: 0, estimated: 0,
-  sh: [], model: 'sphere', model_vertices: 0, shadow_lights: 0, shadow_ms: 0,
+  sh: [], model: 'sphere', model_vertices: 0, model_materials: 0, model_warnings: [],
+  shadow_lights: 0, shadow_ms: 0,
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
   ggx_face: 0, maps_requested: 'phong',
@@ -86,6 +87,8 @@ export function report() {
     focal_px: state.focalPx,
     model: object.model,
     model_vertices: object.model_vertices,
+    model_materials: object.model_materials,
+    model_warnings: object.model_warnings,
     shadow_lights: object.shadow_lights,
     shadow_ms: object.shadow_ms,
     shadow_light_budget: object.shadow_light_budget,
