@@ -48,7 +48,11 @@ demo: deps
 	  maps=$(DEMO_OUT)/ar/client/frames hemisphere=$(DEMO_OUT)/compositing/hemisphere/frames \
 	  "hemisphere + occlusion=$(DEMO_OUT)/compositing/hemisphere-occlusion/frames" \
 	  "glass (live refraction)=$(DEMO_OUT)/compositing/glass/frames" \
-	  "gold (metallic-roughness, GGX chain)=$(DEMO_OUT)/compositing/gold/frames"
+	  "gold (metallic-roughness, GGX chain)=$(DEMO_OUT)/compositing/gold/frames" \
+	  "tiled ball (its glTF materials)=$(DEMO_OUT)/compositing/tiles/frames"
+	mkdir -p $(DEMO_OUT)/pbr
+	$(BUILD)/bin/arlight-bench-pbr --probe $(DEMO_OUT)/capture/env.exr \
+	  --json $(DEMO_OUT)/pbr/spheres.json --grid $(DEMO_OUT)/pbr/spheres.png
 	node deploy/web-demo.mjs $(BUILD)/bin $(DEMO_OUT)/web $(DEMO_PROBE)
 	@echo
 	@echo "Demo results are in $(DEMO_OUT)/:"
@@ -77,7 +81,13 @@ demo: deps
 	@echo "                            roughness lit by the room's GGX chain), side by side (rows:"
 	@echo "                            three frames); compositing/<mode>/ each run's frames and"
 	@echo "                            JSON; compositing/gold/ also the room's light files"
-	@echo "                            (specular.ktx2, light.json, lighting.gltf)"
+	@echo "                            (specular.ktx2, light.json, lighting.gltf); and the"
+	@echo "                            textured tiled ball (data/models/tiles.glb) drawn with its"
+	@echo "                            own glTF materials"
+	@echo "  pbr/spheres.png           metallic-roughness spheres (rows metallic 0, 0.5, 1; roughness"
+	@echo "                            0.05 ... 1) rendered lit by the captured room (capture/env.exr);"
+	@echo "                            pbr/spheres.json their errors against the full BRDF ray"
+	@echo "                            traced over that room"
 	@echo "  eval/contact_sheet.png    the bunny ray traced under the true room (the reference,"
 	@echo "                            ar/recording/truth/reference/) beside arlight-client's"
 	@echo "                            composites at the true pose lit by the maps and by SH-9"

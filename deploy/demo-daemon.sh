@@ -6,7 +6,8 @@
 # room that was captured; and stops the daemon (SIGTERM: it checkpoints its sessions).
 # With COMPOSITING_OUT, the client runs again once per other compositing mode (hemisphere
 # shading, with and without occlusion; the object as glass showing the live frame through it; as
-# gold, glTF metallic-roughness lit by the room's GGX chain, whose light files land beside)
+# gold, glTF metallic-roughness lit by the room's GGX chain, whose light files land beside; the
+# textured tiled ball, data/models/tiles.glb, with its own glTF materials)
 # into COMPOSITING_OUT/<mode>/, for the side-by-side sheet. With EVAL_OUT (the AR recording
 # has references: arlight-sim --object), the client runs at the true pose with the maps and
 # with SH-9 alone, and arlight-eval scores those and the tracked run against the references
@@ -62,14 +63,16 @@ if [ -n "$ar_rec" ]; then
     # name:flags of each other mode.
     for mode in "hemisphere:--shading hemisphere" \
       "hemisphere-occlusion:--shading hemisphere-occlusion" "glass:--glass live" \
-      "gold:--material pbr:1,0.78,0.34,1,0.3"; do
+      "gold:--material pbr:1,0.78,0.34,1,0.3" \
+      "tiles:--model data/models/tiles.glb --material model"; do
       name=${mode%%:*} flags=${mode#*:}
-      # The demo's Phong material, unless the mode brings its own.
-      material="--material 0.7,0.3,80"
+      # The demo's Phong material and model, unless the mode brings its own.
+      material="--material 0.7,0.3,80" model_flag="--model $model"
       case "$flags" in *--material*) material= ;; esac
+      case "$flags" in *--model*) model_flag= ;; esac
       # shellcheck disable=SC2086  # the flags are words
       "$build/bin/arlight-client" --server "127.0.0.1:$port" --token "$token" \
-        --source "replay:$ar_rec" --model "$model" --marker 7,0.2 $material \
+        --source "replay:$ar_rec" $model_flag --marker 7,0.2 $material \
         --resume "$session" --wait-maps 60 $flags --out "$compositing_out/$name" \
         --json "$compositing_out/$name.json" > "$compositing_out/$name.log"
     done
