@@ -8,7 +8,7 @@
 precision highp float;
 precision highp sampler2D;
 
-uniform sampler2D u_hdr;       // rgb radiance, a = mask
+uniform sampler2D u_hdr;       // rgb radiance (premultiplied by a), a = coverage
 uniform sampler2D u_response;  // encode(x) per channel at x = (i / (n-1))^2
 uniform sampler2D u_log_sum;   // 1x1: (sum of log L_w, count) over the mask
 uniform float u_exposure_gain;
@@ -63,7 +63,12 @@ vec3 tone_map(vec3 c) {
 
 void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);
-  vec3 c = max(texelFetch(u_hdr, p, 0).rgb, vec3(0.0));
+  // Coverage below 1 where only alpha-blended surfaces (glTF BLEND) are: their radiance,
+  // un-premultiplied, is tone mapped and then blended over the frame by it.
+  vec4 hdr = texelFetch(u_hdr, p, 0);
+  float coverage = clamp(hdr.a, 0.0, 1.0);
+  if (coverage < 1.0 / 1024.0) discard;
+  vec3 c = max(hdr.rgb / coverage, vec3(0.0));
 #if COLOUR_MODE == 3
   // Eq. 11b (Reinhard et al. 2001's transfer, in eq. 11a's space): the object's pixels, whose
   // mean and deviation were measured over the mask this frame, take the room's. The gain is
@@ -96,8 +101,8 @@ void main() {
   outc = y > 0.0 ? clamp(outc * (b / y), 0.0, 1.0) : vec3(b);
 #endif
 #if FRAME_RGB
-  o_color = vec4(outc, 1.0);  // the output holds R, G, B (the browser's video frame)
+  o_color = vec4(outc, coverage);  // the output holds R, G, B (the browser's video frame)
 #else
-  o_color = vec4(outc.bgr, 1.0);  // the output holds B, G, R (an OpenCV frame)
+  o_color = vec4(outc.bgr, coverage);  // the output holds B, G, R (an OpenCV frame)
 #endif
 }

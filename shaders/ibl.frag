@@ -166,7 +166,8 @@ bool frame_radiance(vec3 x, vec3 d, out vec3 radiance) {
 #endif
 
 layout(location = 0) out vec4 o_color;  // rgb: radiance
-layout(location = 1) out float o_mask;  // 1 = virtual pixel (the HDR target's R8 attachment)
+// 1 = virtual pixel (the HDR target's R8 attachment: .r; a = 1, so that a blended draw keeps 1)
+layout(location = 1) out vec4 o_mask;
 
 void main() {
   vec3 n = normalize(v_normal);  // Alg. 5.4 line 4
@@ -182,6 +183,7 @@ void main() {
   }
 #endif
   vec3 lo = vec3(0.0);
+  float coverage = 1.0;  // ALPHA_BLEND: the base colour's alpha
 #ifdef USE_DIFFUSE
   // Environment lookups in the world frame (Alg. 5.1 lines 2-6). Where the mesh's transfer is
   // baked (tutorial §6.1) the irradiance at the normal is scaled by the share of the room's
@@ -220,6 +222,7 @@ void main() {
 #ifdef ALPHA_MASK
     if (base.a < u_alpha_cutoff) discard;
 #endif
+    coverage = clamp(base.a, 0.0, 1.0);
     vec2 mr = u_metallic_roughness;
 #ifdef USE_MR_MAP
     mr *= texture(u_mr_map, v_uv).bg;
@@ -298,6 +301,10 @@ void main() {
   lo += u_ks * ls;
 #endif
 #endif
+#ifdef ALPHA_BLEND
+  o_color = vec4(lo * coverage, coverage);  // premultiplied, blended over what is behind
+#else
   o_color = vec4(lo, 1.0);  // Alg. 5.1 line 7
-  o_mask = 1.0;
+#endif
+  o_mask = vec4(1.0);
 }

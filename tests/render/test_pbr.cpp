@@ -230,3 +230,54 @@ TEST(MetallicRoughness, AModelsOwnMaterialsDrawEachPartWithItsTextures) {
 
 }  // namespace
 }  // namespace arlight::render
+
+namespace arlight::render {
+namespace {
+
+// glTF alphaMode BLEND: a surface of coverage a over the camera frame composites as
+// a x (what it shows opaque) + (1 - a) x the frame, pixel for pixel (linear tone mapping, so the
+// codes are the radiance's); MASK-free and opaque surfaces keep covering the frame completely.
+TEST(MetallicRoughness, ABlendedSurfaceShowsTheFrameBehindItByItsCoverage) {
+  SphereScene s;
+  set_constant_maps(s.r, Projection::Cube, glm::vec3(0.5f));
+  const cv::Mat frame(H, W, CV_8UC3, cv::Scalar(40, 120, 200));  // B, G, R
+  ToneMapping tone;
+  tone.mode = ToneMode::Linear;
+  const auto composited = [&](float alpha, bool blend) {
+    Material m = pbr(glm::vec3(0.8f, 0.6f, 0.4f), 0.0f, 0.7f);
+    m.pbr->base_colour.a = alpha;
+    m.pbr->alpha_blend = blend;
+    s.r.begin_frame();
+    s.r.draw(s.sphere, m, glm::mat4(1.0f));
+    cv::Mat out;
+    composite(s.r, frame, tone, out);
+    return out;
+  };
+  const cv::Mat opaque = composited(1.0f, false);
+  for (const float alpha : {0.25f, 0.6f}) {
+    const cv::Mat blended = composited(alpha, true);
+    int inside = 0, wrong = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        if (s.inside(x, y) == 1) {
+          ++inside;
+          const glm::vec3 want = alpha * bgr_at(opaque, x, y) + (1.0f - alpha) * bgr_at(frame, x, y);
+          const glm::vec3 got = bgr_at(blended, x, y);
+          for (int c = 0; c < 3; ++c) wrong += std::abs(got[c] - want[c]) > 1.5f;
+        } else if (s.inside(x, y) == 0) {
+          wrong += bgr_at(blended, x, y) != bgr_at(frame, x, y);
+        }
+      }
+    EXPECT_GT(inside, 1000);
+    EXPECT_EQ(wrong, 0) << "alpha " << alpha;
+  }
+  // The same material with coverage 1 is the opaque one exactly.
+  const cv::Mat full = composited(1.0f, true);
+  int differ = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) differ += bgr_at(full, x, y) != bgr_at(opaque, x, y);
+  EXPECT_EQ(differ, 0);
+}
+
+}  // namespace
+}  // namespace arlight::render

@@ -152,6 +152,7 @@ std::vector<std::uint8_t> encode_glb(const Mesh& mesh, std::span<const Material>
     }
     if (p.emissive_map) g["emissiveTexture"] = texture(p.emissive_map);
     if (p.alpha_mask) g["alphaMode"] = "MASK", g["alphaCutoff"] = p.alpha_cutoff;
+    if (p.alpha_blend) g["alphaMode"] = "BLEND";
     if (i < material_names.size() && !material_names[i].empty()) g["name"] = material_names[i];
     gltf_materials.push_back(std::move(g));
   }

@@ -377,7 +377,7 @@ class GltfReader {
         throw InputError(what + "alphaCutoff must be a number >= 0");
       pbr.alpha_mask = true, pbr.alpha_cutoff = float(g.alphaCutoff);
     } else if (g.alphaMode == "BLEND") {
-      warnings_.push_back(what + "alphaMode BLEND is drawn opaque (blending is not supported yet)");
+      pbr.alpha_blend = true;
     } else if (g.alphaMode != "OPAQUE") {
       throw InputError(what + "alphaMode '" + g.alphaMode + "' is not OPAQUE, MASK or BLEND");
     }

@@ -41,7 +41,8 @@ enum Feature : unsigned {
   kOcclusionMap = 16384,
   kEmissiveMap = 32768,
   kAlphaMask = 65536,
-  kGgxDiffuse = 131072,       // ... its diffuse light from the chain's roughest level (no map set)
+  kGgxDiffuse = 131072,
+  kAlphaBlend = 262144,       // ... drawn premultiplied by its coverage, blended       // ... its diffuse light from the chain's roughest level (no map set)
 };
 
 // The split sum's DFG table the shader looks up: 64 x 64 (bilinear; the table is smooth) at
@@ -116,6 +117,7 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
                                                    {kOcclusionMap, "USE_OCCLUSION_MAP"},
                                                    {kEmissiveMap, "USE_EMISSIVE_MAP"},
                                                    {kAlphaMask, "ALPHA_MASK"},
+                                                   {kAlphaBlend, "ALPHA_BLEND"},
                                                    {kGgxDiffuse, "GGX_DIFFUSE"}};
   for (auto [bit, name] : names)
     if (features & bit) defines.emplace_back(name, "1");
@@ -191,7 +193,8 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
     features |= kMetallicRoughness | (ggx ? kGgxChain : 0u) | (ggx_diffuse ? kGgxDiffuse : 0u) |
                 (pbr->metallic_roughness && uvs ? kMrMap : 0u) |
                 (pbr->occlusion && uvs ? kOcclusionMap : 0u) |
-                (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u);
+                (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u) |
+                (pbr->alpha_blend ? kAlphaBlend : 0u);
     if (dfg_tex_.id == 0) {
       dfg_tex_ = upload_dfg(dfg_table(kDfgSize, kDfgSamples));
     }
@@ -201,7 +204,15 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
   glViewport(0, 0, targets.w, targets.h);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  glDisable(GL_BLEND);
+  // BLEND: premultiplied colour over what is there; the coverage (alpha) likewise, so the
+  // composite knows how much of the frame still shows. Depth is written: the composite draws
+  // where depth was.
+  if (pbr && pbr->alpha_blend) {
+    glEnable(GL_BLEND);
+    glBlendFuncSeparate(GL_ONE, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  } else {
+    glDisable(GL_BLEND);
+  }
   if (m.double_sided && !glass) {  // glass is drawn from the front (its far side is modelled)
     glDisable(GL_CULL_FACE);
   } else {
@@ -299,6 +310,7 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
   glDrawElements(GL_TRIANGLES, GLsizei(part.index_count), GL_UNSIGNED_INT,
                  reinterpret_cast<const void*>(std::uintptr_t(part.first_index) * sizeof(std::uint32_t)));
   glBindVertexArray(0);
+  glDisable(GL_BLEND);
   gl::check("draw");
 }
 

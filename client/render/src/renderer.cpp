@@ -232,7 +232,10 @@ void Renderer::begin_frame() {
   glBindFramebuffer(GL_FRAMEBUFFER, p.targets.hdr_fbo.id);
   glViewport(0, 0, p.targets.w, p.targets.h);
   const float zero[4] = {0, 0, 0, 0};
-  glClearBufferfv(GL_COLOR, 1, zero);  // the mask; radiance stays (read only where masked)
+  // Radiance and coverage 0 (alpha-blended surfaces are drawn over it: where nothing opaque is
+  // beneath them, their coverage is what the composite blends the frame by), and the mask.
+  glClearBufferfv(GL_COLOR, 0, zero);
+  glClearBufferfv(GL_COLOR, 1, zero);
   glClearBufferfi(GL_DEPTH_STENCIL, 0, 1.0f, 0);
 }
 
@@ -243,15 +246,23 @@ void Renderer::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mod
 void Renderer::draw(const GpuMesh& mesh, std::span<const Material> materials,
                     const Material& fallback, const glm::mat4& model) {
   Impl& p = *p_;
-  for (const MeshPart& part : mesh.parts()) {
-    const Material& m = part.material >= 0 && std::size_t(part.material) < materials.size()
-                            ? materials[std::size_t(part.material)]
-                            : fallback;
+  const auto material_of = [&](const MeshPart& part) -> const Material& {
+    return part.material >= 0 && std::size_t(part.material) < materials.size()
+               ? materials[std::size_t(part.material)]
+               : fallback;
+  };
+  const auto blended = [](const Material& m) { return m.pbr && m.pbr->alpha_blend; };
+  for (const MeshPart& part : mesh.parts()) {  // the opaque parts, then the blended ones over them
+    const Material& m = material_of(part);
+    if (blended(m)) continue;
     if (m.transmissive() && p.refraction == Refraction::LiveFrame)
       p.glass.defer(mesh, m, model, p.draw_state(), part);
     else
       p.ibl.draw(mesh, m, model, p.draw_state(), p.lighting, p.targets, part);
   }
+  for (const MeshPart& part : mesh.parts())
+    if (blended(material_of(part)))
+      p.ibl.draw(mesh, material_of(part), model, p.draw_state(), p.lighting, p.targets, part);
   p.shadow.add_caster(mesh, model, p.world_from_scene);
 }
 

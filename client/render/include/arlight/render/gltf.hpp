@@ -20,13 +20,13 @@ struct GltfModel {
   // One per glTF material, in the file's order (MeshPart::material indexes them): metallic-
   // roughness (Material::pbr) with the base colour (sRGB; the Material's albedo), metal/rough
   // (B/G), normal (+ scale), occlusion (+ strength) and emissive (sRGB) textures, alphaMode
-  // OPAQUE / MASK (+ cutoff), doubleSided, KHR_materials_emissive_strength. A material's
+  // OPAQUE / MASK (+ cutoff) / BLEND, doubleSided, KHR_materials_emissive_strength. A material's
   // textures must read one TEXCOORD set (0 or 1) with one KHR_texture_transform: both are applied
   // to the uvs of the primitives that use it (the renderer has one uv attribute).
   std::vector<Material> materials;
   std::vector<std::string> material_names;  // as the file names them ("" when unnamed)
-  // What was read but is not drawn as the file asks (alphaMode BLEND is drawn opaque, unknown
-  // material extensions are ignored), each naming the material and field.
+  // What was read but is not drawn as the file asks (material extensions it does not know are
+  // ignored), each naming the material and extension.
   std::vector<std::string> warnings;
 };
 

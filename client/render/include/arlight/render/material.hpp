@@ -50,10 +50,12 @@ struct MetallicRoughness {
   float occlusion_strength = 1.0f;
   glm::vec3 emissive{0.0f};  // linear radiance factor
   std::shared_ptr<const TextureImage> emissive_map;  // sRGB, times `emissive`
-  // MASK: fragments whose alpha (base colour's) is below the cutoff are not drawn. (BLEND is
-  // not drawn blended yet: such a material renders opaque.)
+  // MASK: fragments whose alpha (base colour's) is below the cutoff are not drawn.
   bool alpha_mask = false;
   float alpha_cutoff = 0.5f;
+  // BLEND: the alpha is the surface's coverage: it is drawn over what is behind it (the opaque
+  // virtual parts, else the camera frame), after the opaque parts (Renderer::draw).
+  bool alpha_blend = false;
 };
 
 struct Material {
