@@ -75,6 +75,27 @@ std::string read_bytes(const std::filesystem::path& p) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
+// The GLB's JSON, edited by `edit`, put back (the binary chunk as it was).
+std::vector<std::uint8_t> with_json(const std::vector<std::uint8_t>& glb,
+                                    const std::function<void(nlohmann::json&)>& edit) {
+  std::uint32_t json_len;
+  std::memcpy(&json_len, glb.data() + 12, 4);
+  nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
+  edit(doc);
+  std::string text = doc.dump();
+  while (text.size() % 4) text += ' ';
+  std::vector<std::uint8_t> out(glb.begin(), glb.begin() + 12);
+  const auto u32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
+  };
+  u32(std::uint32_t(text.size())), u32(0x4E4F534Au);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), glb.begin() + 20 + json_len, glb.end());
+  const std::uint32_t total = std::uint32_t(out.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  return out;
+}
+
 void expect_input_error(const std::filesystem::path& p, const std::string& what) {
   try {
     load_gltf(p);
@@ -268,23 +289,10 @@ TEST(Gltf, ANodesRotationTurnsTheTransferWithTheNormals) {
   tri.indices = {0, 1, 2};
   const std::vector<float> t = {0.28f, 0.0f, 0.33f, 0.0f, 0.1f, 0.0f, 0.12f, 0.0f, -0.05f};
   for (int v = 0; v < 3; ++v) tri.transfer.insert(tri.transfer.end(), t.begin(), t.end());
-  std::vector<std::uint8_t> glb = encode_glb(tri);
-  // The JSON chunk with a rotation on the node (glTF: [x, y, z, w]), padded to 4 bytes.
-  std::uint32_t json_len;
-  std::memcpy(&json_len, glb.data() + 12, 4);
-  nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
-  doc["nodes"][0]["rotation"] = {0.0, std::sqrt(0.5), 0.0, std::sqrt(0.5)};
-  std::string text = doc.dump();
-  while (text.size() % 4) text += ' ';
-  std::vector<std::uint8_t> out(glb.begin(), glb.begin() + 12);
-  const auto u32 = [&](std::uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
-  };
-  u32(std::uint32_t(text.size())), u32(0x4E4F534Au);
-  out.insert(out.end(), text.begin(), text.end());
-  out.insert(out.end(), glb.begin() + 20 + json_len, glb.end());
-  const std::uint32_t total = std::uint32_t(out.size());
-  std::memcpy(out.data() + 8, &total, 4);
+  // A rotation on the node (glTF: [x, y, z, w]).
+  const std::vector<std::uint8_t> out = with_json(encode_glb(tri), [](nlohmann::json& doc) {
+    doc["nodes"][0]["rotation"] = {0.0, std::sqrt(0.5), 0.0, std::sqrt(0.5)};
+  });
 
   const Mesh back = load_gltf(out, "rotated.glb");
   ASSERT_EQ(back.transfer.size(), 27u);
@@ -305,27 +313,6 @@ TEST(Gltf, ANodesRotationTurnsTheTransferWithTheNormals) {
 
 namespace arlight::render {
 namespace {
-
-// The GLB's JSON, edited by `edit`, put back (the binary chunk as it was).
-std::vector<std::uint8_t> with_json(const std::vector<std::uint8_t>& glb,
-                                    const std::function<void(nlohmann::json&)>& edit) {
-  std::uint32_t json_len;
-  std::memcpy(&json_len, glb.data() + 12, 4);
-  nlohmann::json doc = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_len);
-  edit(doc);
-  std::string text = doc.dump();
-  while (text.size() % 4) text += ' ';
-  std::vector<std::uint8_t> out(glb.begin(), glb.begin() + 12);
-  const auto u32 = [&](std::uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(v >> (8 * i)));
-  };
-  u32(std::uint32_t(text.size())), u32(0x4E4F534Au);
-  out.insert(out.end(), text.begin(), text.end());
-  out.insert(out.end(), glb.begin() + 20 + json_len, glb.end());
-  const std::uint32_t total = std::uint32_t(out.size());
-  std::memcpy(out.data() + 8, &total, 4);
-  return out;
-}
 
 std::string load_error(const std::vector<std::uint8_t>& glb) {
   try {
