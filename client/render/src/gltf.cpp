@@ -180,9 +180,22 @@ std::vector<std::uint8_t> draco_indices_moved(std::vector<std::uint8_t> bytes, b
 }
 
 // tinygltf hands over each image's bytes as the file holds them (PNG, JPEG): they are decoded
-// when a material uses them, so a bad one is reported with the material and field.
-bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
-                        const unsigned char* bytes, int size, void*) {
+// when a material uses them, so a bad one is reported with the material and field. `model` is
+// the one being read: tinygltf 2.7 passes an image's bufferView without checking that it lies
+// inside its buffer (the fuzzer found it), so that is checked here before a byte is read.
+bool keep_encoded_image(tinygltf::Image* image, const int index, std::string* err, std::string*,
+                        int, int, const unsigned char* bytes, int size, void* model) {
+  if (image->bufferView >= 0) {
+    const auto& m = *static_cast<const tinygltf::Model*>(model);
+    const tinygltf::BufferView& view = m.bufferViews.at(std::size_t(image->bufferView));
+    const std::size_t buffer = m.buffers.at(std::size_t(view.buffer)).data.size();
+    if (view.byteOffset > buffer || view.byteLength > buffer - view.byteOffset || size < 0) {
+      if (err)
+        *err += "image " + std::to_string(index) + ": its bufferView " +
+                std::to_string(image->bufferView) + " reaches beyond its buffer\n";
+      return false;
+    }
+  }
   image->image.assign(bytes, bytes + size);
   image->as_is = true;
   return true;
@@ -240,7 +253,7 @@ class GltfReader {
       : where_(where_prefix(name)) {
     files_.on_disk = on_disk;
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&keep_encoded_image, nullptr);
+    loader.SetImageLoader(&keep_encoded_image, &model_);
     loader.SetFsCallbacks(
         tinygltf::FsCallbacks{&file_exists, &expand_path, &read_whole_file, &write_whole_file, &files_});
     loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
@@ -650,7 +663,7 @@ class GltfReader {
   template <typename V>
   static std::vector<V> as_vec(const std::vector<float>& f) {
     std::vector<V> out(f.size() * sizeof(float) / sizeof(V));
-    std::memcpy(out.data(), f.data(), out.size() * sizeof(V));
+    if (!out.empty()) std::memcpy(out.data(), f.data(), out.size() * sizeof(V));
     return out;
   }
 
