@@ -71,10 +71,12 @@ void CompositePass::draw(const RenderTargets& targets, const ToneMapping& tone, 
   glEnable(GL_DEPTH_TEST);  // fullscreen.vert draws at the far plane: passes where depth < 1
   glDepthFunc(GL_GREATER);
   glDepthMask(GL_FALSE);
-  // Over the frame by the objects' coverage (1 but where only alpha-blended surfaces are: the
-  // result is then the tone-mapped colour exactly).
-  glEnable(GL_BLEND);
-  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
+  // Over the frame by the objects' coverage (below 1 only where alpha-blended surfaces are
+  // alone).
+  if (in.blended) {
+    glEnable(GL_BLEND);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
+  }
   fullscreen.draw_triangle();
   glDisable(GL_BLEND);
   glDepthMask(GL_TRUE);

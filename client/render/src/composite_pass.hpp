@@ -21,6 +21,9 @@ struct CompositeInputs {
   GLuint log_sum;                  // LogLuminance::sum_texture() (Reinhard)
   const ColourStatistics* colour;  // measured this frame (ColourCorrection::Match)
   const SceneLighting* lighting;   // its environment_priors() (any correction)
+  // Alpha-blended surfaces were drawn this frame: blend by the HDR target's coverage (costs
+  // 0.7 ms a frame at 1280 x 720 on llvmpipe, so only then; elsewhere the coverage is 1).
+  bool blended = false;
 };
 
 class CompositePass {

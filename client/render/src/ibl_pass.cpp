@@ -162,6 +162,23 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
   return variants_.emplace(key, std::move(v)).first->second;
 }
 
+void IblPass::clear_uncovered(const RenderTargets& targets, const FullscreenPass& fullscreen) {
+  if (!clear_uncovered_.id())
+    clear_uncovered_ = Program(shader_dir_, "fullscreen.vert", "clear_uncovered.frag", {});
+  glBindFramebuffer(GL_FRAMEBUFFER, targets.hdr_fbo.id);
+  glViewport(0, 0, targets.w, targets.h);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LEQUAL);
+  glDepthMask(GL_FALSE);
+  glUseProgram(clear_uncovered_.id());
+  fullscreen.draw_triangle();
+  glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
+  gl::check("clearing where nothing was drawn");
+}
+
 void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& model,
                    const DrawState& st, const SceneLighting& lighting, const RenderTargets& targets,
                    const MeshPart& part, const LiveFrameInputs* live) {

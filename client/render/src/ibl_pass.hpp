@@ -45,6 +45,9 @@ class IblPass {
   void draw(const GpuMesh& mesh, const Material& material, const glm::mat4& model,
             const DrawState& state, const SceneLighting& lighting, const RenderTargets& targets,
             const MeshPart& part, const LiveFrameInputs* live = nullptr);
+  // Zeroes radiance, coverage and mask where nothing has been drawn yet this frame (depth still
+  // 1): what alpha-blended surfaces are blended over there (clear_uncovered.frag).
+  void clear_uncovered(const RenderTargets& targets, const FullscreenPass& fullscreen);
 
  private:
   struct Variant;
@@ -58,6 +61,7 @@ class IblPass {
     gl::Texture tex;
   };
   std::unordered_map<const TextureImage*, CachedTexture> textures_;
+  Program clear_uncovered_;  // made when first needed
   gl::Texture white_tex_, flat_normal_tex_;  // a material's missing albedo and normal map
   gl::Texture dfg_tex_;  // the split sum's DFG table, made for the first metallic-roughness draw
 };

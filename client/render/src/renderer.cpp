@@ -140,6 +140,9 @@ struct Renderer::Impl {
   FrameTimings timings;
   std::vector<std::uint8_t> rgba;  // readback buffer
   bool composited = false;
+  // Alpha-blended surfaces were drawn this frame (and, before the first, radiance zeroed where
+  // nothing was drawn).
+  bool uncovered_cleared = false;
   bool frame_rgb = false;  // what the last composite left in the output
 
   DrawState draw_state() const { return {view_proj, camera_position, world_from_scene}; }
@@ -232,10 +235,11 @@ void Renderer::begin_frame() {
   glBindFramebuffer(GL_FRAMEBUFFER, p.targets.hdr_fbo.id);
   glViewport(0, 0, p.targets.w, p.targets.h);
   const float zero[4] = {0, 0, 0, 0};
-  // Radiance and coverage 0 (alpha-blended surfaces are drawn over it: where nothing opaque is
-  // beneath them, their coverage is what the composite blends the frame by), and the mask.
-  glClearBufferfv(GL_COLOR, 0, zero);
+  // The mask; radiance stays (read only where masked; before alpha-blended surfaces are drawn
+  // over it, IblPass::clear_uncovered zeroes it where nothing is: 2 ms a frame at 1280 x 720 on
+  // llvmpipe saved for the frames without them).
   glClearBufferfv(GL_COLOR, 1, zero);
+  p.uncovered_cleared = false;
   glClearBufferfi(GL_DEPTH_STENCIL, 0, 1.0f, 0);
 }
 
@@ -260,9 +264,12 @@ void Renderer::draw(const GpuMesh& mesh, std::span<const Material> materials,
     else
       p.ibl.draw(mesh, m, model, p.draw_state(), p.lighting, p.targets, part);
   }
-  for (const MeshPart& part : mesh.parts())
-    if (blended(material_of(part)))
-      p.ibl.draw(mesh, material_of(part), model, p.draw_state(), p.lighting, p.targets, part);
+  for (const MeshPart& part : mesh.parts()) {
+    if (!blended(material_of(part))) continue;
+    if (!p.uncovered_cleared) p.ibl.clear_uncovered(p.targets, p.fullscreen);
+    p.uncovered_cleared = true;
+    p.ibl.draw(mesh, material_of(part), model, p.draw_state(), p.lighting, p.targets, part);
+  }
   p.shadow.add_caster(mesh, model, p.world_from_scene);
 }
 
@@ -374,7 +381,9 @@ void Renderer::Impl::tone_map_and_composite(const ToneMapping& tone, bool rgb) {
   if (tone.colour == ColourCorrection::Match)
     colour.measure(targets, float(tone.exposure * tone.gain), fullscreen);
   composite.draw(targets, tone, rgb,
-                 {response_lut.id, log_luminance.sum_texture(), &colour, &lighting}, fullscreen);
+                 {response_lut.id, log_luminance.sum_texture(), &colour, &lighting,
+                  uncovered_cleared},
+                 fullscreen);
   if (!rgb) glFinish();  // composite() times the pass; the browser's path does not wait for it
 }
 
