@@ -97,7 +97,8 @@ TEST(ArlightClient, RendersTheBunnyOnTheMarkerLitByTheCapturedRoom) {
   EXPECT_TRUE(fs::exists(dir / "client" / "contact_sheet.png"));
 }
 
-// Issue 34: a glTF metallic-roughness material asks arlightd for the room's GGX chain and is
+// Issue 34: a glTF metallic-roughness material (or a glTF's own) asks arlightd for the room's GGX
+// chain and is
 // shaded with it (and --out gets it as light files): every drawn frame used the chain, and a
 // gold sphere is tinted by its F0
 // against a white metal's under the same room (its R / B ratio above the white one's, which
@@ -109,11 +110,12 @@ TEST(ArlightClient, AMetallicRoughnessSphereIsLitByTheRoomsGgxChain) {
   const fs::path orbit = simulate(
       dir, "orbit", "--frames 12 --size 320x240 --trajectory orbit --marker 7,0.2 --seed 12");
   const cv::Mat in = cv::imread((orbit / "frames" / "000008.jpg").string());
-  const auto run = [&](const std::string& name, const std::string& material) {
+  const auto run = [&](const std::string& name, const std::string& material,
+                       const std::string& model = "sphere") {
     const auto r = test::run_tool(
         ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken +
                                 " --source replay:" + orbit.string() +
-                                " --model sphere --marker 7,0.2 --material " + material +
+                                " --model " + model + " --marker 7,0.2 --material " + material +
                                 " --ggx 64 --occlusion none --shadow off --resume " + session +
                                 " --wait-maps 60 --out " + (dir / name).string() + " --json " +
                                 (dir / (name + ".json")).string());
@@ -143,6 +145,20 @@ TEST(ArlightClient, AMetallicRoughnessSphereIsLitByTheRoomsGgxChain) {
   // the Fresnel rim (white in both) in the mask, measured x1.31.
   EXPECT_GT(gold_tint, 1.2) << g << " " << w;
   EXPECT_GT(g[1] / g[0], w[1] / w[0]) << g << " " << w;  // G over B too (F0 0.78 against 0.34)
+
+  // A glTF's own materials (--material model): the textured tiled ball (gold and terracotta
+  // tiles, a white plinth) is lit by the chain too, and warmer than the white metal (what its
+  // base colour texture gives; ignored textures or the Phong fallback would not; measured x1.29).
+  const cv::Mat tiles = run("tiles", "model", std::string(ARLIGHT_SOURCE_DIR) + "/data/models/tiles.glb");
+  ASSERT_FALSE(tiles.empty());
+  cv::Mat tiled;
+  cv::absdiff(in, tiles, diff);
+  cv::inRange(diff, cv::Scalar(0, 0, 0), cv::Scalar(30, 30, 30), tiled);
+  tiled = 255 - tiled;
+  ASSERT_GT(cv::countNonZero(tiled), 200);
+  const cv::Scalar t = cv::mean(tiles, tiled);
+  std::printf("tiles: R/B against white's x%.2f\n", (t[2] / t[0]) / (w[2] / w[0]));
+  EXPECT_GT((t[2] / t[0]) / (w[2] / w[0]), 1.2) << t << " " << w;
 }
 
 TEST(ArlightClient, KeepsRenderingWhenTheServerDiesAndResumesTheSession) {
