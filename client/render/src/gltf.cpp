@@ -21,6 +21,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <span>
+#include <sstream>
 #include <string>
 
 #include "arlight/common/error.hpp"
@@ -229,6 +230,13 @@ bool write_whole_file(std::string* err, const std::string&, const std::vector<un
   return false;
 }
 
+// A number as a file would write it (1.5, not 1.500000).
+std::string number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
 // KHR_texture_transform as a 3 x 3 matrix on (u, v, 1): translation x rotation x scale, the
 // extension's order and sign convention.
 glm::mat3 texture_transform(const json& t) {
@@ -367,9 +375,9 @@ class GltfReader {
     pbr.base_colour = glm::vec4(float(p.baseColorFactor[0]), float(p.baseColorFactor[1]),
                                 float(p.baseColorFactor[2]), float(p.baseColorFactor[3]));
     if (!in_unit(p.metallicFactor))
-      throw InputError(what + "metallicFactor " + std::to_string(p.metallicFactor) + " is outside [0, 1]");
+      throw InputError(what + "metallicFactor " + number(p.metallicFactor) + " is outside [0, 1]");
     if (!in_unit(p.roughnessFactor))
-      throw InputError(what + "roughnessFactor " + std::to_string(p.roughnessFactor) + " is outside [0, 1]");
+      throw InputError(what + "roughnessFactor " + number(p.roughnessFactor) + " is outside [0, 1]");
     pbr.metallic = float(p.metallicFactor), pbr.roughness = float(p.roughnessFactor);
     if (g.emissiveFactor.size() != 3 || !std::all_of(g.emissiveFactor.begin(), g.emissiveFactor.end(), in_unit))
       throw InputError(what + "emissiveFactor must be 3 numbers in [0, 1]");
