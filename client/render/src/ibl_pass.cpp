@@ -41,8 +41,8 @@ enum Feature : unsigned {
   kOcclusionMap = 16384,
   kEmissiveMap = 32768,
   kAlphaMask = 65536,
-  kGgxDiffuse = 131072,
-  kAlphaBlend = 262144,       // ... drawn premultiplied by its coverage, blended       // ... its diffuse light from the chain's roughest level (no map set)
+  kGgxDiffuse = 131072,       // ... its diffuse light from the chain's roughest level (no map set)
+  kAlphaBlend = 262144,       // ... drawn premultiplied by its coverage, blended (glTF BLEND)
 };
 
 // The split sum's DFG table the shader looks up: 64 x 64 (bilinear; the table is smooth) at
