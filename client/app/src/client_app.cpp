@@ -129,10 +129,8 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
     renderer_.set_shadow(shadow_budget_.settings(options_.shadow, lighting));
     renderer_.draw(mesh_, options_.model_materials, options_.material, model_matrix_);
     report.lit_by = renderer_.lighting_source();
-    const bool pbr = options_.material.pbr ||
-                     std::any_of(options_.model_materials.begin(), options_.model_materials.end(),
-                                 [](const render::Material& m) { return m.pbr.has_value(); });
-    report.lit_by_ggx = pbr && renderer_.has_ggx_chain();
+    report.lit_by_ggx = render::needs_ggx_chain(options_.model_materials, options_.material) &&
+                        renderer_.has_ggx_chain();
   }
   render::ToneMapping tone;
   tone.mode = options_.tone;

@@ -1,5 +1,6 @@
 #include "arlight/render/material.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -28,6 +29,11 @@ std::shared_ptr<const TextureImage> make_texture(int width, int height, int chan
   t->width = width, t->height = height, t->channels = channels;
   t->f32 = std::move(linear);
   return t;
+}
+
+bool needs_ggx_chain(std::span<const Material> materials, const Material& fallback) {
+  return fallback.pbr ||
+         std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.pbr; });
 }
 
 Material preset_material(std::string_view name, float sharpest) {

@@ -65,7 +65,7 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
 }
 
 val WebClient::request_maps() {
-  requested_ggx_ = shades_metallic_roughness();
+  requested_ggx_ = render::needs_ggx_chain(draw_materials(), material_);
   const wire::RequestMaps request =
       requested_ggx_ ? client::ggx_request(kGgxFace)
                      : client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
@@ -74,7 +74,7 @@ val WebClient::request_maps() {
 }
 
 val WebClient::request_maps_if_changed() {
-  if (shades_metallic_roughness() == requested_ggx_) return val::null();
+  if (render::needs_ggx_chain(draw_materials(), material_) == requested_ggx_) return val::null();
   return request_maps();
 }
 

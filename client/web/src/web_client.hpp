@@ -138,9 +138,8 @@ class WebClient {
   WebClient(const std::string& canvas, int width, int height, const render::Mesh& sphere);
   glm::dquat world_from_marker() const;
   // The materials draw() gives the mesh's parts: the model's with material "model", else none
-  // (material_ everywhere); whether any of what is drawn is metallic-roughness (the GGX chain).
+  // (material_ everywhere).
   std::span<const render::Material> draw_materials() const;
-  bool shades_metallic_roughness() const;
   double frame_exposure() const;
   val pixel_of(const glm::dvec3& scene_point) const;
   YuvFrame& yuv();

@@ -107,13 +107,6 @@ std::span<const render::Material> WebClient::draw_materials() const {
   return model_materials_;
 }
 
-bool WebClient::shades_metallic_roughness() const {
-  if (material_.pbr) return true;
-  for (const render::Material& m : draw_materials())
-    if (m.pbr) return true;
-  return false;
-}
-
 std::string WebClient::set_model(const std::string& name, const val& glb) {
   render::GltfModel model;
   try {

@@ -7,6 +7,7 @@
 #include <glm/vec4.hpp>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -86,6 +87,10 @@ struct Material {
 
   bool transmissive() const { return !pbr && transmission != glm::vec3(0.0f); }
 };
+
+// Whether a draw with these materials (Renderer::draw's: the parts' and the fallback) shades
+// anything metallic-roughness, which the room's GGX chain lights.
+bool needs_ggx_chain(std::span<const Material> materials, const Material& fallback);
 
 // Clear glass of an index of refraction, reflections as sharp as the shininess picks.
 Material glass(float ior = 1.5f, float shininess = 1280.0f);
