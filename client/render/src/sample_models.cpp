@@ -6,6 +6,8 @@
 #include <glm/geometric.hpp>
 #include <stdexcept>
 
+#include "arlight/common/response.hpp"
+
 namespace arlight::render {
 
 namespace {
@@ -14,10 +16,6 @@ constexpr int kTilesAround = 8, kTilesDown = 6;
 constexpr float kGroove = 0.07f;  // a groove's half width, in tiles
 
 std::uint8_t to_u8(float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
-
-float srgb_encode(float linear) {
-  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
-}
 
 // The tile surface at uv: 0 in a groove's floor, rising over the groove's width to 1 on a tile.
 float tile_height(float u, float v) {
@@ -63,6 +61,7 @@ GltfModel make_tiled_ball(int size) {
        occlusion = image(3, false);
   const glm::vec3 gold(1.0f, 0.782f, 0.344f), terracotta(0.5f, 0.16f, 0.08f), grout(0.05f);
   const float step = 1.0f / float(size);
+  const CameraResponse srgb = CameraResponse::srgb();
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
       const float u = (float(x) + 0.5f) * step, v = (float(y) + 0.5f) * step;
@@ -79,7 +78,7 @@ GltfModel make_tiled_ball(int size) {
       const glm::vec3 n = glm::normalize(glm::vec3(-depth * dh_du, depth * dh_dv, 1.0f));
       const std::size_t at = (std::size_t(y) * size + std::size_t(x)) * 3;
       for (int k = 0; k < 3; ++k) {
-        colour->u8[at + k] = to_u8(srgb_encode(c[k]));
+        colour->u8[at + k] = to_u8(srgb.encode(c[k], k));
         normal->u8[at + k] = to_u8(0.5f * n[k] + 0.5f);
         occlusion->u8[at + k] = to_u8(0.35f + 0.65f * h);
       }
