@@ -6,7 +6,8 @@
 # sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD,
 # each run is made with that daemon first, then with this build's, alternately (the machine is
 # noisy). MAPS_FLAGS replaces what the sessions ask for (default --maps; e.g. "--ggx 256" for
-# GGX chains, issue 34 §2).
+# GGX chains, issue 34 §2). BUSY=N runs N CPU-bound shell loops of normal priority beside
+# arlightd during each measured run (a workstation someone uses; issue 37 §2).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
 build=${1:-build}
@@ -21,7 +22,8 @@ token=load-maps-token-0123456789
 echo "load $token" > "$out/tokens"
 port=${LOAD_MAPS_PORT:-7988}
 pid=
-trap '[ -n "$pid" ] && kill $pid 2>/dev/null || true' EXIT
+busy=
+trap '[ -n "$pid" ] && kill $pid 2>/dev/null; [ -n "$busy" ] && kill $busy 2>/dev/null || true' EXIT
 
 run() {  # run DAEMON LABEL SESSIONS
   rm -rf "$out/data"
@@ -43,9 +45,12 @@ run() {  # run DAEMON LABEL SESSIONS
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
     --device load --sessions 1 --duration 3 > /dev/null
   cpu_before=$(cpu_ticks $pid)
+  for _ in $(seq "${BUSY:-0}"); do sh -c 'while :; do :; done' & busy="$busy $!"; done
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
     --device load --sessions "$3" --duration 10 --rate 30 ${MAPS_FLAGS:---maps} --json "$out/$2-$3.json" \
     > /dev/null || true
+  [ -n "$busy" ] && kill $busy
+  busy=
   cpu=$(( $(cpu_ticks $pid) - cpu_before ))
   kill $pid
   wait $pid 2> /dev/null || echo "load_maps: $1 exited with $?" >&2

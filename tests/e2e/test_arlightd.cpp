@@ -980,9 +980,9 @@ TEST(Arlightd, AResumedSessionComputesMapSetsOnlyForItsNewConnectionsRequest) {
   };
   std::string session;
   // The sets the session has started (the admin's /sessions), once none has started for 3 s (the
-  // full set that follows a preview included). Started, not completed: sets run at SCHED_IDLE,
-  // so a loaded machine (the other tests, sanitized) can hold one that started for the earlier
-  // connection back until after the next connection came.
+  // full set that follows a preview included). Started, not completed: sets run at a low
+  // priority, so a loaded machine (the other tests, sanitized) can hold one that started for the
+  // earlier connection back until after the next connection came.
   const auto sets_started = [&] {
     const auto [status, body] = d.admin_get("/sessions");
     EXPECT_EQ(status, 200);

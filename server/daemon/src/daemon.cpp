@@ -20,6 +20,7 @@
 #include "arlight/admin/metrics.hpp"
 #include "arlight/common/error.hpp"
 #include "connection.hpp"
+#include "frame_path_gate.hpp"
 #include "phone_link.hpp"
 #include "priority.hpp"
 #include "session_lease.hpp"
@@ -96,6 +97,8 @@ struct Daemon::Impl {
   TokenStore tokens;
   asio::io_context io;
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  // Before the sessions and their map threads, which use it, so it goes after them.
+  FramePathGate frame_path;
   asio::thread_pool workers;
   asio::thread_pool disk{1};  // checkpoints (fsync) stay off the frame workers
   // On a strand of its own, where its accept handler runs and stop() closes it.
@@ -144,7 +147,7 @@ struct Daemon::Impl {
         workers(config.workers > 0 ? unsigned(config.workers) : hardware_threads()),
         tls(make_tls_context(config)),
         sessions_gauge(metrics.gauge("arlight_sessions", "live sessions (connected or idle)")) {
-    asio::post(disk, [] { lower_thread_priority(BackgroundWork::Checkpoint); });
+    asio::post(disk, [] { lower_thread_priority(); });
     session_env.data_dir = config.data_dir;
     session_env.map_size = config.map_size;
     session_env.fill = config.fill;
@@ -154,6 +157,7 @@ struct Daemon::Impl {
     session_env.map_interval_s = config.map_interval_s;
     session_env.limits = config.limits;
     session_env.workers = &workers;
+    session_env.frame_path = &frame_path;
     session_env.frames_received =
         &metrics.counter("arlight_frames_received_total", "camera frames received");
     session_env.frames_processed =

@@ -24,7 +24,7 @@ class BackgroundPriority : public tbb::task_scheduler_observer {
     observe(true);
   }
   ~BackgroundPriority() override { observe(false); }
-  void on_scheduler_entry(bool) override { lower_thread_priority(BackgroundWork::MapSet); }
+  void on_scheduler_entry(bool) override { lower_thread_priority(); }
 };
 
 }  // namespace
@@ -103,9 +103,10 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   const std::uint32_t id = job.id;
-  lower_thread_priority(BackgroundWork::MapSet);
+  lower_thread_priority();
   lighting::Hooks hooks;
   hooks.stop = stop;
+  if (job.frame_path) hooks.step_aside = [gate = job.frame_path] { gate->step_aside(); };
   std::size_t last_reported = 0;
   hooks.on_tile = [&](const lighting::TileDone& t) {
     if (t.done * 10 / t.total == last_reported) return;  // every tenth

@@ -1,5 +1,6 @@
 // One map set for a session's client: computed from a snapshot of the captured map below the
-// live path's priority (its own low-priority oneTBB arena, threads at nice 19), then streamed as
+// live path's priority (its own low-priority oneTBB arena, threads at kBackgroundNice, stepping
+// aside for frames: frame_path_gate.hpp), then streamed as
 // messages — Progress every tenth of the tiles, a coarse preview of each Phong map (level 2, one
 // tile), the full-resolution 64x64 tiles, then MapSetComplete (protocol/PROTOCOL.md, item 7).
 // A GGX chain's set sends each level's tiles, level 0 first (its small levels are its preview).
@@ -14,6 +15,7 @@
 #include "arlight/common/projection.hpp"
 #include "arlight/lighting/ggx.hpp"
 #include "arlight/protocol/wire.hpp"
+#include "frame_path_gate.hpp"
 #include "map_request.hpp"
 
 namespace arlight::daemon {
@@ -37,6 +39,8 @@ struct MapSetJob {
   std::vector<float> measured = {};
   // A GGX chain's preview: the session's preview chains so far (at ggx_preview_spec()).
   std::shared_ptr<lighting::GgxUpdater> ggx_previews = nullptr;
+  // The daemon's frames, which the computation steps aside for (none: it never does).
+  FramePathGate* frame_path = nullptr;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

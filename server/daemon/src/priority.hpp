@@ -1,18 +1,22 @@
 // Background work (checkpoints, map computations) runs at a lower CPU priority than the live
-// path, so a burst of it never delays a frame's LightingUpdate.
+// path, so a burst of it delays a frame's LightingUpdate little, yet it still gets a share of
+// the cores when other programs keep them busy.
 #pragma once
 
 namespace arlight::daemon {
 
-enum class BackgroundWork {
-  Checkpoint,  // nice 10: checkpoints must keep up (a few ms per session every interval)
-  MapSet,      // SCHED_IDLE: map sets run on idle cycles, and a frame's thread preempts them
-};
+// The nice value of background threads. Not SCHED_IDLE, which gets no time at all while any
+// other thread can run: beside two CPU-bound processes of normal priority a session got no map
+// set in 10 s (issue 37 §2). At nice 7 (CFS weight 244 against a normal thread's 1024) map
+// sets get about a fifth of a core a busy program also wants (a set every ~0.3 s beside two busy
+// loops), and inside arlightd frames still come first (FramePathGate): bench/RESULTS.md
+// "Issue 37 §2" (with the gate, nice 5 dropped frames at 8 sessions, nice 10 gave sets only
+// every 0.8-1.3 s beside the busy loops).
+inline constexpr int kBackgroundNice = 7;
 
-// Lowers the calling thread's scheduling priority for `work` (Linux: policy and nice value are
+// Lowers the calling thread's scheduling priority to kBackgroundNice (Linux: the nice value is
 // per thread). It cannot be raised again without privileges, so call it only on threads that
-// do background work for good. Best effort: a refusal is ignored (a map set's thread then
-// falls back to nice 19).
-void lower_thread_priority(BackgroundWork work);
+// do background work for good. Best effort: a refusal is ignored.
+void lower_thread_priority();
 
 }  // namespace arlight::daemon

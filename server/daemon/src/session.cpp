@@ -179,8 +179,10 @@ void Session::submit(FrameJob job) {
   });
   dropped_ += dropped;
   if (dropped) env_.frames_dropped->inc(double(dropped));
-  if (frames_.begin_turn())
+  if (frames_.begin_turn()) {
+    if (env_.frame_path) env_.frame_path->frames_began();
     boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
+  }
 }
 
 // One frame a turn: when the session has another waiting, it goes to the back of the worker
@@ -193,7 +195,7 @@ void Session::process() {
     std::lock_guard lock(mutex_);
     std::optional<FrameJob> next = capture_ ? frames_.take() : std::nullopt;
     if (!next) {
-      frames_.end_turn();
+      end_frame_turn();
       return;
     }
     job = std::move(*next);
@@ -238,11 +240,16 @@ void Session::process() {
     // After the update went: a map set's input (a copy of the map) is not on the frame's path.
     maybe_start_maps();
     if (frames_.empty() || !capture_) {
-      frames_.end_turn();
+      end_frame_turn();
       return;
     }
   }
   boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
+}
+
+void Session::end_frame_turn() {
+  frames_.end_turn();
+  if (env_.frame_path) env_.frame_path->frames_ended();
 }
 
 void Session::set_location(const wire::Location& location) {
@@ -336,6 +343,7 @@ void Session::start_map_set(bool preview) {
                 .coverage = capture_->coverage(),
                 .frames = processed_,
                 .preview = preview,
+                .frame_path = env_.frame_path,
                 .tile_coding = [this] {
                   std::lock_guard lock(mutex_);
                   return tile_coding_;

@@ -27,6 +27,7 @@
 #include "checkpoint.hpp"
 #include "frame_queue.hpp"
 #include "map_set_scheduler.hpp"
+#include "frame_path_gate.hpp"
 #include "map_set_stream.hpp"
 #include "session_lease.hpp"
 #include "sun_tracker.hpp"
@@ -46,6 +47,7 @@ struct SessionEnv {
   double map_interval_s = 0.09;  // the least time between the starts of a session's map sets
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
+  FramePathGate* frame_path = nullptr;  // told when a session's frames come and go; map sets step aside
   admin::Counter* frames_received = nullptr;
   admin::Counter* frames_processed = nullptr;
   admin::Counter* frames_dropped = nullptr;
@@ -140,6 +142,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
  private:
   void process();  // on the worker pool
+  void end_frame_turn();  // with mutex_ held: the session's turn on the worker pool is over
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   // With process_mutex_ and mutex_ held: asks the scheduler and starts the set it says (or arms
   // the timer for one the interval deferred). Every path to a map set comes through here.

@@ -65,9 +65,11 @@ class OutputTexels {
 class Progress {
  public:
   Progress(const Hooks& hooks, std::size_t total) : hooks_(hooks), total_(total) {}
-  // Throws Cancelled once a stop has been requested.
+  // Between steps: throws Cancelled once a stop has been requested; lets more urgent work go
+  // first (Hooks::step_aside).
   void check() const {
     if (hooks_.stop.stop_requested()) throw Cancelled();
+    if (hooks_.step_aside) hooks_.step_aside();
   }
   void tile_done(int map, const Tile& tile);
 

@@ -64,6 +64,9 @@ struct Hooks {
   std::function<void(const TileDone&)> on_tile;
   // When stop is requested, compute_maps() abandons the work and throws Cancelled.
   std::stop_token stop;
+  // Called between tiles from the computing threads (concurrently): it may block for a while
+  // to let more urgent work have the cores (arlightd: a session's frames, issue 37 §2).
+  std::function<void()> step_aside;
 };
 
 class Cancelled : public std::runtime_error {
