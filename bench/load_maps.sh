@@ -6,7 +6,8 @@
 # sends, frames dropped, frame->update p99, the daemon's CPU time). With OLD=PATH_TO_ARLIGHTD,
 # each run is made with that daemon first, then with this build's, alternately (the machine is
 # noisy). MAPS_FLAGS replaces what the sessions ask for (default --maps; e.g. "--ggx 256" for
-# GGX chains, issue 34 §2). BUSY=N runs N CPU-bound shell loops of normal priority beside
+# GGX chains, issue 34 §2; " " for none). LOAD_FLAGS go to arlight-load too (e.g.
+# --ignore-advice: every frame at full size and rate, issue 37 §1). BUSY=N runs N CPU-bound shell loops of normal priority beside
 # arlightd during each measured run (a workstation someone uses; issue 37 §2).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
@@ -47,7 +48,7 @@ run() {  # run DAEMON LABEL SESSIONS
   cpu_before=$(cpu_ticks $pid)
   for _ in $(seq "${BUSY:-0}"); do sh -c 'while :; do :; done' & busy="$busy $!"; done
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
-    --device load --sessions "$3" --duration 10 --rate 30 ${MAPS_FLAGS:---maps} --json "$out/$2-$3.json" \
+    --device load --sessions "$3" --duration 10 --rate 30 ${MAPS_FLAGS:---maps} ${LOAD_FLAGS:-} --json "$out/$2-$3.json" \
     > /dev/null || true
   [ -n "$busy" ] && kill $busy
   busy=
@@ -60,9 +61,12 @@ import json, sys
 j = json.load(open(sys.argv[1]))
 i = j["map_set_interval_ms"]
 cpu = int(sys.argv[4]) / int(sys.argv[5])
+processed = max(1, j['frames_processed'])
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {j['map_sets_completed']} | {i['median']:.0f} ms / "
-      f"{i['worst_session']:.0f} ms | {j['frames_dropped']} | {j['latency_ms']['p99']:.1f} ms | "
-      f"{cpu:.1f} s |")
+      f"{i['worst_session']:.0f} ms | {j['frames_dropped']} of {j['frames_sent']} | "
+      f"{j.get('frames_held_back', 0)} | {j['latency_ms']['p99']:.1f} ms | {cpu:.1f} s "
+      f"({1000 * cpu / processed:.2f} ms a frame) | "
+      f"{j.get('upload_bytes_per_s_per_session', 0) / 1e3:.0f} kB/s |")
 PY
 }
 
@@ -70,8 +74,8 @@ PY
 # the machine ran meanwhile (a shared machine's steal time is not in it).
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
 
-echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped | p99 frame->update | daemon CPU in the 10 s |"
-echo "|---|---|---|---|---|---|---|"
+echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped of sent | held back (frame advice) | p99 frame->update | daemon CPU in the 10 s | upload a session |"
+echo "|---|---|---|---|---|---|---|---|---|"
 for n in $counts; do
   [ -n "${OLD:-}" ] && run "$OLD" old "$n"
   run "$build/bin/arlightd" new "$n"

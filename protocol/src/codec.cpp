@@ -125,7 +125,8 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
                                   std::uint8_t(m.sh.order), b.CreateVector(flat), &d, &c,
                                   m.coverage, m.frames_processed, m.frames_dropped, m.estimated,
                                   m.frame_exposure, std::uint8_t(m.sun_state),
-                                  m.sun_state == SunState::Unknown ? nullptr : &sun)
+                                  m.sun_state == SunState::Unknown ? nullptr : &sun,
+                                  m.advised_width, m.advised_height, m.advised_fps)
       .Union();
 }
 
@@ -377,6 +378,16 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
       refuse(Fault::OutOfRange, "LightingUpdate", "sun_direction",
              "length " + std::to_string(len) + " is not a unit vector's");
   }
+  u.advised_width = m.advised_width();
+  u.advised_height = m.advised_height();
+  u.advised_fps = m.advised_fps();
+  if ((u.advised_width == 0) != (u.advised_height == 0))
+    refuse(Fault::OutOfRange, "LightingUpdate", "advised_width",
+           std::to_string(u.advised_width) + "x" + std::to_string(u.advised_height) +
+               " is not a frame size (both or neither must be 0)");
+  if (!(u.advised_fps >= 0.0f && u.advised_fps <= 240.0f))
+    refuse(Fault::OutOfRange, "LightingUpdate", "advised_fps",
+           std::to_string(u.advised_fps) + " is not a frame rate in [0, 240]");
   if (!(u.frame_exposure >= 0.0 && u.frame_exposure < 1e6))
     refuse(Fault::OutOfRange, "LightingUpdate", "frame_exposure",
            std::to_string(u.frame_exposure) + " is not an exposure x gain in [0, 1e6)");
@@ -605,7 +616,9 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          dominant_colour == o.dominant_colour && coverage == o.coverage &&
          frames_processed == o.frames_processed && frames_dropped == o.frames_dropped &&
          estimated == o.estimated && frame_exposure == o.frame_exposure &&
-         sun_state == o.sun_state && sun_direction == o.sun_direction;
+         sun_state == o.sun_state && sun_direction == o.sun_direction &&
+         advised_width == o.advised_width && advised_height == o.advised_height &&
+         advised_fps == o.advised_fps;
 }
 
 const char* message_name(const Message& m) {

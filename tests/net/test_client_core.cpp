@@ -3,9 +3,11 @@
 // clients' receive paths call).
 #include <gtest/gtest.h>
 
+#include <utility>
 #include <vector>
 
 #include "arlight/net/client_messages.hpp"
+#include "arlight/net/frame_pacer.hpp"
 #include "arlight/net/lighting_state.hpp"
 #include "arlight/net/map_assembly.hpp"
 
@@ -202,4 +204,32 @@ TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
   EXPECT_EQ(state.receive(wire::ExposureAdvice{.exposure = 0.004}), Change::ExposureAdvice);
   EXPECT_DOUBLE_EQ(state.exposure_advice()->exposure, 0.004);
   EXPECT_EQ(state.receive(wire::Pong{}), Change::Nothing);
+}
+
+// Issue 37 §1: the frame advice both clients follow. None: every frame at the camera's size;
+// 320x240 at 10 a second from a 640x480 camera at 30: every third frame, halved; an advised size
+// that is not the camera's over a power of two: the camera's.
+TEST(FramePacer, SendsTheAdvisedSizeAtTheAdvisedRate) {
+  client::FramePacer pacer;
+  int frame = 3000;  // the camera's clock: frame / 30 s
+  const auto run = [&](int frames) {
+    int sent = 0, reduction = 0;
+    for (int k = 0; k < frames; ++k) {
+      const double t = ++frame / 30.0;
+      const client::FramePacer::Decision d = pacer.frame_due(t, 640, 480, 30.0);
+      if (!d.send) continue;
+      ++sent, reduction = d.reduction;
+      pacer.sent(t);
+    }
+    return std::pair{sent, reduction};
+  };
+  EXPECT_EQ(run(30), (std::pair{30, 1}));
+  EXPECT_EQ(pacer.held_back(), 0u);
+  pacer.advise(wire::LightingUpdate{.advised_width = 320, .advised_height = 240, .advised_fps = 10});
+  EXPECT_EQ(run(30), (std::pair{10, 2}));
+  EXPECT_EQ(pacer.held_back(), 20u);
+  pacer.advise(wire::LightingUpdate{.advised_width = 160, .advised_height = 120, .advised_fps = 30});
+  EXPECT_EQ(run(30), (std::pair{30, 4}));
+  pacer.advise(wire::LightingUpdate{.advised_width = 200, .advised_height = 150, .advised_fps = 0});
+  EXPECT_EQ(run(30), (std::pair{30, 1}));
 }

@@ -205,6 +205,24 @@ TEST(WireCodec, ExposureAdviceRangesAreChecked) {
   EXPECT_EQ(std::get<wire::ExposureAdvice>(wire::decode(wire::encode(fine))), fine);
 }
 
+// Frame advice in a LightingUpdate (issue 37 §1): half a size, or a rate that is not one.
+TEST(WireCodec, FrameAdviceRangesAreChecked) {
+  const auto refused_field = [](std::uint16_t w, std::uint16_t h, float fps) {
+    const DecodeError e = refusal(wire::encode(
+        wire::LightingUpdate{.advised_width = w, .advised_height = h, .advised_fps = fps}));
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+    EXPECT_EQ(e.message(), "LightingUpdate");
+    return e.field();
+  };
+  EXPECT_EQ(refused_field(160, 0, 30), "advised_width");
+  EXPECT_EQ(refused_field(0, 120, 30), "advised_width");
+  EXPECT_EQ(refused_field(160, 120, -1), "advised_fps");
+  EXPECT_EQ(refused_field(160, 120, std::numeric_limits<float>::quiet_NaN()), "advised_fps");
+  EXPECT_EQ(refused_field(160, 120, 1000), "advised_fps");
+  const wire::LightingUpdate fine{.advised_width = 160, .advised_height = 120, .advised_fps = 10};
+  EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
+}
+
 // Location (issue 17): a place off the Earth, a time the ephemeris does not cover, a north
 // that is not an azimuth; and a LightingUpdate's sun that is not a direction or a state.
 TEST(WireCodec, LocationAndTheSunAreChecked) {

@@ -82,6 +82,10 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(status.frames_sent >= room.frames - 8, `only ${status.frames_sent} of ${room.frames} frames sent`);
     assert.ok(status.frames_processed >= status.frames_sent * 0.9,
       `${status.frames_processed} of ${status.frames_sent} frames processed`);
+    // A 320x240 camera into arlightd's map: its frames are wanted at their size, and at 2 a
+    // second none is held back (the advice asks for at most 30 or, once they agree, 10).
+    assert.deepEqual(status.advised_size, [320, 240]);
+    assert.equal(status.frames_held_back, 0);
     assert.ok(status.map_sets >= 1);
     assert.equal(status.lighting, 'maps');
     assert.ok(status.coverage > 0.9, `coverage ${status.coverage}`);

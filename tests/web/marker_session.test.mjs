@@ -94,6 +94,11 @@ test('the page tracks the marker, stands the object on it and refines its focal 
     const tracks = await page.evaluate(() => window.arlight.tracks());
     assert.deepEqual(pageErrors, []);
     assert.equal(status.last_error, '');
+    // Issue 37 §1: arlightd asked for this 640x480 camera's frames at 320x240 (its map and its
+    // alignment resolve no more), the page sent them so, and arlightd took them.
+    assert.deepEqual(status.advised_size, [320, 240]);
+    assert.ok(status.frames_sent > 0 && status.frames_processed >= 0.9 * status.frames_sent,
+      `${status.frames_processed} of ${status.frames_sent} reduced frames processed`);
     const raw = trackErrors(tracks, room, 'raw');
     const smoothed = trackErrors(tracks, room, 'smoothed');
     console.log(`tracked ${raw.frames.size} of ${visible} visible frames (opencv.js ready at ${status.tracker_ready_media_time} s; ` +

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -70,7 +71,9 @@ void write_coverage_png(const fs::path& path, const capture::CaptureSession& s) 
 struct CaptureTally {
   nlohmann::json skipped = nlohmann::json::array(), per_frame = nlohmann::json::array();
   std::vector<double> total_ms, decode_ms, linearize_ms, align_ms, exposure_ms, project_ms, sh_ms;
-  double exposure_squared_error = 0.0;  // stops, of estimated against recorded (relative)
+  std::vector<std::vector<double>> pass_ms;  // per pass: each used frame's ms
+  std::vector<std::size_t> pass_unchanged;   // per pass: frames not merged
+  double exposure_squared_error = 0.0;       // stops, of estimated against recorded (relative)
   std::size_t exposures_compared = 0;
   double squared_error = 0.0;  // degrees, of the orientation against the truth
   std::size_t compared = 0, aligned = 0;
@@ -93,6 +96,12 @@ void report_capture(const CaptureFlags& o, const recording::Recording& rec,
   j["stages_median_ms"] = {{"decode", median(t.decode_ms)},   {"linearize", median(t.linearize_ms)},
                            {"align", median(t.align_ms)},     {"exposure", median(t.exposure_ms)},
                            {"project", median(t.project_ms)}, {"sh", median(t.sh_ms)}};
+  j["merge"] = o.merge;
+  j["passes"] = nlohmann::json::array();
+  for (std::size_t p = 0; p < t.pass_ms.size(); ++p)
+    j["passes"].push_back({{"frames", t.pass_ms[p].size()},
+                           {"frames_unchanged", t.pass_unchanged[p]},
+                           {"median_frame_ms", median(t.pass_ms[p])}});
   j["aligned_frames"] = t.aligned;
   if (t.compared) j["orientation_rms_deg"] = std::sqrt(t.squared_error / double(t.compared));
   j["sh_order"] = session.sh().order;
@@ -138,6 +147,13 @@ int run_capture(const CaptureFlags& o, const recording::Recording& rec) {
   if (o.exposure != "known" && o.exposure != "locked" && o.exposure != "estimate")
     throw InputError("--exposure: expected known, locked or estimate, got '" + o.exposure + "'");
   options.estimate_exposure = o.exposure == "estimate";
+  if (o.merge == "all") {
+    options.confident_weight = options.changed_ratio = std::numeric_limits<double>::infinity();
+    options.unchanged_share = options.unchanged_bias = 0.0;
+  } else if (o.merge != "changes") {
+    throw InputError("--merge: expected changes or all, got '" + o.merge + "'");
+  }
+  if (o.passes < 1 || o.passes > 1000) throw InputError("--passes must be in [1, 1000]");
   capture::CaptureSession session(rec.camera, choose_response(o, rec), options);
   const std::optional<recording::Truth> truth = recording::read_truth(rec.folder);
 
@@ -145,53 +161,69 @@ int run_capture(const CaptureFlags& o, const recording::Recording& rec) {
   // --exposure locked|estimate: the recorded exposures are withheld, every frame is given the
   // first one's (as arlightd does for a browser); `estimate` then measures each frame's.
   std::optional<double> locked_exposure;
-  recording::FrameReader reader(rec, false, [&](std::size_t i, const std::string& why) {
-    tally.skipped.push_back({{"frame", i}, {"reason", why}});
-  });
   if (o.until_coverage < 0.0 || o.until_coverage > 1.0)
     throw InputError("--until-coverage must be a fraction in [0, 1]");
-  while (const auto item = reader.next()) {
-    if (o.until_coverage > 0.0 && session.coverage() >= o.until_coverage) break;
-    const std::size_t i = item->index;
-    recording::Frame f = *item->frame;
-    const double recorded = f.exposure * f.gain;
-    if (o.exposure != "known") {
-      if (!locked_exposure) locked_exposure = recorded;
-      f.exposure = *locked_exposure, f.gain = 1.0;
+  // A pass after the first continues the clock: its timestamps are the recording's plus the
+  // recording's span (and a frame's interval) per pass.
+  const double span = rec.frames.empty()
+                          ? 0.0
+                          : rec.frames.back().timestamp - rec.frames.front().timestamp + 1.0 / 30.0;
+  for (int pass = 0; pass < o.passes; ++pass) {
+    tally.pass_ms.emplace_back();
+    tally.pass_unchanged.push_back(0);
+    recording::FrameReader reader(rec, false, [&](std::size_t i, const std::string& why) {
+      if (pass == 0) tally.skipped.push_back({{"frame", i}, {"reason", why}});
+    });
+    while (const auto item = reader.next()) {
+      if (o.until_coverage > 0.0 && session.coverage() >= o.until_coverage) break;
+      const std::size_t i = item->index;
+      recording::Frame f = *item->frame;
+      f.timestamp += span * pass;
+      const double recorded = f.exposure * f.gain;
+      if (o.exposure != "known") {
+        if (!locked_exposure) locked_exposure = recorded;
+        f.exposure = *locked_exposure, f.gain = 1.0;
+      }
+      const capture::FrameResult r = session.add_encoded(item->jpeg, f);
+      if (!r.used) {
+        reader.skip(i, r.skipped_reason);
+        continue;
+      }
+      tally.pass_ms.back().push_back(r.total_ms());
+      tally.pass_unchanged.back() += r.unchanged ? 1 : 0;
+      tally.total_ms.push_back(r.total_ms());
+      tally.decode_ms.push_back(r.decode_ms), tally.linearize_ms.push_back(r.linearize_ms);
+      tally.align_ms.push_back(r.align_ms), tally.project_ms.push_back(r.project_ms);
+      tally.sh_ms.push_back(r.sh_ms);
+      tally.exposure_ms.push_back(r.exposure_ms);
+      tally.aligned += r.aligned ? 1 : 0;
+      nlohmann::json row = {{"frame", i},
+                            {"ms", r.total_ms()},
+                            {"aligned", r.aligned},
+                            {"inliers", r.align_inliers},
+                            {"correction_deg", r.correction_deg},
+                            {"align_note", r.align_note},
+                            {"pass", pass},
+                            {"texels_changed", r.texels_changed},
+                            {"unchanged", r.unchanged},
+                            {"change", r.change},
+                            {"bias", r.bias},
+                            {"exposure_gain", r.exposure_gain}};
+      if (o.exposure == "estimate") {
+        row["exposure_estimated"] = r.exposure_estimated;
+        row["exposure_samples"] = r.exposure_samples;
+        const double stops = std::log2(r.exposure_gain / recorded);
+        tally.exposure_squared_error += stops * stops;
+        ++tally.exposures_compared;
+      }
+      if (truth && i < truth->poses.size()) {
+        const double e = angle_deg(r.orientation, truth->poses[i].orientation);
+        tally.squared_error += e * e;
+        ++tally.compared;
+        row["error_deg"] = e;
+      }
+      tally.per_frame.push_back(row);
     }
-    const capture::FrameResult r = session.add_encoded(item->jpeg, f);
-    if (!r.used) {
-      reader.skip(i, r.skipped_reason);
-      continue;
-    }
-    tally.total_ms.push_back(r.total_ms());
-    tally.decode_ms.push_back(r.decode_ms), tally.linearize_ms.push_back(r.linearize_ms);
-    tally.align_ms.push_back(r.align_ms), tally.project_ms.push_back(r.project_ms);
-    tally.sh_ms.push_back(r.sh_ms);
-    tally.exposure_ms.push_back(r.exposure_ms);
-    tally.aligned += r.aligned ? 1 : 0;
-    nlohmann::json row = {{"frame", i},
-                          {"ms", r.total_ms()},
-                          {"aligned", r.aligned},
-                          {"inliers", r.align_inliers},
-                          {"correction_deg", r.correction_deg},
-                          {"align_note", r.align_note},
-                          {"texels_changed", r.texels_changed},
-                          {"exposure_gain", r.exposure_gain}};
-    if (o.exposure == "estimate") {
-      row["exposure_estimated"] = r.exposure_estimated;
-      row["exposure_samples"] = r.exposure_samples;
-      const double stops = std::log2(r.exposure_gain / recorded);
-      tally.exposure_squared_error += stops * stops;
-      ++tally.exposures_compared;
-    }
-    if (truth && i < truth->poses.size()) {
-      const double e = angle_deg(r.orientation, truth->poses[i].orientation);
-      tally.squared_error += e * e;
-      ++tally.compared;
-      row["error_deg"] = e;
-    }
-    tally.per_frame.push_back(row);
   }
 
   const EnvMap env = session.environment();

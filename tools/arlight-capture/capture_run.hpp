@@ -18,6 +18,8 @@ struct CaptureFlags {
   std::string fill = "estimate";
   double until_coverage = 0;       // > 0: stop once the map covers this fraction of the sphere
   std::string exposure = "known";  // known | locked | estimate
+  std::string merge = "changes";  // changes | all (CaptureOptions before issue 37)
+  int passes = 1;                  // the recording replayed this many times into one session
   int size = 512;
   int sh_order = 8;
   int align_every = 0;  // 0: the library's default

@@ -43,6 +43,15 @@ int main(int argc, char** argv) {
   app.add_option("--until-coverage", o.until_coverage,
                  "stop once the map covers this fraction of the sphere (what a user has that "
                  "far into a sweep)");
+  app.add_option("--passes", o.passes,
+                 "replay the recording this many times into the one map (a phone that keeps "
+                 "looking round the room; timestamps continue)")
+      ->capture_default_str();
+  app.add_option("--merge", o.merge,
+                 "changes: frames that agree with the map are not merged and a changed room "
+                 "replaces what was there (as arlightd); all: every frame into a plain "
+                 "weighted mean")
+      ->capture_default_str();
   app.add_option("--json", o.json, "write a JSON report here");
   app.add_option("--response", o.response,
                  "camera response: srgb | filmic | FILE (default: the device's curve from "

@@ -2,11 +2,15 @@
 
 #include <cmath>
 #include <mutex>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <thread>
 
 #include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
+#include "arlight/net/frame_pacer.hpp"
 
 namespace arlight::load {
 
@@ -18,13 +22,38 @@ bool retryable(const client::ClientError& e) { return e.code() == "Network" || e
 
 }  // namespace
 
-void run_session(const SessionPlan& plan, const recording::Recording& rec,
-                 const std::vector<std::vector<std::uint8_t>>& jpegs,
+FrameJpegs::FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height)
+    : width_(width), height_(height) {
+  by_level_[0] = std::make_unique<std::vector<std::vector<std::uint8_t>>>(std::move(full));
+}
+
+const std::vector<std::vector<std::uint8_t>>& FrameJpegs::at(int reduction) {
+  int level = 0;
+  while (level < 3 && (1 << level) < reduction) ++level;
+  std::lock_guard lock(mutex_);
+  if (!by_level_[std::size_t(level)]) {
+    const int k = 1 << level;
+    auto reduced = std::make_unique<std::vector<std::vector<std::uint8_t>>>();
+    for (const std::vector<std::uint8_t>& jpeg : *by_level_[0]) {
+      reduced->emplace_back();
+      if (jpeg.empty()) continue;  // an unusable frame stays unusable
+      cv::Mat im = cv::imdecode(jpeg, cv::IMREAD_COLOR), small;
+      if (im.empty()) continue;
+      cv::resize(im, small, cv::Size(width_ / k, height_ / k), 0, 0, cv::INTER_AREA);
+      cv::imencode(".jpg", small, reduced->back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+    }
+    by_level_[std::size_t(level)] = std::move(reduced);
+  }
+  return *by_level_[std::size_t(level)];
+}
+
+void run_session(const SessionPlan& plan, const recording::Recording& rec, FrameJpegs& jpegs,
                  const std::vector<std::size_t>& usable, Clock::time_point start,
                  SessionReport& report) {
   try {
     std::mutex m;
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
+    client::FramePacer pacer;  // the daemon's frame advice (PROTOCOL.md)
     Clock::time_point first;
     const auto open = [&](const std::string& resume) {
       auto c = std::make_unique<client::Client>();
@@ -41,6 +70,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec,
         }
         report.processed = u.frames_processed;
         report.dropped = u.frames_dropped;
+        pacer.advise(u);
       };
       c->on_map_set_complete = [&](const client::ReceivedMapSet&) {
         std::lock_guard lock(m);
@@ -109,16 +139,28 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec,
       }
       const std::size_t i = usable[(k + plan.first_frame) % usable.size()];
       const auto& f = rec.frames[i];
+      int reduction = 1;
       {
         std::lock_guard lock(m);
+        if (plan.follow_advice) {
+          const double now_s = std::chrono::duration<double>(Clock::now() - start).count();
+          const client::FramePacer::Decision d =
+              pacer.frame_due(now_s, jpegs.width(), jpegs.height(), plan.rate);
+          report.held_back = pacer.held_back();
+          if (!d.send) continue;
+          reduction = d.reduction;
+          pacer.sent(now_s);
+        }
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
         ++report.sent;
       }
       try {
+        const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
+        report.bytes_sent += jpeg.size();
         c->send_jpeg_frame(report.sent, {double(k) / plan.rate, f.exposure, f.gain, f.orientation},
-                           rec.camera.width, rec.camera.height, jpegs[i]);
+                           rec.camera.width / reduction, rec.camera.height / reduction, jpeg);
       } catch (const client::ClientError&) {  // noticed before the next frame
       }
     }

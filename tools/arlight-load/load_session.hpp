@@ -2,8 +2,11 @@
 // would, and records what came back (latencies, map sets, drops, the outages it survived).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -27,6 +30,8 @@ struct SessionReport {
   bool failed = false;
   std::string error;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+  std::uint64_t held_back = 0;  // frames not sent: the daemon's frame advice asked for fewer
+  std::uint64_t bytes_sent = 0;  // of the frames' JPEGs
   std::vector<double> latency_ms;
   std::vector<double> map_set_ms;  // from the first frame to each completed map set
   // Per frame (index = sequence - 1): when it was sent (ms since the run started) and its
@@ -48,13 +53,32 @@ struct SessionPlan {
   // How long a session may be without its daemon before it counts as failed (0: any loss
   // fails it); while it is, it reconnects (at once, then every 100 ms) and resumes.
   double reconnect_s = 0;
+  // Follow the LightingUpdates' frame advice (PROTOCOL.md): send the smaller JPEG it asks for and
+  // hold frames back to its rate. false: every frame at the recording's size (a raw flood).
+  bool follow_advice = true;
 };
 
-// Runs one session to its end (frames sent at plan.rate for plan.duration, then the last
+// The recording's JPEGs at the camera's size and, made when first asked for, reduced by 2, 4
+// or 8 (area averaging, quality 90), as a phone following the frame advice would send them;
+// shared by every session (thread-safe).
+class FrameJpegs {
+ public:
+  FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height);
+  // The frames `reduction` times smaller each side (1: as recorded).
+  const std::vector<std::vector<std::uint8_t>>& at(int reduction);
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  int width_, height_;
+  std::mutex mutex_;
+  std::array<std::unique_ptr<std::vector<std::vector<std::uint8_t>>>, 4> by_level_;  // 1, 2, 4, 8
+};
+
+// Runs one session to its end (frames due at plan.rate for plan.duration, then the last
 // updates awaited); a failure is recorded in the report, not thrown. `usable` lists the
-// recording's frames with a JPEG (jpegs[i]); `start` is the run's common clock origin.
-void run_session(const SessionPlan& plan, const recording::Recording& rec,
-                 const std::vector<std::vector<std::uint8_t>>& jpegs,
+// recording's frames with a JPEG (jpegs.at(1)[i]); `start` is the run's common clock origin.
+void run_session(const SessionPlan& plan, const recording::Recording& rec, FrameJpegs& jpegs,
                  const std::vector<std::size_t>& usable, Clock::time_point start,
                  SessionReport& report);
 

@@ -47,6 +47,10 @@ int main(int argc, char** argv) {
   app.add_option("--trace", trace_path,
                  "write every frame as CSV: session,sequence,sent_ms,latency_ms (empty when no "
                  "update reflects it)");
+  bool ignore_advice = false;
+  app.add_flag("--ignore-advice", ignore_advice,
+               "send every frame at the recording's size and --rate whatever the daemon's frame "
+               "advice says (a raw flood, as before it)");
   double reconnect_s = 0;
   app.add_option("--reconnect", reconnect_s,
                  "seconds a session may be without its daemon (killed, restarted, behind a "
@@ -79,6 +83,11 @@ int main(int argc, char** argv) {
     if (ggx_face < 0 || ggx_face > 4096) throw InputError("--ggx must be a face in [1, 4096]");
     base.rate = rate, base.duration = duration, base.maps = maps, base.ggx_face = ggx_face;
     base.connection = connection, base.reconnect_s = reconnect_s;
+    base.follow_advice = !ignore_advice;
+    FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height);
+    if (base.follow_advice)  // made now, not while the sessions' clocks run
+      for (int k = 2; k <= 8; k *= 2)
+        if (rec.camera.width % k == 0 && rec.camera.height % k == 0) frames.at(k);
 
     std::vector<SessionReport> reports(static_cast<std::size_t>(sessions));
     std::vector<std::thread> threads;
@@ -88,7 +97,7 @@ int main(int argc, char** argv) {
         SessionPlan plan = base;
         plan.phase = spread ? double(s) / sessions : 0.0;
         plan.first_frame = spread ? std::size_t(s) * usable.size() / std::size_t(sessions) : 0;
-        run_session(plan, rec, jpegs, usable, start, reports[std::size_t(s)]);
+        run_session(plan, rec, frames, usable, start, reports[std::size_t(s)]);
       });
     for (auto& t : threads) t.join();
 

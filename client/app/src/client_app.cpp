@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "arlight/common/atomic_file.hpp"
 #include "arlight/common/error.hpp"
@@ -91,12 +92,24 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
 
   // To arlightd: the frame with its orientation (none yet: a webcam before the marker).
   const double exposure = f.exposure > 0 ? f.exposure : kUnknownExposure;
-  if (world_from_camera) {
+  // At the size and rate the daemon's frame advice asks for (PROTOCOL.md): reduced in one step
+  // by area averaging, then encoded.
+  const client::FramePacer::Decision due =
+      world_from_camera ? channel.frame_due(f.timestamp, f.bgr.cols, f.bgr.rows)
+                        : client::FramePacer::Decision{};
+  report.held_back = world_from_camera && !due.send;
+  if (world_from_camera && due.send) {
+    cv::Mat image = f.bgr;
+    if (due.reduction > 1)
+      cv::resize(f.bgr, image, cv::Size(f.bgr.cols / due.reduction, f.bgr.rows / due.reduction),
+                 0, 0, cv::INTER_AREA);
     std::vector<std::uint8_t> encoded;
-    if (f.jpeg.empty()) cv::imencode(".jpg", f.bgr, encoded, {cv::IMWRITE_JPEG_QUALITY, 90});
-    channel.send_frame(f.index + 1, {f.timestamp, exposure, f.gain, *world_from_camera}, f.bgr.cols,
-                       f.bgr.rows, f.jpeg.empty() ? encoded : f.jpeg);
+    const bool reencode = f.jpeg.empty() || due.reduction > 1;
+    if (reencode) cv::imencode(".jpg", image, encoded, {cv::IMWRITE_JPEG_QUALITY, 90});
+    channel.send_frame(f.index + 1, {f.timestamp, exposure, f.gain, *world_from_camera}, image.cols,
+                       image.rows, reencode ? encoded : f.jpeg);
     report.sent = true;
+    report.sent_width = image.cols, report.sent_height = image.rows;
   }
 
   // Lighting: the newest map set once there is one, the live SH before.

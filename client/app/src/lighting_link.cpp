@@ -58,6 +58,7 @@ bool LightingLink::connect_once() {
   c->on_update = [this](const client::LightingUpdate& u) {
     std::lock_guard lock(mutex_);
     lighting_.apply(u);
+    pacer_.advise(u);
     ++stats_.updates;
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;
@@ -169,6 +170,14 @@ void LightingLink::run() {
   }
 }
 
+client::FramePacer::Decision LightingLink::frame_due(double timestamp, int width, int height) {
+  constexpr double kCameraFps = 30.0;  // the jitter the pacer allows: half a frame of it
+  std::lock_guard lock(mutex_);
+  const client::FramePacer::Decision d = pacer_.frame_due(timestamp, width, height, kCameraFps);
+  stats_.frames_held_back = pacer_.held_back();
+  return d;
+}
+
 void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                               std::span<const std::uint8_t> jpeg) {
   std::shared_ptr<client::Client> c;
@@ -186,6 +195,7 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
   }
   std::lock_guard lock(mutex_);
   ++(sent ? stats_.frames_sent : stats_.frames_not_sent);
+  if (sent) pacer_.sent(info.timestamp);
 }
 
 Lighting LightingLink::lighting() const {

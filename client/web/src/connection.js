@@ -69,20 +69,24 @@ export class Connection {
    */
   offerFrame(q, take, mediaTime) {
     const { ws } = this;
-    if (state.connected && !this.encoding && ws.readyState === WebSocket.OPEN &&
-        ws.bufferedAmount <= kMaxBuffered) this.sendFrame(q, take, mediaTime);
+    if (!(state.connected && !this.encoding && ws.readyState === WebSocket.OPEN &&
+          ws.bufferedAmount <= kMaxBuffered)) return;
+    // The daemon's frame advice (PROTOCOL.md): at most the rate it needs, at the size it needs.
+    const due = this.client.frameDue(performance.now() / 1000);
+    if (due.send) this.sendFrame(q, take, mediaTime, due.reduction);
   }
 
   // `take` is called before the first await: the frame it copies is closed once the caller is done.
-  async sendFrame(q, take, mediaTime) {
+  async sendFrame(q, take, mediaTime, reduction) {
     this.encoding = true;
     try {
       const t0 = performance.now();
-      // The frame drawn for the composite, encoded off the main thread.
-      const jpeg = await this.encoder.encode(await take(), kJpegQuality);
+      // The frame drawn for the composite, reduced and encoded off the main thread.
+      const jpeg = await this.encoder.encode(await take(), kJpegQuality, reduction);
       state.jpegMs = performance.now() - t0;
       const seq = ++this.sequence;
-      this.ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg));
+      this.ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg,
+                                     reduction));
       this.sentAt.set(seq, performance.now());
       state.framesSent = seq;
       state.sent.push({ media_time: mediaTime, orientation: q });

@@ -14,12 +14,15 @@ export class JpegEncoder {
     };
   }
 
-  /** `image` (a VideoFrame or ImageBitmap, transferred) -> a promise of its JPEG's bytes. */
-  encode(image, quality) {
+  /**
+   * `image` (a VideoFrame or ImageBitmap, transferred) -> a promise of its JPEG's bytes, the
+   * image `reduction` (1, 2, 4, 8) times smaller each side.
+   */
+  encode(image, quality, reduction = 1) {
     const id = ++this.next;
     return new Promise((resolve, reject) => {
       this.pending.set(id, { resolve, reject });
-      this.worker.postMessage({ id, image, quality }, [image]);
+      this.worker.postMessage({ id, image, quality, reduction }, [image]);
     });
   }
 }

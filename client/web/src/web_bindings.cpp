@@ -16,6 +16,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("markerSeen", &WebClient::marker_seen)
       .function("intrinsics", &WebClient::intrinsics)
       .function("frame", &WebClient::frame)
+      .function("frameDue", &WebClient::frame_due)
       .function("requestMaps", &WebClient::request_maps)
       .function("requestMapsIfChanged", &WebClient::request_maps_if_changed)
       .function("receive", &WebClient::receive)

@@ -52,16 +52,28 @@ val WebClient::intrinsics() {
   return bytes_to_js(wire::encode(wire::CameraIntrinsicsMessage{camera_}));
 }
 
+val WebClient::frame_due(double timestamp) {
+  constexpr double kCameraFps = 30.0;  // the jitter the pacer allows: half a frame of it
+  const client::FramePacer::Decision d = pacer_.frame_due(timestamp, width_, height_, kCameraFps);
+  val out = val::object();
+  out.set("send", d.send);
+  out.set("reduction", d.reduction);
+  return out;
+}
+
 val WebClient::frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
-                     const val& jpeg) {
+                     const val& jpeg, int reduction) {
+  if (!(reduction == 1 || reduction == 2 || reduction == 4 || reduction == 8)) reduction = 1;
   // exposure:unknown: the daemon locks the exposure anyway.
   const FrameInfo info{timestamp, wire::kLockedExposureSeconds, 1.0,
                        glm::normalize(glm::dquat(qw, qx, qy, qz))};
   const std::vector<std::uint8_t> bytes =
       emscripten::convertJSArrayToNumberVector<std::uint8_t>(jpeg);
   ++frames_sent_;
-  return bytes_to_js(
-      wire::encode(client::jpeg_frame(std::uint64_t(sequence), info, width_, height_, bytes)));
+  pacer_.sent(timestamp);
+  return bytes_to_js(wire::encode(client::jpeg_frame(std::uint64_t(sequence), info,
+                                                     width_ / reduction, height_ / reduction,
+                                                     bytes)));
 }
 
 val WebClient::request_maps() {
@@ -101,6 +113,7 @@ std::string WebClient::receive(const val& bytes) {
     return "refused: " + last_error_;
   }
   const std::string name = wire::message_name(m);
+  if (const auto* u = std::get_if<wire::LightingUpdate>(&m)) pacer_.advise(*u);
   const client::Lighting& lighting = state_.lighting();
   switch (state_.receive(std::move(m))) {
     case client::LightingState::Change::Error:

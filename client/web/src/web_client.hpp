@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "arlight/app/placement.hpp"
+#include "arlight/net/frame_pacer.hpp"
 #include "arlight/net/lighting_state.hpp"
 #include "arlight/render/render.hpp"
 #include "arlight/track/pose_filter.hpp"
@@ -51,8 +52,13 @@ class WebClient {
   // ---- messages to send (encoded) ----
   val hello(const std::string& device, const std::string& token, const std::string& resume);
   val intrinsics();
+  // A camera frame, its JPEG `reduction` times smaller each side than the camera (1: its size;
+  // what frame_due() said).
   val frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
-            const val& jpeg);
+            const val& jpeg, int reduction);
+  // Whether a frame due at `timestamp` (seconds, the clock frame() is given) should go, and how
+  // reduced: {send, reduction}, as the daemon's frame advice says (client::FramePacer).
+  val frame_due(double timestamp);
   // The maps the material needs: the Phong set, or the GGX chain for a metallic-roughness one.
   val request_maps();
   // The same when the material now needs the other kind than was last asked for, else null.
@@ -177,6 +183,7 @@ class WebClient {
   client::LightingState state_;  // what arlightd's messages built
   std::string last_error_;
   std::uint64_t frames_sent_ = 0, frames_rendered_ = 0;
+  client::FramePacer pacer_;  // the daemon's frame advice
   // Soft shadows: the native client's --shadow-lights and --target-fps defaults.
   client_app::ShadowBudget shadow_{16, 30.0};
   bool shadow_drawn_ = false;  // the last render() drew the shadow catcher

@@ -22,6 +22,11 @@ val WebClient::status() const {
   s.set("estimated", l.estimated);
   s.set("frame_exposure", frame_exposure());
   s.set("frames_encoded", double(frames_sent_));
+  // The daemon's frame advice (issue 37 §1) and the frames it held back.
+  s.set("frames_held_back", double(pacer_.held_back()));
+  s.set("advised_width", pacer_.advised_width());
+  s.set("advised_height", pacer_.advised_height());
+  s.set("advised_fps", pacer_.advised_fps());
   s.set("frames_rendered", double(frames_rendered_));
   const auto source = renderer_.lighting_source();
   s.set("lighting", std::string(source == render::LightingSource::Maps ? "maps"

@@ -34,22 +34,29 @@ void on_message(j_common_ptr info, int level) {
 
 // The part that may jump back: `image` belongs to the caller, so no object of this frame is
 // changed between setjmp and a longjmp.
-bool decode_into(std::span<const std::uint8_t> bytes, int scale, int width, int height,
-                 ErrorManager& err, jpeg_decompress_struct& info, cv::Mat& image) {
+bool decode_into(std::span<const std::uint8_t> bytes, std::span<const JpegSize> sizes,
+                 std::size_t& which, ErrorManager& err, jpeg_decompress_struct& info,
+                 cv::Mat& image) {
   if (setjmp(err.jump)) return false;
   jpeg_create_decompress(&info);
   jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
   jpeg_read_header(&info, TRUE);
   // Checked before anything is allocated: the header alone could ask for gigabytes.
-  if (int(info.image_width) != width || int(info.image_height) != height) {
+  which = 0;
+  while (which < sizes.size() && (int(info.image_width) != sizes[which].width ||
+                                  int(info.image_height) != sizes[which].height))
+    ++which;
+  if (which == sizes.size()) {
+    const JpegSize& full = sizes.front();
     std::snprintf(err.message, sizeof err.message,
-                  "image is %ux%u, the camera's intrinsics say %dx%d", info.image_width,
-                  info.image_height, width, height);
+                  "image is %ux%u, the camera's intrinsics say %dx%d%s", info.image_width,
+                  info.image_height, full.width, full.height,
+                  sizes.size() > 1 ? " (or that reduced by a power of two)" : "");
     return false;
   }
   info.out_color_space = JCS_EXT_BGR;
   info.scale_num = 1;
-  info.scale_denom = static_cast<unsigned>(scale);
+  info.scale_denom = static_cast<unsigned>(sizes[which].scale);
   jpeg_start_decompress(&info);
   image.create(static_cast<int>(info.output_height), static_cast<int>(info.output_width), CV_8UC3);
   while (info.output_scanline < info.output_height && !err.truncated) {
@@ -66,8 +73,8 @@ bool decode_into(std::span<const std::uint8_t> bytes, int scale, int width, int 
 
 }  // namespace
 
-cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, int scale, int width, int height,
-                        std::string& error) {
+cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, std::span<const JpegSize> sizes,
+                        std::size_t& which, std::string& error) {
   if (bytes.empty()) {
     error = "no data";
     return {};
@@ -78,7 +85,7 @@ cv::Mat decode_jpeg_bgr(std::span<const std::uint8_t> bytes, int scale, int widt
   err.base.error_exit = on_error;
   err.base.emit_message = on_message;
   cv::Mat image;
-  const bool ok = decode_into(bytes, scale, width, height, err, info, image);
+  const bool ok = decode_into(bytes, sizes, which, err, info, image);
   jpeg_destroy_decompress(&info);
   if (!ok) {
     error = err.message;

@@ -166,6 +166,9 @@ struct Daemon::Impl {
         "arlight_frames_dropped_total", "frames replaced by a newer one before processing");
     session_env.frames_skipped =
         &metrics.counter("arlight_frames_skipped_total", "frames refused by the capture library");
+    session_env.frames_unchanged = &metrics.counter(
+        "arlight_frames_unchanged_total",
+        "frames processed but not merged: they agreed with the map (issue 37)");
     session_env.map_sets = &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
     session_env.light_files = &metrics.counter(
         "arlight_light_files_total", "light files (light.json, specular.ktx2) computed for the admin");

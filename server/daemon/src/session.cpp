@@ -218,7 +218,14 @@ void Session::process() {
     if (r.used) {
       ++processed_;
       env_.frames_processed->inc();
-      dirty_ = true;
+      if (r.unchanged) {  // it agreed with the map: nothing new to checkpoint or compute
+        ++unchanged_, ++unchanged_run_;
+        if (env_.frames_unchanged) env_.frames_unchanged->inc();
+      } else {
+        ++merged_;
+        unchanged_run_ = 0;
+        dirty_ = true;
+      }
     } else {
       ++skipped_;
       env_.frames_skipped->inc();
@@ -275,7 +282,10 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .estimated = float(capture_->estimated_fraction()),
           .frame_exposure = r.used ? r.exposure_gain : 0.0,
           .sun_state = sun_.state(),
-          .sun_direction = glm::vec3(sun_.direction())};
+          .sun_direction = glm::vec3(sun_.direction()),
+          .advised_width = std::uint16_t(camera_->width / capture_->frame_reduction()),
+          .advised_height = std::uint16_t(camera_->height / capture_->frame_reduction()),
+          .advised_fps = unchanged_run_ >= kSettledFrames ? kSettledFps : kChangingFps};
 }
 
 std::string Session::request_maps(MapRequest r) {
@@ -318,7 +328,7 @@ std::string Session::request_maps(MapRequest r) {
 void Session::maybe_start_maps() {
   const MapSetScheduler::Decision d =
       maps_.decide({.time = Clock::now(),
-                    .frames_merged = processed_,
+                    .frames_merged = merged_,
                     .frames_waiting = frames_.active(),
                     .can_compute = request_ && capture_ && capture_->coverage() > 0.0});
   if (d.kind == MapSetScheduler::Decision::Kind::StartAt) start_maps_at(d.at);
@@ -341,7 +351,7 @@ void Session::start_map_set(bool preview) {
                 .input = std::move(snapshot.env),
                 .id = ++map_set_,
                 .coverage = capture_->coverage(),
-                .frames = processed_,
+                .frames = processed_,  // unchanged frames are in it too: they agreed with it
                 .preview = preview,
                 .frame_path = env_.frame_path,
                 .tile_coding = [this] {
@@ -542,6 +552,7 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
     throw InputError(where + ": " + e.what());
   }
   s->received_ = c->frames_received, s->processed_ = c->frames_processed;
+  s->merged_ = c->frames_processed;  // not checkpointed: what counts is that it grows
   s->dropped_ = c->frames_dropped, s->skipped_ = c->frames_skipped;
   s->last_sequence_ = c->last_sequence;
   s->request_ = c->request;
@@ -561,6 +572,7 @@ json Session::summary() const {
             {"frames_processed", processed_},
             {"frames_dropped", dropped_},
             {"frames_skipped", skipped_},
+            {"frames_unchanged", unchanged_},
             {"last_sequence", last_sequence_},
             {"map_sets", map_set_},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
@@ -597,7 +609,7 @@ std::shared_ptr<const Session::LightFiles> Session::light_files() const {
   {
     std::lock_guard serial(process_mutex_);
     std::lock_guard lock(mutex_);
-    frames = processed_;
+    frames = merged_;
     if (light_files_ && light_files_frames_ == frames) return light_files_;
     if (capture_) {
       env = capture_->environment();

@@ -52,6 +52,7 @@ struct SessionEnv {
   admin::Counter* frames_processed = nullptr;
   admin::Counter* frames_dropped = nullptr;
   admin::Counter* frames_skipped = nullptr;
+  admin::Counter* frames_unchanged = nullptr;
   admin::Counter* map_sets = nullptr;
   admin::Counter* light_files = nullptr;
   admin::Histogram* processing_seconds = nullptr;
@@ -168,6 +169,15 @@ class Session : public std::enable_shared_from_this<Session> {
   SunTracker sun_;      // the client's place and time, and the sun checked against the map
   FrameQueue frames_;   // at most env_.queue_depth frames wait; one a turn on the worker pool
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
+  // Of the processed frames: merged into the map (what map sets and light files follow), or
+  // not, agreeing with it (capture::FrameResult::unchanged).
+  std::uint64_t merged_ = 0, unchanged_ = 0;
+  // Frame advice (issue 37 §1, PROTOCOL.md): the frame rate a session needs while its frames
+  // change the map, and once the last kSettledFrames agreed with it. A light switched on then
+  // shows at the next frame, within 0.1 s, and the rate goes back up.
+  static constexpr float kChangingFps = 30.0f, kSettledFps = 10.0f;
+  static constexpr std::uint32_t kSettledFrames = 10;
+  std::uint32_t unchanged_run_ = 0;  // frames in a row that agreed with the map
   double coverage_ = 0.0;  // the capture's, as of the last frame (for summary())
   bool dirty_ = false;
   int checkpoint_generation_ = 0;
@@ -184,7 +194,7 @@ class Session : public std::enable_shared_from_this<Session> {
   // thread-safe: even its const reads refit the fill when it is due); taken before mutex_.
   mutable std::mutex process_mutex_;
   mutable std::mutex checkpoint_mutex_;  // one checkpoint at a time (periodic, Bye, idle, ...)
-  // light_files() of the map after `light_files_frames_` processed frames; taken before
+  // light_files() of the map after `light_files_frames_` merged frames; taken before
   // process_mutex_ and mutex_, and held while computing (one computation a session at a time).
   mutable std::mutex light_files_mutex_;
   mutable std::shared_ptr<const LightFiles> light_files_;

@@ -168,6 +168,11 @@ struct LightingUpdate {
   // dominant_direction is the sun's direction.
   SunState sun_state = SunState::Unknown;
   glm::vec3 sun_direction{0.0f};
+  // The frames the server needs now (PROTOCOL.md, frame advice): at most advised_width x
+  // advised_height (the camera's size reduced by a power of two: what its map can hold) and
+  // advised_fps a second (fewer once the frames agree with the map). 0: no advice.
+  std::uint16_t advised_width = 0, advised_height = 0;
+  float advised_fps = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

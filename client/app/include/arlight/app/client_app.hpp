@@ -32,6 +32,12 @@ namespace arlight::client_app {
 class LightingChannel {
  public:
   virtual ~LightingChannel() = default;
+  // Whether a camera frame of width x height taken at `timestamp` should go, and how reduced
+  // (the daemon's frame advice, PROTOCOL.md); by default every frame, at its size.
+  virtual client::FramePacer::Decision frame_due(double /*timestamp*/, int /*width*/,
+                                                 int /*height*/) {
+    return {};
+  }
   virtual void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                           std::span<const std::uint8_t> jpeg) = 0;
   virtual Lighting lighting() const = 0;
@@ -40,6 +46,9 @@ class LightingChannel {
 class LinkChannel final : public LightingChannel {
  public:
   explicit LinkChannel(LightingLink& link) : link_(link) {}
+  client::FramePacer::Decision frame_due(double timestamp, int width, int height) override {
+    return link_.frame_due(timestamp, width, height);
+  }
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg) override {
     link_.send_frame(sequence, info, width, height, jpeg);
@@ -99,6 +108,8 @@ struct FrameReport {
   bool tracked = false;
   std::string track_status;  // "tracked" or why not
   bool sent = false;         // went to the lighting channel (a webcam before the marker: no)
+  bool held_back = false;    // not sent: the daemon's frame advice asked for fewer frames
+  int sent_width = 0, sent_height = 0;  // the size it went at (the advice may reduce it)
   bool exposure_requested = false;  // taken at arlightd's exposure advice
   bool drawn = false;
   render::LightingSource lit_by = render::LightingSource::None;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "arlight/net/client_net.hpp"
+#include "arlight/net/frame_pacer.hpp"
 
 namespace arlight::client_app {
 
@@ -56,6 +57,7 @@ struct LinkStats {
   std::vector<Resume> resumes;
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
   std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
+  std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts
 };
@@ -73,6 +75,10 @@ class LightingLink {
   // server's reason (e.g. Unauthorized) when it was refused, or when nothing answered.
   void wait_connected(std::chrono::milliseconds timeout);
 
+  // Whether a camera frame of width x height taken at `timestamp` (seconds) should go, and how
+  // reduced: the daemon's newest frame advice (client::FramePacer). A frame send_frame() sent
+  // counts from its timestamp.
+  client::FramePacer::Decision frame_due(double timestamp, int width, int height);
   // Forwards a frame when connected; counted as not sent otherwise (the renderer goes on).
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg);
@@ -101,6 +107,7 @@ class LightingLink {
   Lighting lighting_;
   LinkStats stats_;
   std::optional<double> advice_;
+  client::FramePacer pacer_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
   std::atomic<bool> stop_{false};

@@ -67,6 +67,26 @@ struct CaptureOptions {
   // ratio over well-exposed samples); the first frame's reported value sets the map's scale,
   // and a frame that overlaps too little keeps the last estimate.
   bool estimate_exposure = false;
+  // A room that changes, and frames that add nothing (issue 37 §1). A texel's weight stops
+  // growing at `confident_weight` (about as many well-exposed frames): later frames move it by
+  // their share of that, so a change in the room is followed in a few dozen frames instead of
+  // being averaged away by all the earlier ones. A well-exposed sample (weight >= 0.5) that
+  // differs from a texel measured with weight >= 0.5 by more than `changed_ratio` of the
+  // brighter luminance replaces it: a light switched on (or off) shows at once; clipped and dark
+  // samples never replace. A frame that sees nothing new and agrees with the map where both are
+  // measured well (samples and texels of weight >= 0.5) is not merged (FrameResult::unchanged):
+  // it costs its sampling, not the map's and the SH's update. It agrees when, in luminance x
+  // solid angle over those texels, sum |frame - map| < `unchanged_share` x sum map (noise and
+  // edges; a lamp switched on is far more) and |sum (frame - map)| < `unchanged_bias` x sum map
+  // (noise cancels there, so a room dimming by more than that is followed). Measured on
+  // simulated sweeps (bench/capture_merge.sh): a confident weight of 4, or replacing at a
+  // quarter's difference, cost up to 0.2 points of irradiance error and 0.1° of alignment (the
+  // map the alignment renders follows each misaligned frame); 16 and two thirds cost nothing.
+  // Infinity, infinity, 0, 0: every frame merged into a plain weighted mean (before issue 37).
+  double confident_weight = 16.0;
+  double changed_ratio = 2.0 / 3.0;  // the brighter at least 3x the darker
+  double unchanged_share = 0.04;
+  double unchanged_bias = 0.005;
 };
 
 // What one frame carries besides its pixels (common/, shared with the client and the wire).
@@ -81,6 +101,11 @@ struct FrameResult {
   std::string align_note;     // why the alignment was not used, when it was tried
   double correction_deg = 0;  // angle between the sensor and the used orientation
   std::size_t texels_changed = 0;
+  // Used, but it agreed with the map (CaptureOptions::unchanged_share): not merged, the map and
+  // the SH are as they were. `change` and `bias`: how it differed (the shares the test reads),
+  // merged or not; 0 where nothing it saw was measured well before.
+  bool unchanged = false;
+  double change = 0, bias = 0;
   double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
   bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
   int exposure_samples = 0;         // the overlapping samples that measurement had
@@ -110,11 +135,16 @@ class CaptureSession {
   CaptureSession(CaptureSession&&) noexcept;
   CaptureSession& operator=(CaptureSession&&) noexcept;
 
-  // Decodes a JPEG (or any format OpenCV reads) and adds it. Never throws for bad input: a
-  // frame that cannot be used comes back with used = false and the reason.
+  // Decodes a JPEG and adds it. Never throws for bad input: a frame that cannot be used comes
+  // back with used = false and the reason. The JPEG is of the camera's size, or of that size
+  // divided by a power of two up to frame_reduction() (the same camera's frame, reduced).
   FrameResult add_encoded(std::span<const std::uint8_t> bytes, const FrameInfo& info);
-  // Adds an 8-bit BGR image (OpenCV's channel order) of the camera's size.
+  // Adds an 8-bit BGR image (OpenCV's channel order) of the camera's size, or reduced as above.
   FrameResult add_image(const cv::Mat& bgr8, const FrameInfo& info);
+  // How much smaller than the camera's size (each side, a power of two, 1..8) frames may come
+  // and lose nothing: the map's texels and the alignment's resolution need no more pixels.
+  // (issue 37 §1: what arlightd advises clients to send; 640x480 into arlightd's map: 4.)
+  int frame_reduction() const;
 
   const EnvLayout& layout() const;
   const CameraIntrinsics& camera() const;

@@ -1,0 +1,27 @@
+#include "arlight/net/frame_pacer.hpp"
+
+namespace arlight::client {
+
+void FramePacer::advise(const wire::LightingUpdate& update) {
+  width_ = update.advised_width, height_ = update.advised_height, fps_ = update.advised_fps;
+}
+
+FramePacer::Decision FramePacer::frame_due(double now_s, int width, int height,
+                                           double camera_fps) {
+  Decision d;
+  if (fps_ > 0.0f && any_sent_) {
+    const double jitter = camera_fps > 0.0 ? 0.5 / camera_fps : 0.0;
+    if (now_s - last_sent_s_ < 1.0 / double(fps_) - jitter) {
+      ++held_back_;
+      d.send = false;
+      return d;
+    }
+  }
+  for (int k = 2; k <= 8; k *= 2)
+    if (width_ > 0 && width % k == 0 && height % k == 0 && width / k == width_ &&
+        height / k == height_)
+      d.reduction = k;
+  return d;
+}
+
+}  // namespace arlight::client
