@@ -150,6 +150,7 @@ bench: deps
 	bench/eval_rooms.sh $(BUILD) out/bench/eval data/probes/venice.exr data/probes/lab.exr \
 	  data/probes/park.exr
 	bench/load_maps.sh $(BUILD) out/bench/load_maps 1 4 8
+	bench/capture_merge.sh $(BUILD) out/bench/capture_merge
 	for p in park venice studio; do $(BUILD)/bin/arlight-bench-ggx --probe data/probes/$$p.exr \
 	  --json out/bench/ggx_$$p.json; done
 	$(BUILD)/bin/arlight-bench-pbr --probe data/probes/park.exr --probe data/probes/venice.exr \
