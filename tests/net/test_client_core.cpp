@@ -209,6 +209,14 @@ TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
 // Issue 37 §1: the frame advice both clients follow. None: every frame at the camera's size;
 // 320x240 at 10 a second from a 640x480 camera at 30: every third frame, halved; an advised size
 // that is not the camera's over a power of two: the camera's.
+namespace {
+wire::LightingUpdate advice(std::uint16_t width, std::uint16_t height, float fps) {
+  wire::LightingUpdate u;
+  u.advised_width = width, u.advised_height = height, u.advised_fps = fps;
+  return u;
+}
+}  // namespace
+
 TEST(FramePacer, SendsTheAdvisedSizeAtTheAdvisedRate) {
   client::FramePacer pacer;
   int frame = 3000;  // the camera's clock: frame / 30 s
@@ -225,11 +233,11 @@ TEST(FramePacer, SendsTheAdvisedSizeAtTheAdvisedRate) {
   };
   EXPECT_EQ(run(30), (std::pair{30, 1}));
   EXPECT_EQ(pacer.held_back(), 0u);
-  pacer.advise(wire::LightingUpdate{.advised_width = 320, .advised_height = 240, .advised_fps = 10});
+  pacer.advise(advice(320, 240, 10));
   EXPECT_EQ(run(30), (std::pair{10, 2}));
   EXPECT_EQ(pacer.held_back(), 20u);
-  pacer.advise(wire::LightingUpdate{.advised_width = 160, .advised_height = 120, .advised_fps = 30});
+  pacer.advise(advice(160, 120, 30));
   EXPECT_EQ(run(30), (std::pair{30, 4}));
-  pacer.advise(wire::LightingUpdate{.advised_width = 200, .advised_height = 150, .advised_fps = 0});
+  pacer.advise(advice(200, 150, 0));
   EXPECT_EQ(run(30), (std::pair{30, 1}));
 }

@@ -221,9 +221,13 @@ TEST(WireCodec, ExposureAdviceRangesAreChecked) {
 
 // Frame advice in a LightingUpdate (issue 37 §1): half a size, or a rate that is not one.
 TEST(WireCodec, FrameAdviceRangesAreChecked) {
-  const auto refused_field = [](std::uint16_t w, std::uint16_t h, float fps) {
-    const DecodeError e = refusal(wire::encode(
-        wire::LightingUpdate{.advised_width = w, .advised_height = h, .advised_fps = fps}));
+  const auto advice = [](std::uint16_t w, std::uint16_t h, float fps) {
+    wire::LightingUpdate u;
+    u.advised_width = w, u.advised_height = h, u.advised_fps = fps;
+    return u;
+  };
+  const auto refused_field = [&](std::uint16_t w, std::uint16_t h, float fps) {
+    const DecodeError e = refusal(wire::encode(advice(w, h, fps)));
     EXPECT_EQ(e.fault(), Fault::OutOfRange);
     EXPECT_EQ(e.message(), "LightingUpdate");
     return e.field();
@@ -233,7 +237,7 @@ TEST(WireCodec, FrameAdviceRangesAreChecked) {
   EXPECT_EQ(refused_field(160, 120, -1), "advised_fps");
   EXPECT_EQ(refused_field(160, 120, std::numeric_limits<float>::quiet_NaN()), "advised_fps");
   EXPECT_EQ(refused_field(160, 120, 1000), "advised_fps");
-  const wire::LightingUpdate fine{.advised_width = 160, .advised_height = 120, .advised_fps = 10};
+  const wire::LightingUpdate fine = advice(160, 120, 10);
   EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
 }
 
