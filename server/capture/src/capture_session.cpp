@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <numbers>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -17,6 +18,7 @@
 #include "drift_model.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
+#include "map_view.hpp"
 #include "tile_index.hpp"
 
 namespace arlight::capture {
@@ -103,8 +105,8 @@ struct CaptureSession::Impl {
   mutable double seen_since_fit = 0.0;
   mutable std::size_t fits = 0;
   std::vector<std::uint32_t> newly_seen;  // a frame's first-measured texels (kept)
-  double last_exposure_gain = 0.0;   // estimate_exposure: the last frame's exposure x gain
-  std::vector<float> ratio_scratch;  // exposure_ratio()'s samples
+  double last_exposure_gain = 0.0;        // estimate_exposure: the last frame's exposure x gain
+  std::vector<float> ratio_scratch;       // exposure_ratio()'s samples
   // Per texel, the largest radiance its clipped pixels have proved it to have (a clipped pixel
   // of a frame taken at exposure x gain E is at least linear(250) / E): what the exposure
   // advice needs to know how much darker the next frame must be. Not checkpointed: a resumed
@@ -117,8 +119,7 @@ struct CaptureSession::Impl {
   CameraIntrinsics reduced_camera;
   double cos_field = -1.0;  // texels with d . forward below this are outside the view
   PinholeCamera align_camera{CameraIntrinsics{}};
-  std::vector<glm::dvec3> align_rays;          // camera ray of each alignment-image pixel
-  std::array<std::uint8_t, 4096> gray_code{};  // linear [0, 1] (sqrt-spaced) -> 8-bit code
+  std::optional<MapView> align_view;  // the map as the alignment camera sees it
   DriftModel drift;  // the sensor's heading drift: used orientation = drift.offset() * sensor
   int frames_since_align = 0;
   // One alignment: what it was measured against, and the fit.
@@ -175,15 +176,7 @@ struct CaptureSession::Impl {
                     k.width % r == 0 && k.height % r == 0;
          r *= 2)
       reduction = r;
-    const CameraIntrinsics& ak = align_camera.intrinsics();
-    align_rays.resize(std::size_t(ak.width) * ak.height);
-    for (int y = 0; y < ak.height; ++y)
-      for (int x = 0; x < ak.width; ++x)
-        align_rays[std::size_t(y) * ak.width + x] = align_camera.unproject({x, y});
-    for (std::size_t i = 0; i < gray_code.size(); ++i) {
-      const double t = double(i) / double(gray_code.size() - 1);
-      gray_code[i] = std::uint8_t(std::lround(255.0 * response.encode(float(t * t), 1)));
-    }
+    align_view.emplace(align_camera, response);
   }
 
   void refit_unseen() const {
@@ -231,112 +224,6 @@ struct CaptureSession::Impl {
     return glm::vec3(p[0], p[1], p[2]) / w;
   }
 
-  // The map's radiance at continuous texel coordinates p (texel centres at +0.5): bilinear
-  // over sum(w L) and sum(w), so texels without data do not darken their neighbours.
-  bool lookup_texel(glm::dvec2 p, glm::vec3& radiance) const {
-    const EnvLayout& layout = options.layout;
-    const int w = layout.width(), h = layout.height();
-    p -= 0.5;
-    const int x0 = int(std::floor(p.x)), y0 = int(std::floor(p.y));
-    const float fx = float(p.x - x0), fy = float(p.y - y0);
-    const bool wrap = layout.projection() == Projection::LatLong;
-    // A cube map's faces are stacked: the neighbours stay on the face the point is on.
-    int y_lo = 0, y_hi = h - 1;
-    if (layout.projection() == Projection::Cube) {
-      const int n = layout.face_size();
-      y_lo = std::clamp(int(std::floor((p.y + 0.5) / n)), 0, 5) * n;
-      y_hi = y_lo + n - 1;
-    }
-    glm::vec3 sum_wl(0.0f);
-    float sum_w = 0.0f;
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dx = 0; dx < 2; ++dx) {
-        const int x = wrap ? (x0 + dx + w) % w : std::clamp(x0 + dx, 0, w - 1);
-        const int y = std::clamp(y0 + dy, y_lo, y_hi);
-        const float f = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
-        const std::size_t i = std::size_t(y) * w + x;
-        const float* q = &weighted_radiance[3 * i];
-        sum_wl += f * glm::vec3(q[0], q[1], q[2]);
-        sum_w += f * weight[i];
-      }
-    if (!(sum_w > 0.0f)) return false;
-    radiance = sum_wl / sum_w;
-    return true;
-  }
-
-  // The map rendered into the alignment camera at `orientation`, 8-bit gray through the frame's
-  // exposure and the camera response (so it looks like the frame), and where it has data.
-  // Texel coordinates are computed exactly on a grid of every 4th pixel and interpolated in
-  // between, except in cells that straddle a seam of the projection (lat-long wrap, the angle
-  // map's back pole) and on cube maps, where every pixel is computed.
-  void render_view(const glm::dquat& orientation, double exposure_gain, cv::Mat& gray,
-                   cv::Mat& mask) const {
-    const CameraIntrinsics& ak = align_camera.intrinsics();
-    const EnvLayout& layout = options.layout;
-    const int w = ak.width, h = ak.height;
-    gray.create(h, w, CV_8U);
-    mask.create(h, w, CV_8U);
-    const glm::dmat3 rot = glm::mat3_cast(orientation);
-    const auto texel_of = [&](int x, int y) {
-      return layout.uv_to_pixel(layout.dir_to_uv(rot * align_rays[std::size_t(y) * w + x]));
-    };
-    constexpr int kStep = 4;
-    const int gw = (w - 1) / kStep + 2, gh = (h - 1) / kStep + 2;
-    std::vector<glm::dvec2> grid(std::size_t(gw) * gh);
-    for (int gy = 0; gy < gh; ++gy)
-      for (int gx = 0; gx < gw; ++gx)
-        grid[std::size_t(gy) * gw + gx] =
-            texel_of(std::min(gx * kStep, w - 1), std::min(gy * kStep, h - 1));
-    const bool cube = layout.projection() == Projection::Cube;
-    const double seam = 0.1 * std::max(layout.width(), layout.height());
-    const float top = float(gray_code.size() - 1);
-    for (int gy = 0; gy + 1 < gh; ++gy)
-      for (int gx = 0; gx + 1 < gw; ++gx) {
-        const glm::dvec2 c00 = grid[std::size_t(gy) * gw + gx],
-                         c10 = grid[std::size_t(gy) * gw + gx + 1],
-                         c01 = grid[std::size_t(gy + 1) * gw + gx],
-                         c11 = grid[std::size_t(gy + 1) * gw + gx + 1];
-        const double spread =
-            std::max({glm::length(c10 - c00), glm::length(c01 - c00), glm::length(c11 - c00)});
-        const bool exact = cube || spread > seam;
-        const int x_end = std::min(w, (gx + 1) * kStep), y_end = std::min(h, (gy + 1) * kStep);
-        const double sx = double(std::min((gx + 1) * kStep, w - 1) - gx * kStep);
-        const double sy = double(std::min((gy + 1) * kStep, h - 1) - gy * kStep);
-        for (int y = gy * kStep; y < y_end; ++y) {
-          auto* g = gray.ptr<std::uint8_t>(y);
-          auto* m = mask.ptr<std::uint8_t>(y);
-          const double ty = sy > 0 ? (y - gy * kStep) / sy : 0.0;
-          for (int x = gx * kStep; x < x_end; ++x) {
-            glm::dvec2 p;
-            if (exact) {
-              p = texel_of(x, y);
-            } else {
-              const double tx = sx > 0 ? (x - gx * kStep) / sx : 0.0;
-              p = (1 - ty) * ((1 - tx) * c00 + tx * c10) + ty * ((1 - tx) * c01 + tx * c11);
-            }
-            glm::vec3 l;
-            const bool seen = cube ? lookup_nearest(rot * align_rays[std::size_t(y) * w + x], l)
-                                   : lookup_texel(p, l);
-            if (!seen) {
-              g[x] = 0, m[x] = 0;
-              continue;
-            }
-            const float lum = luminance(l) * float(exposure_gain);
-            g[x] = gray_code[std::size_t(std::sqrt(std::clamp(lum, 0.0f, 1.0f)) * top + 0.5f)];
-            m[x] = 255;
-          }
-        }
-      }
-  }
-
-  // Cube maps: the nearest texel (faces do not continue across the stored image).
-  bool lookup_nearest(const glm::dvec3& dir, glm::vec3& radiance) const {
-    const glm::ivec2 t = options.layout.dir_to_texel(dir);
-    const std::size_t i = std::size_t(t.y) * options.layout.width() + t.x;
-    radiance = texel_radiance(i);
-    return weight[i] > 0.0f;
-  }
-
   // Kán's alignment: a corrected orientation for the frame, or the sensor's with the predicted
   // offset when the features do not allow one.
   glm::dquat align(const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
@@ -350,7 +237,8 @@ struct CaptureSession::Impl {
     frames_since_align = 0;
     Measurement m;
     m.predicted = predicted, m.sensor = sensor, m.timestamp = info.timestamp;
-    render_view(predicted, info.exposure * info.gain, m.rendered, m.mask);
+    align_view->render({options.layout, weighted_radiance, weight}, predicted,
+                       info.exposure * info.gain, m.rendered, m.mask);
     if (cv::countNonZero(m.mask) < int(m.mask.total() / 5)) {
       result.align_note = "less than 20 % of the view captured before";
       return predicted;
@@ -484,30 +372,31 @@ struct CaptureSession::Impl {
   // A sample or a texel of at least this weight is measured well: about half a well-exposed
   // pixel's (code_weight 1, away from the border), or more (CaptureOptions::changed_ratio).
   static constexpr float kWellMeasured = 0.5f;
-  // A texel as a frame would leave it: its new accumulators (sum(w L), sum(w)).
-  struct Merged {
-    std::uint32_t k;  // tile-index position
-    float r, g, b, w;
+  // A frame's sample of one texel (for_each_sample()'s): tile-index position, weight sw and
+  // weighted radiance.
+  struct Sample {
+    std::uint32_t k;
+    float sw, r, g, b;
   };
-  std::vector<Merged> merged_scratch;  // a frame's texels (kept: no reallocation)
+  std::vector<Sample> samples_scratch;  // a frame's samples (kept: no reallocation)
 
-  // The texel's accumulators after a sample of weight sw and weighted radiance (r, g, b):
-  // the weighted mean, with the weight held at confident_weight and a changed room replacing
-  // what was there (CaptureOptions).
-  Merged merge(std::uint32_t k, std::size_t texel, float sw, float r, float g, float b) const {
-    const float w = weight[texel];
-    const float* acc = &weighted_radiance[3 * texel];
-    if (!(w > 0.0f)) return {k, r, g, b, sw};
-    if (sw >= kWellMeasured && w >= kWellMeasured) {
-      const float seen = luminance(r, g, b) / sw, held = luminance(acc[0], acc[1], acc[2]) / w;
-      if (std::abs(seen - held) > float(options.changed_ratio) * std::max(seen, held))
-        return {k, r, g, b, sw};
+  // Merges a sample into its texel's accumulators: the weighted mean, with the weight held at
+  // confident_weight and a changed room replacing what was there (CaptureOptions).
+  void merge(const Sample& s, std::size_t texel) {
+    float& w = weight[texel];
+    float* acc = &weighted_radiance[3 * texel];
+    bool replace = !(w > 0.0f);
+    if (!replace && s.sw >= kWellMeasured && w >= kWellMeasured) {
+      const float seen = luminance(s.r, s.g, s.b) / s.sw;
+      const float held = luminance(acc[0], acc[1], acc[2]) / w;
+      replace = std::abs(seen - held) > float(options.changed_ratio) * std::max(seen, held);
     }
     // Above the confident weight the old sums are scaled so the total stays there: an
     // exponential moving average with the sample's share sw / confident_weight.
     const float cap = float(options.confident_weight);
-    const float keep = w + sw > cap ? std::max(0.0f, cap - sw) / w : 1.0f;
-    return {k, keep * acc[0] + r, keep * acc[1] + g, keep * acc[2] + b, keep * w + sw};
+    const float keep = replace ? 0.0f : w + s.sw > cap ? std::max(0.0f, cap - s.sw) / w : 1.0f;
+    acc[0] = keep * acc[0] + s.r, acc[1] = keep * acc[1] + s.g, acc[2] = keep * acc[2] + s.b;
+    w = keep * w + s.sw;
   }
 
   // Projects the linearised frame into the map (thesis ch. 3) and updates the live SH; a frame
@@ -515,15 +404,15 @@ struct CaptureSession::Impl {
   void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
     const auto t0 = Clock::now();
     const TileIndex& ti = *tile_index;
-    std::vector<Merged>& merged = merged_scratch;
-    merged.clear();
+    std::vector<Sample>& samples = samples_scratch;
+    samples.clear();
     // The frame against the map where both are measured well (kWellMeasured), luminance x solid
     // angle: sum |seen - held|, sum (seen - held), sum held.
     double differ = 0.0, bias = 0.0, held_sum = 0.0;
     bool sees_new = false;
     for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
       const std::size_t texel = ti.texel[k];
-      merged.push_back(merge(std::uint32_t(k), texel, sw, r, g, b));
+      samples.push_back({std::uint32_t(k), sw, r, g, b});
       const float w = weight[texel];
       sees_new = sees_new || !(w > 0.0f);
       if (sw < kWellMeasured || w < kWellMeasured) return;
@@ -543,16 +432,14 @@ struct CaptureSession::Impl {
     std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
     changed_dirs.clear(), changed_values.clear(), newly_seen.clear();
     double newly_seen_omega = 0.0;
-    for (const Merged& m : merged) {
+    for (const Sample& m : samples) {
       const std::size_t texel = ti.texel[m.k];
       const glm::vec3 before = texel_radiance(texel);
       if (!(weight[texel] > 0.0f)) {
         covered_solid_angle += ti.solid_angle[m.k], newly_seen_omega += ti.solid_angle[m.k];
         newly_seen.push_back(std::uint32_t(texel));
       }
-      float* acc = &weighted_radiance[3 * texel];
-      acc[0] = m.r, acc[1] = m.g, acc[2] = m.b;
-      weight[texel] = m.w;
+      merge(m, texel);
       const glm::vec3 delta = texel_radiance(texel) - before;
       if (delta != glm::vec3(0.0f)) {
         changed_dirs.emplace_back(ti.dir_x[m.k], ti.dir_y[m.k], ti.dir_z[m.k]);
@@ -577,8 +464,8 @@ struct CaptureSession::Impl {
   // by weight instead took the wall around a lamp for the lamp: 12 % error on lab, not 2.6.)
   // Reports the unmeasured share of the frame and the brightest floor among it. Runs only
   // over the frame's clipped blocks (none in most frames).
-  void check_clipped(const LinearFrame& frame, const glm::dquat& orientation,
-                     double exposure_gain, FrameResult& result) {
+  void check_clipped(const LinearFrame& frame, const glm::dquat& orientation, double exposure_gain,
+                     FrameResult& result) {
     if (frame.clipped_blocks == 0) return;
     // A quarter clipped already hides most of a small lamp's power; 0.5 left lab's lamp edges
     // out (3.3 % irradiance error against 2.6 %, TheAdviceLoopCapturesLabsLampsWithinThreePercent).
