@@ -22,38 +22,38 @@ bool retryable(const client::ClientError& e) { return e.code() == "Network" || e
 
 }  // namespace
 
-FrameJpegs::FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height)
+FrameJpegs::FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height,
+                       bool reduced)
     : width_(width), height_(height) {
-  by_level_[0] = std::make_unique<std::vector<std::vector<std::uint8_t>>>(std::move(full));
-}
-
-const std::vector<std::vector<std::uint8_t>>& FrameJpegs::at(int reduction) {
-  int level = 0;
-  while (level < 3 && (1 << level) < reduction) ++level;
-  std::lock_guard lock(mutex_);
-  if (!by_level_[std::size_t(level)]) {
+  by_level_[0] = std::move(full);
+  for (int level = 1; reduced && level < 4; ++level) {
     const int k = 1 << level;
-    auto reduced = std::make_unique<std::vector<std::vector<std::uint8_t>>>();
-    for (const std::vector<std::uint8_t>& jpeg : *by_level_[0]) {
-      reduced->emplace_back();
-      if (jpeg.empty()) continue;  // an unusable frame stays unusable
-      cv::Mat im = cv::imdecode(jpeg, cv::IMREAD_COLOR), small;
-      if (im.empty()) continue;
-      cv::resize(im, small, cv::Size(width_ / k, height_ / k), 0, 0, cv::INTER_AREA);
-      cv::imencode(".jpg", small, reduced->back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+    if (width % k || height % k) break;
+    for (const std::vector<std::uint8_t>& jpeg : by_level_[0]) {
+      std::vector<std::uint8_t>& out = by_level_[std::size_t(level)].emplace_back();
+      const cv::Mat im = jpeg.empty() ? cv::Mat() : cv::imdecode(jpeg, cv::IMREAD_COLOR);
+      if (im.empty()) continue;  // an unusable frame stays unusable
+      cv::Mat small;
+      cv::resize(im, small, cv::Size(width / k, height / k), 0, 0, cv::INTER_AREA);
+      cv::imencode(".jpg", small, out, {cv::IMWRITE_JPEG_QUALITY, 90});
     }
-    by_level_[std::size_t(level)] = std::move(reduced);
   }
-  return *by_level_[std::size_t(level)];
 }
 
-void run_session(const SessionPlan& plan, const recording::Recording& rec, FrameJpegs& jpegs,
+const std::vector<std::vector<std::uint8_t>>& FrameJpegs::at(int reduction) const {
+  std::size_t level = 0;
+  while (level < 3 && (1 << level) < reduction) ++level;
+  while (level > 0 && by_level_[level].empty()) --level;
+  return by_level_[level];
+}
+
+void run_session(const SessionPlan& plan, const recording::Recording& rec, const FrameJpegs& jpegs,
                  const std::vector<std::size_t>& usable, Clock::time_point start,
                  SessionReport& report) {
   try {
     std::mutex m;
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
-    client::FramePacer pacer;  // the daemon's frame advice (PROTOCOL.md)
+    client::FramePacer pacer;    // the daemon's frame advice (PROTOCOL.md)
     Clock::time_point first;
     const auto open = [&](const std::string& resume) {
       auto c = std::make_unique<client::Client>();

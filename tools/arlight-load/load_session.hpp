@@ -5,8 +5,6 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
-#include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -30,7 +28,7 @@ struct SessionReport {
   bool failed = false;
   std::string error;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
-  std::uint64_t held_back = 0;  // frames not sent: the daemon's frame advice asked for fewer
+  std::uint64_t held_back = 0;   // frames not sent: the daemon's frame advice asked for fewer
   std::uint64_t bytes_sent = 0;  // of the frames' JPEGs
   std::vector<double> latency_ms;
   std::vector<double> map_set_ms;  // from the first frame to each completed map set
@@ -58,27 +56,26 @@ struct SessionPlan {
   bool follow_advice = true;
 };
 
-// The recording's JPEGs at the camera's size and, made when first asked for, reduced by 2, 4
-// or 8 (area averaging, quality 90), as a phone following the frame advice would send them;
-// shared by every session (thread-safe).
+// The recording's JPEGs at the camera's size and, with `reduced`, also reduced by 2, 4 and 8
+// where the size divides (area averaging, quality 90), as a phone following the frame advice
+// would send them; made before the sessions' clocks start and shared by them (read-only).
 class FrameJpegs {
  public:
-  FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height);
-  // The frames `reduction` times smaller each side (1: as recorded).
-  const std::vector<std::vector<std::uint8_t>>& at(int reduction);
+  FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height, bool reduced);
+  // The frames `reduction` times smaller each side (1: as recorded; a reduction not made: those).
+  const std::vector<std::vector<std::uint8_t>>& at(int reduction) const;
   int width() const { return width_; }
   int height() const { return height_; }
 
  private:
   int width_, height_;
-  std::mutex mutex_;
-  std::array<std::unique_ptr<std::vector<std::vector<std::uint8_t>>>, 4> by_level_;  // 1, 2, 4, 8
+  std::array<std::vector<std::vector<std::uint8_t>>, 4> by_level_;  // 1, 2, 4, 8 times smaller
 };
 
 // Runs one session to its end (frames due at plan.rate for plan.duration, then the last
 // updates awaited); a failure is recorded in the report, not thrown. `usable` lists the
 // recording's frames with a JPEG (jpegs.at(1)[i]); `start` is the run's common clock origin.
-void run_session(const SessionPlan& plan, const recording::Recording& rec, FrameJpegs& jpegs,
+void run_session(const SessionPlan& plan, const recording::Recording& rec, const FrameJpegs& jpegs,
                  const std::vector<std::size_t>& usable, Clock::time_point start,
                  SessionReport& report);
 

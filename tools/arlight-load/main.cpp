@@ -84,10 +84,8 @@ int main(int argc, char** argv) {
     base.rate = rate, base.duration = duration, base.maps = maps, base.ggx_face = ggx_face;
     base.connection = connection, base.reconnect_s = reconnect_s;
     base.follow_advice = !ignore_advice;
-    FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height);
-    if (base.follow_advice)  // made now, not while the sessions' clocks run
-      for (int k = 2; k <= 8; k *= 2)
-        if (rec.camera.width % k == 0 && rec.camera.height % k == 0) frames.at(k);
+    const FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height,
+                            base.follow_advice);
 
     std::vector<SessionReport> reports(static_cast<std::size_t>(sessions));
     std::vector<std::thread> threads;
