@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "parallel.hpp"
 
@@ -129,11 +130,42 @@ EnvMap resample(const EnvMap& src, const EnvLayout& dst) {
   return out;
 }
 
+namespace {
+
+// Every texel of `src` added, by the texel its centre falls in, into the mean of `dst`'s
+// texel; nothing when some texel of `dst` would get no source texel (dst too fine for src).
+std::optional<EnvMap> bin_texels(const EnvMap& src, const EnvLayout& dst) {
+  const auto from = texel_table(src.layout);
+  const auto to = texel_table(dst);
+  if (from->size() < 2 * to->size()) return std::nullopt;
+  std::vector<double> sums(4 * dst.texel_count(), 0.0);
+  const float* in = src.image.data();
+  for (std::size_t i = 0; i < from->size(); ++i) {
+    const glm::ivec2 t = dst.dir_to_texel({from->x[i], from->y[i], from->z[i]});
+    double* s = sums.data() + 4 * (std::size_t(t.y) * std::size_t(dst.width()) + std::size_t(t.x));
+    const double w = from->solid_angle[i];
+    const float* p = in + 3 * std::size_t(from->index[i]);
+    s[0] += w * p[0], s[1] += w * p[1], s[2] += w * p[2], s[3] += w;
+  }
+  EnvMap out(dst);
+  float* o = out.image.data();
+  for (std::uint32_t px : to->index) {
+    const double* s = sums.data() + 4 * std::size_t(px);
+    if (s[3] <= 0.0) return std::nullopt;
+    for (int c = 0; c < 3; ++c) o[3 * std::size_t(px) + std::size_t(c)] = float(s[c] / s[3]);
+  }
+  return out;
+}
+
+}  // namespace
+
 EnvMap reduce(const EnvMap& src, const EnvLayout& dst) {
   const EnvLayout& from = src.layout;
   if (from.projection() != Projection::Cube || dst.projection() != Projection::Cube ||
-      dst.face_size() > from.face_size() || from.face_size() % dst.face_size() != 0)
+      dst.face_size() > from.face_size() || from.face_size() % dst.face_size() != 0) {
+    if (auto binned = bin_texels(src, dst)) return std::move(*binned);
     return resample(src, dst);
+  }
   const int k = from.face_size() / dst.face_size();
   const auto table = texel_table(from);  // every texel of a cube map is on the sphere
   std::vector<double> omega(from.texel_count(), 0.0);

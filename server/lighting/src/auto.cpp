@@ -5,11 +5,12 @@
 //    is summed exactly (Alg. 4.1 over those few texels: 0-1400 of 207k in the bundled probes)
 //    and added to whatever handles the rest. They are what breaks every approximation: SH rings
 //    around them, prefiltering smears them, interpolation overshoots next to them.
-// 2. Wide lobes (SH order sh_order_for(s) <= kMaxShOrder, i.e. s <= ~100): one SH projection
-//    (the mean projected exactly), zonal convolution, evaluated on a cube grid kShGridPerSigma
-//    points per sigma and interpolated in log space; the irradiance lobe (s < 4) has a kink at
-//    the horizon that interpolation would blur, so it is evaluated at every output texel.
-// 3. Narrow lobes: direct sums (Alg. 4.1) over the lobe's window (the bounded method's bound)
+// 2. Wide lobes (SH order sh_order_for(s) <= kMaxShOrder, i.e. s <= ~70): one SH projection
+//    (of the input binned to a 96^2 cube, the mean projected exactly), zonal convolution,
+//    evaluated on a cube grid kShGridPerSigma points per sigma and interpolated in log space.
+//    The irradiance lobe (s < 4) has a kink at the horizon: its SH part (band-limited) is read
+//    from a grid in linear space, and its bright lights are summed at every output texel.
+// 3. Narrow lobes: direct sums (Alg. 4.1) over the lobe's window (auto_cos_threshold)
 //    - of a copy of the input prefiltered to input_per_sigma points per sigma (cube-grid cells
 //      that keep their exact power and carry their radiance's first moments, so the lobe's
 //      first-order variation over a cell is exact), or the input texels when that is no coarser;
@@ -28,7 +29,14 @@
 //   interpolating radiance instead of its log gave up to 18.9 % max at s = 80.
 // - SH grid at 2 points per sigma: s = 80 4.7 % on studio at 256^2; at 3: 1.5 %.
 // Float precision (accumulate_single_f32) changed no error figure above at the 0.1 % level.
+// Issue 37 (8 maps at 512^2 in 0.5 -> 0.24 s, make bench): the kernel keeps a group's 2 x 4 power
+// chains in registers; each group of 4 directions sums only the cells within its own reach, in
+// place; the window's cut is auto's own; the input levels are built while SH runs; the SH part
+// of the irradiance map comes from a grid; s = 80 moved from SH (order 41) to direct sums, so the
+// SH maps need order 30. No error figure moved by more than 0.05 % mean (s = 80: max 0.9 -> 1.9 %
+// on venice, 2.3 -> 3.9 % on studio).
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <atomic>
 #include <chrono>
@@ -63,37 +71,58 @@ constexpr int kPointsPerCell = 64;
 // Typical spacing (rad) of a cube grid with `face` cells per edge.
 double cube_spacing(int face) { return std::sqrt(4.0 * std::numbers::pi / (6.0 * face * face)); }
 
-// The input at several resolutions, built on demand.
+// The input at several resolutions (face 0: the input texels themselves), each built once:
+// prepare() starts building the levels a run will need on TBB's workers, so that they are
+// made while the SH stage runs; level() waits for its own.
 class InputLevels {
  public:
   explicit InputLevels(const EnvMap& input) : input_(input) {}
-
-  const PointCells& full() {
-    std::lock_guard lock(mutex_);
-    if (!full_) {
-      full_ = std::make_unique<PointCells>(points_from_texels(input_, kPointsPerCell));
-      full_->make_float_copy();
+  ~InputLevels() {
+    try {
+      tasks_.wait();
+    } catch (...) {  // a level that failed to build throws again where it is used
     }
-    return *full_;
   }
+  InputLevels(const InputLevels&) = delete;
+  InputLevels& operator=(const InputLevels&) = delete;
+
   double full_spacing() const {
     return std::sqrt(4.0 * std::numbers::pi / double(texel_table(input_.layout)->size()));
   }
-  const PointCells& aggregated(int face) {
-    std::lock_guard lock(mutex_);
-    auto& slot = levels_[face];
-    if (!slot) {
-      slot = std::make_unique<PointCells>(points_aggregated(input_, face, kPointsPerCell));
-      slot->make_float_copy();
-    }
-    return *slot;
+  void prepare(int face) {
+    Slot& slot = slot_of(face);
+    tasks_.run([this, face, &slot] { build(face, slot); });
+  }
+  const PointCells& level(int face) {
+    Slot& slot = slot_of(face);
+    build(face, slot);
+    return *slot.cells;
   }
 
  private:
+  struct Slot {
+    std::once_flag once;
+    std::unique_ptr<PointCells> cells;
+  };
+  Slot& slot_of(int face) {
+    std::lock_guard lock(mutex_);
+    auto& slot = slots_[face];
+    if (!slot) slot = std::make_unique<Slot>();
+    return *slot;
+  }
+  void build(int face, Slot& slot) {
+    std::call_once(slot.once, [&] {
+      slot.cells = std::make_unique<PointCells>(
+          face ? points_aggregated(input_, face, kPointsPerCell)
+               : points_from_texels(input_, kPointsPerCell));
+      slot.cells->make_float_copy();
+    });
+  }
+
   const EnvMap& input_;
   std::mutex mutex_;
-  std::unique_ptr<PointCells> full_;
-  std::map<int, std::unique_ptr<PointCells>> levels_;
+  std::map<int, std::unique_ptr<Slot>> slots_;
+  tbb::task_group tasks_;
 };
 
 // Values on a cube grid with a border of kBorder texels beyond each face edge, read back by
@@ -245,11 +274,13 @@ std::string describe(const Plan& p, double seconds) {
 // bands up to sqrt(2 s ln 1e4) keep all but 1e-4 of the lobe; the clamped cosine (s = 1) falls
 // only like l^-2.5 and its kink at the horizon wants more bands than its width suggests.
 constexpr int kMinShOrder = 24;
-constexpr int kMaxShOrder = 45;
+constexpr int kMaxShOrder = 40;
 constexpr std::size_t kShProjectionTexels = 60000;
 constexpr double kBrightCap = 8.0;
 // Grid points per sigma for the SH maps (evaluating SH is cheap next to direct sums).
 constexpr double kShGridPerSigma = 3.0;
+// Grid points per shortest wavelength (2 pi / order) for the kinked maps' SH parts.
+constexpr double kShKinkedGridPerWave = 8.0;
 int sh_order_for(double s) {
   return std::max(kMinShOrder, int(std::ceil(std::sqrt(2.0 * s * std::log(1e4)))) + 2);
 }
@@ -325,7 +356,7 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
   // Project a copy of ~55k texels when the input is larger: order 45 needs no more.
   std::optional<EnvMap> small;
   if (table->size() > kShProjectionTexels)
-    small = resample(rest, EnvLayout::for_size(Projection::Cube, 96));
+    small = reduce(rest, EnvLayout::for_size(Projection::Cube, 96));
   const ShPair pair = sh_project_pair(small ? *small : rest, order);
   job.progress.check();
   // Adds the bright texels' exact share to values[k][3 i + c] at dirs[i] for the maps `group`.
@@ -339,7 +370,7 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
       const double s = job.shininess[std::size_t(group[m])];
       const double one[] = {s};
       const PowerChain chain(one);
-      BatchIntegrator(bright, chain, bounded_cos_threshold(s)).run(dirs, acc.data());
+      BatchIntegrator(bright, chain, auto_cos_threshold(s)).run(dirs, acc.data());
       const double norm = (s + 1.0) / (2.0 * std::numbers::pi);
       for (std::size_t i = 0; i < dirs.size(); ++i)
         for (int c = 0; c < 3; ++c)
@@ -381,6 +412,29 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     for (CubeGrid& g : grids) g.to_log(split.log_floor);
   }
   const std::vector<ShCoeffs> kinked_coeffs = convolved(kinked);
+  // The kinked maps' SH parts (numerators and weights) are band-limited at their order: on a
+  // cube grid kShKinkedGridPerWave points per shortest wavelength, interpolated in linear space,
+  // when that grid is smaller than the output. The kink itself comes from the bright texels,
+  // which are still summed exactly at every output texel.
+  std::vector<CubeGrid> kinked_grids;
+  if (!kinked.empty()) {
+    const int order = kinked_coeffs[0].order;
+    const int face = int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * kShKinkedGridPerWave *
+                                   order / (2.0 * std::numbers::pi)));
+    const std::size_t side = std::size_t(face + 2 * CubeGrid::kBorder);
+    if (6 * side * side < table->size()) {
+      for (std::size_t i = 0; i < kinked_coeffs.size(); ++i) kinked_grids.emplace_back(face);
+      tbb::parallel_for(0, 6 * int(side), [&](int row) {
+        job.progress.check();
+        const int f = row / int(side), j = row % int(side);
+        std::vector<glm::dvec3> dirs;
+        for (int i = 0; i < int(side); ++i) dirs.push_back(kinked_grids[0].dir(f, i, j));
+        std::vector<float*> out;
+        for (CubeGrid& g : kinked_grids) out.push_back(g.value(f, 0, j));
+        sh_evaluate_many(kinked_coeffs, dirs, out);
+      });
+    }
+  }
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
     const auto [dirs, pixels] = job.output.collect(tile);
     if (!smooth.empty())
@@ -397,7 +451,17 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
                                              std::vector<float>(3 * dirs.size()));
       std::vector<float*> out;
       for (auto& v : values) out.push_back(v.data());
-      sh_evaluate_many(kinked_coeffs, dirs, out);
+      if (kinked_grids.empty()) {
+        sh_evaluate_many(kinked_coeffs, dirs, out);
+      } else {
+        for (std::size_t t = 0; t < dirs.size(); ++t) {
+          const CubeGrid::Taps taps = kinked_grids[0].taps(dirs[t]);
+          for (std::size_t i = 0; i < kinked_grids.size(); ++i) {
+            const glm::vec3 v = kinked_grids[i].sample(taps);
+            out[i][3 * t] = v.x, out[i][3 * t + 1] = v.y, out[i][3 * t + 2] = v.z;
+          }
+        }
+      }
       add_bright(kinked, dirs, out);
       sh_divide(out, kinked.size(), dirs.size());
       for (std::size_t i = 0; i < kinked.size(); ++i)
@@ -494,9 +558,9 @@ class DirectLobe {
         k_(k),
         s_(job.shininess[std::size_t(k)]),
         plan_(make_plan(s_, job.spec.tuning, levels.full_spacing(), out_texels)),
-        pts_(plan_.input_face ? levels.aggregated(plan_.input_face) : levels.full()),
+        pts_(levels.level(plan_.input_face)),
         chain_(std::span<const double>(&s_, 1)),
-        min_cos_(bounded_cos_threshold(s_)),
+        min_cos_(auto_cos_threshold(s_)),
         incremental_(memory && memory->valid),
         memory_(memory) {
     if (!memory) return;
@@ -562,7 +626,7 @@ class DirectLobe {
     std::vector<double> acc(4 * dirs.size()), lights(4 * dirs.size(), 0.0);
     batch.run(dirs, acc.data());
     if (split_.bright.size() > 0) {
-      BatchIntegrator exact(split_.bright, chain_, bounded_cos_threshold(s_));
+      BatchIntegrator exact(split_.bright, chain_, min_cos_);
       exact.run(dirs, lights.data());
     }
     for (std::size_t i = 0; i < dirs.size(); ++i) {
@@ -669,6 +733,10 @@ ComputedMapSet run_auto(const Job& job, AutoMemory* memory) {
   std::vector<int> by_sh, direct;
   for (int k : ascending_order(job.shininess))
     (sh_resolves(job.shininess[std::size_t(k)], sh_samples) ? by_sh : direct).push_back(k);
+  for (int k : direct)
+    levels.prepare(make_plan(job.shininess[std::size_t(k)], job.spec.tuning, levels.full_spacing(),
+                             out_texels)
+                       .input_face);
   if (!by_sh.empty()) sh_stage(job, split, by_sh, maps, result);
   std::vector<std::vector<float>> grids(maps.size());
   // Narrow lobes by direct integration over prefiltered input, widest first.

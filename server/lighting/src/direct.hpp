@@ -14,6 +14,8 @@ namespace arlight::lighting::detail {
 
 // Smallest cosine the bounded method integrates for shininess s (derivation in direct.cpp).
 double bounded_cos_threshold(double s);
+// The same for method auto: a cut 1000x looser, within its error target (direct.cpp).
+double auto_cos_threshold(double s);
 // Smallest cosine whose c^s (> 1e-30) can still change a double-precision sum.
 double exact_cos_threshold(double s);
 
@@ -24,8 +26,8 @@ void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const Power
                       std::span<const double> min_cos, double* acc);
 
 // Integrates batches of directions that lie close together (a block of texels): the cells
-// within reach of any of them are gathered once into one contiguous run, and each direction
-// then sums that run with no per-cell work. acc gets 4 x chain.size() values per direction.
+// within reach of any of them are found once, then each group of kQueries directions sums
+// those within its own reach. acc gets 4 x chain.size() values per direction.
 class BatchIntegrator {
  public:
   BatchIntegrator(const PointCells& pts, const PowerChain& chain, double min_cos)
@@ -36,7 +38,8 @@ class BatchIntegrator {
   const PointCells& pts_;
   const PowerChain& chain_;
   double window_;  // lobe window radius (rad)
-  PointCells gathered_;
+  PointCells gathered_;                            // the chain path's candidates, copied
+  std::vector<const PointCells::Cell*> candidates_;  // the single-lobe path's, in place
   std::vector<double> lanes_;
 };
 

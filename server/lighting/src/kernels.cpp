@@ -192,95 +192,102 @@ inline F loadf(const float* p) {
   return v;
 }
 
+// Sum of the lanes, pairwise in float (16 terms that each hold at most a run's share).
 inline double hsum(F v) {
-  double s = 0.0;
-  for (int j = 0; j < kWf; ++j) s += double(v[j]);
-  return s;
+  typedef float H __attribute__((vector_size(kWf / 2 * sizeof(float))));
+  typedef float Q4 __attribute__((vector_size(kWf / 4 * sizeof(float))));
+  const H h = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) +
+              __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
+  const Q4 q = __builtin_shufflevector(h, h, 0, 1, 2, 3) + __builtin_shufflevector(h, h, 4, 5, 6, 7);
+  return double(q[0] + q[2]) + double(q[1] + q[3]);
 }
+
+// Points summed in float before the partial sums go to double.
+constexpr std::uint32_t kFloatRun = 1024;
 
 }  // namespace
 
 ARLIGHT_SIMD_CLONES
 void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint32_t end,
                            const glm::dvec3* dirs, const PowerChain& chain, double* acc) {
-  constexpr int kGroups = int(kMaxCellPoints) / kWf;
   constexpr int Q = kQueries;
   const PowerChain::Step& step = chain.steps()[0];
   const bool moments = pts.has_moments();
-  const F zero = {};
+  const F zero = {}, one = zero + 1.0f;
   const float s_f = float(step.s);
-  for (; begin < end; begin += kMaxCellPoints) {
-    const std::uint32_t run_end = std::min(end, begin + kMaxCellPoints);
-    const int groups = int(run_end - begin) / kWf;
-    F power[Q][kGroups];
-    for (int q = 0; q < Q; ++q) {
-      const F dx = zero + float(dirs[q].x), dy = zero + float(dirs[q].y),
-              dz = zero + float(dirs[q].z);
-      for (int g = 0; g < groups; ++g) {
-        const std::size_t i = begin + std::size_t(g) * kWf;
-        const F c = dx * loadf(pts.fx.data() + i) + dy * loadf(pts.fy.data() + i) +
-                    dz * loadf(pts.fz.data() + i);
-        power[q][g] = c > zero ? c : zero;
-      }
-    }
-    // The cosines are kept for the moments' slope s c^(s-1) = s f / c.
-    F cosine[Q][kGroups];
-    if (moments)
-      for (int q = 0; q < Q; ++q)
-        for (int g = 0; g < groups; ++g) cosine[q][g] = power[q][g];
-    if (step.kind == PowerChain::Step::PowCos || step.kind == PowerChain::Step::PowPrev) {
-      // One step: its "previous" map is the cosine itself.
-      const int e = step.r;
-      int top = 0;
-      while ((e >> (top + 1)) != 0) ++top;
-      // In registers, the kQueries chains of a group interleaved: their multiplies overlap.
-      for (int g = 0; g < groups; ++g) {
-        F b[Q], r[Q];
-        for (int q = 0; q < Q; ++q) b[q] = r[q] = power[q][g];
-        for (int bit = top - 1; bit >= 0; --bit) {
-          for (int q = 0; q < Q; ++q) r[q] = r[q] * r[q];
-          if ((e >> bit) & 1)
-            for (int q = 0; q < Q; ++q) r[q] = r[q] * b[q];
-        }
-        for (int q = 0; q < Q; ++q) power[q][g] = r[q];
-      }
-    } else if (step.kind == PowerChain::Step::ExpLog) {
-      for (int q = 0; q < Q; ++q)
-        for (int g = 0; g < groups; ++g) {
-          alignas(64) float t[kWf];
-          __builtin_memcpy(t, &power[q][g], sizeof t);
-#pragma omp simd
-          for (int j = 0; j < kWf; ++j)
-            t[j] = t[j] > 0.0f ? std::exp(s_f * std::log(t[j] > 0.0f ? t[j] : 1.0f)) : 0.0f;
-          power[q][g] = loadf(t);
-        }
-    }
+  const bool integer = step.kind == PowerChain::Step::PowCos || step.kind == PowerChain::Step::PowPrev;
+  // cos^r by square-and-multiply from the top bit down (r = 1280: 10 squarings, 1 multiply).
+  const int e = integer ? step.r : 1;
+  int top = 0;
+  while ((e >> (top + 1)) != 0) ++top;
+  F dx[Q], dy[Q], dz[Q];
+  for (int q = 0; q < Q; ++q)
+    dx[q] = zero + float(dirs[q].x), dy[q] = zero + float(dirs[q].y), dz[q] = zero + float(dirs[q].z);
+  for (; begin < end; begin += kFloatRun) {
+    const std::uint32_t run_end = std::min(end, begin + kFloatRun);
     F sum[Q][4];
     for (int q = 0; q < Q; ++q) sum[q][0] = sum[q][1] = sum[q][2] = sum[q][3] = zero;
-    for (int g = 0; g < groups; ++g) {
-      const std::size_t i = begin + std::size_t(g) * kWf;
-      const F lr = loadf(pts.flr.data() + i), lg = loadf(pts.flg.data() + i);
-      const F lb = loadf(pts.flb.data() + i), w = loadf(pts.fw.data() + i);
-      if (!moments) {
+    // Two groups of kWf points at a time, everything for the kQueries directions in registers:
+    // the 2 x kQueries power chains are independent, so their multiplies overlap. An odd last
+    // group is paired with itself and its twin's terms are multiplied by 0.
+    for (std::uint32_t i = begin; i < run_end; i += 2 * kWf) {
+      const bool pair = i + kWf < run_end;
+      const std::uint32_t at[2] = {i, pair ? i + kWf : i};
+      F c[2][Q], f[2][Q];
+      for (int h = 0; h < 2; ++h) {
+        const F x = loadf(pts.fx.data() + at[h]), y = loadf(pts.fy.data() + at[h]),
+                z = loadf(pts.fz.data() + at[h]);
         for (int q = 0; q < Q; ++q) {
-          const F f = power[q][g];
-          sum[q][0] += f * lr;
-          sum[q][1] += f * lg;
-          sum[q][2] += f * lb;
-          sum[q][3] += f * w;
+          const F d = dx[q] * x + dy[q] * y + dz[q] * z;
+          c[h][q] = d > zero ? d : zero;
+          f[h][q] = c[h][q];
         }
-        continue;
       }
-      F m[9];
-      for (int a = 0; a < 9; ++a) m[a] = loadf(pts.fmoment[a].data() + i);
-      for (int q = 0; q < Q; ++q) {
-        const F f = power[q][g], c = cosine[q][g];
-        const F slope = c > zero ? s_f * f / (c > zero ? c : zero + 1.0f) : zero;
-        const float x = float(dirs[q].x), y = float(dirs[q].y), z = float(dirs[q].z);
-        sum[q][0] += f * lr + slope * (x * m[0] + y * m[1] + z * m[2]);
-        sum[q][1] += f * lg + slope * (x * m[3] + y * m[4] + z * m[5]);
-        sum[q][2] += f * lb + slope * (x * m[6] + y * m[7] + z * m[8]);
-        sum[q][3] += f * w;
+      if (integer) {
+        for (int bit = top - 1; bit >= 0; --bit) {
+          for (int h = 0; h < 2; ++h)
+            for (int q = 0; q < Q; ++q) f[h][q] = f[h][q] * f[h][q];
+          if ((e >> bit) & 1)
+            for (int h = 0; h < 2; ++h)
+              for (int q = 0; q < Q; ++q) f[h][q] = f[h][q] * c[h][q];
+        }
+      } else if (step.kind == PowerChain::Step::ExpLog) {
+        for (int h = 0; h < 2; ++h)
+          for (int q = 0; q < Q; ++q) {
+            alignas(64) float t[kWf];
+            __builtin_memcpy(t, &f[h][q], sizeof t);
+#pragma omp simd
+            for (int j = 0; j < kWf; ++j)
+              t[j] = t[j] > 0.0f ? std::exp(s_f * std::log(t[j] > 0.0f ? t[j] : 1.0f)) : 0.0f;
+            f[h][q] = loadf(t);
+          }
+      }
+      if (!pair)
+        for (int q = 0; q < Q; ++q) f[1][q] = zero;
+      for (int h = 0; h < 2; ++h) {
+        const std::uint32_t j = at[h];
+        const F lr = loadf(pts.flr.data() + j), lg = loadf(pts.flg.data() + j);
+        const F lb = loadf(pts.flb.data() + j), w = loadf(pts.fw.data() + j);
+        if (!moments) {
+          for (int q = 0; q < Q; ++q) {
+            sum[q][0] += f[h][q] * lr;
+            sum[q][1] += f[h][q] * lg;
+            sum[q][2] += f[h][q] * lb;
+            sum[q][3] += f[h][q] * w;
+          }
+          continue;
+        }
+        // The moments' first-order term: the lobe's slope s c^(s-1) = s f / c along them.
+        F m[9];
+        for (int a = 0; a < 9; ++a) m[a] = loadf(pts.fmoment[a].data() + j);
+        for (int q = 0; q < Q; ++q) {
+          const F cq = c[h][q], fq = f[h][q];
+          const F slope = cq > zero ? s_f * fq / (cq > zero ? cq : one) : zero;
+          sum[q][0] += fq * lr + slope * (dx[q] * m[0] + dy[q] * m[1] + dz[q] * m[2]);
+          sum[q][1] += fq * lg + slope * (dx[q] * m[3] + dy[q] * m[4] + dz[q] * m[5]);
+          sum[q][2] += fq * lb + slope * (dx[q] * m[6] + dy[q] * m[7] + dz[q] * m[8]);
+          sum[q][3] += fq * w;
+        }
       }
     }
     for (int q = 0; q < Q; ++q)

@@ -173,14 +173,12 @@ void PointCells::make_float_copy() {
   for (int m = 0; m < 9; ++m) conv(moment[m], fmoment[m]);
 }
 
-void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out,
-                  bool floats_only) {
+void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out) {
   for (auto* v : {&out.x, &out.y, &out.z, &out.w, &out.lr, &out.lg, &out.lb}) v->clear();
   for (auto& m : out.moment) m.clear();
   for (auto* v : {&out.fx, &out.fy, &out.fz, &out.fw, &out.flr, &out.flg, &out.flb}) v->clear();
   for (auto& m : out.fmoment) m.clear();
   const bool floats = src.has_float();
-  const bool doubles = !floats_only || !floats;
   out.cells.clear();
   out.blocks.clear();
   out.spacing = src.spacing;
@@ -189,12 +187,10 @@ void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, Poin
     auto copy = [&](const std::vector<double>& from, std::vector<double>& to) {
       to.insert(to.end(), from.begin() + cell.begin, from.begin() + cell.end);
     };
-    if (doubles) {
-      copy(src.x, out.x), copy(src.y, out.y), copy(src.z, out.z), copy(src.w, out.w);
-      copy(src.lr, out.lr), copy(src.lg, out.lg), copy(src.lb, out.lb);
-      if (src.has_moments())
-        for (int m = 0; m < 9; ++m) copy(src.moment[m], out.moment[m]);
-    }
+    copy(src.x, out.x), copy(src.y, out.y), copy(src.z, out.z), copy(src.w, out.w);
+    copy(src.lr, out.lr), copy(src.lg, out.lg), copy(src.lb, out.lb);
+    if (src.has_moments())
+      for (int m = 0; m < 9; ++m) copy(src.moment[m], out.moment[m]);
     if (floats) {
       auto copyf = [&](const std::vector<float>& from, std::vector<float>& to) {
         to.insert(to.end(), from.begin() + cell.begin, from.begin() + cell.end);

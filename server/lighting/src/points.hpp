@@ -86,8 +86,6 @@ PointCells points_aggregated(const EnvMap& env, int face, int points_per_cell = 
 
 // Copies into `out` (replacing its contents) every cell of `src` that holds a point whose cosine
 // with `centre` exceeds min_cos: the candidates of a batch of nearby directions, contiguous.
-// With floats_only, only the single-precision arrays (and the cells) are copied.
-void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out,
-                  bool floats_only = false);
+void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out);
 
 }  // namespace arlight::lighting::detail

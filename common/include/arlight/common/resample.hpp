@@ -48,7 +48,10 @@ EnvMap resample(const EnvMap& src, const EnvLayout& dst);
 // `src` reduced to `dst` when both are cube maps and dst's face divides src's by a whole factor
 // k: each texel the solid-angle-weighted mean of the k x k texels it covers, so the map's power
 // is kept exactly (a box filter on the stacked faces; ~20x faster than resample(), which it
-// matches to within its sub-sampling). Otherwise resample(src, dst).
+// matches to within its sub-sampling). Other layouts are binned: each texel of `dst` the
+// solid-angle-weighted mean of the texels of `src` whose centres fall in it (the power within
+// ~1 %; ~10x faster than resample()), when `src` has at least twice the texels and every texel
+// of `dst` gets one. Otherwise resample(src, dst).
 EnvMap reduce(const EnvMap& src, const EnvLayout& dst);
 
 }  // namespace arlight
