@@ -482,9 +482,12 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     for (int j : kink ? kinked : smooth)
       n = std::max(n, sh_order_for(job.shininess[std::size_t(j)]));
     o << "auto: SH order " << n << " (one projection for " << ks.size() << " maps), "
-      << (kink ? "evaluated at every texel"
-               : "evaluated on a " + std::to_string(grids[0].side() - 4) +
-                     "^2 x 6 cube grid (bicubic)")
+      << (!kink ? "evaluated on a " + std::to_string(grids[0].side() - 4) +
+                      "^2 x 6 cube grid (bicubic)"
+          : kinked_grids.empty()
+              ? std::string("evaluated at every texel")
+              : "its SH part from a " + std::to_string(kinked_grids[0].side() - 4) +
+                    "^2 x 6 cube grid (bicubic, linear), bright lights at every texel")
       << "; " << seconds << " s for the group";
     result.plans[std::size_t(k)] = o.str();
   }
