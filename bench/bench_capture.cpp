@@ -15,6 +15,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "arlight/capture/capture.hpp"
@@ -246,6 +247,64 @@ BENCHMARK_CAPTURE(BM_CaptureByDirection, anglemap_512_aligned, Projection::Angle
 BENCHMARK_CAPTURE(BM_CaptureByDirection, cube_192_aligned, Projection::Cube, 192, true)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(8 * 32);
+// Issue 37 §1: frames that add nothing, as arlightd gets them from a phone that follows the
+// frame advice (320x240 of a 640x480 camera, re-encoded q90) once the turn above is captured
+// (three turns, the last two agreeing): each frame of a fourth turn, with the glance
+// (CaptureOptions::glance) or without, in one process, on one core. Counters: the median
+// ms a frame (and of the glanced frames) and the shares of the frames the glance / the full
+// test found unchanged.
+void BM_SettledFrame(benchmark::State& state, bool glance) {
+  tbb::global_control one_core(tbb::global_control::max_allowed_parallelism, 1);
+  static const std::vector<std::vector<std::uint8_t>> reduced = [] {
+    std::vector<std::vector<std::uint8_t>> out;
+    for (const auto& jpeg : frames(0.3)) {
+      const cv::Mat full = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+      cv::Mat half;
+      cv::resize(full, half, cv::Size(320, 240), 0, 0, cv::INTER_AREA);
+      out.emplace_back();
+      cv::imencode(".jpg", half, out.back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+    }
+    return out;
+  }();
+  capture::CaptureOptions options;
+  options.layout = capture::capture_layout_for(512);
+  options.align_async = true, options.align_every = 4;  // as arlightd
+  options.glance = glance;
+  capture::CaptureSession session(CameraIntrinsics::from_fov(640, 480, 60), CameraResponse::srgb(),
+                                  options);
+  double t = 0.0;
+  for (int k = 0; k < 3 * kFrames; ++k, t += 1.0 / 30)
+    session.add_encoded(reduced[std::size_t(k % kFrames)], {t, 0.3, 1.0, view(k % kFrames)});
+  std::vector<double> ms, glanced_ms;
+  std::size_t glanced = 0, unchanged = 0, k = 0;
+  for (auto _ : state) {
+    const int f = int(k++ % kFrames);
+    const auto t0 = std::chrono::steady_clock::now();
+    const capture::FrameResult r = session.add_encoded(reduced[std::size_t(f)], {t, 0.3, 1.0, view(f)});
+    benchmark::DoNotOptimize(session.sh().c[0]);
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    t += 1.0 / 30;
+    if (!r.used) state.SkipWithError(r.skipped_reason.c_str());
+    glanced += r.glanced, unchanged += r.unchanged;
+    if (r.glanced) glanced_ms.push_back(ms.back());
+  }
+  std::sort(ms.begin(), ms.end());
+  std::sort(glanced_ms.begin(), glanced_ms.end());
+  state.counters["median_ms"] = ms[ms.size() / 2];
+  state.counters["glanced_median_ms"] = glanced_ms.empty() ? 0.0 : glanced_ms[glanced_ms.size() / 2];
+  state.counters["glanced_pct"] = 100.0 * double(glanced) / double(ms.size());
+  state.counters["unchanged_pct"] = 100.0 * double(unchanged) / double(ms.size());
+}
+
+BENCHMARK_CAPTURE(BM_SettledFrame, glance, true)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(kFrames)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_SettledFrame, no_glance, false)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(kFrames)
+    ->UseRealTime();
 BENCHMARK_CAPTURE(BM_CaptureFrame, no_align, false, capture::Fill::Estimate)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(256);

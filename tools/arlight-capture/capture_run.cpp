@@ -206,6 +206,7 @@ int run_capture(const CaptureFlags& o, const recording::Recording& rec) {
                             {"pass", pass},
                             {"texels_changed", r.texels_changed},
                             {"unchanged", r.unchanged},
+                            {"glanced", r.glanced},
                             {"change", r.change},
                             {"bias", r.bias},
                             {"exposure_gain", r.exposure_gain}};

@@ -16,6 +16,7 @@
 #include "arlight/common/pose.hpp"
 #include "arlight/common/resample.hpp"
 #include "drift_model.hpp"
+#include "glance.hpp"
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
 #include "map_view.hpp"
@@ -49,16 +50,6 @@ double half_field_of_view(const PinholeCamera& cam) {
   return widest;
 }
 
-// Intrinsics of the same camera with its image reduced by `factor` (block centres).
-CameraIntrinsics reduced(const CameraIntrinsics& k, int factor) {
-  CameraIntrinsics r = k;
-  r.width = (k.width + factor - 1) / factor;
-  r.height = (k.height + factor - 1) / factor;
-  r.fx = k.fx / factor, r.fy = k.fy / factor;
-  r.cx = (k.cx - 0.5 * (factor - 1)) / factor;
-  r.cy = (k.cy - 0.5 * (factor - 1)) / factor;
-  return r;
-}
 
 bool has_distortion(const CameraIntrinsics& k) {
   return std::any_of(k.distortion.begin(), k.distortion.end(), [](double d) { return d != 0.0; });
@@ -130,6 +121,7 @@ struct CaptureSession::Impl {
     RotationFit fit;
   };
   std::future<Measurement> pending_alignment;  // align_async: measured on another thread
+  std::optional<Glancer> glancer;  // CaptureOptions::glance, for a cube map
 
   Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
       : camera(k),
@@ -161,12 +153,12 @@ struct CaptureSession::Impl {
     // twice that resolution, where features are still sharp but cheap to find.
     const double pixel_angle = 1.0 / std::max(k.fx, k.fy);
     factor = std::max(1, int(std::floor(texel_angle(*table) / pixel_angle)));
-    reduced_camera = reduced(k, factor);
+    reduced_camera = reduced_intrinsics(k, factor);
     field_radius = half_field_of_view(pinhole) + 0.02;
     cos_field = std::cos(std::min(std::numbers::pi, field_radius));
     int align_factor = std::max(1, factor / 2);
     while ((k.width + align_factor - 1) / align_factor > options.align_max_width) ++align_factor;
-    align_camera = PinholeCamera(reduced(k, align_factor));
+    align_camera = PinholeCamera(reduced_intrinsics(k, align_factor));
     // The largest power-of-two reduction (up to 8, libjpeg's) that divides the image, that the
     // alignment still resolves, and that leaves linearize() at least 2x2 pixels a block to
     // average in linear radiance: an average of codes is biased where a lamp's edge mixes
@@ -177,6 +169,8 @@ struct CaptureSession::Impl {
          r *= 2)
       reduction = r;
     align_view.emplace(align_camera, response);
+    if (options.layout.projection() == Projection::Cube)  // its table is in texel order
+      glancer.emplace(k, reduction, factor, options.layout, table->solid_angle);
   }
 
   void refit_unseen() const {
@@ -440,6 +434,7 @@ struct CaptureSession::Impl {
         newly_seen.push_back(std::uint32_t(texel));
       }
       merge(m, texel);
+      if (glancer) glancer->touch(texel);
       const glm::vec3 delta = texel_radiance(texel) - before;
       if (delta != glm::vec3(0.0f)) {
         changed_dirs.emplace_back(ti.dir_x[m.k], ti.dir_y[m.k], ti.dir_z[m.k]);
@@ -493,6 +488,36 @@ struct CaptureSession::Impl {
       }
     result.clipped_unmeasured = double(unmeasured) / double(frame.width * frame.height);
     result.clipped_floor = brightest;
+  }
+
+  // CaptureOptions::glance: `bytes` decoded at 1/8 of its size and compared with the map's
+  // blocks at the predicted orientation. The frame's result when it is unchanged; nothing when
+  // it has to be processed (its skip reasons are then the full path's).
+  std::optional<FrameResult> glance(std::span<const std::uint8_t> bytes, const FrameInfo& info) {
+    if (!options.glance || !glancer || !(covered_solid_angle > 0.0) ||
+        !check_frame_info(info).empty())
+      return std::nullopt;
+    const auto t0 = Clock::now();
+    double exposure_gain = info.exposure * info.gain;
+    if (options.estimate_exposure && last_exposure_gain > 0.0) exposure_gain = last_exposure_gain;
+    const glm::dquat sensor = glm::normalize(info.orientation);
+    const glm::dquat predicted =
+        options.align ? glm::normalize(drift.predict(info.timestamp) * sensor) : sensor;
+    const auto v =
+        glancer->look(bytes, response, exposure_gain, predicted, weighted_radiance, weight);
+    // At least a quarter of the glance image compared (the rest: border, clipped, black).
+    if (!v || v->sees_new || v->clipped_unmeasured || v->pixels < v->image_pixels / 4 ||
+        !(v->change < options.unchanged_share) || !(std::abs(v->bias) < options.unchanged_bias))
+      return std::nullopt;
+    FrameResult result;
+    result.used = result.unchanged = result.glanced = true;
+    result.orientation = predicted;
+    result.correction_deg = angle_deg(predicted, sensor);
+    result.change = v->change, result.bias = v->bias;
+    result.exposure_gain = exposure_gain;
+    result.decode_ms = ms_since(t0);
+    ++used;
+    return result;
   }
 
   // `scale` > 1: the image was decoded already reduced by that factor (JPEG DCT scaling).
@@ -560,6 +585,7 @@ CaptureSession& CaptureSession::operator=(CaptureSession&&) noexcept = default;
 FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
                                         const FrameInfo& info) {
   ++impl_->added;
+  if (auto glanced = impl_->glance(bytes, info)) return std::move(*glanced);
   FrameResult result;
   const auto t0 = Clock::now();
   // A frame of the camera's size, or reduced by a power of two up to frame_reduction(); the
@@ -703,6 +729,7 @@ void CaptureSession::restore(const Accumulators& acc) {
     if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
   s.sh = sh_project(measured_environment(), s.options.sh_order);
   s.unseen_stale = true;
+  if (s.glancer) s.glancer->touch_all();
 }
 
 EnvLayout capture_layout_for(int n) {

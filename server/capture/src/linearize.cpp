@@ -34,6 +34,16 @@ float border_weight(int x, int y, int width, int height) {
   return border_axis(x, width, ramp) * border_axis(y, height, ramp);
 }
 
+CameraIntrinsics reduced_intrinsics(const CameraIntrinsics& k, int factor) {
+  CameraIntrinsics r = k;
+  r.width = (k.width + factor - 1) / factor;
+  r.height = (k.height + factor - 1) / factor;
+  r.fx = k.fx / factor, r.fy = k.fy / factor;
+  r.cx = (k.cx - 0.5 * (factor - 1)) / factor;
+  r.cy = (k.cy - 0.5 * (factor - 1)) / factor;
+  return r;
+}
+
 LinearFrame linearize(const cv::Mat& bgr8, const CameraResponse& response, double exposure_gain,
                       int factor) {
   CV_Assert(bgr8.type() == CV_8UC3 && factor >= 1 && exposure_gain > 0);

@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "arlight/common/camera.hpp"
 #include "arlight/common/response.hpp"
 
 namespace cv {
@@ -38,6 +39,10 @@ float code_weight(int max_code);
 // smoothly from 0 at the edge to 1 at 8 % of the smaller side, so frames blend without seams
 // and the residual vignetting of the corners counts less.
 float border_weight(int x, int y, int width, int height);
+
+// Intrinsics of the same camera with its image reduced by `factor` (a pixel per block, at the
+// block's centre): what a LinearFrame of that factor is seen through.
+CameraIntrinsics reduced_intrinsics(const CameraIntrinsics& k, int factor);
 
 // Linearises an 8-bit BGR frame (radiance = linear(code) / (exposure * gain)) and reduces it.
 LinearFrame linearize(const cv::Mat& bgr8, const CameraResponse& response, double exposure_gain,

@@ -169,6 +169,9 @@ struct Daemon::Impl {
     session_env.frames_unchanged = &metrics.counter(
         "arlight_frames_unchanged_total",
         "frames processed but not merged: they agreed with the map (issue 37)");
+    session_env.frames_glanced = &metrics.counter(
+        "arlight_frames_glanced_total",
+        "unchanged frames found so by the glance alone: decoded at 1/8, not processed (issue 37)");
     session_env.map_sets = &metrics.counter("arlight_map_sets_total", "map sets computed and sent");
     session_env.light_files = &metrics.counter(
         "arlight_light_files_total", "light files (light.json, specular.ktx2) computed for the admin");

@@ -221,6 +221,10 @@ void Session::process() {
       if (r.unchanged) {  // it agreed with the map: nothing new to checkpoint or compute
         ++unchanged_, ++unchanged_run_;
         if (env_.frames_unchanged) env_.frames_unchanged->inc();
+        if (r.glanced) {
+          ++glanced_;
+          if (env_.frames_glanced) env_.frames_glanced->inc();
+        }
       } else {
         ++merged_;
         unchanged_run_ = 0;
@@ -573,6 +577,7 @@ json Session::summary() const {
             {"frames_dropped", dropped_},
             {"frames_skipped", skipped_},
             {"frames_unchanged", unchanged_},
+            {"frames_glanced", glanced_},
             {"last_sequence", last_sequence_},
             {"map_sets", map_set_},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},

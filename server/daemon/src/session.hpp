@@ -53,6 +53,7 @@ struct SessionEnv {
   admin::Counter* frames_dropped = nullptr;
   admin::Counter* frames_skipped = nullptr;
   admin::Counter* frames_unchanged = nullptr;
+  admin::Counter* frames_glanced = nullptr;
   admin::Counter* map_sets = nullptr;
   admin::Counter* light_files = nullptr;
   admin::Histogram* processing_seconds = nullptr;
@@ -172,6 +173,7 @@ class Session : public std::enable_shared_from_this<Session> {
   // Of the processed frames: merged into the map (what map sets and light files follow), or
   // not, agreeing with it (capture::FrameResult::unchanged).
   std::uint64_t merged_ = 0, unchanged_ = 0;
+  std::uint64_t glanced_ = 0;  // of the unchanged: found so by the glance alone
   // Frame advice (issue 37 §1, PROTOCOL.md): the frame rate a session needs while its frames
   // change the map, and once the last kSettledFrames agreed with it. A light switched on then
   // shows at the next frame, within 0.1 s, and the rate goes back up.

@@ -87,6 +87,12 @@ struct CaptureOptions {
   double changed_ratio = 2.0 / 3.0;  // the brighter at least 3x the darker
   double unchanged_share = 0.04;
   double unchanged_bias = 0.005;
+  // JPEG frames (add_encoded) are first glanced at: decoded at 1/8 in the DCT domain and
+  // compared, by the test above, with the map averaged over blocks of the glance's pixel size,
+  // at the orientation the drift model predicts. A frame that sees nothing new and agrees is
+  // unchanged (FrameResult::glanced) without its full decode, alignment, exposure estimate and
+  // sampling. Needs a cube map whose face the block size divides (the capture's layout).
+  bool glance = true;
 };
 
 // What one frame carries besides its pixels (common/, shared with the client and the wire).
@@ -105,6 +111,7 @@ struct FrameResult {
   // the SH are as they were. `change` and `bias`: how it differed (the shares the test reads),
   // merged or not; 0 where nothing it saw was measured well before.
   bool unchanged = false;
+  bool glanced = false;  // found unchanged by the glance (CaptureOptions::glance) alone
   double change = 0, bias = 0;
   double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
   bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
