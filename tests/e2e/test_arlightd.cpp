@@ -877,8 +877,9 @@ TEST(Arlightd, ByesDuringPeriodicCheckpointsLeaveEverySessionWholeOnDisk) {
 
 // Issue 37 §1: frame advice. A 640x480 camera's LightingUpdates ask for 320x240 (what the map
 // and the alignment resolve); such a frame is taken, one of another size is skipped saying what
-// sizes are; once ten frames in a row agree with the map the rate asked for drops from 30 to 10,
-// and a frame of a changed room (a lamp switched on) takes it back to 30 at once.
+// sizes are; once ten frames in a row agree with the map the rate asked for drops from 30 to 10
+// (they are glanced at, not processed), and a frame of a changed room (a lamp switched on) takes
+// it back to 30 at once, its own update's SH holding the lamp.
 TEST(Arlightd, FrameAdviceAsksForTheSizeTheMapNeedsAndFewerFramesOnceTheyAgree) {
   const fs::path dir = test::fresh_temp_dir("daemon_frame_advice");
   const fs::path rec_dir = dir / "rec";
@@ -926,11 +927,21 @@ TEST(Arlightd, FrameAdviceAsksForTheSizeTheMapNeedsAndFewerFramesOnceTheyAgree) 
   EXPECT_NE(odd.reason.find("640x480 (or that reduced by a power of two)"), std::string::npos)
       << odd.reason;
   float settled_fps = 0.0f;
-  for (int k = 0; k < 14; ++k) settled_fps = send(small, {320, 240}).advised_fps;
+  client::LightingUpdate settled;
+  for (int k = 0; k < 14; ++k) settled = send(small, {320, 240}), settled_fps = settled.advised_fps;
   EXPECT_EQ(settled_fps, 10.0f);
+  // The settled frames cost their glance alone (capture's CaptureOptions::glance) ...
+  double glanced = 0;
+  for (const json& s : json::parse(d.admin_get("/sessions").second))
+    glanced += s["frames_glanced"].get<double>();
+  EXPECT_GE(glanced, 8.0);
+  // ... and the lamp switched on is in the live SH of its own frame's update: at the settled
+  // 10 frames a second, within 0.1 s and a frame's latency of the switch.
   const client::LightingUpdate lamp = send(reduced(full, {320, 240}, true), {320, 240});
   EXPECT_TRUE(lamp.frame_used);
+  EXPECT_EQ(lamp.frame_sequence, seq);
   EXPECT_EQ(lamp.advised_fps, 30.0f);
+  EXPECT_GT(lamp.sh.c[0].x, settled.sh.c[0].x * 1.01f);
 }
 
 // Issue 16 §3: map sets follow the map. One view of a room whose lamp goes on and off, sent

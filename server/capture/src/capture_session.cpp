@@ -507,7 +507,7 @@ struct CaptureSession::Impl {
         glancer->look(bytes, response, exposure_gain, predicted, weighted_radiance, weight);
     // At least a quarter of the glance image compared (the rest: border, clipped, black).
     if (!v || v->sees_new || v->clipped_unmeasured || v->pixels < v->image_pixels / 4 ||
-        !(v->change < options.unchanged_share) || !(std::abs(v->bias) < options.unchanged_bias))
+        !(v->change < options.glance_share) || !(std::abs(v->bias) < options.unchanged_bias))
       return std::nullopt;
     FrameResult result;
     result.used = result.unchanged = result.glanced = true;
