@@ -8,7 +8,9 @@
 # noisy). MAPS_FLAGS replaces what the sessions ask for (default --maps; e.g. "--ggx 256" for
 # GGX chains, issue 34 §2; " " for none). LOAD_FLAGS go to arlight-load too (e.g.
 # --ignore-advice: every frame at full size and rate, issue 37 §1). BUSY=N runs N CPU-bound shell loops of normal priority beside
-# arlightd during each measured run (a workstation someone uses; issue 37 §2).
+# arlightd during each measured run (a workstation someone uses; issue 37 §2). LOAD_DURATION
+# replaces the 10 s (the sessions all start capturing at once: a longer run shows more of
+# their settled state).
 #   bench/load_maps.sh [BUILD_DIR] [OUT] [SESSIONS...]      (default sessions: 1 4 8)
 set -eu
 build=${1:-build}
@@ -48,7 +50,7 @@ run() {  # run DAEMON LABEL SESSIONS
   cpu_before=$(cpu_ticks $pid)
   for _ in $(seq "${BUSY:-0}"); do sh -c 'while :; do :; done' & busy="$busy $!"; done
   "$build/bin/arlight-load" --server "127.0.0.1:$port" --token $token --recording "$out/rec" \
-    --device load --sessions "$3" --duration 10 --rate 30 ${MAPS_FLAGS:---maps} ${LOAD_FLAGS:-} --json "$out/$2-$3.json" \
+    --device load --sessions "$3" --duration ${LOAD_DURATION:-10} --rate 30 ${MAPS_FLAGS:---maps} ${LOAD_FLAGS:-} --json "$out/$2-$3.json" \
     > /dev/null || true
   [ -n "$busy" ] && kill $busy
   busy=
@@ -74,7 +76,7 @@ PY
 # the machine ran meanwhile (a shared machine's steal time is not in it).
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
 
-echo "| arlightd | sessions x 30 fps | map sets in 10 s | interval while sending (median / slowest session) | dropped of sent | held back (frame advice) | p99 frame->update | daemon CPU in the 10 s | upload a session |"
+echo "| arlightd | sessions x 30 fps | map sets in the run | interval while sending (median / slowest session) | dropped of sent | held back (frame advice) | p99 frame->update | daemon CPU in the run | upload a session |"
 echo "|---|---|---|---|---|---|---|---|---|"
 for n in $counts; do
   [ -n "${OLD:-}" ] && run "$OLD" old "$n"
