@@ -280,7 +280,8 @@ void BM_SettledFrame(benchmark::State& state, bool glance) {
   for (auto _ : state) {
     const int f = int(k++ % kFrames);
     const auto t0 = std::chrono::steady_clock::now();
-    const capture::FrameResult r = session.add_encoded(reduced[std::size_t(f)], {t, 0.3, 1.0, view(f)});
+    const capture::FrameResult r =
+        session.add_encoded(reduced[std::size_t(f)], {t, 0.3, 1.0, view(f)});
     benchmark::DoNotOptimize(session.sh().c[0]);
     ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -292,7 +293,8 @@ void BM_SettledFrame(benchmark::State& state, bool glance) {
   std::sort(ms.begin(), ms.end());
   std::sort(glanced_ms.begin(), glanced_ms.end());
   state.counters["median_ms"] = ms[ms.size() / 2];
-  state.counters["glanced_median_ms"] = glanced_ms.empty() ? 0.0 : glanced_ms[glanced_ms.size() / 2];
+  state.counters["glanced_median_ms"] =
+      glanced_ms.empty() ? 0.0 : glanced_ms[glanced_ms.size() / 2];
   state.counters["glanced_pct"] = 100.0 * double(glanced) / double(ms.size());
   state.counters["unchanged_pct"] = 100.0 * double(unchanged) / double(ms.size());
 }

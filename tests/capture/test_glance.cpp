@@ -70,10 +70,9 @@ void settle(CaptureSession& s, const EnvSampler& sampler, bool band_only = false
   for (int turn = 0; turn < 2; ++turn)
     for (double pitch : band_only ? std::vector<double>{0.0} : std::vector<double>{-40, 0, 40})
       for (int k = 0; k < 12; ++k)
-        ASSERT_TRUE(
-            s.add_encoded(jpeg_of(sampler, yaw_pitch(30.0 * k, pitch), exposure),
-                          {0.0, exposure, 1.0, yaw_pitch(30.0 * k, pitch)})
-                .used);
+        ASSERT_TRUE(s.add_encoded(jpeg_of(sampler, yaw_pitch(30.0 * k, pitch), exposure),
+                                  {0.0, exposure, 1.0, yaw_pitch(30.0 * k, pitch)})
+                        .used);
 }
 
 TEST(Glance, AFrameThatAgreesIsGlancedAndChangesNothing) {
@@ -84,9 +83,8 @@ TEST(Glance, AFrameThatAgreesIsGlancedAndChangesNothing) {
   const ShCoeffs sh = s.sh();
   int glanced = 0;
   for (int k = 0; k < 12; ++k) {
-    const FrameResult r =
-        s.add_encoded(jpeg_of(sampler, yaw_pitch(30.0 * k + 15.0, 0)),
-                      {0.0, 1.0, 1.0, yaw_pitch(30.0 * k + 15.0, 0)});
+    const FrameResult r = s.add_encoded(jpeg_of(sampler, yaw_pitch(30.0 * k + 15.0, 0)),
+                                        {0.0, 1.0, 1.0, yaw_pitch(30.0 * k + 15.0, 0)});
     ASSERT_TRUE(r.used) << r.skipped_reason;
     EXPECT_TRUE(r.unchanged) << k << ": change " << r.change << ", bias " << r.bias;
     glanced += r.glanced;
@@ -102,7 +100,8 @@ TEST(Glance, ALightSwitchedOnIsNotGlancedAway) {
   settle(s, EnvSampler(room()));
   const double l00 = s.sh().c[0].x;
   const EnvSampler lit(room(0.6));  // 3-4x the wall: not clipped at exposure 1
-  const FrameResult r = s.add_encoded(jpeg_of(lit, yaw_pitch(0, 0)), {0.0, 1.0, 1.0, yaw_pitch(0, 0)});
+  const FrameResult r =
+      s.add_encoded(jpeg_of(lit, yaw_pitch(0, 0)), {0.0, 1.0, 1.0, yaw_pitch(0, 0)});
   ASSERT_TRUE(r.used) << r.skipped_reason;
   EXPECT_FALSE(r.glanced);
   EXPECT_FALSE(r.unchanged);

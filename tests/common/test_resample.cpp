@@ -203,6 +203,6 @@ TEST(Reduce, BoxFiltersKeepThePowerAndMatchResample) {
   }
   const EnvLayout finer = EnvLayout::for_size(Projection::AngleMap, 256);
   const EnvMap a = reduce(env, finer), b = resample(env, finer);
-  EXPECT_EQ(a.image.data()[3 * finer.texel_count() / 2], b.image.data()[3 * finer.texel_count() / 2]);
+  EXPECT_EQ(a.image.data()[3 * finer.texel_count() / 2],
+            b.image.data()[3 * finer.texel_count() / 2]);
 }
-

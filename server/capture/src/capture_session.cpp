@@ -6,9 +6,9 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <numbers>
-#include <optional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "align.hpp"
@@ -49,7 +49,6 @@ double half_field_of_view(const PinholeCamera& cam) {
       widest = std::max(widest, std::acos(std::clamp(-cam.unproject({x, y}).z, -1.0, 1.0)));
   return widest;
 }
-
 
 bool has_distortion(const CameraIntrinsics& k) {
   return std::any_of(k.distortion.begin(), k.distortion.end(), [](double d) { return d != 0.0; });
@@ -121,7 +120,7 @@ struct CaptureSession::Impl {
     RotationFit fit;
   };
   std::future<Measurement> pending_alignment;  // align_async: measured on another thread
-  std::optional<Glancer> glancer;  // CaptureOptions::glance, for a cube map
+  std::optional<Glancer> glancer;              // CaptureOptions::glance, for a cube map
 
   Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
       : camera(k),

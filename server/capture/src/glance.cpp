@@ -77,8 +77,8 @@ BlockMap::Block BlockMap::at(glm::dvec3 d, std::span<const float> weighted_radia
   const float wx[2] = {1.0f - ax, ax}, wy[2] = {1.0f - ay, ay};
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
-      const std::size_t b = std::size_t(face * block_face_ + ys[j]) * std::size_t(block_face_) +
-                            std::size_t(xs[i]);
+      const std::size_t b =
+          std::size_t(face * block_face_ + ys[j]) * std::size_t(block_face_) + std::size_t(xs[i]);
       const Block& v = block(b, weighted_radiance, weight);
       out.radiance += wx[i] * wy[j] * v.radiance;
       out.measured += wx[i] * wy[j] * v.measured;
@@ -119,8 +119,8 @@ LinearFrame tent_blurred(const LinearFrame& f) {
 
 GlanceVerdict glance_at_map(const LinearFrame& sharp, std::span<const glm::dvec3> rays,
                             const glm::dquat& orientation, BlockMap& blocks,
-                            std::span<const float> weighted_radiance,
-                            std::span<const float> weight, float clip_floor) {
+                            std::span<const float> weighted_radiance, std::span<const float> weight,
+                            float clip_floor) {
   // A block must be measured nearly whole: a frame that would measure texels for the first
   // time is never unchanged.
   constexpr float kMeasured = 0.95f;
@@ -174,8 +174,8 @@ GlanceVerdict glance_at_map(const LinearFrame& sharp, std::span<const glm::dvec3
   return v;
 }
 
-Glancer::Glancer(const CameraIntrinsics& camera, int reduction, int factor,
-                 const EnvLayout& layout, std::span<const double> omega)
+Glancer::Glancer(const CameraIntrinsics& camera, int reduction, int factor, const EnvLayout& layout,
+                 std::span<const double> omega)
     : camera_(camera), reduction_(reduction), factor_(factor), layout_(layout), omega_(omega) {}
 
 std::optional<GlanceVerdict> Glancer::look(std::span<const std::uint8_t> jpeg,

@@ -7,9 +7,9 @@
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
+#include <map>
 #include <optional>
 #include <span>
 #include <vector>
@@ -73,8 +73,8 @@ struct GlanceVerdict {
 // radiance a clipped pixel of this frame proves.
 GlanceVerdict glance_at_map(const LinearFrame& image, std::span<const glm::dvec3> rays,
                             const glm::dquat& orientation, BlockMap& blocks,
-                            std::span<const float> weighted_radiance,
-                            std::span<const float> weight, float clip_floor);
+                            std::span<const float> weighted_radiance, std::span<const float> weight,
+                            float clip_floor);
 
 // The glances of one capture session: decodes, linearises and compares (glance_at_map()),
 // keeping per glance size the map's blocks and the image's rays (undistortion is iterative).

@@ -112,9 +112,9 @@ class InputLevels {
   }
   void build(int face, Slot& slot) {
     std::call_once(slot.once, [&] {
-      slot.cells = std::make_unique<PointCells>(
-          face ? points_aggregated(input_, face, kPointsPerCell)
-               : points_from_texels(input_, kPointsPerCell));
+      slot.cells =
+          std::make_unique<PointCells>(face ? points_aggregated(input_, face, kPointsPerCell)
+                                            : points_from_texels(input_, kPointsPerCell));
       slot.cells->make_float_copy();
     });
   }
@@ -554,8 +554,8 @@ class ChangeReach {
 // it skipped, indexed by block x 4 + group).
 class DirectLobe {
  public:
-  DirectLobe(const Job& job, const BrightSplit& split, InputLevels& levels,
-             std::size_t out_texels, AutoMemory* memory, int k)
+  DirectLobe(const Job& job, const BrightSplit& split, InputLevels& levels, std::size_t out_texels,
+             AutoMemory* memory, int k)
       : job_(job),
         split_(split),
         k_(k),
@@ -737,9 +737,9 @@ ComputedMapSet run_auto(const Job& job, AutoMemory* memory) {
   for (int k : ascending_order(job.shininess))
     (sh_resolves(job.shininess[std::size_t(k)], sh_samples) ? by_sh : direct).push_back(k);
   for (int k : direct)
-    levels.prepare(make_plan(job.shininess[std::size_t(k)], job.spec.tuning, levels.full_spacing(),
-                             out_texels)
-                       .input_face);
+    levels.prepare(
+        make_plan(job.shininess[std::size_t(k)], job.spec.tuning, levels.full_spacing(), out_texels)
+            .input_face);
   if (!by_sh.empty()) sh_stage(job, split, by_sh, maps, result);
   std::vector<std::vector<float>> grids(maps.size());
   // Narrow lobes by direct integration over prefiltered input, widest first.

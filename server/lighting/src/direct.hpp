@@ -37,8 +37,8 @@ class BatchIntegrator {
  private:
   const PointCells& pts_;
   const PowerChain& chain_;
-  double window_;  // lobe window radius (rad)
-  PointCells gathered_;                            // the chain path's candidates, copied
+  double window_;                                    // lobe window radius (rad)
+  PointCells gathered_;                              // the chain path's candidates, copied
   std::vector<const PointCells::Cell*> candidates_;  // the single-lobe path's, in place
   std::vector<double> lanes_;
 };

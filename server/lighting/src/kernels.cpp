@@ -198,7 +198,8 @@ inline double hsum(F v) {
   typedef float Q4 __attribute__((vector_size(kWf / 4 * sizeof(float))));
   const H h = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) +
               __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
-  const Q4 q = __builtin_shufflevector(h, h, 0, 1, 2, 3) + __builtin_shufflevector(h, h, 4, 5, 6, 7);
+  const Q4 q =
+      __builtin_shufflevector(h, h, 0, 1, 2, 3) + __builtin_shufflevector(h, h, 4, 5, 6, 7);
   return double(q[0] + q[2]) + double(q[1] + q[3]);
 }
 
@@ -215,14 +216,16 @@ void accumulate_single_f32(const PointCells& pts, std::uint32_t begin, std::uint
   const bool moments = pts.has_moments();
   const F zero = {}, one = zero + 1.0f;
   const float s_f = float(step.s);
-  const bool integer = step.kind == PowerChain::Step::PowCos || step.kind == PowerChain::Step::PowPrev;
+  const bool integer =
+      step.kind == PowerChain::Step::PowCos || step.kind == PowerChain::Step::PowPrev;
   // cos^r by square-and-multiply from the top bit down (r = 1280: 10 squarings, 1 multiply).
   const int e = integer ? step.r : 1;
   int top = 0;
   while ((e >> (top + 1)) != 0) ++top;
   F dx[Q], dy[Q], dz[Q];
   for (int q = 0; q < Q; ++q)
-    dx[q] = zero + float(dirs[q].x), dy[q] = zero + float(dirs[q].y), dz[q] = zero + float(dirs[q].z);
+    dx[q] = zero + float(dirs[q].x), dy[q] = zero + float(dirs[q].y),
+    dz[q] = zero + float(dirs[q].z);
   for (; begin < end; begin += kFloatRun) {
     const std::uint32_t run_end = std::min(end, begin + kFloatRun);
     F sum[Q][4];

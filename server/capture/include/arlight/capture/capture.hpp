@@ -115,7 +115,8 @@ struct FrameResult {
   // the SH are as they were. `change` and `bias`: how it differed (the shares the test reads),
   // merged or not; 0 where nothing it saw was measured well before.
   bool unchanged = false;
-  bool glanced = false;  // found unchanged by the glance (CaptureOptions::glance) alone
+  // Found unchanged by the glance (CaptureOptions::glance) alone: its whole time is decode_ms.
+  bool glanced = false;
   double change = 0, bias = 0;
   double exposure_gain = 0;         // the exposure x gain the frame was accumulated with
   bool exposure_estimated = false;  // estimate_exposure: measured from this frame's overlap
