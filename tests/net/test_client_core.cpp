@@ -241,3 +241,50 @@ TEST(FramePacer, SendsTheAdvisedSizeAtTheAdvisedRate) {
   pacer.advise(advice(200, 150, 0));
   EXPECT_EQ(run(30), (std::pair{30, 1}));
 }
+
+// Issue 36 §1: at most two frames in flight. A third waits for an update that answers one (an
+// update answers every frame up to its sequence, dropped ones included); one never answered
+// counts as lost after kInFlightTimeout; a new connection forgets what the old one had in
+// flight; no limit: nothing is held for it.
+TEST(FramePacer, HoldsTheNewestFrameWhileTwoAreUnanswered) {
+  client::FramePacer pacer;
+  pacer.limit_in_flight(2);
+  std::uint64_t sequence = 0;
+  double t = 100.0;
+  const auto offer = [&] {  // the camera's next frame: sent when due
+    t += 1.0 / 30.0;
+    if (!pacer.frame_due(t, 640, 480, 30.0).send) return false;
+    pacer.sent(t, ++sequence);
+    return true;
+  };
+  const auto answer = [&](std::uint64_t s) {
+    wire::LightingUpdate u;
+    u.frame_sequence = s;
+    pacer.advise(u);
+  };
+  EXPECT_TRUE(offer());
+  EXPECT_TRUE(offer());
+  EXPECT_FALSE(offer());
+  EXPECT_FALSE(offer());
+  EXPECT_EQ(pacer.held_in_flight(), 2u);
+  EXPECT_EQ(pacer.held_back(), 2u);
+  answer(1);
+  EXPECT_EQ(pacer.in_flight(), 1);
+  EXPECT_TRUE(offer());  // sequence 3
+  EXPECT_FALSE(offer());
+  answer(3);  // frame 2 was dropped on the way: answered too
+  EXPECT_EQ(pacer.in_flight(), 0);
+  EXPECT_TRUE(offer());
+  EXPECT_TRUE(offer());
+  EXPECT_FALSE(offer());
+  t += client::FramePacer::kInFlightTimeout;  // no update for two seconds: taken as lost
+  EXPECT_TRUE(offer());
+  EXPECT_TRUE(offer());
+  EXPECT_FALSE(offer());
+  pacer.forget_in_flight();  // reconnected
+  EXPECT_TRUE(offer());
+  pacer.limit_in_flight(0);
+  const std::uint64_t held = pacer.held_in_flight();
+  for (int k = 0; k < 10; ++k) EXPECT_TRUE(offer());
+  EXPECT_EQ(pacer.held_in_flight(), held);
+}

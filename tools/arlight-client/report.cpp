@@ -65,6 +65,7 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                   {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
                   {"frames_held_back", ls.frames_held_back},
+                  {"frames_held_in_flight", ls.frames_held_in_flight},
                   {"updates", ls.updates},         {"map_sets", ls.map_sets},
                   {"refused", ls.refused},         {"last_error", ls.last_error},
                   {"resumes", nlohmann::json::array()}};

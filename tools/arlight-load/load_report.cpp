@@ -35,6 +35,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   nlohmann::json j;
   std::vector<double> all;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0, held_back = 0, bytes = 0;
+  std::uint64_t held_in_flight = 0;
   std::vector<double> map_set_intervals;  // each session's median, of those with two or more
   int failed = 0;
   j["errors"] = nlohmann::json::array();
@@ -44,7 +45,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   for (std::size_t s = 0; s < reports.size(); ++s) {
     const SessionReport& r = reports[s];
     sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
-    held_back += r.held_back, bytes += r.bytes_sent;
+    held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
     if (const double i = median_map_set_interval(r.map_set_ms, duration); i > 0.0)
       map_set_intervals.push_back(i);
@@ -55,6 +56,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
     j["per_session"].push_back(
         {{"frames_sent", r.sent},
          {"frames_held_back", r.held_back},
+         {"frames_held_in_flight", r.held_in_flight},
          {"bytes_sent", r.bytes_sent},
          {"frames_processed", r.processed},
          {"frames_dropped", r.dropped},
@@ -79,7 +81,8 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   j["phases"] = phases;
   j["failed"] = failed;
   j["frames_sent"] = sent;
-  j["frames_held_back"] = held_back;  // the frame advice asked for fewer
+  j["frames_held_back"] = held_back;  // the frame advice asked for fewer, or
+  j["frames_held_in_flight"] = held_in_flight;  // (of them) --max-in-flight were unanswered
   // The frames' bytes a second per session: the uplink a phone would use.
   j["upload_bytes_per_s_per_session"] =
       reports.empty() ? 0.0 : double(bytes) / duration / double(reports.size());
@@ -124,8 +127,11 @@ void print_summary(const nlohmann::json& j) {
       j["sessions"].get<int>(), j["failed"].get<int>(), count("frames_sent"),
       count("frames_processed"), count("frames_dropped"), latency["p50"].get<double>(),
       latency["p95"].get<double>(), latency["p99"].get<double>(), count("map_sets_completed"));
-  std::printf("frames held back by the daemon's advice: %llu; upload %.0f kB/s a session\n",
-              count("frames_held_back"), j["upload_bytes_per_s_per_session"].get<double>() / 1e3);
+  std::printf(
+      "frames held back by the daemon's advice: %llu (%llu while --max-in-flight were "
+      "unanswered); upload %.0f kB/s a session\n",
+      count("frames_held_back"), count("frames_held_in_flight"),
+      j["upload_bytes_per_s_per_session"].get<double>() / 1e3);
   if (j["map_set_interval_ms"]["median"].get<double>() > 0.0)
     std::printf("map sets while sending: every %.0f ms (median session), %.0f ms (slowest)\n",
                 j["map_set_interval_ms"]["median"].get<double>(),

@@ -53,11 +53,16 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
   try {
     std::mutex m;
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
-    client::FramePacer pacer;    // the daemon's frame advice (PROTOCOL.md)
+    client::FramePacer pacer;    // the daemon's frame advice (PROTOCOL.md), frames in flight
+    pacer.limit_in_flight(plan.max_in_flight);
     Clock::time_point first;
     const auto open = [&](const std::string& resume) {
       auto c = std::make_unique<client::Client>();
       plan.connection.apply(*c);
+      {
+        std::lock_guard lock(m);
+        pacer.forget_in_flight();  // a new connection: nothing of the old one will be answered
+      }
       c->on_update = [&](const client::LightingUpdate& u) {
         std::lock_guard lock(m);
         // Updates come in sequence order; the frames skipped over were dropped.
@@ -146,10 +151,10 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
           const double now_s = std::chrono::duration<double>(Clock::now() - start).count();
           const client::FramePacer::Decision d =
               pacer.frame_due(now_s, jpegs.width(), jpegs.height(), plan.rate);
-          report.held_back = pacer.held_back();
+          report.held_back = pacer.held_back(), report.held_in_flight = pacer.held_in_flight();
           if (!d.send) continue;
           reduction = d.reduction;
-          pacer.sent(now_s);
+          pacer.sent(now_s, report.sent + 1);  // the sequence it goes with
         }
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());

@@ -29,6 +29,7 @@ struct SessionReport {
   std::string error;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
   std::uint64_t held_back = 0;   // frames not sent: the daemon's frame advice asked for fewer
+  std::uint64_t held_in_flight = 0;  // of them: held while max_in_flight were unanswered
   std::uint64_t bytes_sent = 0;  // of the frames' JPEGs
   std::vector<double> latency_ms;
   std::vector<double> map_set_ms;  // from the first frame to each completed map set
@@ -54,6 +55,9 @@ struct SessionPlan {
   // Follow the LightingUpdates' frame advice (PROTOCOL.md): send the smaller JPEG it asks for and
   // hold frames back to its rate. false: every frame at the recording's size (a raw flood).
   bool follow_advice = true;
+  // With follow_advice: at most this many frames sent and not yet answered by a LightingUpdate
+  // (client::FramePacer::limit_in_flight; 0: no limit).
+  int max_in_flight = 2;
 };
 
 // The recording's JPEGs at the camera's size and, with `reduced`, also reduced by 2, 4 and 8

@@ -51,6 +51,11 @@ int main(int argc, char** argv) {
   app.add_flag("--ignore-advice", ignore_advice,
                "send every frame at the recording's size and --rate whatever the daemon's frame "
                "advice says (a raw flood, as before it)");
+  int max_in_flight = 2;
+  app.add_option("--max-in-flight", max_in_flight,
+                 "frames a session keeps sent and not yet answered by a LightingUpdate; the "
+                 "newer ones wait for an answer (0: no limit; --ignore-advice: none either)")
+      ->capture_default_str();
   double reconnect_s = 0;
   app.add_option("--reconnect", reconnect_s,
                  "seconds a session may be without its daemon (killed, restarted, behind a "
@@ -67,6 +72,8 @@ int main(int argc, char** argv) {
     if (sessions < 1 || sessions > 1000) throw InputError("--sessions must be in [1, 1000]");
     if (!(duration > 0 && duration <= 3600)) throw InputError("--duration must be in (0, 3600]");
     if (!(rate > 0 && rate <= 1000)) throw InputError("--rate must be in (0, 1000]");
+    if (max_in_flight < 0 || max_in_flight > 1000)
+      throw InputError("--max-in-flight must be in [0, 1000]");
     SessionPlan base;
     wire::parse_endpoint(server, base.host, base.port);
     const bool spread = phases == "spread";
@@ -84,6 +91,7 @@ int main(int argc, char** argv) {
     base.rate = rate, base.duration = duration, base.maps = maps, base.ggx_face = ggx_face;
     base.connection = connection, base.reconnect_s = reconnect_s;
     base.follow_advice = !ignore_advice;
+    base.max_in_flight = max_in_flight;
     const FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height,
                             base.follow_advice);
 

@@ -12,6 +12,7 @@ namespace arlight::client_app {
 using namespace std::chrono_literals;
 
 LightingLink::LightingLink(LinkOptions options) : options_(std::move(options)) {
+  pacer_.limit_in_flight(kMaxInFlight);
   thread_ = std::thread([this] { run(); });
 }
 
@@ -102,6 +103,7 @@ bool LightingLink::connect_once() {
     if (w.resumed && w.session_id == resume)
       stats_.resumes.push_back({stats_.frames_sent, w.frames_processed, -1.0});
     client_ = std::move(c);
+    pacer_.forget_in_flight();  // nothing sent on the old connection will be answered
     stats_.connected = true;
     stats_.session_id = w.session_id;
     ++stats_.connects;
@@ -175,6 +177,7 @@ client::FramePacer::Decision LightingLink::frame_due(double timestamp, int width
   std::lock_guard lock(mutex_);
   const client::FramePacer::Decision d = pacer_.frame_due(timestamp, width, height, kCameraFps);
   stats_.frames_held_back = pacer_.held_back();
+  stats_.frames_held_in_flight = pacer_.held_in_flight();
   return d;
 }
 
@@ -195,7 +198,7 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
   }
   std::lock_guard lock(mutex_);
   ++(sent ? stats_.frames_sent : stats_.frames_not_sent);
-  if (sent) pacer_.sent(info.timestamp);
+  if (sent) pacer_.sent(info.timestamp, sequence);
 }
 
 Lighting LightingLink::lighting() const {

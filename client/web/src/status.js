@@ -59,8 +59,8 @@ const kNoClient = {
   shadow_lights: 0, shadow_ms: 0,
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
-  ggx_face: 0, maps_requested: 'phong', frames_held_back: 0, advised_width: 0, advised_height: 0,
-  advised_fps: 0,
+  ggx_face: 0, maps_requested: 'phong', frames_held_back: 0, frames_held_in_flight: 0,
+  advised_width: 0, advised_height: 0, advised_fps: 0,
 };
 export function clientStatus() {
   return state.client ? state.client.status() : kNoClient;
@@ -75,8 +75,10 @@ export function report() {
     connected: state.connected,
     session_id: state.sessionId,
     frames_sent: state.framesSent,
-    // The daemon's frame advice (PROTOCOL.md): the size and rate it asks for, the frames it held back.
+    // The daemon's frame advice (PROTOCOL.md): the size and rate it asks for, the frames it held
+    // back; of them, those held while two frames were unanswered by a LightingUpdate (issue 36).
     frames_held_back: object.frames_held_back,
+    frames_held_in_flight: object.frames_held_in_flight,
     advised_size: [object.advised_width, object.advised_height],
     advised_fps: object.advised_fps,
     updates: object.updates,

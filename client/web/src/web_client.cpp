@@ -39,6 +39,7 @@ val pose_to_js(const Pose& p) {
 
 val WebClient::hello(const std::string& device, const std::string& token,
                      const std::string& resume) {
+  pacer_.forget_in_flight();  // a new connection: nothing sent before will be answered on it
   return bytes_to_js(wire::encode(
       wire::Hello{wire::kProtocolVersion,
                   "arlight-web 0.1",
@@ -70,7 +71,7 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
   const std::vector<std::uint8_t> bytes =
       emscripten::convertJSArrayToNumberVector<std::uint8_t>(jpeg);
   ++frames_sent_;
-  pacer_.sent(timestamp);
+  pacer_.sent(timestamp, std::uint64_t(sequence));
   return bytes_to_js(wire::encode(client::jpeg_frame(std::uint64_t(sequence), info,
                                                      width_ / reduction, height_ / reduction,
                                                      bytes)));

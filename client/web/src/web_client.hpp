@@ -183,7 +183,10 @@ class WebClient {
   client::LightingState state_;  // what arlightd's messages built
   std::string last_error_;
   std::uint64_t frames_sent_ = 0, frames_rendered_ = 0;
-  client::FramePacer pacer_;  // the daemon's frame advice
+  // The daemon's frame advice, and at most kMaxInFlight frames unanswered by a LightingUpdate
+  // (issue 36 §1: the page's frames used to queue for seconds behind each other).
+  static constexpr int kMaxInFlight = 2;
+  client::FramePacer pacer_;
   // Soft shadows: the native client's --shadow-lights and --target-fps defaults.
   client_app::ShadowBudget shadow_{16, 30.0};
   bool shadow_drawn_ = false;  // the last render() drew the shadow catcher

@@ -36,6 +36,7 @@ WebClient::WebClient(const std::string& canvas, int width, int height, const ren
       width_(width),
       height_(height) {
   camera_.width = width, camera_.height = height;
+  pacer_.limit_in_flight(kMaxInFlight);
   set_fov(63.0);
   set_marker_size(kDefaultMarkerSize);
 }

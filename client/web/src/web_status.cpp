@@ -24,6 +24,7 @@ val WebClient::status() const {
   s.set("frames_encoded", double(frames_sent_));
   // The daemon's frame advice (issue 37 §1) and the frames it held back.
   s.set("frames_held_back", double(pacer_.held_back()));
+  s.set("frames_held_in_flight", double(pacer_.held_in_flight()));
   s.set("advised_width", pacer_.advised_width());
   s.set("advised_height", pacer_.advised_height());
   s.set("advised_fps", pacer_.advised_fps());

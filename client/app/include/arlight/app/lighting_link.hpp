@@ -57,7 +57,8 @@ struct LinkStats {
   std::vector<Resume> resumes;
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
   std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
-  std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send
+  std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send, or
+  std::uint64_t frames_held_in_flight = 0;  // (of them) held while kMaxInFlight were unanswered
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts
 };
@@ -107,6 +108,9 @@ class LightingLink {
   Lighting lighting_;
   LinkStats stats_;
   std::optional<double> advice_;
+  // At most this many frames sent and not yet answered by a LightingUpdate (issue 36 §1): on a
+  // slow link the newest frame waits at the client instead of seconds of frames in between.
+  static constexpr int kMaxInFlight = 2;
   client::FramePacer pacer_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
