@@ -201,6 +201,7 @@ LinkOptions link_options(const ClientFlags& f, source::FrameSource& src,
   const bool pbr = f.material_text.rfind("pbr:", 0) == 0 || f.material_text == "model";
   lo.ggx_face = f.ggx_face >= 0 ? f.ggx_face : pbr ? 256 : 0;
   lo.exposure_advice = src.request_exposure(0.0);  // (0 asks nothing: can it at all?)
+  lo.max_in_flight = src.live() ? 2 : 0;  // a replay as fast as possible sends every frame
   if (!f.location.empty()) {
     if (f.north_offset && !(std::abs(*f.north_offset) <= 180.0))
       throw InputError("--north-offset: must be in [-180, 180] degrees");

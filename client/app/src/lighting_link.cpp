@@ -12,7 +12,7 @@ namespace arlight::client_app {
 using namespace std::chrono_literals;
 
 LightingLink::LightingLink(LinkOptions options) : options_(std::move(options)) {
-  pacer_.limit_in_flight(kMaxInFlight);
+  pacer_.limit_in_flight(options_.max_in_flight);
   thread_ = std::thread([this] { run(); });
 }
 

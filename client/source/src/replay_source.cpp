@@ -61,6 +61,8 @@ std::string ReplaySource::device_id() const { return impl_->rec.device_id; }
 const recording::Recording& ReplaySource::recording() const { return impl_->rec; }
 std::size_t ReplaySource::skipped() const { return impl_->reader->skipped(); }
 
+bool ReplaySource::live() const { return impl_->options.realtime; }
+
 std::string ReplaySource::describe() const {
   const recording::Recording& r = impl_->rec;
   return "replay:" + r.folder.string() + " (" + std::to_string(r.frames.size()) + " frames, " +

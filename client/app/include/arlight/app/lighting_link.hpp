@@ -37,6 +37,10 @@ struct LinkOptions {
   // Where and when the client is (the sun, PROTOCOL.md): sent after each handshake with a
   // server that takes it, its time moved on by the time since the link started.
   std::optional<wire::Location> location;
+  // At most this many frames sent and not yet answered by a LightingUpdate (issue 36 §1): on a
+  // slow link the newest frame of a live camera waits at the client instead of seconds of frames
+  // in between. 0: no limit (a source that waits for its reader: every frame may go).
+  int max_in_flight = 2;
 };
 
 // The newest lighting (the client core's: arlight/net/lighting_state.hpp), kept across reconnections.
@@ -58,7 +62,7 @@ struct LinkStats {
   std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
   std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
   std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send, or
-  std::uint64_t frames_held_in_flight = 0;  // (of them) held while kMaxInFlight were unanswered
+  std::uint64_t frames_held_in_flight = 0;  // (of them) held while max_in_flight were unanswered
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts
 };
@@ -108,9 +112,6 @@ class LightingLink {
   Lighting lighting_;
   LinkStats stats_;
   std::optional<double> advice_;
-  // At most this many frames sent and not yet answered by a LightingUpdate (issue 36 §1): on a
-  // slow link the newest frame waits at the client instead of seconds of frames in between.
-  static constexpr int kMaxInFlight = 2;
   client::FramePacer pacer_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help

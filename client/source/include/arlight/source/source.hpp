@@ -73,6 +73,10 @@ class FrameSource {
   // not taken yet. Whether the source can (a recording cannot; a webcam whose exposure was
   // fixed with --exposure will not).
   virtual bool request_exposure(double /*exposure_gain*/) { return false; }
+  // Frames come at the camera's pace, whether taken or not (a webcam, a replay in real time): a
+  // frame not sent when due is gone, so a client keeps only a few in flight (issue 36 §1).
+  // Otherwise the source waits for its reader and every frame may go.
+  virtual bool live() const { return false; }
 };
 
 // Replays a recording folder: frames with a `problem`, or whose JPEG does not decode to the
@@ -86,6 +90,7 @@ class ReplaySource : public FrameSource {
   CameraIntrinsics intrinsics() const override;
   std::string device_id() const override;
   std::string describe() const override;
+  bool live() const override;  // with SourceOptions::realtime
   const recording::Recording& recording() const;
   std::size_t skipped() const;  // frames skipped so far
 
@@ -110,6 +115,7 @@ class V4l2Source : public FrameSource {
   // one frame, then back to the auto mode it had. UVC cameras apply a new exposure a frame or
   // two late; the frames report the control's value, so arlightd sees what was asked for.
   bool request_exposure(double exposure_gain) override;
+  bool live() const override { return true; }
 
  private:
   struct Impl;
