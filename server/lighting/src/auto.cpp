@@ -388,27 +388,35 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     }
     return sh_convolve_pair(pair, n, s);
   };
-  std::vector<CubeGrid> grids;
-  if (!smooth.empty()) {
-    const std::vector<ShCoeffs> c = convolved(smooth);
-    const int face = std::max(
-        4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * kShGridPerSigma / narrowest)));
-    for (std::size_t i = 0; i < smooth.size(); ++i) grids.emplace_back(face);
+  // Evaluates `coeffs` at every point of `grids` (equal grids, one an output of the
+  // expansions; `scratch` more outputs are evaluated into rows not kept), then finish(dirs, out)
+  // on each row of points.
+  const auto evaluate_on = [&](std::vector<CubeGrid>& grids, const std::vector<ShCoeffs>& coeffs,
+                               std::size_t scratch, const auto& finish) {
     const int side = grids[0].side();
     tbb::parallel_for(0, 6 * side, [&](int row) {
       job.progress.check();
       const int f = row / side, j = row % side;
       std::vector<glm::dvec3> dirs;
       for (int i = 0; i < side; ++i) dirs.push_back(grids[0].dir(f, i, j));
-      std::vector<std::vector<float>> weights(sh_pair_outputs(smooth.size()) - smooth.size(),
-                                              std::vector<float>(3 * dirs.size()));
+      std::vector<std::vector<float>> rows(scratch, std::vector<float>(3 * dirs.size()));
       std::vector<float*> out;
       for (CubeGrid& g : grids) out.push_back(g.value(f, 0, j));
-      for (auto& w : weights) out.push_back(w.data());
-      sh_evaluate_many(c, dirs, out);
-      add_bright(smooth, dirs, out);  // numerators only: the first smooth.size() outputs
-      sh_divide(out, smooth.size(), dirs.size());
+      for (auto& r : rows) out.push_back(r.data());
+      sh_evaluate_many(coeffs, dirs, out);
+      finish(dirs, out);
     });
+  };
+  std::vector<CubeGrid> grids;
+  if (!smooth.empty()) {
+    const int face = std::max(
+        4, int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * kShGridPerSigma / narrowest)));
+    for (std::size_t i = 0; i < smooth.size(); ++i) grids.emplace_back(face);
+    evaluate_on(grids, convolved(smooth), sh_pair_outputs(smooth.size()) - smooth.size(),
+                [&](const std::vector<glm::dvec3>& dirs, const std::vector<float*>& out) {
+                  add_bright(smooth, dirs, out);  // numerators only: the first outputs
+                  sh_divide(out, smooth.size(), dirs.size());
+                });
     for (CubeGrid& g : grids) g.to_log(split.log_floor);
   }
   const std::vector<ShCoeffs> kinked_coeffs = convolved(kinked);
@@ -422,17 +430,10 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
     const int face = int(std::ceil(std::sqrt(4.0 * std::numbers::pi / 6.0) * kShKinkedGridPerWave *
                                    order / (2.0 * std::numbers::pi)));
     const std::size_t side = std::size_t(face + 2 * CubeGrid::kBorder);
-    if (6 * side * side < table->size()) {
+    if (6 * side * side < texel_table(job.output.layout())->size()) {
       for (std::size_t i = 0; i < kinked_coeffs.size(); ++i) kinked_grids.emplace_back(face);
-      tbb::parallel_for(0, 6 * int(side), [&](int row) {
-        job.progress.check();
-        const int f = row / int(side), j = row % int(side);
-        std::vector<glm::dvec3> dirs;
-        for (int i = 0; i < int(side); ++i) dirs.push_back(kinked_grids[0].dir(f, i, j));
-        std::vector<float*> out;
-        for (CubeGrid& g : kinked_grids) out.push_back(g.value(f, 0, j));
-        sh_evaluate_many(kinked_coeffs, dirs, out);
-      });
+      evaluate_on(kinked_grids, kinked_coeffs, 0,
+                  [](const std::vector<glm::dvec3>&, const std::vector<float*>&) {});
     }
   }
   for_each_tile(job.output.tiles(), job.progress, [&](const Tile& tile) {
@@ -491,21 +492,6 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
       << "; " << seconds << " s for the group";
     result.plans[std::size_t(k)] = o.str();
   }
-}
-
-// The smallest cone holding `dirs` (nearby directions: a block of texels or grid points).
-struct Cone {
-  glm::dvec3 centre;
-  double radius;
-};
-Cone bounding_cone(std::span<const glm::dvec3> dirs) {
-  glm::dvec3 sum(0.0);
-  for (const glm::dvec3& d : dirs) sum += d;
-  if (glm::dot(sum, sum) < 1e-24) return {glm::dvec3(0, 0, 1), std::numbers::pi};
-  const glm::dvec3 centre = glm::normalize(sum);
-  double min_cos = 1.0;
-  for (const glm::dvec3& d : dirs) min_cos = std::min(min_cos, glm::dot(centre, d));
-  return {centre, std::acos(std::clamp(min_cos, -1.0, 1.0)) + 1e-9};
 }
 
 // How far the changes of an incremental run reach for lobe s. A changed texel at angle theta

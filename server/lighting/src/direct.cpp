@@ -66,55 +66,42 @@ void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const Power
   for (int q = 0; q < kQueries; ++q) reduce_lanes(lanes.data() + q * stride, n, acc + 4 * n * q);
 }
 
-namespace {
-
-// The smallest cone around `dirs` (nearby directions): its centre and the cosine of its radius.
-void bounding_cone(std::span<const glm::dvec3> dirs, glm::dvec3& centre, double& cos_radius) {
-  centre = glm::dvec3(0.0);
-  for (const glm::dvec3& d : dirs) centre += d;
-  centre = glm::length(centre) > 1e-12 ? glm::normalize(centre) : dirs[0];
-  cos_radius = 1.0;
-  for (const glm::dvec3& d : dirs) cos_radius = std::min(cos_radius, glm::dot(d, centre));
-  cos_radius = std::clamp(cos_radius, -1.0, 1.0);
+Cone bounding_cone(std::span<const glm::dvec3> dirs) {
+  glm::dvec3 sum(0.0);
+  for (const glm::dvec3& d : dirs) sum += d;
+  if (glm::dot(sum, sum) < 1e-24) return {glm::dvec3(0, 0, 1), std::numbers::pi};
+  const glm::dvec3 centre = glm::normalize(sum);
+  double min_cos = 1.0;
+  for (const glm::dvec3& d : dirs) min_cos = std::min(min_cos, glm::dot(centre, d));
+  return {centre, std::acos(std::clamp(min_cos, -1.0, 1.0)) + 1e-9};
 }
-
-// cos(window + radius) with the radius given by its cosine, -2 (everything) beyond pi.
-double reach_cos(double window, double cos_radius) {
-  const double reach = window + std::acos(cos_radius) + 1e-9;
-  return reach >= std::numbers::pi ? -2.0 : std::cos(reach);
-}
-
-}  // namespace
 
 void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
   if (dirs.empty()) return;
-  glm::dvec3 centre;
-  double cos_radius;
-  bounding_cone(dirs, centre, cos_radius);
-  const double min_cos = reach_cos(window_, cos_radius);
+  const Cone batch = bounding_cone(dirs);
+  const double reach = window_ + batch.radius;
+  const double min_cos = reach >= std::numbers::pi ? -2.0 : std::cos(reach);
   const int n = chain_.size();
   if (n == 1 && pts_.has_float()) {
     // Single precision, one lobe: the cells within reach of the batch are listed once; each
     // group of kQueries neighbours then sums, in place, the listed cells within its own
     // smaller cone's reach (consecutive cells as one run).
     candidates_.clear();
-    pts_.for_cells_within(centre, min_cos,
+    pts_.for_cells_within(batch.centre, min_cos,
                           [&](const PointCells::Cell& cell) { candidates_.push_back(&cell); });
     for (std::size_t first = 0; first < dirs.size(); first += kQueries) {
       glm::dvec3 group[kQueries];
       for (int q = 0; q < kQueries; ++q) group[q] = dirs[std::min(dirs.size() - 1, first + q)];
-      glm::dvec3 group_centre;
-      double group_cos_radius;
-      bounding_cone(group, group_centre, group_cos_radius);
+      const Cone cone = bounding_cone(group);
       // A cell is needed when its centre lies within reach + its radius r of the group's:
       // cos(angle) > cos(reach + r) = cos(reach) cos(r) - sin(reach) sin(r), padded for rounding.
-      const double reach = window_ + std::acos(group_cos_radius) + 1e-9;
-      const double cos_reach = std::cos(reach), sin_reach = std::sin(reach);
-      const bool everything = reach >= std::numbers::pi;
+      const double group_reach = window_ + cone.radius;
+      const double cos_reach = std::cos(group_reach), sin_reach = std::sin(group_reach);
+      const bool everything = group_reach >= std::numbers::pi;
       double sums[4 * kQueries] = {};
       std::uint32_t run_begin = 0, run_end = 0;
       for (const PointCells::Cell* cell : candidates_) {
-        if (!everything && glm::dot(group_centre, cell->centre) <
+        if (!everything && glm::dot(cone.centre, cell->centre) <
                                cos_reach * cell->cos_r - sin_reach * cell->sin_r - 1e-9)
           continue;
         if (cell->begin != run_end) {
@@ -130,7 +117,7 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
     }
     return;
   }
-  gather_cells(pts_, centre, min_cos, gathered_);
+  gather_cells(pts_, batch.centre, min_cos, gathered_);
   const std::size_t stride = 4 * std::size_t(kLaneWidth) * std::size_t(n);
   lanes_.resize(kQueries * stride);
   for (std::size_t first = 0; first < dirs.size(); first += kQueries) {

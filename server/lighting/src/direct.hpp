@@ -19,6 +19,14 @@ double auto_cos_threshold(double s);
 // Smallest cosine whose c^s (> 1e-30) can still change a double-precision sum.
 double exact_cos_threshold(double s);
 
+// The smallest cone holding `dirs` (nearby directions: a block of texels or grid points): unit
+// centre and angular radius (padded for rounding; pi when the directions cancel out).
+struct Cone {
+  glm::dvec3 centre;
+  double radius;
+};
+Cone bounding_cone(std::span<const glm::dvec3> dirs);
+
 // For each of the kQueries directions dirs[q]: acc[q * 4n + 4k + (0..3)] = (sum f L w, sum f w)
 // for map k of `chain` (n maps) over at least the points whose cosine with dirs[q] exceeds
 // min_cos[k] (non-decreasing in k); cells no direction reaches are skipped whole.
