@@ -120,7 +120,7 @@ struct CaptureSession::Impl {
     RotationFit fit;
   };
   std::future<Measurement> pending_alignment;  // align_async: measured on another thread
-  std::optional<Glancer> glancer;              // CaptureOptions::glance, for a cube map
+  std::optional<Glancer> glancer;              // CaptureOptions::glance (a cube map's only)
 
   Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
       : camera(k),
@@ -168,7 +168,7 @@ struct CaptureSession::Impl {
          r *= 2)
       reduction = r;
     align_view.emplace(align_camera, response);
-    if (options.layout.projection() == Projection::Cube)  // its table is in texel order
+    if (options.glance && options.layout.projection() == Projection::Cube)
       glancer.emplace(k, reduction, factor, options.layout, table->solid_angle);
   }
 
@@ -464,10 +464,7 @@ struct CaptureSession::Impl {
     // A quarter clipped already hides most of a small lamp's power; 0.5 left lab's lamp edges
     // out (3.3 % irradiance error against 2.6 %, TheAdviceLoopCapturesLabsLampsWithinThreePercent).
     constexpr float kMostlyClipped = 0.25f, kMeasured = 0.9f;
-    float clip_level = 1.0f;  // the smallest linear value a clipped pixel can have
-    for (int c = 0; c < 3; ++c)
-      clip_level = std::min(clip_level, float(response.linear(kClippedCode, c)));
-    const float floor_here = clip_level / float(exposure_gain);
+    const float floor_here = clip_level(response) / float(exposure_gain);
     const EnvLayout& layout = options.layout;
     std::size_t unmeasured = 0;
     float brightest = 0.0f;
@@ -493,8 +490,7 @@ struct CaptureSession::Impl {
   // blocks at the predicted orientation. The frame's result when it is unchanged; nothing when
   // it has to be processed (its skip reasons are then the full path's).
   std::optional<FrameResult> glance(std::span<const std::uint8_t> bytes, const FrameInfo& info) {
-    if (!options.glance || !glancer || !(covered_solid_angle > 0.0) ||
-        !check_frame_info(info).empty())
+    if (!glancer || !(covered_solid_angle > 0.0) || !check_frame_info(info).empty())
       return std::nullopt;
     const auto t0 = Clock::now();
     double exposure_gain = info.exposure * info.gain;

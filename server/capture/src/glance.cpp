@@ -12,12 +12,7 @@
 namespace arlight::capture {
 
 BlockMap::BlockMap(const EnvLayout& layout, int k, std::span<const double> omega)
-    : layout_(layout),
-      blocks_(layout),
-      k_(k),
-      face_(layout.face_size()),
-      block_face_(0),
-      omega_(omega) {
+    : k_(k), face_(layout.face_size()), omega_(omega) {
   if (layout.projection() != Projection::Cube || k < 1 || layout.face_size() % k != 0 ||
       omega.size() != layout.texel_count())
     throw std::invalid_argument("BlockMap: a cube map whose face " + std::to_string(k) +
@@ -141,18 +136,17 @@ GlanceVerdict glance_at_map(const LinearFrame& sharp, std::span<const glm::dvec3
       // Pixels in the border's ramp (and clipped ones) are left out: the test is the
       // well-exposed middle of the frame.
       const float sw = image.weight[i];
-      // As check_clipped(): a pixel a quarter clipped or more proves its texels hold at least
-      // the clip floor; the frame must be processed where the map holds less (0.9 x).
-      if (sharp.clipped[i] >= 0.25f) {
-        const BlockMap::Block held = blocks.at(rotation * rays[i], weighted_radiance, weight);
-        if (!(held.peak >= 0.9f * clip_floor)) {
-          v.clipped_unmeasured = true;
-          return v;
-        }
-      }
-      if (!(sw >= kInterior)) continue;
+      const bool clipped = sharp.clipped[i] >= 0.25f;
+      if (!clipped && !(sw >= kInterior)) continue;
       const glm::dvec3& ray = rays[i];
       const BlockMap::Block held = blocks.at(rotation * ray, weighted_radiance, weight);
+      // As check_clipped(): a pixel a quarter clipped or more proves its texels hold at least
+      // the clip floor; the frame must be processed where the map holds less (0.9 x).
+      if (clipped && !(held.peak >= 0.9f * clip_floor)) {
+        v.clipped_unmeasured = true;
+        return v;
+      }
+      if (!(sw >= kInterior)) continue;
       if (held.measured < kMeasured) {
         v.sees_new = true;
         return v;
@@ -164,7 +158,8 @@ GlanceVerdict glance_at_map(const LinearFrame& sharp, std::span<const glm::dvec3
       const double seen = luminance(p[0] / sw, p[1] / sw, p[2] / sw);
       const double map = luminance(held.radiance.x, held.radiance.y, held.radiance.z);
       // A pixel's solid angle falls as cos^3 of its angle off the axis (ray is unit, z < 0).
-      const double omega = std::pow(std::abs(ray.z), 3.0);
+      const double cos_axis = std::abs(ray.z);
+      const double omega = cos_axis * cos_axis * cos_axis;
       differ += std::abs(seen - map) * omega;
       bias += (seen - map) * omega;
       held_sum += map * omega;
@@ -176,14 +171,16 @@ GlanceVerdict glance_at_map(const LinearFrame& sharp, std::span<const glm::dvec3
 
 Glancer::Glancer(const CameraIntrinsics& camera, int reduction, int factor, const EnvLayout& layout,
                  std::span<const double> omega)
-    : camera_(camera), reduction_(reduction), factor_(factor), layout_(layout), omega_(omega) {}
+    : camera_(camera), reduction_(reduction), factor_(factor), layout_(layout), omega_(omega) {
+  if (layout.projection() != Projection::Cube)
+    throw std::invalid_argument("glance: the map's blocks need a cube map");
+}
 
 std::optional<GlanceVerdict> Glancer::look(std::span<const std::uint8_t> jpeg,
                                            const CameraResponse& response, double exposure_gain,
                                            const glm::dquat& orientation,
                                            std::span<const float> weighted_radiance,
                                            std::span<const float> weight) {
-  if (layout_.projection() != Projection::Cube) return std::nullopt;
   // Decoded at 1/4 in the DCT domain and reduced 2x2 more in linear radiance: codes averaged
   // over 8x8 pixels read up to 3 % dark where a textured room's codes vary (the response is
   // convex), more than the test's 0.5 % bias allows.
@@ -215,11 +212,8 @@ std::optional<GlanceVerdict> Glancer::look(std::span<const std::uint8_t> jpeg,
   const LinearFrame frame = linearize(image, response, exposure_gain, 2);
   // Clipped pixels weigh next to nothing in the test; where the map does not hold what they
   // prove yet, the exposure advice must see the frame (CaptureSession's check_clipped()).
-  float clip_level = 1.0f;
-  for (int c = 0; c < 3; ++c)
-    clip_level = std::min(clip_level, float(response.linear(kClippedCode, c)));
   return glance_at_map(frame, g.rays, orientation, g.blocks, weighted_radiance, weight,
-                       clip_level / float(exposure_gain));
+                       clip_level(response) / float(exposure_gain));
 }
 
 }  // namespace arlight::capture

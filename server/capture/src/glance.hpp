@@ -1,9 +1,9 @@
 // A glance at a frame before it is processed (issue 37 §1: frames that add nothing cost
-// nothing). The JPEG is decoded at 1/8 in the DCT domain (libjpeg skips most of the inverse
-// transform), linearised, and compared with the map averaged over blocks of the same angular
-// size: when the frame sees nothing new and agrees with the map by the capture's own test
-// (CaptureOptions::unchanged_share / unchanged_bias), it is an unchanged frame without the full
-// decode, alignment, exposure estimate and sampling of every texel in view.
+// nothing). The JPEG is decoded at 1/8 of its size (1/4 in the DCT domain, where libjpeg skips
+// most of the inverse transform, then 2x2 in linear radiance), and compared with the map
+// averaged over blocks of the same angular size: when the frame sees nothing new and agrees
+// with the map (CaptureOptions::glance_share / unchanged_bias), it is an unchanged frame without
+// the full decode, alignment, exposure estimate and sampling of every texel in view.
 #pragma once
 
 #include <cstdint>
@@ -30,7 +30,6 @@ class BlockMap {
   // `layout` a cube map whose face k divides; `omega` its texels' solid angles (texel order).
   BlockMap(const EnvLayout& layout, int k, std::span<const double> omega);
 
-  int k() const { return k_; }
   void touch(std::size_t texel) { dirty_[block_of(texel)] = 1; }
   void touch_all() { std::fill(dirty_.begin(), dirty_.end(), std::uint8_t(1)); }
 
@@ -48,8 +47,8 @@ class BlockMap {
   const Block& block(std::size_t b, std::span<const float> weighted_radiance,
                      std::span<const float> weight);
 
-  EnvLayout layout_, blocks_;
   int k_, face_, block_face_;
+  EnvLayout blocks_ = EnvLayout::for_size(Projection::Cube, 1);  // one texel a block
   std::span<const double> omega_;
   std::vector<Block> values_;
   std::vector<std::uint8_t> dirty_;
@@ -81,8 +80,8 @@ GlanceVerdict glance_at_map(const LinearFrame& image, std::span<const glm::dvec3
 class Glancer {
  public:
   // Frames come at the camera's size or reduced by a power of two up to `reduction`; the
-  // capture reduces them by `factor` (about a texel a pixel) into `layout` (a cube map), whose
-  // texels have solid angles `omega`.
+  // capture reduces them by `factor` (about a texel a pixel) into `layout` (a cube map, else
+  // std::invalid_argument), whose texels have solid angles `omega`.
   Glancer(const CameraIntrinsics& camera, int reduction, int factor, const EnvLayout& layout,
           std::span<const double> omega);
 

@@ -34,6 +34,12 @@ float border_weight(int x, int y, int width, int height) {
   return border_axis(x, width, ramp) * border_axis(y, height, ramp);
 }
 
+float clip_level(const CameraResponse& response) {
+  float level = 1.0f;
+  for (int c = 0; c < 3; ++c) level = std::min(level, float(response.linear(kClippedCode, c)));
+  return level;
+}
+
 CameraIntrinsics reduced_intrinsics(const CameraIntrinsics& k, int factor) {
   CameraIntrinsics r = k;
   r.width = (k.width + factor - 1) / factor;

@@ -29,6 +29,10 @@ struct LinearFrame {
 
 inline constexpr int kClippedCode = 250;  // code_weight's clipping end
 
+// The smallest linear value a clipped pixel can have (any channel at kClippedCode): a clipped
+// pixel of a frame at exposure x gain E proves its radiance is at least this / E.
+float clip_level(const CameraResponse& response);
+
 // Weight of an 8-bit pixel from the largest of its three codes (Debevec-style hat, one-sided
 // at each end): 0 towards clipping (>= 250) and towards black (<= 2), 1 in between, with a
 // floor of 1e-3 for clipped pixels so that a texel only ever seen clipped still gets its lower
