@@ -69,7 +69,8 @@ Offset<void> build(FlatBufferBuilder& b, const Hello& m) {
   Offset<flatbuffers::Vector<Offset<flatbuffers::String>>> caps = 0;
   if (!m.capabilities.empty()) caps = b.CreateVectorOfStrings(m.capabilities);
   return fb::CreateHello(b, m.protocol_version, text(b, m.client_name), text(b, m.device_id),
-                         text(b, m.auth_token), caps, text(b, m.resume_session))
+                         text(b, m.auth_token), caps, text(b, m.resume_session),
+                         text(b, m.watch_session))
       .Union();
 }
 
@@ -209,6 +210,10 @@ Hello read(const fb::Hello& m, const WireLimits&) {
   h.device_id = text(m.device_id(), "Hello", "device_id");
   h.auth_token = text(m.auth_token(), "Hello", "auth_token");
   h.resume_session = text(m.resume_session(), "Hello", "resume_session");
+  h.watch_session = text(m.watch_session(), "Hello", "watch_session");
+  if (!h.resume_session.empty() && !h.watch_session.empty())
+    refuse(Fault::OutOfRange, "Hello", "watch_session",
+           "a Hello resumes a session or watches one, not both");
   if (const auto* caps = m.capabilities()) {
     if (caps->size() > kMaxCapabilities)
       refuse(Fault::OverLimit, "Hello", "capabilities",

@@ -143,18 +143,22 @@ void MessageStream::read_next() {
 }
 
 void MessageStream::send(std::vector<std::uint8_t> envelope) {
+  send(std::make_shared<const std::vector<std::uint8_t>>(std::move(envelope)));
+}
+
+void MessageStream::send(std::shared_ptr<const std::vector<std::uint8_t>> envelope) {
   enqueue({std::move(envelope), true});
 }
 
 void MessageStream::send_unframed(std::vector<std::uint8_t> bytes) {
-  enqueue({std::move(bytes), false});
+  enqueue({std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes)), false});
 }
 
 void MessageStream::enqueue(Outgoing message) {
-  queued_bytes_ += message.bytes.size();
+  queued_bytes_ += message.bytes->size();
   asio::post(executor_, [self = shared_from_this(), m = std::move(message)]() mutable {
     if (self->ended_) {
-      self->queued_bytes_ -= m.bytes.size();
+      self->queued_bytes_ -= m.bytes->size();
       return;
     }
     self->out_.push_back(std::move(m));
@@ -164,7 +168,7 @@ void MessageStream::enqueue(Outgoing message) {
       // written (the front, while writing_) must stay alive until its write ends.
       const std::size_t keep = self->writing_ ? 1 : 0;
       while (self->out_.size() > keep) {
-        self->queued_bytes_ -= self->out_.back().bytes.size();
+        self->queued_bytes_ -= self->out_.back().bytes->size();
         self->out_.pop_back();
       }
       if (self->handlers_.on_overflow) self->handlers_.on_overflow();
@@ -180,14 +184,14 @@ void MessageStream::write_next() {
     return;
   }
   writing_ = true;
-  transport_->async_write(out_.front().bytes, out_.front().framed,
+  transport_->async_write(*out_.front().bytes, out_.front().framed,
                           [self = shared_from_this()](const boost::system::error_code& ec) {
-                            const std::size_t n = self->out_.front().bytes.size();
+                            const std::size_t n = self->out_.front().bytes->size();
                             self->queued_bytes_ -= n;
                             self->out_.pop_front();
                             if (ec) {
                               for (const auto& m : self->out_)
-                                self->queued_bytes_ -= m.bytes.size();
+                                self->queued_bytes_ -= m.bytes->size();
                               self->out_.clear();
                               self->writing_ = false;
                               return self->end("send failed: " + ec.message());

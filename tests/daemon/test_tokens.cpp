@@ -49,6 +49,21 @@ TEST(DeviceTokens, ChecksOnlyTheRightDeviceAndToken) {
   EXPECT_THROW(TokenStore::load(d / "twice"), InputError);
 }
 
+TEST(DeviceTokens, WatchTokensWatchButNeverCapture) {
+  const fs::path d = fresh_dir("watch");
+  std::ofstream(d / "tokens") << "a-viewer cccccccc-3333 watch\nphone-1 aaaaaaaa-1111\n";
+  const TokenStore s = TokenStore::load(d / "tokens");
+  EXPECT_EQ(s.access("a-viewer", "cccccccc-3333"), TokenStore::Access::WatchOnly);
+  EXPECT_FALSE(s.check("a-viewer", "cccccccc-3333"));  // may not capture
+  EXPECT_EQ(s.access("a-viewer", "aaaaaaaa-1111"), TokenStore::Access::None);
+  EXPECT_EQ(s.access("phone-1", "aaaaaaaa-1111"), TokenStore::Access::Device);
+  EXPECT_EQ(s.first_device(), "phone-1");  // the phone URL never carries a watch token
+  std::ofstream(d / "only-watch") << "viewer 12345678 watch\n";
+  EXPECT_THROW(TokenStore::load(d / "only-watch"), InputError);
+  std::ofstream(d / "bad-role") << "phone 12345678 admin\n";
+  EXPECT_THROW(TokenStore::load(d / "bad-role"), InputError);
+}
+
 TEST(AdminToken, ReadsTheFirstTokenLineOfAFile) {
   const fs::path d = fresh_dir("read");
   std::ofstream(d / "t") << "# comment\n\n  0123456789abcdef-token \r\nsecond-line-is-ignored\n";

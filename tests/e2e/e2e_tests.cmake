@@ -9,7 +9,8 @@ add_executable(e2e_tests
   ${CMAKE_CURRENT_LIST_DIR}/test_arlightd_web.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_model.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/test_failover.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/test_failover.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_watchers.cpp)
 target_include_directories(e2e_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..
   ${CMAKE_SOURCE_DIR}/server/daemon/src)
 target_link_libraries(e2e_tests PRIVATE arlight_daemon arlight_lighting arlight_client_net arlight_message_stream arlight_wire arlight_capture

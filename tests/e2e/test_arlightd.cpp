@@ -40,6 +40,7 @@
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
 #include "arlight/protocol/wire.hpp"
+#include "support/client_frames.hpp"
 #include "support/daemon_process.hpp"
 #include "support/run_tool.hpp"
 #include "support/sanitizer.hpp"
@@ -49,6 +50,7 @@ using namespace arlight;
 using nlohmann::json;
 using test::DaemonProcess;
 using test::http_get;
+using test::frame_gets_update;
 using test::kToken;
 using namespace std::chrono_literals;
 
@@ -62,20 +64,6 @@ Ktx2Cube read_ktx2(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   return decode_ktx2_cube(bytes);
-}
-
-// Sends frame `seq` (the recording's frames in turn) and waits up to 20 s for the LightingUpdate
-// that answers it: whether it came.
-bool frame_gets_update(client::Client& c, const recording::Recording& rec, std::uint64_t seq) {
-  const std::size_t i = std::size_t(seq % rec.frames.size());
-  c.send_jpeg_frame(seq, rec.frames[i], rec.camera.width, rec.camera.height,
-                    recording::read_frame_bytes(rec, i));
-  return c.wait_for(
-      [&] {
-        const auto u = c.last_update();
-        return u && u->frame_sequence >= seq;
-      },
-      20s);
 }
 
 // A self-signed P-256 certificate for `names` (subjectAltName), valid for an hour, written as

@@ -89,7 +89,7 @@ class RawWebSocket {
     ws_->handshake("127.0.0.1", "/ws");
     ws_->binary(true);
     send(wire::encode(
-        wire::Hello{wire::kProtocolVersion, "raw", "arlight-sim", token, {"maps", "jpeg"}, ""}));
+        wire::Hello{wire::kProtocolVersion, "raw", "arlight-sim", token, {"maps", "jpeg"}, "", ""}));
   }
   void send(const std::vector<std::uint8_t>& bytes, bool text = false) {
     ws_->text(text);

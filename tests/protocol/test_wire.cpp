@@ -42,6 +42,17 @@ TEST(WireCodec, EveryMessageRoundTripsWithEveryOptionalFieldSet) {
   }
 }
 
+// A Hello resumes a session or watches one (PROTOCOL.md item 1): the sample above resumes.
+TEST(WireCodec, AHelloWatchesOrResumesNotBoth) {
+  wire::Hello watch{1, "three", "viewer", "secret", {"tiles:half"}, "", ""};
+  watch.watch_session = "0123456789abcdef0123456789abcdef";
+  EXPECT_TRUE(wire::decode(wire::encode(watch)) == wire::Message(watch));
+  watch.resume_session = watch.watch_session;
+  const DecodeError e = refusal(wire::encode(watch));
+  EXPECT_EQ(e.field(), "watch_session");
+  EXPECT_EQ(e.fault(), Fault::OutOfRange);
+}
+
 TEST(WireCodec, EveryMessageRoundTripsWithNoOptionalField) {
   for (const wire::Message& m : test::messages_with_no_optional_field()) {
     const wire::Message back = wire::decode(wire::encode(m));
@@ -295,7 +306,7 @@ TEST(WireCodec, LengthsOverTheLimitsAreTooLarge) {
   EXPECT_EQ(e.field(), "frames");
   EXPECT_EQ(e.fault(), Fault::OverLimit);
 
-  e = refusal(wire::encode(wire::Hello{1, "", std::string(5000, 'd'), "", {}, ""}));
+  e = refusal(wire::encode(wire::Hello{1, "", std::string(5000, 'd'), "", {}, "", ""}));
   EXPECT_EQ(e.message(), "Hello");
   EXPECT_EQ(e.field(), "device_id");
   EXPECT_EQ(e.fault(), Fault::OverLimit);

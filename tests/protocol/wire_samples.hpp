@@ -34,7 +34,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
   for (std::size_t i = 0; i < sh.c.size(); ++i)
     sh.c[i] = glm::dvec3(0.5 * double(i), -0.25 * double(i), 1.0 + double(i));  // float-exact
   return {
-      wire::Hello{1, "test 0.1", "phone-1", "secret", {"maps", "jpeg"}, "0123456789abcdef"},
+      wire::Hello{1, "test 0.1", "phone-1", "secret", {"maps", "jpeg"}, "0123456789abcdef", ""},
       wire::CameraIntrinsicsMessage{k},
       sample_frame(7, true),
       wire::CalibrationSet{"debevec", {sample_frame(1, true), sample_frame(2, false)}},

@@ -28,6 +28,9 @@ namespace arlight::test {
 namespace fs = std::filesystem;
 
 inline const std::string kToken = "test-token-0123456789";
+// Two more lines of every test daemon's tokens file: another device, and a watch-only token.
+inline const std::string kOtherDevice = "other-phone", kOtherToken = "other-token-0123456789";
+inline const std::string kWatchName = "a-viewer", kWatchToken = "watch-token-0123456789";
 
 std::pair<int, std::string> http_get(std::uint16_t port, const std::string& path,
                                      const std::string& bearer_token = "");
@@ -41,7 +44,9 @@ class DaemonProcess {
                          std::uint16_t listen_port = 0, const fs::path& data_dir = {}) {
     fs::create_directories(dir);
     data_ = data_dir.empty() ? dir / "data" : data_dir;
-    std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n";
+    std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n"
+                                  << kOtherDevice << " " << kOtherToken << "\n"
+                                  << kWatchName << " " << kWatchToken << " watch\n";
     int out[2];
     if (pipe(out) != 0) throw std::runtime_error("pipe");
     pid_ = fork();

@@ -35,6 +35,7 @@ struct Client::Impl {
   std::string websocket_path = "/ws";
   std::vector<std::string> capabilities = {"maps", "jpeg", wire::kCapabilityTilesZstd,
                                            wire::kCapabilityTilesHalf};
+  std::string watch_session;  // Hello.watch_session: a watcher
   std::unique_ptr<asio::ssl::context> tls_context;
   std::shared_ptr<wire::MessageStream> stream;
   std::thread io_thread;
@@ -169,6 +170,8 @@ void Client::add_capability(std::string capability) {
   impl_->capabilities.push_back(std::move(capability));
 }
 
+void Client::watch(std::string session_id) { impl_->watch_session = std::move(session_id); }
+
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                         const std::string& token, const std::string& client_name,
                         const std::string& resume_session, std::chrono::milliseconds timeout) {
@@ -222,10 +225,14 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
     std::lock_guard lock(d.mutex);
     d.open = true;
   }
+  if (!d.watch_session.empty()) {
+    std::lock_guard lock(d.mutex);
+    d.state.expect_any_maps();  // a watcher takes the sets the session streams
+  }
   d.stream->start(d.handlers());
   d.io_thread = std::thread([&d] { d.io.run(); });
   d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, d.capabilities,
-                     resume_session});
+                     resume_session, d.watch_session});
   std::unique_lock lock(d.mutex);
   d.changed.wait_for(lock, timeout, [&] { return d.state.welcome() || d.error || !d.open; });
   if (d.state.welcome()) return *d.state.welcome();

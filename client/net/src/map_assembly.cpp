@@ -10,6 +10,12 @@ void MapSetAssembler::expect(const wire::RequestMaps& request) {
   kind_ = request.kind;
   expected_ = request.shininess;
   levels_ = std::size_t(wire::ggx_level_count(request.size, request.levels));
+  any_ = false;
+}
+
+void MapSetAssembler::expect_any() {
+  requested_ = true;
+  any_ = true;
 }
 
 // The codec has checked the tile's rectangle against its map's size at its level.
@@ -52,18 +58,20 @@ std::optional<ReceivedMapSet> MapSetAssembler::complete(const wire::MapSetComple
   building_.erase(building_.begin(), std::next(it));  // older sets are stale
   // Whole or not at all: a set whose first tiles went to an earlier connection of the session
   // (arlightd streams an in-flight set on to the one that resumed it) lacks maps or texels.
-  if (!requested_ || set.kind != kind_ || set.maps.size() != c.maps) return std::nullopt;
+  if (!requested_ || (!any_ && set.kind != kind_) || set.maps.size() != c.maps)
+    return std::nullopt;
   for (std::size_t i = 0; i < set.maps.size(); ++i)
     if (set.texels_received[i] !=
         std::size_t(set.maps[i].image.width()) * set.maps[i].image.height())
       return std::nullopt;
-  if (kind_ == wire::MapKind::Phong) {
-    if (set.maps.size() != expected_.size()) return std::nullopt;
+  if (set.kind == wire::MapKind::Phong) {
+    if (!any_ && set.maps.size() != expected_.size()) return std::nullopt;
     for (std::size_t i = 0; i < set.maps.size(); ++i)
-      if (!(set.shininess[i] > 0.0) || float(set.shininess[i]) != expected_[i]) return std::nullopt;
+      if (!(set.shininess[i] > 0.0) || (!any_ && float(set.shininess[i]) != expected_[i]))
+        return std::nullopt;
   } else {
     // A chain: cube maps halving their face, level 0 the mirror, roughness rising to 1 at most.
-    if (set.maps.size() != levels_) return std::nullopt;
+    if (!any_ && set.maps.size() != levels_) return std::nullopt;
     for (std::size_t i = 0; i < set.maps.size(); ++i) {
       const EnvLayout& l = set.maps[i].layout;
       if (l.projection() != Projection::Cube || l.height() != 6 * l.width() ||

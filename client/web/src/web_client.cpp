@@ -46,7 +46,8 @@ val WebClient::hello(const std::string& device, const std::string& token,
                   device,
                   token,
                   {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown},
-                  resume}));
+                  resume,
+                  ""}));
 }
 
 val WebClient::intrinsics() {

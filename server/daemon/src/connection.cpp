@@ -45,6 +45,9 @@ void ClientConnection::start() {
     self->deadline_.cancel();
     self->detach();
   };
+  h.on_sent = [self](std::size_t) {
+    if (self->watcher_) self->session_->watcher_drained(self->watcher_);
+  };
   h.on_overflow = [self] {
     // A client that does not read would make us hold everything we send it.
     self->fail(wire::ErrorCode::Busy, "client reads too slowly; closing");
@@ -84,7 +87,10 @@ void ClientConnection::close() {
 }
 
 void ClientConnection::detach() {
-  if (session_) session_->detach(attachment_);  // the session stays for a resume
+  if (!session_) return;
+  if (!watching_) return session_->detach(attachment_);  // the session stays for a resume
+  if (watcher_) session_->unwatch(watcher_);
+  watcher_ = 0;
 }
 
 void ClientConnection::fail(wire::ErrorCode code, const std::string& message) {
@@ -107,6 +113,11 @@ void ClientConnection::handle(wire::Message&& message) {
     if (session_) return fail(wire::ErrorCode::OutOfOrder, "a second Hello");
     return handle_hello(std::get<wire::Hello>(message));
   }
+  const bool bye = std::holds_alternative<wire::Bye>(message);
+  if (watching_ && !bye && !std::holds_alternative<wire::Ping>(message))
+    return fail(wire::ErrorCode::Unauthorized,
+                std::string(name) + ": this connection watches session " + session_->id() +
+                    "; a watcher sends no frames, camera, location or map requests");
   if (auto* k = std::get_if<wire::CameraIntrinsicsMessage>(&message))
     return handle_intrinsics(k->camera);
   if (auto* f = std::get_if<wire::CameraFrame>(&message)) return handle_frame(std::move(*f));
@@ -126,8 +137,8 @@ void ClientConnection::handle(wire::Message&& message) {
   if (auto* c = std::get_if<wire::CalibrationSet>(&message))
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
-  if (std::holds_alternative<wire::Bye>(message)) {
-    env_.checkpoint_soon(session_);  // a failure is logged; the next checkpoint retries
+  if (bye) {
+    if (!watching_) env_.checkpoint_soon(session_);  // a failure is logged; the next retries
     closing_ = true;
     detach();
     stream_->close_after_sending();
@@ -146,10 +157,11 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
   std::string why;
   session_ = env_.open_session(m, code, why);
   if (!session_) return fail(code, why);
+  if (!m.watch_session.empty()) return watch(m);
   std::weak_ptr<wire::MessageStream> weak = stream_;
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   attachment_ = session_->attach(
-      [weak](std::vector<std::uint8_t> envelope) {
+      [weak](EncodedMessage envelope) {
         if (auto stream = weak.lock()) stream->send(std::move(envelope));
       },
       wire::choose_tile_coding(m.capabilities),
@@ -166,6 +178,37 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
                               {wire::kServerCapabilityLocation}});
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
+}
+
+void ClientConnection::watch(const wire::Hello& m) {
+  watching_ = true;
+  std::weak_ptr<wire::MessageStream> weak = stream_;
+  std::weak_ptr<ClientConnection> weak_self = shared_from_this();
+  WatcherSet::Watcher w;
+  w.send = [weak](EncodedMessage envelope) {
+    if (auto stream = weak.lock()) stream->send(std::move(envelope));
+  };
+  w.backlog = [weak] {
+    const auto stream = weak.lock();
+    return stream ? stream->queued_bytes() : std::size_t(0);
+  };
+  w.coding = wire::choose_tile_coding(m.capabilities);
+  w.disconnect = [weak_self] {
+    if (auto self = weak_self.lock()) self->close();  // the session ended or moved
+  };
+  // Admitted, it gets the Welcome, then the session's newest update and set.
+  const wire::Welcome welcome{session_->id(),      env_.server_version,
+                              false,               session_->frames_processed(),
+                              env_.limits,         {wire::kServerCapabilityLocation}};
+  watcher_ = session_->watch(std::move(w),
+                             std::make_shared<const std::vector<std::uint8_t>>(wire::encode(welcome)));
+  if (!watcher_) {
+    if (env_.watchers_refused) env_.watchers_refused->inc();
+    return fail(wire::ErrorCode::Busy, "session " + session_->id() +
+                                           " has its maximum of watchers; try again later");
+  }
+  authenticated_ = true;
+  arm_deadline(to_clock(env_.idle_timeout));
 }
 
 void ClientConnection::handle_intrinsics(const CameraIntrinsics& c) {

@@ -22,7 +22,8 @@ struct ConnectionEnv {
   wire::WireLimits limits;
   std::size_t max_send_queue_bytes = 64u << 20;
   std::string server_version;
-  // Authenticates and returns the session for a Hello (new or resumed), or an error to send.
+  // Authenticates and returns the session for a Hello (new, resumed, or the one its
+  // watch_session names), or an error to send.
   std::function<std::shared_ptr<Session>(const wire::Hello&, wire::ErrorCode&, std::string&)>
       open_session;
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
@@ -34,6 +35,7 @@ struct ConnectionEnv {
   std::chrono::duration<double> hello_timeout{5.0}, idle_timeout{300.0};
   admin::Counter* hello_timeouts = nullptr;
   admin::Counter* idle_timeouts = nullptr;
+  admin::Counter* watchers_refused = nullptr;  // a session had its limit of watchers
 };
 
 // "address" of an "address:port" peer ("[v6]:port" keeps the brackets).
@@ -54,6 +56,7 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
  private:
   void handle(wire::Message&& m);
   void handle_hello(const wire::Hello& m);
+  void watch(const wire::Hello& m);  // after handle_hello found the session
   void handle_intrinsics(const CameraIntrinsics& k);
   void handle_calibration(wire::CalibrationSet&& set);
   void handle_frame(wire::CameraFrame&& m);
@@ -67,6 +70,9 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
   ConnectionEnv env_;
   std::shared_ptr<Session> session_;
   std::uint64_t attachment_ = 0;  // Session::attach's number for this connection
+  // A watcher (Hello's watch_session): Session::watch's number, 0 until it is admitted.
+  bool watching_ = false;
+  std::uint64_t watcher_ = 0;
   std::string address_;
   std::atomic<bool> authenticated_{false};
   boost::asio::steady_timer deadline_;

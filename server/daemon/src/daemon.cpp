@@ -155,6 +155,8 @@ struct Daemon::Impl {
     session_env.align_max_width = config.align_max_width;
     session_env.queue_depth = config.queue_depth;
     session_env.map_interval_s = config.map_interval_s;
+    session_env.max_watchers = std::size_t(config.max_watchers);
+    session_env.watchers = &metrics.gauge("arlight_watchers", "devices watching a session");
     session_env.limits = config.limits;
     session_env.workers = &workers;
     session_env.frame_path = &frame_path;
@@ -196,6 +198,8 @@ struct Daemon::Impl {
     };
     connection_env.hello_timeout = std::chrono::duration<double>(config.hello_timeout_s);
     connection_env.idle_timeout = std::chrono::duration<double>(config.idle_timeout_s);
+    connection_env.watchers_refused = &metrics.counter(
+        "arlight_watchers_refused_total", "watchers refused: the session had its maximum");
     connection_env.hello_timeouts = &metrics.counter(
         "arlight_hello_timeouts_total", "connections closed for sending no Hello in time");
     connection_env.idle_timeouts = &metrics.counter(
@@ -373,8 +377,42 @@ struct Daemon::Impl {
     }
   }
 
+  // A live session of this daemon for a Hello that asks to watch it: a watch-only token may
+  // watch any, a device's own token that device's sessions.
+  std::shared_ptr<Session> watched_session(const wire::Hello& h, wire::ErrorCode& code,
+                                           std::string& why) {
+    const TokenStore::Access access = tokens.access(h.device_id, h.auth_token);
+    if (access == TokenStore::Access::None) {
+      code = wire::ErrorCode::Unauthorized;
+      why = "unauthorized: unknown device or wrong token";
+      return nullptr;
+    }
+    if (!valid_session_id(h.watch_session)) {
+      code = wire::ErrorCode::BadMessage;
+      why = "watch_session: not a session id";
+      return nullptr;
+    }
+    std::shared_ptr<Session> s;
+    {
+      std::lock_guard lock(sessions_mutex);
+      if (const auto it = sessions.find(h.watch_session); it != sessions.end()) s = it->second;
+    }
+    if (!s || !s->holds_lease()) {
+      code = wire::ErrorCode::SessionNotFound;
+      why = "no live session " + h.watch_session + " on this server";
+      return nullptr;
+    }
+    if (access == TokenStore::Access::Device && s->device_id() != h.device_id) {
+      code = wire::ErrorCode::Unauthorized;
+      why = "device " + h.device_id + " may watch only its own sessions (or use a watch token)";
+      return nullptr;
+    }
+    return s;
+  }
+
   std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
                                         std::string& why) {
+    if (!h.watch_session.empty()) return watched_session(h, code, why);
     const std::string& device = h.device_id;
     const std::string& token = h.auth_token;
     if (!tokens.check(device, token)) {

@@ -47,6 +47,9 @@ const DaemonOption kOptions[] = {
      [](DaemonConfig& c, const json& v) { c.workers = v.get<int>(); }},
     {"--max-sessions", "max_sessions", Value::Integer, "live sessions at once",
      [](DaemonConfig& c, const json& v) { c.max_sessions = v.get<int>(); }},
+    {"--max-watchers", "max_watchers", Value::Integer,
+     "devices watching one session at once (Hello's watch_session; default 32)",
+     [](DaemonConfig& c, const json& v) { c.max_watchers = v.get<int>(); }},
     {"--idle-timeout", "idle_timeout_s", Value::Number,
      "seconds before a session with no connection, or no traffic, closes (kept on disk for a "
      "resume)",
@@ -180,6 +183,8 @@ void check_config(const DaemonConfig& c) {
     throw InputError("map interval " + std::to_string(c.map_interval_s) + " s is not in [0, 3600]");
   if (!(c.hello_timeout_s > 0) || !(c.idle_timeout_s > 0))
     throw InputError("the Hello and idle timeouts must be positive seconds");
+  if (c.max_watchers < 0 || c.max_watchers > 4096)
+    throw InputError("--max-watchers " + std::to_string(c.max_watchers) + " is not in [0, 4096]");
   if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)
     throw InputError(
         "the connection limits (--max-connections, --max-unauthenticated, --max-per-address) "

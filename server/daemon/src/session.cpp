@@ -54,7 +54,8 @@ Session::Session(std::string id, std::string device_id, const SessionEnv& env, S
       frames_(env.queue_depth),
       maps_(std::chrono::duration_cast<Clock::duration>(
           std::chrono::duration<double>(env.map_interval_s))),
-      lease_(std::move(lease)) {}
+      lease_(std::move(lease)),
+      watchers_(env.max_watchers) {}
 
 Session::~Session() { shutdown(); }
 
@@ -158,13 +159,26 @@ std::uint64_t Session::frames_processed() const {
   return processed_;
 }
 
+std::uint64_t Session::watch(WatcherSet::Watcher watcher, const EncodedMessage& welcome) {
+  const std::uint64_t id = watchers_.add(std::move(watcher), welcome);
+  if (id && env_.watchers) env_.watchers->add(1);
+  return id;
+}
+
+void Session::unwatch(std::uint64_t watcher) {
+  if (watchers_.remove(watcher) && env_.watchers) env_.watchers->add(-1);
+}
+
 void Session::send(const wire::Message& message) {
   Sink sink;
   {
     std::lock_guard lock(mutex_);
     sink = sink_;
   }
-  if (sink) sink(wire::encode(message));  // encoded here, on the worker, not on the network
+  // Encoded once, here on the worker, not on the network; the same bytes go to the watchers.
+  const auto bytes = std::make_shared<const std::vector<std::uint8_t>>(wire::encode(message));
+  if (sink) sink(bytes);
+  watchers_.publish(message, bytes);
 }
 
 void Session::submit(FrameJob job) {
@@ -531,6 +545,9 @@ void Session::release() {
     disconnect = disconnect_;
   }
   if (disconnect) disconnect();
+  // Its watchers too: the session is no longer live here (they watch it again where it is).
+  const std::size_t watching = watchers_.disconnect_all();
+  if (env_.watchers) env_.watchers->add(-double(watching));
 }
 
 bool Session::holds_lease() const {
@@ -568,6 +585,7 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
 }
 
 json Session::summary() const {
+  const std::size_t watchers = watchers_.size();
   std::lock_guard lock(mutex_);
   json j = {{"id", id_},
             {"device_id", device_id_},
@@ -580,6 +598,7 @@ json Session::summary() const {
             {"frames_glanced", glanced_},
             {"last_sequence", last_sequence_},
             {"map_sets", map_set_},
+            {"watchers", watchers},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
             {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
             {"coverage", coverage_},

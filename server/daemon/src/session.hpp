@@ -31,6 +31,7 @@
 #include "map_set_stream.hpp"
 #include "session_lease.hpp"
 #include "sun_tracker.hpp"
+#include "watchers.hpp"
 
 namespace arlight::daemon {
 
@@ -45,6 +46,7 @@ struct SessionEnv {
   int align_max_width = 160;
   int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest
   double map_interval_s = 0.09;  // the least time between the starts of a session's map sets
+  std::size_t max_watchers = 32;  // watchers a session may have (Hello's watch_session)
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   FramePathGate* frame_path = nullptr;  // told when a session's frames come and go; map sets step aside
@@ -55,6 +57,7 @@ struct SessionEnv {
   admin::Counter* frames_unchanged = nullptr;
   admin::Counter* frames_glanced = nullptr;
   admin::Counter* map_sets = nullptr;
+  admin::Gauge* watchers = nullptr;  // of every session
   admin::Counter* light_files = nullptr;
   admin::Histogram* processing_seconds = nullptr;
   admin::Histogram* update_latency_seconds = nullptr;
@@ -62,8 +65,8 @@ struct SessionEnv {
 };
 
 // Sends one encoded message (wire::encode) to the session's client; thread-safe; a no-op when
-// detached.
-using Sink = std::function<void(std::vector<std::uint8_t>)>;
+// detached. Shared: the same bytes go to the session's watchers.
+using Sink = std::function<void(EncodedMessage)>;
 
 // Where a session lives on disk: DATA/sessions/<id>/ (checkpoint, lease).
 std::filesystem::path session_dir(const SessionEnv& env, const std::string& id);
@@ -104,6 +107,13 @@ class Session : public std::enable_shared_from_this<Session> {
   void detach(std::uint64_t attachment);
   bool attached() const;
   Clock::time_point last_activity() const;
+
+  // Another device watching the session (watchers.hpp): its number, or 0 when the session has
+  // its limit of watchers; admitted, it gets `welcome` first. unwatch() when its connection closes; watcher_drained() when its
+  // connection wrote a message (it may be owed the newest update or set).
+  std::uint64_t watch(WatcherSet::Watcher watcher, const EncodedMessage& welcome);
+  void unwatch(std::uint64_t watcher);
+  void watcher_drained(std::uint64_t watcher) { watchers_.drained(watcher); }
 
   void submit(FrameJob job);               // newest wins
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
@@ -202,6 +212,7 @@ class Session : public std::enable_shared_from_this<Session> {
   mutable std::shared_ptr<const LightFiles> light_files_;
   mutable std::uint64_t light_files_frames_ = 0;
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
+  WatcherSet watchers_;  // thread-safe; never called with mutex_ held
 };
 
 }  // namespace arlight::daemon

@@ -27,29 +27,36 @@ TokenStore TokenStore::load(const std::filesystem::path& path) {
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
     std::istringstream fields(line);
-    std::string device, token, extra;
+    std::string device, token, role, extra;
     if (!(fields >> device)) continue;  // blank or comment
-    if (!(fields >> token) || (fields >> extra))
-      throw InputError(where + ": line " + std::to_string(n) + ": expected '<device-id> <token>'");
-    if (token.size() < 8)
-      throw InputError(where + ": line " + std::to_string(n) + ": token shorter than 8 characters");
-    if (!store.tokens_.emplace(device, token).second)
-      throw InputError(where + ": line " + std::to_string(n) + ": device '" + device +
-                       "' listed twice");
+    const std::string line_no = where + ": line " + std::to_string(n);
+    if (!(fields >> token) || ((fields >> role) && role != "watch") || (fields >> extra))
+      throw InputError(line_no + ": expected '<device-id> <token>' or '<name> <token> watch'");
+    if (token.size() < 8) throw InputError(line_no + ": token shorter than 8 characters");
+    if (!store.tokens_.emplace(device, Entry{token, role == "watch"}).second)
+      throw InputError(line_no + ": device '" + device + "' listed twice");
   }
   if (store.tokens_.empty()) throw InputError(where + ": no tokens in it");
-  return store;
+  for (const auto& [device, entry] : store.tokens_)  // in sorted order
+    if (!entry.watch_only) {
+      store.first_device_ = device;
+      return store;
+    }
+  throw InputError(where + ": only watch tokens in it (no device could capture)");
 }
 
-bool TokenStore::check(const std::string& device_id, const std::string& token) const {
+TokenStore::Access TokenStore::access(const std::string& device_id,
+                                      const std::string& token) const {
   const auto it = tokens_.find(device_id);
   // Compare against something of the same length even for unknown devices, so the time does
   // not tell which device ids exist.
-  const std::string& expected = it != tokens_.end() ? it->second : std::string(token.size(), '\0');
+  const std::string& expected =
+      it != tokens_.end() ? it->second.token : std::string(token.size(), '\0');
   const bool same_length = expected.size() == token.size();
   const std::string& probe = same_length ? token : expected;
   const bool equal = CRYPTO_memcmp(expected.data(), probe.data(), expected.size()) == 0;
-  return it != tokens_.end() && same_length && equal;
+  if (it == tokens_.end() || !same_length || !equal) return Access::None;
+  return it->second.watch_only ? Access::WatchOnly : Access::Device;
 }
 
 namespace {

@@ -83,6 +83,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   // Any thread. Messages are written in the order sent; after the end they are dropped.
   void send(std::vector<std::uint8_t> envelope);
   void send(const Message& message) { send(encode(message)); }
+  // The same bytes to several streams (a session's watchers) without a copy each.
+  void send(std::shared_ptr<const std::vector<std::uint8_t>> envelope);
   // Any thread: bytes onto the connection as they are, bypassing the framing (tests only).
   void send_unframed(std::vector<std::uint8_t> bytes);
   // Any thread: read nothing more, close once everything queued is written.
@@ -96,7 +98,7 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
 
  private:
   struct Outgoing {
-    std::vector<std::uint8_t> bytes;
+    std::shared_ptr<const std::vector<std::uint8_t>> bytes;
     bool framed = true;
   };
   void enqueue(Outgoing message);

@@ -76,6 +76,8 @@ struct Hello {
   std::string auth_token;
   std::vector<std::string> capabilities;  // e.g. "maps", "jpeg"
   std::string resume_session;             // a session id from an earlier Welcome
+  // A live session to watch (PROTOCOL.md item 1): its LightingUpdates and map sets, no frames.
+  std::string watch_session;
   bool operator==(const Hello&) const = default;
 };
 

@@ -79,6 +79,10 @@ class Client {
   // both tile codings, so the server picks zstd).
   void set_capabilities(std::vector<std::string> capabilities);
   void add_capability(std::string capability);  // to those
+  // Before connect(): watch the live session `session_id` instead of capturing (Hello's
+  // watch_session, PROTOCOL.md item 1): its updates and map sets arrive as they would for the
+  // capturing client; frames, intrinsics and requests are refused.
+  void watch(std::string session_id);
 
   // Connects and handshakes; throws ClientError (e.g. code "Unauthorized", "TLS").
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,

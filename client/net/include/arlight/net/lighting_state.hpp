@@ -50,6 +50,7 @@ class LightingState {
 
   // The maps this connection asked for (RequestMaps): only a set of exactly these is used.
   void expect_maps(const wire::RequestMaps& request) { assembler_.expect(request); }
+  void expect_any_maps() { assembler_.expect_any(); }  // a watcher's
   Change receive(wire::Message&& message);
 
   const Lighting& lighting() const { return lighting_; }

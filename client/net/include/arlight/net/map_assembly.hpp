@@ -38,6 +38,9 @@ class MapSetAssembler {
   // flight for an earlier connection's request reaches the new connection too (a client that
   // asked for no maps was then drawn with them).
   void expect(const wire::RequestMaps& request);
+  // A watcher (Hello's watch_session) asks for nothing: it takes whatever whole sets the
+  // session streams, Phong or GGX, as long as each is consistent in itself.
+  void expect_any();
   // A tile whose size disagrees with its set's first tiles, or whose data does not decode, is
   // dropped (the set then never completes its texel count).
   void add_tile(const wire::MapTile& tile);
@@ -48,6 +51,7 @@ class MapSetAssembler {
  private:
   std::map<std::uint32_t, ReceivedMapSet> building_;
   bool requested_ = false;
+  bool any_ = false;  // expect_any()
   wire::MapKind kind_ = wire::MapKind::Phong;
   std::vector<float> expected_;  // Phong: as the wire carries them
   std::size_t levels_ = 0;       // Ggx

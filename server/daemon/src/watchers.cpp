@@ -1,0 +1,126 @@
+#include "watchers.hpp"
+
+#include <variant>
+
+namespace arlight::daemon {
+
+namespace {
+
+// A tile's envelope again with its data in `coding` (half floats survive the round trip
+// exactly); nullptr when it cannot be read back (it was encoded here: never).
+EncodedMessage recode_tile(const EncodedMessage& bytes, wire::TileCoding coding) {
+  wire::Message m = wire::decode(*bytes);
+  auto* tile = std::get_if<wire::MapTile>(&m);
+  if (!tile) return nullptr;
+  std::string why;
+  const std::size_t pixels = std::size_t(tile->width) * tile->height;
+  const auto rgb = wire::decode_half_rgb(tile->data, pixels, tile->coding, why);
+  if (!rgb) return nullptr;
+  tile->data = wire::encode_half_rgb(rgb->data(), pixels, coding);
+  tile->coding = coding;
+  return std::make_shared<const std::vector<std::uint8_t>>(wire::encode(*tile));
+}
+
+}  // namespace
+
+std::uint64_t WatcherSet::add(Watcher watcher, const EncodedMessage& first) {
+  std::lock_guard lock(mutex_);
+  if (watchers_.size() >= limit_) return 0;
+  const std::uint64_t id = ++next_id_;
+  Entry& e = watchers_.emplace(id, Entry{std::move(watcher)}).first->second;
+  e.watcher.send(first);
+  e.owes_update = bool(latest_update_);
+  e.owes_set = !latest_set_.empty();
+  catch_up(e);
+  return id;
+}
+
+bool WatcherSet::remove(std::uint64_t id) {
+  std::lock_guard lock(mutex_);
+  return watchers_.erase(id) > 0;
+}
+
+std::size_t WatcherSet::size() const {
+  std::lock_guard lock(mutex_);
+  return watchers_.size();
+}
+
+void WatcherSet::send_held(Entry& e, Held& h) {
+  if (!h.tile_coding || *h.tile_coding == e.watcher.coding) return e.watcher.send(h.bytes);
+  if (!h.recoded) h.recoded = recode_tile(h.bytes, e.watcher.coding);
+  if (h.recoded) e.watcher.send(h.recoded);
+}
+
+// Never in the middle of a set it is receiving: the newest complete set would interleave its
+// tiles with the newer set's.
+void WatcherSet::catch_up(Entry& e) {
+  if (behind(e)) return;
+  if (e.owes_update) {
+    e.watcher.send(latest_update_);
+    e.owes_update = false;
+  }
+  if (e.owes_set && (building_id_ == 0 || e.in_set != building_id_)) {
+    for (Held& h : latest_set_) send_held(e, h);
+    e.owes_set = false;
+  }
+}
+
+void WatcherSet::publish(const wire::Message& message, const EncodedMessage& bytes) {
+  std::uint32_t set = 0;
+  std::optional<wire::TileCoding> tile_coding;
+  if (const auto* p = std::get_if<wire::Progress>(&message)) set = p->map_set;
+  if (const auto* t = std::get_if<wire::MapTile>(&message)) set = t->map_set, tile_coding = t->coding;
+  const auto* complete = std::get_if<wire::MapSetComplete>(&message);
+  if (complete) set = complete->map_set;
+  const bool update = std::holds_alternative<wire::LightingUpdate>(message);
+  if (!update && !set) return;  // the capturing client's own
+
+  std::lock_guard lock(mutex_);
+  if (update) {
+    latest_update_ = bytes;
+    for (auto& [id, e] : watchers_) {
+      e.owes_update = true;
+      catch_up(e);
+    }
+    return;
+  }
+  if (set != building_id_) {  // a new set begins (the last one completed or was stopped)
+    building_.clear();
+    building_id_ = set;
+    for (auto& [id, e] : watchers_)
+      e.in_set = behind(e) ? 0 : set;  // one behind skips the set and is owed it at the end
+  }
+  Held held{bytes, tile_coding, nullptr};
+  for (auto& [id, e] : watchers_)
+    if (e.in_set == set) send_held(e, held);
+  if (!std::holds_alternative<wire::Progress>(message)) building_.push_back(std::move(held));
+  if (!complete) return;
+  latest_set_ = std::move(building_);
+  building_.clear();
+  building_id_ = 0;
+  for (auto& [id, e] : watchers_) {
+    e.owes_set = e.in_set != set;
+    e.in_set = 0;
+    catch_up(e);
+  }
+}
+
+void WatcherSet::drained(std::uint64_t id) {
+  std::lock_guard lock(mutex_);
+  const auto it = watchers_.find(id);
+  if (it != watchers_.end() && (it->second.owes_update || it->second.owes_set))
+    catch_up(it->second);
+}
+
+std::size_t WatcherSet::disconnect_all() {
+  std::map<std::uint64_t, Entry> gone;
+  {
+    std::lock_guard lock(mutex_);
+    gone.swap(watchers_);
+  }
+  for (auto& [id, e] : gone)
+    if (e.watcher.disconnect) e.watcher.disconnect();
+  return gone.size();
+}
+
+}  // namespace arlight::daemon
