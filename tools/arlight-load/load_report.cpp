@@ -36,6 +36,8 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   std::vector<double> all;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0, held_back = 0, bytes = 0;
   std::uint64_t held_in_flight = 0;
+  std::vector<double> watcher_latency;
+  std::uint64_t watcher_updates = 0, watcher_map_sets = 0, watchers_failed = 0;
   std::vector<double> map_set_intervals;  // each session's median, of those with two or more
   int failed = 0;
   j["errors"] = nlohmann::json::array();
@@ -47,6 +49,10 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
     sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
     held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
+    watcher_latency.insert(watcher_latency.end(), r.watcher_latency_ms.begin(),
+                           r.watcher_latency_ms.end());
+    watcher_updates += r.watcher_updates, watcher_map_sets += r.watcher_map_sets;
+    watchers_failed += r.watchers_failed;
     if (const double i = median_map_set_interval(r.map_set_ms, duration); i > 0.0)
       map_set_intervals.push_back(i);
     if (r.failed) {
@@ -91,6 +97,13 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   j["latency_ms"] = {
       {"p50", percentile(all, 50)}, {"p95", percentile(all, 95)}, {"p99", percentile(all, 99)}};
   j["map_sets_completed"] = map_sets;
+  // --watchers: frame sent by its session -> the LightingUpdate at a watcher; their totals.
+  j["watchers"] = {{"latency_ms",
+                    {{"p50", percentile(watcher_latency, 50)},
+                     {"p99", percentile(watcher_latency, 99)}}},
+                   {"updates", watcher_updates},
+                   {"map_sets_completed", watcher_map_sets},
+                   {"failed", watchers_failed}};
   // While the sessions were sending: the median over sessions of each one's median interval
   // between map sets, and the slowest session's.
   j["map_set_interval_ms"] = {
@@ -136,6 +149,13 @@ void print_summary(const nlohmann::json& j) {
     std::printf("map sets while sending: every %.0f ms (median session), %.0f ms (slowest)\n",
                 j["map_set_interval_ms"]["median"].get<double>(),
                 j["map_set_interval_ms"]["worst_session"].get<double>());
+  if (const auto& w = j["watchers"]; w["updates"].get<std::uint64_t>() > 0)
+    std::printf("watchers: %llu updates (p50 %.1f ms, p99 %.1f ms after the frame), %llu map "
+                "sets, %llu failed\n",
+                static_cast<unsigned long long>(w["updates"].get<std::uint64_t>()),
+                w["latency_ms"]["p50"].get<double>(), w["latency_ms"]["p99"].get<double>(),
+                static_cast<unsigned long long>(w["map_sets_completed"].get<std::uint64_t>()),
+                static_cast<unsigned long long>(w["failed"].get<std::uint64_t>()));
   if (!j["outages"].empty())
     std::printf("%zu outages survived; the worst lost %.2f s of frames\n", j["outages"].size(),
                 j["worst_outage_frames_lost_s"].get<double>());

@@ -1,5 +1,8 @@
 #include "load_session.hpp"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <mutex>
 #include <opencv2/core.hpp>
@@ -95,6 +98,30 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     };
     auto [c, welcome] = open("");
     const std::string session_id = welcome.session_id;
+    std::vector<std::unique_ptr<client::Client>> watchers;
+    for (int k = 0; k < plan.watchers; ++k) {
+      auto w = std::make_unique<client::Client>();
+      plan.connection.apply(*w);
+      w->watch(session_id);
+      w->on_update = [&](const client::LightingUpdate& u) {
+        // A watcher stands for another device: its decoding (on the client's network thread)
+        // must not take this machine's cores from the daemon and the capturing sessions.
+        thread_local const bool niced = setpriority(PRIO_PROCESS, gettid(), 19) == 0;
+        (void)niced;
+        std::lock_guard lock(m);
+        if (u.frame_sequence >= 1 && u.frame_sequence <= report.sent_ms.size())
+          report.watcher_latency_ms.push_back(
+              std::chrono::duration<double, std::milli>(u.received - start).count() -
+              report.sent_ms[u.frame_sequence - 1]);
+      };
+      try {
+        w->connect(plan.host, plan.port, plan.device, plan.token, "arlight-load watcher");
+        watchers.push_back(std::move(w));
+      } catch (const client::ClientError&) {
+        std::lock_guard lock(m);
+        ++report.watchers_failed;
+      }
+    }
     std::uint64_t map_sets_before = 0;  // of the connections before this one
     const auto period = std::chrono::duration<double>(1.0 / plan.rate);
     // This session's frames start `phase` of a frame period late (see --phases).
@@ -182,6 +209,12 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     if (const auto e = c->server_error()) throw client::ClientError(e->first, e->second);
     report.map_sets = map_sets_before + c->map_sets_completed();
     c->bye();
+    for (auto& w : watchers) {
+      report.watcher_updates += w->updates_received();
+      report.watcher_map_sets += w->map_sets_completed();
+      if (w->server_error() || !w->connected()) ++report.watchers_failed;
+      w->close();
+    }
   } catch (const std::exception& e) {
     report.failed = true;
     report.error = e.what();

@@ -37,6 +37,10 @@ struct SessionReport {
   // latency (NaN: no update reflects it, i.e. it was dropped or never answered).
   std::vector<double> sent_ms, frame_latency_ms;
   std::vector<Outage> outages;
+  // Its watchers (--watchers): frame sent by the session -> the same LightingUpdate at a
+  // watcher, and what they got (summed over them); watchers that failed (refused, dropped).
+  std::vector<double> watcher_latency_ms;
+  std::uint64_t watcher_updates = 0, watcher_map_sets = 0, watchers_failed = 0;
 };
 
 // What to send: where, as whom, how fast, for how long, from which frame and phase.
@@ -58,6 +62,9 @@ struct SessionPlan {
   // With follow_advice: at most this many frames sent and not yet answered by a LightingUpdate
   // (client::FramePacer::limit_in_flight; 0: no limit).
   int max_in_flight = 2;
+  // Devices watching each session (Hello's watch_session) with the device's own token; they
+  // only receive.
+  int watchers = 0;
 };
 
 // The recording's JPEGs at the camera's size and, with `reduced`, also reduced by 2, 4 and 8

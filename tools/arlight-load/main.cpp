@@ -56,6 +56,11 @@ int main(int argc, char** argv) {
                  "frames a session keeps sent and not yet answered by a LightingUpdate; the "
                  "newer ones wait for an answer (0: no limit; --ignore-advice: none either)")
       ->capture_default_str();
+  int watchers = 0;
+  app.add_option("--watchers", watchers,
+                 "devices watching each session (Hello's watch_session, the device's token): "
+                 "they receive its updates and map sets and send nothing")
+      ->capture_default_str();
   double reconnect_s = 0;
   app.add_option("--reconnect", reconnect_s,
                  "seconds a session may be without its daemon (killed, restarted, behind a "
@@ -72,6 +77,7 @@ int main(int argc, char** argv) {
     if (sessions < 1 || sessions > 1000) throw InputError("--sessions must be in [1, 1000]");
     if (!(duration > 0 && duration <= 3600)) throw InputError("--duration must be in (0, 3600]");
     if (!(rate > 0 && rate <= 1000)) throw InputError("--rate must be in (0, 1000]");
+    if (watchers < 0 || watchers > 4096) throw InputError("--watchers must be in [0, 4096]");
     if (max_in_flight < 0 || max_in_flight > 1000)
       throw InputError("--max-in-flight must be in [0, 1000]");
     SessionPlan base;
@@ -92,6 +98,7 @@ int main(int argc, char** argv) {
     base.connection = connection, base.reconnect_s = reconnect_s;
     base.follow_advice = !ignore_advice;
     base.max_in_flight = max_in_flight;
+    base.watchers = watchers;
     const FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height,
                             base.follow_advice);
 
