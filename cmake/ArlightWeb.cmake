@@ -20,6 +20,9 @@ ExternalProject_Add(arlight_web_module
   INSTALL_COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}
   COMMAND ${CMAKE_COMMAND} -E copy_if_different <BINARY_DIR>/arlight_web.js
           <BINARY_DIR>/arlight_web.wasm ${ARLIGHT_WEB_DIR}
+  COMMAND ${CMAKE_COMMAND} -E make_directory ${ARLIGHT_WEB_DIR}/three
+  COMMAND ${CMAKE_COMMAND} -E copy_if_different <BINARY_DIR>/arlight_light.js
+          <BINARY_DIR>/arlight_light.wasm ${ARLIGHT_WEB_DIR}/three
   BUILD_ALWAYS ON  # its own ninja decides what is out of date
   USES_TERMINAL_BUILD ON)
 
@@ -32,6 +35,7 @@ endif()
 configure_file(${ARLIGHT_OPENCV_JS}/LICENSE ${ARLIGHT_WEB_DIR}/opencv.js.LICENSE COPYONLY)
 file(GLOB ARLIGHT_WEB_PAGE CONFIGURE_DEPENDS
   ${CMAKE_SOURCE_DIR}/client/web/index.html
+  ${CMAKE_SOURCE_DIR}/client/web/three.html
   ${CMAKE_SOURCE_DIR}/client/web/style.css
   ${CMAKE_SOURCE_DIR}/client/web/src/*.js
   ${ARLIGHT_OPENCV_JS}/dist/opencv.js)
@@ -57,4 +61,31 @@ foreach(pair "bunny.glb;bunny.glb" "suzi.glb;suzanne.glb" "tiles.glb;tiles.glb")
     COMMENT "The page's model ${to} (no Draco)")
   list(APPEND ARLIGHT_WEB_MODELS ${out})
 endforeach()
-add_custom_target(arlight_web ALL DEPENDS ${ARLIGHT_WEB_PAGE_STAMP} ${ARLIGHT_WEB_MODELS} arlight_web_module)
+# /three.html's: the three.js provider (client/web/three/src, served at three/) and the parts of
+# three.js it and the page import (npm `three`, pinned in client/web/package-lock.json), under
+# three/lib/ where the page's import map points.
+set(ARLIGHT_THREE ${CMAKE_SOURCE_DIR}/client/web/node_modules/three)
+if(NOT EXISTS ${ARLIGHT_THREE}/build/three.module.js)
+  message(FATAL_ERROR "the three.js page needs three: run `make deps` (npm ci in client/web)")
+endif()
+set(ARLIGHT_THREE_FROM build/three.module.js build/three.core.js LICENSE
+  examples/jsm/loaders/GLTFLoader.js examples/jsm/utils/BufferGeometryUtils.js
+  examples/jsm/utils/SkeletonUtils.js)
+set(ARLIGHT_THREE_TO three.module.js three.core.js LICENSE addons/loaders/GLTFLoader.js
+  addons/utils/BufferGeometryUtils.js addons/utils/SkeletonUtils.js)
+set(ARLIGHT_WEB_THREE)
+foreach(from to IN ZIP_LISTS ARLIGHT_THREE_FROM ARLIGHT_THREE_TO)
+  set(out ${ARLIGHT_WEB_DIR}/three/lib/${to})
+  add_custom_command(OUTPUT ${out}
+    COMMAND ${CMAKE_COMMAND} -E copy_if_different ${ARLIGHT_THREE}/${from} ${out}
+    DEPENDS ${ARLIGHT_THREE}/${from})
+  list(APPEND ARLIGHT_WEB_THREE ${out})
+endforeach()
+set(out ${ARLIGHT_WEB_DIR}/three/ArlightEstimatedLight.js)
+add_custom_command(OUTPUT ${out}
+  COMMAND ${CMAKE_COMMAND} -E copy_if_different
+          ${CMAKE_SOURCE_DIR}/client/web/three/src/ArlightEstimatedLight.js ${out}
+  DEPENDS ${CMAKE_SOURCE_DIR}/client/web/three/src/ArlightEstimatedLight.js)
+list(APPEND ARLIGHT_WEB_THREE ${out})
+add_custom_target(arlight_web ALL DEPENDS ${ARLIGHT_WEB_PAGE_STAMP} ${ARLIGHT_WEB_MODELS}
+  ${ARLIGHT_WEB_THREE} arlight_web_module)

@@ -176,6 +176,17 @@ TEST(WebServer, ServesOnlyPlainFilesUnderTheRoot) {
   const std::string worker = content_security_policy(root / "marker_worker.js");
   EXPECT_EQ(page.find("'unsafe-eval'"), std::string::npos);
   EXPECT_EQ(std::string(content_security_policy(root / "app.js")), page);
+  // An import map (inline by necessity) is allowed by its hash, and nothing else inline is.
+  const std::string map = R"({"imports": {"three": "./three/lib/three.module.js"}})";
+  std::ofstream(root / "three.html") << "<!doctype html><script type=\"importmap\">" << map
+                                     << "</script><script type=\"module\" src=\"p.js\"></script>";
+  const std::string three = content_security_policy(root / "three.html");
+  // echo -n '{"imports": {"three": "./three/lib/three.module.js"}}' | openssl dgst -sha256 -binary | base64
+  EXPECT_NE(three.find("script-src 'self' 'sha256-2ms9co1BQoGYrEopSc7gxYwCoasehyP8N9pIFA8dBX8='"),
+            std::string::npos)
+      << three;
+  EXPECT_EQ(three.find("'unsafe-inline'", three.find("script-src")),
+            three.find("'unsafe-inline'", three.find("style-src")));
   EXPECT_NE(worker.find("'unsafe-eval'"), std::string::npos);
   EXPECT_NE(worker.find("connect-src 'self'"), std::string::npos);
 }

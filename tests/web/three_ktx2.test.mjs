@@ -11,6 +11,7 @@ import http from 'node:http';
 import os from 'node:os';
 import path from 'node:path';
 
+import { cubeTexel, halfRgbaTexel } from './cube_texels.mjs';
 import { WEB_ROOT, launchChromium } from './harness.mjs';
 
 const BIN = process.env.ARLIGHT_BIN;
@@ -88,26 +89,11 @@ function serve(dir) {
   return new Promise((resolve) => server.listen(0, '127.0.0.1', () => resolve(server)));
 }
 
-function halfToFloat(h) {
-  const s = h & 0x8000 ? -1 : 1, e = (h >> 10) & 0x1f, m = h & 0x3ff;
-  if (e === 0) return s * m * 2 ** -24;
-  return s * (1 + m / 1024) * 2 ** (e - 15);
-}
-
-// The file's texel for direction d at a level, by common/CONVENTIONS.md's cube table (the GL
-// one): face by the major axis, s = (sc / |ma| + 1) / 2 along the row, t down the rows.
-function fileTexel(ktx, level, face0, [x, y, z]) {
-  const ax = Math.abs(x), ay = Math.abs(y), az = Math.abs(z);
-  let f, sc, tc, ma;
-  if (ax >= ay && ax >= az) [f, sc, tc, ma] = x > 0 ? [0, -z, -y, ax] : [1, z, -y, ax];
-  else if (ay >= az) [f, sc, tc, ma] = y > 0 ? [2, x, z, ay] : [3, x, -z, ay];
-  else [f, sc, tc, ma] = z > 0 ? [4, x, -y, az] : [5, -x, -y, az];
+// The file's texel for direction d at a level.
+function fileTexel(ktx, level, face0, d) {
   const n = face0 >> level;
-  const i = Math.min(n - 1, Math.floor((sc / ma + 1) / 2 * n)), j = Math.min(n - 1, Math.floor((tc / ma + 1) / 2 * n));
   const data = ktx.levels[level].levelData;
-  const view = new DataView(data.buffer, data.byteOffset, data.byteLength);
-  const at = ((f * n + j) * n + i) * 8;
-  return [0, 1, 2].map((c) => halfToFloat(view.getUint16(at + 2 * c, true)));
+  return halfRgbaTexel(new DataView(data.buffer, data.byteOffset, data.byteLength), n, cubeTexel(n, d));
 }
 
 test('three.js KTX2Loader loads specular.ktx2 and WebGL samples it as the file says', async () => {

@@ -50,3 +50,9 @@ add_test(NAME web.three_ktx2
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/three_ktx2.test.mjs)
 set_tests_properties(web.three_ktx2 PROPERTIES TIMEOUT 300 RUN_SERIAL TRUE
   ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+# /three.html (issue 35): three.js's scene lit by ArlightEstimatedLight watching a session
+# arlight-replay captured into arlightd; SH, primary light and the environment against the session.
+add_test(NAME web.three_page
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/three_page.test.mjs)
+set_tests_properties(web.three_page PROPERTIES TIMEOUT 300 RUN_SERIAL TRUE
+  ENVIRONMENT "ARLIGHT_BIN=${CMAKE_BINARY_DIR}/bin;ARLIGHT_SOURCE_DIR=${CMAKE_SOURCE_DIR}")

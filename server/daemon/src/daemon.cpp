@@ -568,6 +568,7 @@ struct Daemon::Impl {
   // Every second: checkpoint what changed (at the configured interval) and close sessions idle
   // past the timeout (they stay on disk for a resume).
   Clock::time_point last_checkpoint = Clock::now();
+  std::atomic<bool> checkpoint_round_running{false};
   void schedule_housekeeping() {
     housekeeping.expires_after(std::chrono::milliseconds(250));
     housekeeping.async_wait([this](boost::system::error_code ec) {
@@ -578,10 +579,15 @@ struct Daemon::Impl {
         std::lock_guard lock(sessions_mutex);
         for (auto& [id, s] : sessions) all.push_back(s);
       }
-      if (now - last_checkpoint >= std::chrono::duration<double>(config.checkpoint_interval_s)) {
+      // One round of checkpoints at a time: with many sessions a round can outlast the
+      // interval, and rounds posted behind it would pile up on the disk thread. The next one
+      // starts at the first tick after it ends.
+      if (now - last_checkpoint >= std::chrono::duration<double>(config.checkpoint_interval_s) &&
+          !checkpoint_round_running.exchange(true)) {
         last_checkpoint = now;
         asio::post(disk, [this, all] {
           for (const auto& s : all) save(*s);
+          checkpoint_round_running = false;
         });
       }
       for (const auto& s : all) s->on_idle(now);

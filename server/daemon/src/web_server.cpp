@@ -6,7 +6,11 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/ssl.hpp>
 #include <boost/beast/websocket.hpp>
+#include <openssl/evp.h>
+
 #include <chrono>
+#include <fstream>
+#include <iterator>
 
 #include "arlight/protocol/websocket_transport.hpp"
 
@@ -59,8 +63,42 @@ bool allowed_segment(std::string_view s) {
 
 }  // namespace
 
-const char* content_security_policy(const fs::path& file) {
-  return file.filename() == kEvalWorkerScript ? kEvalWorkerPolicy : kContentSecurityPolicy;
+namespace {
+
+// The SHA-256 of each `<script type="importmap">` of an HTML file, as CSP source expressions
+// ('sha256-<base64>'): an import map must be inline (browsers do not load one from a file), and
+// the page's policy allows exactly those (the three.js page maps `three` to its files).
+std::string import_map_hashes(const fs::path& html) {
+  std::ifstream in(html, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  static constexpr std::string_view kOpen = "<script type=\"importmap\">", kClose = "</script>";
+  std::string sources;
+  for (std::size_t at = text.find(kOpen); at != std::string::npos; at = text.find(kOpen, at)) {
+    at += kOpen.size();
+    const std::size_t end = text.find(kClose, at);
+    if (end == std::string::npos) break;
+    unsigned char digest[EVP_MAX_MD_SIZE];
+    unsigned int length = 0;
+    EVP_Digest(text.data() + at, end - at, digest, &length, EVP_sha256(), nullptr);
+    std::string base64(4 * ((length + 2) / 3) + 1, '\0');
+    base64.resize(std::size_t(EVP_EncodeBlock(reinterpret_cast<unsigned char*>(base64.data()),
+                                              digest, int(length))));
+    sources += " 'sha256-" + base64 + "'";
+  }
+  return sources;
+}
+
+}  // namespace
+
+std::string content_security_policy(const fs::path& file) {
+  if (file.filename() == kEvalWorkerScript) return kEvalWorkerPolicy;
+  if (file.extension() != ".html") return kContentSecurityPolicy;
+  const std::string hashes = import_map_hashes(file);
+  if (hashes.empty()) return kContentSecurityPolicy;
+  std::string policy = kContentSecurityPolicy;
+  const std::string_view script_src = "script-src 'self'";
+  policy.insert(policy.find(script_src) + script_src.size(), hashes);
+  return policy;
 }
 
 StaticFile resolve_static_file(const fs::path& root, std::string_view target) {

@@ -38,9 +38,9 @@ StaticFile resolve_static_file(const std::filesystem::path& root, std::string_vi
 // only with that type); application/octet-stream when unknown.
 const char* content_type(const std::filesystem::path& file);
 // The Content-Security-Policy a file is served with: the page's (its own scripts and WebAssembly,
-// no eval, only its own origin), or for the tracking worker's script, which runs opencv.js, the
-// same with eval allowed.
-const char* content_security_policy(const std::filesystem::path& file);
+// no eval, only its own origin; an HTML file's inline import maps by their SHA-256), or for the
+// tracking worker's script, which runs opencv.js, the same with eval allowed.
+std::string content_security_policy(const std::filesystem::path& file);
 
 class WebServer {
  public:
