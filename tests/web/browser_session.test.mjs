@@ -95,6 +95,9 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(status.guide_elevation_deg === null || status.guide_elevation_deg < 0,
       `the guide still points at ${status.guide_elevation_deg} degrees`);
     assert.equal(status.last_error, '');
+    // "Watch this room": /three.html for this session, with this device's credentials.
+    const watch = await page.$eval('#s-watch', (a) => a.getAttribute('href'));
+    assert.equal(watch, `three.html#session=${status.session_id}&device=phone&token=${TOKEN}`);
     // The room's irradiance as the session captured it, against the simulator's truth.
     const dc = status.sh[1] / truth[0][1];
     const rms = irradianceRelativeRms(status.sh, truth);

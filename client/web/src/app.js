@@ -160,7 +160,7 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
       state.fps = (frames * 1000) / (now - since);
       frames = 0;
       since = now;
-      updatePanel(coverage, q);
+      updatePanel(coverage, q, params);
     }
   });
 }

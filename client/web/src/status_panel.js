@@ -13,8 +13,21 @@ function guideText(elevation) {
   return `sweep round at ${Math.abs(elevation).toFixed(0)}° ${elevation >= 0 ? 'up' : 'down'}`;
 }
 
-/** The panel now; `coverage` the CoverageView, `q` the orientation of the frame shown. */
-export function updatePanel(coverage, q) {
+/**
+ * /three.html watching this session (issue 35): the session's id with this device's id and
+ * token, in the fragment (never sent to a server); '' before the session has an id.
+ */
+export function watchUrl(sessionId, { device, token }) {
+  if (!sessionId) return '';
+  const fragment = new URLSearchParams({ session: sessionId, device: device || '', token: token || '' });
+  return `three.html#${fragment}`;
+}
+
+/**
+ * The panel now; `coverage` the CoverageView, `q` the orientation of the frame shown, `params`
+ * the page's (for the "watch this room" link).
+ */
+export function updatePanel(coverage, q, params) {
   const lighting = clientStatus();
   // A session continued from another page (#session=ID) may be seen all round already.
   state.guideElevation = lighting.coverage >= 0.99 ? null : coverage.nextElevation();
@@ -25,6 +38,12 @@ export function updatePanel(coverage, q) {
   $('s-lighting').textContent = `${lighting.lighting}, ${lighting.map_sets} map sets, ${(lighting.coverage * 100).toFixed(0)} % seen` +
     (lighting.estimated > 0 ? `, ${(lighting.estimated * 100).toFixed(0)} % estimated` : '');
   $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
+  const link = $('s-watch');
+  const url = watchUrl(state.sessionId, params);
+  if (link && url && link.getAttribute('href') !== url) {
+    link.setAttribute('href', url);
+    link.textContent = 'open in three.js (another device)';
+  }
   const p = report();
   $('s-speed').textContent =
       `${state.fps.toFixed(1)} fps, ${state.renderMs.toFixed(1)} ms a frame, latency ${
