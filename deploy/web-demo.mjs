@@ -3,8 +3,10 @@
 // sensor) and the page composites a sphere lit by what arlightd captured; then it walks around the
 // marker on the floor, continuing the same session, and the page stands the bunny on it. Saves
 // screenshots along the way, a contact sheet of them and web.json (the page's own figures), then
-// prints how to connect a real phone.
+// prints how to connect a real phone. Then /three.html (three.js, ArlightEstimatedLight) watching a
+// session of the same daemon: screenshots in OUT_DIR/../three/.
 //   node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE
+import { execFileSync } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
@@ -76,6 +78,36 @@ try {
   const marker = await page.evaluate(() => window.arlight.status());
   fs.writeFileSync(path.join(out, 'web.json'),
     JSON.stringify({ sweep: { ...status, sh: undefined }, marker: { ...marker, sh: undefined } }, null, 2));
+
+  // /three.html (issue 35): three.js lighting a glTF model with the room's light, watching a
+  // session of the same daemon (the sweep replayed by arlight-replay, which asks for the GGX
+  // chain three.js samples), as a desktop beside the phone would. Into OUT/../three/.
+  const threeOut = path.join(path.dirname(out), 'three');
+  fs.rmSync(threeOut, { recursive: true, force: true });
+  fs.mkdirSync(threeOut, { recursive: true });
+  const port = /listening on 127\.0\.0\.1:(\d+)/.exec(daemon.banner)[1];
+  execFileSync(path.join(bin, 'arlight-replay'), ['--server', `127.0.0.1:${port}`, '--token', token,
+    '--device', 'phone', '--recording', room.rec, '--ggx', '256', '--out', path.join(threeOut, 'replay')],
+  { stdio: 'pipe' });
+  const watched = JSON.parse(fs.readFileSync(path.join(threeOut, 'replay', 'replay.json'))).session_id;
+  const threePage = await (await browser.contexts())[0].newPage();
+  await threePage.setViewportSize({ width: 960, height: 600 });
+  const threeStatus = {};
+  for (const model of ['spheres', 'bunny']) {
+    await threePage.goto('about:blank');  // a new fragment alone would not load the page again
+    await threePage.goto(`https://127.0.0.1:${daemon.web}/three.html#session=${watched}&device=phone&token=${token}&model=${model}`);
+    await threePage.waitForFunction(() => {
+      const s = window.arlightThree && window.arlightThree.status();
+      return s && s.map_sets >= 1 && s.environment_face > 0 && s.model;
+    }, null, { timeout: 60000 });
+    await threePage.waitForTimeout(1500);  // the model loaded, the cross-fade over
+    await threePage.screenshot({ path: path.join(threeOut, `${model}.png`) });
+    threeStatus[model] = await threePage.evaluate(() => ({ ...window.arlightThree.status(),
+      light_estimate: window.arlightThree.lightEstimate() }));
+  }
+  fs.writeFileSync(path.join(threeOut, 'three.json'), JSON.stringify(threeStatus, (k, v) =>
+    (v instanceof Object && v.constructor && v.constructor.name === 'Float32Array' ? Array.from(v) : v), 2));
+  await threePage.close();
 
   // The contact sheet, drawn by the browser itself (no image library needed).
   const images = [...shots.slice(0, sweepShots).slice(-6), ...shots.slice(sweepShots).slice(-6)].map((f) => `data:image/png;base64,${fs.readFileSync(f).toString('base64')}`);

@@ -36,7 +36,7 @@ import {
   WebGLCubeRenderTarget,
 } from 'three';
 
-const kFadeSeconds = 0.3;
+const kFadeSeconds = 0.2;
 const kReconnectMs = 1000;
 const kPingMs = 60000;  // well inside arlightd's idle timeout (300 s by default)
 // Refusals that another attempt would get again.
