@@ -158,6 +158,8 @@ bench: deps
 	  --json out/bench/ggx_$$p.json; done
 	$(BUILD)/bin/arlight-bench-pbr --probe data/probes/park.exr --probe data/probes/venice.exr \
 	  --probe data/probes/studio.exr --json out/bench/pbr.json --grid out/bench/pbr-spheres.png
+	for p in venice park; do node bench/three_spheres.mjs $(BUILD)/bin out/bench/three_$$p \
+	  data/probes/$$p.exr; done
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out

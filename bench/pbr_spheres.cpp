@@ -12,6 +12,7 @@
 // their ratio), and PSNR with the reference's brightest pixel as the peak.
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -63,9 +64,12 @@ struct SphereScore {
   int values = 0;
 };
 
+// A traced pixel of the reference: its column and row and the full BRDF's radiance there.
+using TracedPixel = std::array<float, 5>;
+
 SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render::GpuMesh& gpu,
                   const EnvMap& room, const CameraIntrinsics& k, double metallic, double roughness,
-                  int samples, render::HdrReadback* picture) {
+                  int samples, render::HdrReadback* picture, std::vector<TracedPixel>* traced) {
   render::Material m;
   m.pbr = render::MetallicRoughness{};
   m.pbr->base_colour = glm::vec4(kBase, 1.0f);
@@ -103,6 +107,8 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
       if (!want) continue;
       const glm::dvec3 p = eye + (along - std::sqrt(1.0 - miss)) * d;
       pixels.push_back({hdr.radiance.at(x, y), *want, glm::dot(glm::normalize(p), -d)});
+      if (traced)
+        traced->push_back({float(x), float(y), float(want->x), float(want->y), float(want->z)});
     }
   double mean_ref = 0, peak = 0;
   for (const Pixel& p : pixels)
@@ -137,13 +143,16 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
 int main(int argc, char** argv) {
   CLI::App app{"arlight-bench-pbr: metallic-roughness spheres against the full BRDF"};
   std::vector<std::string> probes;
-  std::string json_path, grid_path;
+  std::string json_path, grid_path, reference_path;
   int samples = 1024;
   app.add_option("--probe", probes, "probe(s) (lat-long EXR)")->required();
   app.add_option("--samples", samples, "GGX samples per pixel of the reference's narrow lobes")
       ->capture_default_str();
   app.add_option("--json", json_path, "write every sphere's figures here");
   app.add_option("--grid", grid_path, "write the first probe's spheres as a PNG (rows: metallic)");
+  app.add_option("--reference", reference_path,
+                 "write the first probe's reference pixels, the camera and the spheres as JSON "
+                 "(for other renderers: bench/three_spheres.mjs)");
   CLI11_PARSE(app, argc, argv);
   try {
     render::GlContext gl = render::GlContext::headless();
@@ -153,6 +162,14 @@ int main(int argc, char** argv) {
     const render::Mesh sphere = render::make_sphere(1.0f, 64, 128);
     const render::GpuMesh gpu(sphere);
     nlohmann::json out = nlohmann::json::array();
+    nlohmann::json reference = {
+        {"camera", {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy},
+                    {"cx", k.cx}, {"cy", k.cy}, {"eye", {0.0, 0.0, kDistance}},
+                    {"looking", "-Z, +Y up; pixel (x, y) looks along normalize((x - cx) / fx, "
+                                "-(y - cy) / fy, -1)"}}},
+        {"sphere", {{"centre", {0, 0, 0}}, {"radius", 1.0}}},
+        {"base_colour", {kBase.x, kBase.y, kBase.z}},
+        {"spheres", nlohmann::json::array()}};
     std::printf("| probe | metallic | roughness 0.05 | 0.2 | 0.4 | 0.6 | 0.8 | 1 |\n");
     std::printf("|---|---|---|---|---|---|---|---|\n");
     for (const std::string& probe : probes) {
@@ -175,7 +192,15 @@ int main(int argc, char** argv) {
         std::string row = "| " + name + " | " + std::to_string(metallic).substr(0, 3) + " |";
         for (const double& roughness : kRoughness) {
           render::HdrReadback picture;
-          const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples, &picture);
+          const bool keep = !reference_path.empty() && &probe == &probes.front();
+          std::vector<TracedPixel> traced;
+          const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples,
+                                      &picture, keep ? &traced : nullptr);
+          if (keep)
+            reference["spheres"].push_back(
+                {{"metallic", metallic}, {"roughness", roughness},
+                 {"renderer", {{"mean", s.mean}, {"weighted", s.weighted}, {"psnr_db", s.psnr}}},
+                 {"pixels", traced}});
           paint_tile(picture, 0.5 / std::max(mean_radiance, 1e-9), grid, columns * kSize,
                      int(&roughness - kRoughness), int(&metallic - kMetallic));
           char cell[96];
@@ -194,6 +219,10 @@ int main(int argc, char** argv) {
         write_png_rgba(grid_path, columns * kSize, rows * kSize, grid);
     }
     if (!json_path.empty()) write_file_atomically(json_path, out.dump(1) + "\n");
+    if (!reference_path.empty()) {
+      reference["probe"] = fs::path(probes.front()).stem().string();
+      write_file_atomically(reference_path, reference.dump() + "\n");
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "arlight-bench-pbr: %s\n", e.what());

@@ -54,6 +54,31 @@ function chainTarget(face, levels) {
   return target;
 }
 
+/**
+ * arlight's GGX chain — levels from the mirror down, each half the face before, each given as
+ * {face, texels}: half-float RGBA, faces +X, -X, +Y, -Y, +Z, -Z one after another, rows as
+ * common/CONVENTIONS.md lays them out (specular.ktx2's levels, or the light core's) — as a
+ * texture three.js samples as it is (a PMREM cube render target; its `texture` goes to
+ * scene.environment or material.envMap). Dispose of the target when done.
+ */
+export function chainToPmrem(renderer, levels) {
+  const chain = chainTarget(levels[0].face, levels.length);
+  renderer.initRenderTarget(chain);
+  const gl = renderer.getContext();
+  gl.bindTexture(gl.TEXTURE_CUBE_MAP, renderer.properties.get(chain.texture).__webglTexture);
+  gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+  gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
+  gl.pixelStorei(gl.UNPACK_ALIGNMENT, 8);
+  levels.forEach(({ face, texels }, level) => {
+    const per = face * face * 4;
+    for (let f = 0; f < 6; ++f)
+      gl.texSubImage2D(gl.TEXTURE_CUBE_MAP_POSITIVE_X + f, level, 0, 0, face, face, gl.RGBA,
+        gl.HALF_FLOAT, texels.subarray(f * per, (f + 1) * per));
+  });
+  renderer.resetState();  // three's view of the GL state after ours
+  return chain;
+}
+
 // Renders mix(from, to, t) into one face and level of a chain target: each texel samples both
 // chains in its own direction (GL's cube table; the faces are +X, -X, +Y, -Y, +Z, -Z) at the lod
 // of its level's roughness in each.
@@ -119,6 +144,21 @@ class ChainBlend {
   }
 }
 
+const blend = new ChainBlend();
+
+/**
+ * three's own filtering instead (for comparison): the chain's mirror level given to
+ * `pmremGenerator.fromCubemap`, which importance-samples GGX into its own chain.
+ */
+export function threePmremOfMirror(renderer, chain, pmremGenerator) {
+  const mirror = chainTarget(chain.width, 1);
+  mirror.texture.isPMREMTexture = false;
+  blend.render(renderer, mirror, null, chain, 1);
+  const filtered = pmremGenerator.fromCubemap(mirror.texture);
+  mirror.dispose();
+  return filtered;
+}
+
 export class ArlightEstimatedLight extends Group {
   /**
    * @param {import('three').WebGLRenderer} renderer
@@ -163,7 +203,7 @@ export class ArlightEstimatedLight extends Group {
     this._environment = null;  // the target behind `environment`: what the scene samples
     this._shown = null;        // what it showed when its cross-fade to _chain began
     this._environmentFade = null;  // when that began
-    this._blend = new ChainBlend();
+    this._blend = blend;
     this._pmrem = null;
     this._started = false;
     this._disposed = false;
@@ -206,7 +246,6 @@ export class ArlightEstimatedLight extends Group {
     if (this._ws) this._ws.close();
     clearInterval(this._pinger);
     for (const t of [this._chain, this._environment, this._shown]) if (t) t.dispose();
-    this._blend.dispose();
     if (this._pmrem) this._pmrem.dispose();
     this.remove(this.lightProbe);
     this.remove(this.directionalLight);
@@ -296,27 +335,18 @@ export class ArlightEstimatedLight extends Group {
   }
 
   _takeChain(client) {
-    const levels = client.chainLevels();
-    const face = client.chainFace(0);
-    if (levels < 1 || face < 1) return;
+    const levels = [];
+    for (let level = 0; level < client.chainLevels(); ++level)
+      levels.push({ face: client.chainFace(level), texels: client.chainLevelHalfRgba(level) });
+    if (!levels.length || levels[0].face < 1) return;
     const renderer = this._renderer;
-    let chain = chainTarget(face, levels);
-    renderer.initRenderTarget(chain);
-    const gl = renderer.getContext();
-    gl.bindTexture(gl.TEXTURE_CUBE_MAP, renderer.properties.get(chain.texture).__webglTexture);
-    gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
-    gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 8);
-    for (let level = 0; level < levels; ++level) {
-      const size = client.chainFace(level);
-      const texels = client.chainLevelHalfRgba(level);
-      const per = size * size * 4;
-      for (let f = 0; f < 6; ++f)
-        gl.texSubImage2D(gl.TEXTURE_CUBE_MAP_POSITIVE_X + f, level, 0, 0, size, size, gl.RGBA,
-          gl.HALF_FLOAT, texels.subarray(f * per, (f + 1) * per));
+    let chain = chainToPmrem(renderer, levels);
+    if (this._options.filter === 'pmrem') {
+      if (!this._pmrem) this._pmrem = new PMREMGenerator(renderer);
+      const filtered = threePmremOfMirror(renderer, chain, this._pmrem);
+      chain.dispose();
+      chain = filtered;
     }
-    renderer.resetState();  // three's view of the GL state after ours
-    if (this._options.filter === 'pmrem') chain = this._pmremOf(chain);
     if (this._chain) this._chain.dispose();
     this._chain = chain;
     if (!this._environment) {  // the first: shown at once, in the texture kept from now on
@@ -332,18 +362,6 @@ export class ArlightEstimatedLight extends Group {
     this._blend.render(renderer, this._shown, null, this._environment, 1);
     this._environmentFade = performance.now();
     this._startTicking();
-  }
-
-  // three's own filtering of the chain's mirror level (filter: 'pmrem').
-  _pmremOf(chain) {
-    if (!this._pmrem) this._pmrem = new PMREMGenerator(this._renderer);
-    const mirror = chainTarget(chain.width, 1);
-    mirror.texture.isPMREMTexture = false;
-    this._blend.render(this._renderer, mirror, null, chain, 1);
-    const filtered = this._pmrem.fromCubemap(mirror.texture);
-    mirror.dispose();
-    chain.dispose();
-    return filtered;
   }
 
   // A cross-fade of the SH and the primary light to `light`, from what they show now.
