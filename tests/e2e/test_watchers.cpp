@@ -143,3 +143,44 @@ TEST(Watchers, SeeTheSessionsUpdatesAndMapSetsAndChangeNothing) {
   EXPECT_EQ(sessions[0]["watchers"], 2);
   EXPECT_EQ(sessions[0]["frames_processed"], seq);
 }
+
+// A session whose client streams the thesis's Phong maps (the phone page's plastic): its
+// watchers get a GGX chain of their own (256 a face, what three.js samples), computed in turn
+// with the client's sets and sent to them alone.
+TEST(Watchers, GetAGgxChainWhenTheClientStreamsNone) {
+  const fs::path dir = test::fresh_temp_dir("watchers_chain");
+  DaemonProcess d(dir / "daemon");
+  const recording::Recording rec = recording::read_recording(test::daemon_sample_recording());
+  client::Client phone;
+  const client::Welcome welcome = phone.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken);
+  phone.send_intrinsics(rec.camera);
+  phone.request_maps({1, 10, 80}, 32, Projection::LatLong);
+  std::uint64_t seq = 0;
+  for (; seq < 10; ++seq) ASSERT_TRUE(frame_gets_update(phone, rec, seq)) << "frame " << seq;
+  // The room settles: no frame comes, yet the first watcher gets a chain at once (a preview at
+  // face 128 while frames came a moment ago), and the full one once they have paused.
+  client::Client viewer;
+  viewer.watch(welcome.session_id);
+  viewer.connect("127.0.0.1", d.port(), test::kWatchName, test::kWatchToken, "watcher");
+  ASSERT_TRUE(viewer.wait_for(
+      [&] {
+        const auto c = viewer.last_complete_ggx();
+        return c && c->maps[0].layout.width() == 256;
+      },
+      30s))
+      << "no full chain for the watcher";
+  const auto chain = *viewer.last_complete_ggx();
+  ASSERT_EQ(chain.maps.size(), 5u);  // 256 -> 16
+  EXPECT_EQ(chain.maps[0].layout.width(), 256);
+  EXPECT_EQ(chain.roughness[0], 0.0);
+  EXPECT_EQ(chain.roughness[4], 1.0);
+  // Frames again: the chain follows the map for the watcher, the client's sets go on, and the
+  // client never sees a chain it did not ask for.
+  const std::uint64_t chains = viewer.map_sets_completed();
+  for (const std::uint64_t end = seq + 10; seq < end; ++seq)
+    ASSERT_TRUE(frame_gets_update(phone, rec, seq)) << "frame " << seq;
+  EXPECT_TRUE(viewer.wait_for([&] { return viewer.map_sets_completed() > chains; }, 30s));
+  ASSERT_TRUE(phone.wait_for([&] { return phone.last_complete_maps().has_value(); }, 30s));
+  EXPECT_EQ(phone.last_complete_maps()->maps.size(), 3u);
+  EXPECT_FALSE(phone.last_complete_ggx().has_value());
+}

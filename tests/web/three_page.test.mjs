@@ -53,7 +53,7 @@ test('/three.html watches a session: its SH, primary light and GGX chain in thre
       const s = window.arlightThree && window.arlightThree.status();
       return s && s.watching && s.updates >= 1 && s.map_sets >= 1 && s.environment_face > 0;
     }, null, { timeout: 60000 });
-    await page.waitForTimeout(600);  // the cross-fade (0.3 s) is over
+    await page.waitForTimeout(600);  // the cross-fade (0.2 s) is over
     const status = await page.evaluate(() => window.arlightThree.status());
     assert.equal(status.session_id, session);
     assert.equal(status.connected, true);

@@ -41,6 +41,8 @@ struct MapSetJob {
   std::shared_ptr<lighting::GgxUpdater> ggx_previews = nullptr;
   // The daemon's frames, which the computation steps aside for (none: it never does).
   FramePathGate* frame_path = nullptr;
+  // The watchers' GGX chain (Session::watcher_request): sent to them only, never to the client.
+  bool for_watchers = false;
   // Read for every tile: a client that reconnects mid-set (perhaps another kind of client,
   // a browser without zstd) gets the rest in the coding it accepts.
   std::function<wire::TileCoding()> tile_coding = [] { return wire::TileCoding::ZstdHalf; };

@@ -161,7 +161,16 @@ std::uint64_t Session::frames_processed() const {
 
 std::uint64_t Session::watch(WatcherSet::Watcher watcher, const EncodedMessage& welcome) {
   const std::uint64_t id = watchers_.add(std::move(watcher), welcome);
-  if (id && env_.watchers) env_.watchers->add(1);
+  if (!id) return 0;
+  if (env_.watchers) env_.watchers->add(1);
+  std::lock_guard serial(process_mutex_);
+  std::lock_guard lock(mutex_);
+  if (watchers_.size() == 1 && watcher_request()) {
+    // The first watcher of a session that streams no chain: one is computed now, so a settled
+    // room lights the watcher too (later ones get it at once, and each set after the map moves).
+    maps_.request_changed();
+    maybe_start_maps();
+  }
   return id;
 }
 
@@ -348,24 +357,31 @@ void Session::maybe_start_maps() {
       maps_.decide({.time = Clock::now(),
                     .frames_merged = merged_,
                     .frames_waiting = frames_.active(),
-                    .can_compute = request_ && capture_ && capture_->coverage() > 0.0});
+                    .can_compute = (request_ || watcher_request()) && capture_ &&
+                                   capture_->coverage() > 0.0});
   if (d.kind == MapSetScheduler::Decision::Kind::StartAt) start_maps_at(d.at);
   if (d.kind == MapSetScheduler::Decision::Kind::StartNow) start_map_set(d.preview);
 }
 
-void Session::start_map_set(bool preview) {
-  const bool ggx = request_->kind == wire::MapKind::Ggx;
+std::optional<MapRequest> Session::watcher_request() const {
+  if (watchers_.size() == 0 || (request_ && request_->kind == wire::MapKind::Ggx)) return {};
+  return MapRequest{.shininess = {}, .size = kWatcherGgxFace, .projection = Projection::Cube,
+                    .method = "auto", .kind = wire::MapKind::Ggx, .levels = 0};
+}
+
+MapSetJob Session::map_set_job(const MapRequest& request, bool preview, bool for_watchers) {
+  const bool ggx = request.kind == wire::MapKind::Ggx;
   // A preview's input: the map reduced (when that is smaller) to preview_input_layout() of the
   // output, or for a GGX chain to the preview chain's face, with the share of each texel that
   // was measured; a full set's: the map itself.
   EnvLayout reduced =
-      ggx ? ggx_preview_input(*request_, capture_->layout())
-          : preview_input_layout(EnvLayout::for_size(request_->projection, request_->size));
+      ggx ? ggx_preview_input(request, capture_->layout())
+          : preview_input_layout(EnvLayout::for_size(request.projection, request.size));
   if (reduced.texel_count() >= capture_->layout().texel_count()) reduced = capture_->layout();
   capture::CaptureSession::Reduced snapshot =
       preview ? capture_->reduced_environment(reduced)
               : capture::CaptureSession::Reduced{capture_->environment(), {}};
-  MapSetJob job{.request = *request_,
+  MapSetJob job{.request = request,
                 .input = std::move(snapshot.env),
                 .id = ++map_set_,
                 .coverage = capture_->coverage(),
@@ -376,24 +392,36 @@ void Session::start_map_set(bool preview) {
                   std::lock_guard lock(mutex_);
                   return tile_coding_;
                 }};
+  job.for_watchers = for_watchers;
+  if (for_watchers) job.tile_coding = [] { return wire::TileCoding::Half; };  // mostly browsers
+  std::shared_ptr<lighting::GgxUpdater>& ggx_updater =
+      for_watchers ? watcher_ggx_previews_ : ggx_previews_;
   if (preview && ggx) {
-    if (!ggx_previews_)
-      ggx_previews_ = std::make_shared<lighting::GgxUpdater>(ggx_preview_spec(*request_));
-    job.ggx_previews = ggx_previews_;
+    if (!ggx_updater) ggx_updater = std::make_shared<lighting::GgxUpdater>(ggx_preview_spec(request));
+    job.ggx_previews = ggx_updater;
     job.measured = std::move(snapshot.measured);
   } else if (preview) {
     if (!previews_)
       previews_ = std::make_shared<lighting::MapUpdater>(
-          request_->shininess, EnvLayout::for_size(request_->projection, request_->size),
-          lighting::parse_method(request_->method));
+          request.shininess, EnvLayout::for_size(request.projection, request.size),
+          lighting::parse_method(request.method));
     job.previews = previews_;
     job.measured = std::move(snapshot.measured);
   }
+  return job;
+}
+
+void Session::start_map_set(bool preview) {
+  // The client's own set, and the watchers' GGX chain when the client streams none (each set is
+  // computed in turn on the same thread; the client never gets the watchers' tiles).
+  std::vector<MapSetJob> jobs;
+  if (request_) jobs.push_back(map_set_job(*request_, preview, false));
+  if (const auto w = watcher_request()) jobs.push_back(map_set_job(*w, preview, true));
   if (map_thread_.joinable()) map_thread_.join();  // finished already (the scheduler was Idle)
   // `this`, not a shared_ptr: the thread must never hold the last reference (~Session joins
   // it); ~Session stops and joins it before any member goes away.
-  map_thread_ = std::jthread([this, job = std::move(job)](std::stop_token stop) mutable {
-    compute_maps_thread(stop, std::move(job));
+  map_thread_ = std::jthread([this, jobs = std::move(jobs)](std::stop_token stop) mutable {
+    compute_maps_thread(stop, std::move(jobs));
   });
 }
 
@@ -421,12 +449,16 @@ void Session::on_idle(Clock::time_point) {
   maybe_start_maps();
 }
 
-void Session::compute_maps_thread(std::stop_token stop, MapSetJob job) {
-  const double seconds =
-      stream_map_set(job, stop, [this](const wire::Message& m) { send(m); });
-  if (seconds >= 0.0) {
-    env_.map_sets->inc();
-    env_.map_set_seconds->observe(seconds);
+void Session::compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> jobs) {
+  for (const MapSetJob& job : jobs) {
+    const double seconds = stream_map_set(job, stop, [this, &job](const wire::Message& m) {
+      if (!job.for_watchers) return send(m);
+      watchers_.publish(m, std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m)));
+    });
+    if (seconds >= 0.0) {
+      env_.map_sets->inc();
+      env_.map_set_seconds->observe(seconds);
+    }
   }
   std::lock_guard lock(mutex_);
   if (maps_.finished() && !stop.stop_requested()) {

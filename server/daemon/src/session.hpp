@@ -161,7 +161,14 @@ class Session : public std::enable_shared_from_this<Session> {
   void maybe_start_maps();
   void start_map_set(bool preview);            // with mutex_ held
   void start_maps_at(Clock::time_point when);  // with mutex_ held: maybe_start_maps() then
-  void compute_maps_thread(std::stop_token stop, MapSetJob job);
+  // With mutex_ held: a set for `request` (the client's, or the watchers'), taking the next set
+  // number and its input from the capture now.
+  MapSetJob map_set_job(const MapRequest& request, bool preview, bool for_watchers);
+  // With mutex_ held: the GGX chain the watchers get when the client streams none (nullopt when
+  // there are no watchers, or the client's own request is a chain they share).
+  std::optional<MapRequest> watcher_request() const;
+  static constexpr int kWatcherGgxFace = 256;
+  void compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> jobs);
   void send(const wire::Message& message);
 
   std::string id_, device_id_;
@@ -197,6 +204,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<MapRequest> request_;
   std::shared_ptr<lighting::MapUpdater> previews_;  // for request_, made by its first preview
   std::shared_ptr<lighting::GgxUpdater> ggx_previews_;  // the same for a GGX chain
+  std::shared_ptr<lighting::GgxUpdater> watcher_ggx_previews_;  // the watchers' chain's
   std::uint32_t map_set_ = 0;
   MapSetScheduler maps_;  // when the next set starts
   std::unique_ptr<boost::asio::steady_timer> maps_timer_;  // a set the interval deferred
@@ -212,7 +220,7 @@ class Session : public std::enable_shared_from_this<Session> {
   mutable std::shared_ptr<const LightFiles> light_files_;
   mutable std::uint64_t light_files_frames_ = 0;
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
-  WatcherSet watchers_;  // thread-safe; never called with mutex_ held
+  WatcherSet watchers_;  // thread-safe; its own lock is taken after mutex_ when both are
 };
 
 }  // namespace arlight::daemon
