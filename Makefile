@@ -99,8 +99,8 @@ demo: deps
 	@echo "                            the page tracks the marker and stands the bunny on it;"
 	@echo "                            page.png, page_*.png, web.json the page's own figures"
 	@echo "  three/spheres.png, bunny.png  /three.html: three.js lighting a sphere grid and the bunny"
-	@echo "                            with the room's light (ArlightEstimatedLight watching a session"
-	@echo "                            of the same arlightd); three.json its status and estimate"
+	@echo "                            with the room's light (ArlightEstimatedLight watching the"
+	@echo "                            phone's session); three.json its status and estimate"
 	@echo "  Connect your phone: README.md, \"Connect your phone\" (arlightd --web 0.0.0.0:8443)"
 
 # The hardening builds share a second build folder, compiled by clang with AddressSanitizer and

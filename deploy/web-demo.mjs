@@ -3,10 +3,9 @@
 // sensor) and the page composites a sphere lit by what arlightd captured; then it walks around the
 // marker on the floor, continuing the same session, and the page stands the bunny on it. Saves
 // screenshots along the way, a contact sheet of them and web.json (the page's own figures), then
-// prints how to connect a real phone. Then /three.html (three.js, ArlightEstimatedLight) watching a
-// session of the same daemon: screenshots in OUT_DIR/../three/.
+// prints how to connect a real phone. Then /three.html (three.js, ArlightEstimatedLight) watching
+// the phone's session: screenshots in OUT_DIR/../three/.
 //   node deploy/web-demo.mjs BUILD_BIN OUT_DIR PROBE
-import { execFileSync } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
@@ -79,17 +78,14 @@ try {
   fs.writeFileSync(path.join(out, 'web.json'),
     JSON.stringify({ sweep: { ...status, sh: undefined }, marker: { ...marker, sh: undefined } }, null, 2));
 
-  // /three.html (issue 35): three.js lighting a glTF model with the room's light, watching a
-  // session of the same daemon (the sweep replayed by arlight-replay, which asks for the GGX
-  // chain three.js samples), as a desktop beside the phone would. Into OUT/../three/.
+  // /three.html (issue 35): three.js lighting a glTF model with the room's light, watching the
+  // phone's session (its page has closed; the session lives on in arlightd), as a desktop beside
+  // the phone would. The phone streamed the thesis's maps, so arlightd computes a GGX chain for
+  // the watcher. Into OUT/../three/.
   const threeOut = path.join(path.dirname(out), 'three');
   fs.rmSync(threeOut, { recursive: true, force: true });
   fs.mkdirSync(threeOut, { recursive: true });
-  const port = /listening on 127\.0\.0\.1:(\d+)/.exec(daemon.banner)[1];
-  execFileSync(path.join(bin, 'arlight-replay'), ['--server', `127.0.0.1:${port}`, '--token', token,
-    '--device', 'phone', '--recording', room.rec, '--ggx', '256', '--out', path.join(threeOut, 'replay')],
-  { stdio: 'pipe' });
-  const watched = JSON.parse(fs.readFileSync(path.join(threeOut, 'replay', 'replay.json'))).session_id;
+  const watched = status.session_id;
   const threePage = await (await browser.contexts())[0].newPage();
   await threePage.setViewportSize({ width: 960, height: 600 });
   const threeStatus = {};

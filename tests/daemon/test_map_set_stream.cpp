@@ -148,18 +148,18 @@ TEST(MapSetStream, BackgroundThreadsAreNicedNotIdle) {
 // roughness) at a face <= 128, from the capture reduced by a whole factor; its tiles carry the
 // kind and the roughness, and put back together they are the chain, in half precision.
 TEST(MapSetStream, AGgxChainsPreviewAndTilesSayWhatTheyAre) {
-  const MapRequest request{.size = 256, .kind = wire::MapKind::Ggx};
+  const MapRequest request{.shininess = {}, .size = 256, .kind = wire::MapKind::Ggx};
   const lighting::GgxChainSpec preview = ggx_preview_spec(request);
   EXPECT_EQ(preview.face, 128);
   EXPECT_EQ(preview.min_face, 8);  // 5 levels, as 256 -> 16
-  EXPECT_EQ(ggx_preview_spec(MapRequest{.size = 64, .kind = wire::MapKind::Ggx}).face, 64);
+  EXPECT_EQ(ggx_preview_spec(MapRequest{.shininess = {}, .size = 64, .kind = wire::MapKind::Ggx}).face, 64);
   EXPECT_EQ(ggx_preview_input(request, EnvLayout::for_size(Projection::Cube, 192)).face_size(), 96);
   EXPECT_EQ(ggx_preview_input(request, EnvLayout::for_size(Projection::Cube, 256)).face_size(), 128);
 
   const EnvMap venice = resample(
       load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/venice.exr").env,
       EnvLayout::for_size(Projection::Cube, 32));
-  const MapRequest small{.size = 32, .kind = wire::MapKind::Ggx, .levels = 3};
+  const MapRequest small{.shininess = {}, .size = 32, .kind = wire::MapKind::Ggx, .levels = 3};
   const lighting::GgxChain chain = lighting::compute_ggx_chain(venice, ggx_spec(small));
   std::vector<EnvMap> got;
   for (const auto& l : chain.levels) got.emplace_back(l.map.layout);

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
+#include <thread>
 
 #include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
@@ -183,4 +184,9 @@ TEST(Watchers, GetAGgxChainWhenTheClientStreamsNone) {
   ASSERT_TRUE(phone.wait_for([&] { return phone.last_complete_maps().has_value(); }, 30s));
   EXPECT_EQ(phone.last_complete_maps()->maps.size(), 3u);
   EXPECT_FALSE(phone.last_complete_ggx().has_value());
+  // Once the full sets after the pause are out, a settled room costs no more sets.
+  std::this_thread::sleep_for(3s);
+  const std::uint64_t settled = viewer.map_sets_completed();
+  std::this_thread::sleep_for(2s);
+  EXPECT_EQ(viewer.map_sets_completed(), settled);
 }
