@@ -129,6 +129,27 @@ TEST(WatcherSet, ALateWatcherGetsTheNewestUpdateAndCompleteSetAtOnce) {
   EXPECT_EQ(after[3].x, 4u);
 }
 
+// A session may stream two kinds (its client's Phong maps, its watchers' GGX chain): a watcher
+// that joins gets the newest complete set of each.
+TEST(WatcherSet, ALateWatcherGetsTheNewestSetOfEachKind) {
+  WatcherSet set(4);
+  publish_set(set, 1, 1.0f);  // Phong
+  wire::MapTile chain = tile(2, 0, 2.0f);
+  chain.kind = wire::MapKind::Ggx;
+  publish(set, chain);
+  publish(set, wire::MapSetComplete{2, 1, 0.1f, 0.5f, 10});
+  publish_set(set, 3, 3.0f);  // Phong again: the newest Phong, the chain still the newest GGX
+  FakeWatcher late;
+  ASSERT_NE(set.add(late.watcher(), encoded(kWelcome)), 0u);
+  const auto tiles = late.all<wire::MapTile>();
+  ASSERT_EQ(tiles.size(), 3u);
+  EXPECT_EQ(tiles[0].map_set, 3u);
+  EXPECT_EQ(tiles[0].kind, wire::MapKind::Phong);
+  EXPECT_EQ(tiles[2].map_set, 2u);
+  EXPECT_EQ(tiles[2].kind, wire::MapKind::Ggx);
+  EXPECT_EQ(late.all<wire::MapSetComplete>().size(), 2u);
+}
+
 TEST(WatcherSet, AWatcherBehindSkipsToTheNewestInsteadOfQueueing) {
   WatcherSet set(4);
   FakeWatcher slow, fast;

@@ -2,7 +2,9 @@
 // a session that arlight-replay captured into a real arlightd. The page's LightProbe holds the
 // session's SH, its primary light is the room's, and its environment — arlightd's GGX chain
 // written into three's PMREM texture — samples in WebGL as the chain the page received, texel
-// for texel at every level. A wrong token is refused. Needs ARLIGHT_BIN and ARLIGHT_SOURCE_DIR.
+// for texel at every level. A wrong token is refused. And a light switched on in the room a phone
+// page is capturing (its fake camera) reaches the three.js scene of another tab within 300 ms.
+// Needs ARLIGHT_BIN and ARLIGHT_SOURCE_DIR.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
@@ -12,7 +14,7 @@ import path from 'node:path';
 
 import { cubeTexel, halfRgbaTexel, texelDirection } from './cube_texels.mjs';
 import { launchChromium } from './harness.mjs';
-import { startDaemon } from './phone_session.mjs';
+import { playRoom, simulateRoom, startDaemon } from './phone_session.mjs';
 
 const BIN = process.env.ARLIGHT_BIN;
 const SOURCE = process.env.ARLIGHT_SOURCE_DIR;
@@ -137,6 +139,75 @@ test('/three.html watches a session: its SH, primary light and GGX chain in thre
     assert.deepEqual(errors, []);
   } finally {
     if (browser) await browser.close();
+    if (daemon) await daemon.stop();
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+});
+
+// From frame `from` on, a lamp in the middle of the view: the middle quarter of every frame of
+// the Y4M white (Y 235, neutral chroma).
+function switchLampOn(y4m, width, height, from) {
+  const bytes = fs.readFileSync(y4m);
+  const headerEnd = bytes.indexOf(0x0a) + 1;
+  const frameBytes = 6 + (width * height * 3) / 2;  // "FRAME\n", Y, U, V
+  const frames = (bytes.length - headerEnd) / frameBytes;
+  for (let f = from; f < frames; ++f) {
+    const y = headerEnd + f * frameBytes + 6;
+    const u = y + width * height, v = u + (width * height) / 4;
+    for (let row = height / 4; row < (3 * height) / 4; ++row)
+      for (let col = width / 4; col < (3 * width) / 4; ++col) {
+        bytes[y + row * width + col] = 235;
+        const c = (row >> 1) * (width / 2) + (col >> 1);
+        bytes[u + c] = 128;
+        bytes[v + c] = 128;
+      }
+  }
+  fs.writeFileSync(y4m, bytes);
+}
+
+test('a light switched on where a phone page captures reaches another tab\'s three.js scene within 300 ms', async () => {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-three-lamp-'));
+  let daemon, browser, viewer;
+  try {
+    // A slow sweep (4 frames a second) whose last third has a lamp in view.
+    const room = simulateRoom({ bin: BIN, probe: path.join(SOURCE, 'data/probes/venice.exr'), dir,
+      frames: 36, fps: 4, width: 320, height: 240, seed: 7, leadIn: 4 });
+    const lampFrame = 28;
+    switchLampOn(room.y4m, room.width, room.height, lampFrame);
+    daemon = await startDaemon({ bin: BIN, dir: path.join(dir, 'daemon'), webRoot: path.join(BIN, 'web'), token: TOKEN });
+    // The three.js tab in a browser of its own, as on another device (one browser's tabs share
+    // its GPU process: SwiftShader there would serialise their WebGL).
+    let phone;
+    ({ browser, page: phone } = await launchChromium({ y4m: room.y4m }));
+    ({ browser: viewer } = await launchChromium());
+    let three = null;
+    await playRoom(phone, daemon.url, room, {
+      onTick: async (s) => {
+        if (three || !s.session_id || !s.connected) return;
+        three = (await viewer.contexts())[0].pages()[0];
+        await three.goto(`https://127.0.0.1:${daemon.web}/three.html#session=${s.session_id}&device=phone&token=${TOKEN}&face=64&model=bunny`);
+      },
+    });
+    assert.ok(three, 'the phone page never had a session');
+    // The first frame sent with the lamp in it, and the first update the three.js tab got for it.
+    const sent = await phone.evaluate(() => window.arlight.sent());
+    const lamp = sent.find((f) => Math.round(f.media_time * room.fps) >= lampFrame);
+    assert.ok(lamp, `no frame from ${lampFrame} on was sent`);
+    await three.waitForFunction((seq) => window.arlightThree.status().frame_sequence >= seq, lamp.sequence, { timeout: 20000 });
+    const log = await three.evaluate(() => window.arlightThree.updates());
+    const before = log.filter((u) => u.sequence < lamp.sequence).at(-1);
+    const after = log.find((u) => u.sequence >= lamp.sequence);
+    assert.ok(before && after, `updates around frame ${lamp.sequence}: ${JSON.stringify(log.slice(-5))}`);
+    const luminance = ([r, g, b]) => 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    assert.ok(luminance(after.dc) > 1.03 * luminance(before.dc),
+      `the lamp did not brighten the SH: ${before.dc} -> ${after.dc}`);
+    const latency = after.at_ms - lamp.sent_at_ms;
+    console.log(`lamp frame ${lamp.sequence} sent -> three.js tab's estimate: ${latency} ms ` +
+      `(DC luminance ${luminance(before.dc).toFixed(3)} -> ${luminance(after.dc).toFixed(3)})`);
+    assert.ok(latency <= 300, `the lamp reached the three.js scene after ${latency} ms`);
+  } finally {
+    if (browser) await browser.close();
+    if (viewer) await viewer.close();
     if (daemon) await daemon.stop();
     fs.rmSync(dir, { recursive: true, force: true });
   }

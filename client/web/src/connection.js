@@ -89,7 +89,7 @@ export class Connection {
                                      reduction));
       this.sentAt.set(seq, performance.now());
       state.framesSent = seq;
-      state.sent.push({ media_time: mediaTime, orientation: q });
+      state.sent.push({ media_time: mediaTime, orientation: q, sequence: seq, sent_at_ms: Date.now() });
       if (state.sent.length > kSentKept) state.sent.shift();
       this.onFrameSent(q);
     } catch (e) {

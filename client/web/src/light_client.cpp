@@ -16,17 +16,13 @@
 #include "arlight/common/light_sources.hpp"
 #include "arlight/net/lighting_state.hpp"
 #include "arlight/protocol/wire.hpp"
+#include "js_messages.hpp"
 
 namespace arlight::web {
 
 namespace {
 
 using emscripten::val;
-
-template <class T>
-val typed_array(const char* type, const std::vector<T>& values) {  // a copy
-  return val::global(type).new_(emscripten::typed_memory_view(values.size(), values.data()));
-}
 
 // The primary light is found in the chain's mirror level box-filtered to this face (which keeps
 // its power; a light tree over a 256-a-face cube would take ~16 times longer in WebAssembly).
@@ -45,23 +41,16 @@ class LightClient {
     h.capabilities = {"maps", wire::kCapabilityTilesHalf};
     h.watch_session = session;
     state_.expect_any_maps();
-    return typed_array("Uint8Array", wire::encode(h));
+    return bytes_to_js(wire::encode(h));
   }
-  val ping(double nonce) { return typed_array("Uint8Array", wire::encode(wire::Ping{std::uint64_t(nonce)})); }
+  val ping(double nonce) { return bytes_to_js(wire::encode(wire::Ping{std::uint64_t(nonce)})); }
 
   // One message from the server: "welcome", "update", "maps" (a GGX chain completed), "error",
   // or "" (nothing the light changed: a tile, progress, a Phong set).
   std::string receive(const val& bytes) {
-    const std::vector<std::uint8_t> envelope =
-        emscripten::convertJSArrayToNumberVector<std::uint8_t>(bytes);
-    wire::Message m;
-    try {
-      m = wire::decode(envelope);
-    } catch (const wire::DecodeError& e) {
-      error_ = std::string("bad message from the server: ") + e.what();
-      return "error";
-    }
-    switch (state_.receive(std::move(m))) {
+    std::optional<wire::Message> m = message_from_js(bytes, error_);
+    if (!m) return "error";
+    switch (state_.receive(std::move(*m))) {
       case client::LightingState::Change::Welcome:
         return "welcome";
       case client::LightingState::Change::Error:

@@ -79,6 +79,14 @@ light.addEventListener('estimationstart', () => {
   if (light.environment) scene.environment = light.environment;
 });
 const exposureStops = Number(params.get('exposure') || 0);
+// Each estimate's arrival (for tests: how soon the capturing device's frame reached this scene).
+const kUpdatesKept = 500;
+const updateLog = [];
+light.addEventListener('update', ({ frameSequence }) => {
+  const sh = light.lightEstimate().sphericalHarmonicsCoefficients;
+  updateLog.push({ sequence: frameSequence, at_ms: Date.now(), dc: [sh[0], sh[1], sh[2]] });
+  if (updateLog.length > kUpdatesKept) updateLog.shift();
+});
 
 // Drag to turn the model.
 let dragging = null;
@@ -177,6 +185,7 @@ function sampleEnvironment(dirs) {
 
 window.arlightThree = {
   status, lightEstimate: () => light.lightEstimate(), light, sampleEnvironment,
+  updates: () => updateLog.slice(),
 };
 
 if (!params.get('session')) showError('no session: open this page from the capturing page\'s "watch this room" link');

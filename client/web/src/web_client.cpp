@@ -12,13 +12,9 @@
 #include "arlight/net/client_messages.hpp"
 #include "arlight/protocol/wire.hpp"
 #include "arlight/track/pose_math.hpp"
+#include "js_messages.hpp"
 
 namespace arlight::web {
-
-val bytes_to_js(const std::vector<std::uint8_t>& bytes) {
-  // A copy: the view into the module's memory would change under the next call.
-  return val::global("Uint8Array").new_(emscripten::typed_memory_view(bytes.size(), bytes.data()));
-}
 
 val vector_to_js(const glm::vec3& v) {
   val a = val::array();
@@ -105,15 +101,9 @@ val WebClient::location(double latitude, double longitude, double altitude, doub
 }
 
 std::string WebClient::receive(const val& bytes) {
-  const std::vector<std::uint8_t> envelope =
-      emscripten::convertJSArrayToNumberVector<std::uint8_t>(bytes);
-  wire::Message m;
-  try {
-    m = wire::decode(envelope);
-  } catch (const wire::DecodeError& e) {
-    last_error_ = std::string("bad message from the server: ") + e.what();
-    return "refused: " + last_error_;
-  }
+  std::optional<wire::Message> decoded = message_from_js(bytes, last_error_);
+  if (!decoded) return "refused: " + last_error_;
+  wire::Message& m = *decoded;
   const std::string name = wire::message_name(m);
   if (const auto* u = std::get_if<wire::LightingUpdate>(&m)) pacer_.advise(*u);
   const client::Lighting& lighting = state_.lighting();

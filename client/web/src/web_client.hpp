@@ -41,7 +41,6 @@ inline constexpr int kMapSize = 128;
 inline constexpr int kGgxFace = 128;
 
 // JavaScript values of the page's API.
-val bytes_to_js(const std::vector<std::uint8_t>& bytes);  // a Uint8Array (a copy)
 val vector_to_js(const glm::vec3& v);                     // [x, y, z]
 val pose_to_js(const Pose& p);  // {position: [x, y, z], orientation: [w, x, y, z]}
 

@@ -30,7 +30,7 @@ std::uint64_t WatcherSet::add(Watcher watcher, const EncodedMessage& first) {
   Entry& e = watchers_.emplace(id, Entry{std::move(watcher)}).first->second;
   e.watcher.send(first);
   e.owes_update = bool(latest_update_);
-  e.owes_set = !latest_set_.empty();
+  for (std::size_t k = 0; k < latest_sets_.size(); ++k) e.owes_set[k] = !latest_sets_[k].empty();
   catch_up(e);
   return id;
 }
@@ -59,17 +59,20 @@ void WatcherSet::catch_up(Entry& e) {
     e.watcher.send(latest_update_);
     e.owes_update = false;
   }
-  if (e.owes_set && (building_id_ == 0 || e.in_set != building_id_)) {
-    for (Held& h : latest_set_) send_held(e, h);
-    e.owes_set = false;
-  }
+  if (building_id_ != 0 && e.in_set == building_id_) return;
+  for (std::size_t k = 0; k < latest_sets_.size(); ++k)
+    if (e.owes_set[k]) {
+      for (Held& h : latest_sets_[k]) send_held(e, h);
+      e.owes_set[k] = false;
+    }
 }
 
 void WatcherSet::publish(const wire::Message& message, const EncodedMessage& bytes) {
   std::uint32_t set = 0;
   std::optional<wire::TileCoding> tile_coding;
   if (const auto* p = std::get_if<wire::Progress>(&message)) set = p->map_set;
-  if (const auto* t = std::get_if<wire::MapTile>(&message)) set = t->map_set, tile_coding = t->coding;
+  const auto* tile = std::get_if<wire::MapTile>(&message);
+  if (tile) set = tile->map_set, tile_coding = tile->coding;
   const auto* complete = std::get_if<wire::MapSetComplete>(&message);
   if (complete) set = complete->map_set;
   const bool update = std::holds_alternative<wire::LightingUpdate>(message);
@@ -87,19 +90,22 @@ void WatcherSet::publish(const wire::Message& message, const EncodedMessage& byt
   if (set != building_id_) {  // a new set begins (the last one completed or was stopped)
     building_.clear();
     building_id_ = set;
+    building_kind_ = wire::MapKind::Phong;
     for (auto& [id, e] : watchers_)
       e.in_set = behind(e) ? 0 : set;  // one behind skips the set and is owed it at the end
   }
+  if (tile) building_kind_ = tile->kind;
   Held held{bytes, tile_coding, nullptr};
   for (auto& [id, e] : watchers_)
     if (e.in_set == set) send_held(e, held);
   if (!std::holds_alternative<wire::Progress>(message)) building_.push_back(std::move(held));
   if (!complete) return;
-  latest_set_ = std::move(building_);
+  const std::size_t kind = building_kind_ == wire::MapKind::Ggx ? 1 : 0;
+  latest_sets_[kind] = std::move(building_);
   building_.clear();
   building_id_ = 0;
   for (auto& [id, e] : watchers_) {
-    e.owes_set = e.in_set != set;
+    e.owes_set[kind] = e.in_set != set;
     e.in_set = 0;
     catch_up(e);
   }
@@ -108,8 +114,9 @@ void WatcherSet::publish(const wire::Message& message, const EncodedMessage& byt
 void WatcherSet::drained(std::uint64_t id) {
   std::lock_guard lock(mutex_);
   const auto it = watchers_.find(id);
-  if (it != watchers_.end() && (it->second.owes_update || it->second.owes_set))
-    catch_up(it->second);
+  if (it == watchers_.end()) return;
+  const Entry& e = it->second;
+  if (e.owes_update || e.owes_set[0] || e.owes_set[1]) catch_up(it->second);
 }
 
 std::size_t WatcherSet::disconnect_all() {

@@ -6,6 +6,7 @@
 // caught up gets the newest update and the newest complete set: never a queue of stale ones.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -35,8 +36,8 @@ class WatcherSet {
   explicit WatcherSet(std::size_t limit) : limit_(limit) {}
 
   // The new watcher's number, or 0 when the session has its limit. Admitted, it gets `first`
-  // (its Welcome), the newest update and the newest complete map set at once, and every set
-  // that starts after it joined.
+  // (its Welcome), the newest update and the newest complete map set of each kind at once, and
+  // every set that starts after it joined.
   std::uint64_t add(Watcher watcher, const EncodedMessage& first);
   bool remove(std::uint64_t id);  // false when it was not there (gone already)
   std::size_t size() const;
@@ -63,7 +64,8 @@ class WatcherSet {
   struct Entry {
     Watcher watcher;
     std::uint32_t in_set = 0;  // the set it is receiving from its start (0: none)
-    bool owes_update = false, owes_set = false;
+    bool owes_update = false;
+    std::array<bool, 2> owes_set{};  // the newest complete set of each kind (Phong, GGX)
   };
   bool behind(const Entry& e) const { return e.watcher.backlog() > kBehindBytes; }
   void send_held(Entry& e, Held& h);
@@ -74,9 +76,12 @@ class WatcherSet {
   std::uint64_t next_id_ = 0;
   std::map<std::uint64_t, Entry> watchers_;
   EncodedMessage latest_update_;
-  std::vector<Held> latest_set_;  // the newest complete set, its MapSetComplete last
-  std::vector<Held> building_;    // the set being streamed
+  // The newest complete set of each kind (wire::MapKind: Phong, GGX), its MapSetComplete last: a
+  // session may stream both (its client's Phong maps, its watchers' chain).
+  std::array<std::vector<Held>, 2> latest_sets_;
+  std::vector<Held> building_;  // the set being streamed
   std::uint32_t building_id_ = 0;
+  wire::MapKind building_kind_ = wire::MapKind::Phong;
 };
 
 }  // namespace arlight::daemon

@@ -1,7 +1,8 @@
 // ArlightEstimatedLight: arlight's light in a three.js scene, in the shape of three.js's
 // XREstimatedLight (examples/jsm/webxr/XREstimatedLight.js) — a Group holding `lightProbe` (SH-9)
 // and `directionalLight` (the room's primary light), with `environment` (a prefiltered GGX cube
-// chain) and the events `estimationstart` / `estimationend` — fed by arlightd: it watches a
+// chain) and the events `estimationstart` / `estimationend` (and `update`, with the frame
+// `frameSequence` of the capturing device that each estimate reflects) — fed by arlightd: it watches a
 // session another device captures (protocol/PROTOCOL.md item 1, "Watching a session") through
 // arlight's own WebAssembly light core (arlight_light.js: the protocol codec and the lighting
 // state, client/web/src/light_client.cpp), not a second decoder here.
@@ -195,7 +196,7 @@ export class ArlightEstimatedLight extends Group {
     };
     this._status = {
       connected: false, watching: false, session_id: '', updates: 0, map_sets: 0,
-      environment_face: 0, last_error: '',
+      frame_sequence: 0, environment_face: 0, last_error: '',
     };
     this._estimate = null;     // lightEstimate()'s
     this._lightFade = null;    // {start, from, to}: the SH and primary light's cross-fade
@@ -305,6 +306,8 @@ export class ArlightEstimatedLight extends Group {
       if (kFinalErrors.some((code) => error.startsWith(`${code}:`))) this._refused = true;
     } else if (kind === 'update') {
       this._takeEstimate(client);
+      this._status.frame_sequence = client.frameSequence();
+      this.dispatchEvent({ type: 'update', frameSequence: this._status.frame_sequence });
     } else if (kind === 'maps') {
       // The chain gives the primary light its own estimate (light.json's): take it now.
       this._takeEstimate(client);
