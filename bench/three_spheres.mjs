@@ -18,6 +18,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 import { launchChromium } from '../tests/web/harness.mjs';
+import { scoreCell, scoreSphere } from '../tests/web/sphere_scores.mjs';
 
 if (process.argv.length < 5) {
   console.error('usage: node bench/three_spheres.mjs BUILD_BIN OUT_DIR PROBE');
@@ -36,6 +37,7 @@ const PAGE = `<!doctype html><meta charset="utf-8">
 import * as THREE from 'three';
 import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';
 import { chainToPmrem, threePmremOfMirror } from '/arlight/ArlightEstimatedLight.js';
+import { renderSpheresLinear } from '/web/sphere_grid.js';
 window.renderSpheres = async (camera, spheres, baseColour) => {
   const renderer = new THREE.WebGLRenderer();
   renderer.toneMapping = THREE.NoToneMapping;
@@ -43,29 +45,9 @@ window.renderSpheres = async (camera, spheres, baseColour) => {
   const levels = ktx.mipmaps.map((m) => ({ face: m.width, texels: m.data }));
   const ours = chainToPmrem(renderer, levels);
   const theirs = threePmremOfMirror(renderer, ours, new THREE.PMREMGenerator(renderer));
-  const { width, height } = camera;
-  const target = new THREE.WebGLRenderTarget(width, height, { type: THREE.FloatType });
-  const view = new THREE.PerspectiveCamera(2 * Math.atan(0.5 * height / camera.fy) * 180 / Math.PI,
-    width / height, 0.1, 100);
-  view.position.set(...camera.eye);
-  const scene = new THREE.Scene();
-  const material = new THREE.MeshStandardMaterial();
-  material.color.setRGB(...baseColour);  // linear (three's working colour space)
-  scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 128, 64), material));
-  const result = { arlight: [], pmrem: [] };
-  for (const [name, env] of [['arlight', ours.texture], ['pmrem', theirs.texture]]) {
-    scene.environment = env;
-    for (const s of spheres) {
-      material.metalness = s.metallic;
-      material.roughness = s.roughness;
-      renderer.setRenderTarget(target);
-      renderer.render(scene, view);
-      const pixels = new Float32Array(width * height * 4);
-      renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
-      result[name].push(Array.from(pixels));
-    }
-  }
-  renderer.setRenderTarget(null);
+  const result = {};
+  for (const [name, env] of [['arlight', ours.texture], ['pmrem', theirs.texture]])
+    result[name] = renderSpheresLinear(renderer, env, camera, spheres, baseColour).map((p) => Array.from(p));
   result.glError = renderer.getContext().getError();
   return result;
 };
@@ -83,6 +65,7 @@ function serve() {
     let file = null;
     if (url.startsWith('/three/')) file = path.join(THREE, url.slice('/three/'.length));
     if (url.startsWith('/arlight/')) file = path.join(MODULE, path.basename(url));
+    if (url.startsWith('/web/')) file = path.join(ROOT, 'client', 'web', 'src', path.basename(url));
     if (url.startsWith('/files/')) file = path.join(out, path.basename(url));
     if (!file || url.includes('..') || !fs.existsSync(file)) {
       res.writeHead(404);
@@ -92,27 +75,6 @@ function serve() {
     fs.createReadStream(file).pipe(res);
   });
   return new Promise((resolve) => server.listen(0, '127.0.0.1', () => resolve(server)));
-}
-
-// arlight-bench-pbr's figures for one sphere from RGBA rows read back bottom-up.
-function score(reference, rgba, width, height) {
-  let meanRef = 0, peak = 0;
-  for (const [, , r, g, b] of reference.pixels) meanRef += r + g + b, peak = Math.max(peak, r, g, b);
-  meanRef /= 3 * reference.pixels.length;
-  const eps = 1e-4 * meanRef;
-  let mean = 0, weighted = 0, se = 0, values = 0;
-  for (const [x, y, ...want] of reference.pixels) {
-    const at = 4 * ((height - 1 - y) * width + x);
-    for (let c = 0; c < 3; ++c) {
-      const got = rgba[at + c];
-      mean += Math.abs(got - want[c]) / (want[c] + eps);
-      weighted += Math.abs(got - want[c]);
-      se += (got - want[c]) ** 2;
-      ++values;
-    }
-  }
-  return { mean: mean / values, weighted: weighted / values / meanRef,
-    psnr_db: 10 * Math.log10((peak * peak) / Math.max(se / values, 1e-30)) };
 }
 
 execFileSync(path.join(bin, 'arlight-bench-pbr'), ['--probe', probe, '--reference',
@@ -132,11 +94,11 @@ try {
   const { width, height } = reference.camera;
   const rows = reference.spheres.map((s, k) => ({
     metallic: s.metallic, roughness: s.roughness, renderer: s.renderer,
-    arlight: score(s, r.arlight[k], width, height), pmrem: score(s, r.pmrem[k], width, height),
+    arlight: scoreSphere(s, r.arlight[k], width, height), pmrem: scoreSphere(s, r.pmrem[k], width, height),
   }));
   fs.writeFileSync(path.join(out, 'three_spheres.json'),
     JSON.stringify({ probe: reference.probe, spheres: rows }, null, 1));
-  const cell = (f) => `${(100 * f.mean).toFixed(1)} %; ${(100 * f.weighted).toFixed(1)} %; ${f.psnr_db.toFixed(1)} dB`;
+  const cell = scoreCell;
   console.log(`| ${reference.probe} | metallic | roughness | three.js, arlight's chain as is | three.js, three's PMREM of its mirror level | arlight's renderer |`);
   console.log('|---|---|---|---|---|---|');
   for (const row of rows)

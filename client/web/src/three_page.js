@@ -9,6 +9,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { ArlightEstimatedLight } from './three/ArlightEstimatedLight.js';
+import { renderSpheresLinear, sphereGrid } from './sphere_grid.js';
 
 const kBundled = { bunny: 'models/bunny.glb', suzanne: 'models/suzanne.glb', tiles: 'models/tiles.glb' };
 const kFpsWindowMs = 1000;
@@ -29,24 +30,6 @@ const showError = (message) => {
   lastError = message;
   document.getElementById('hint').textContent = message;
 };
-
-// The metallic-roughness test grid: dielectric spheres on the top row, metal below, roughness
-// rising from left to right (0.05 to 1), each a glTF material's two numbers.
-export function sphereGrid(columns = 5) {
-  const grid = new THREE.Group();
-  const geometry = new THREE.SphereGeometry(0.16, 64, 32);
-  for (let row = 0; row < 2; ++row)
-    for (let c = 0; c < columns; ++c) {
-      const roughness = 0.05 + (0.95 * c) / (columns - 1);
-      const material = new THREE.MeshStandardMaterial({
-        color: row === 0 ? 0xb0b0b0 : 0xf0f0f0, metalness: row, roughness,
-      });
-      const sphere = new THREE.Mesh(geometry, material);
-      sphere.position.set((c - (columns - 1) / 2) * 0.4, row === 0 ? 0.21 : -0.21, 0);
-      grid.add(sphere);
-    }
-  return grid;
-}
 
 async function loadModel(name) {
   if (name === 'spheres') return sphereGrid();
@@ -186,6 +169,9 @@ function sampleEnvironment(dirs) {
 window.arlightThree = {
   status, lightEstimate: () => light.lightEstimate(), light, sampleEnvironment,
   updates: () => updateLog.slice(),
+  // arlight-bench-pbr's sphere grid under this page's environment (linear RGBA rows, bottom-up).
+  renderSpheres: (camera, spheres, baseColour) =>
+    renderSpheresLinear(renderer, light.environment, camera, spheres, baseColour).map((p) => Array.from(p)),
 };
 
 if (!params.get('session')) showError('no session: open this page from the capturing page\'s "watch this room" link');
