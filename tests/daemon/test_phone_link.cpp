@@ -70,7 +70,38 @@ std::string decode_qr(const cv::Mat& gray) {
   return image.symbol_begin()->get_data();
 }
 
+// The SVG's path ("M x y h1v1h-1z" a dark module) drawn as a camera might see it, 8 pixels a unit.
+cv::Mat render_svg_qr(const std::string& svg) {
+  const std::size_t box = svg.find("viewBox=\"0 0 ") + 13;
+  const int side = std::stoi(svg.substr(box));
+  const int s = 8;
+  cv::Mat img(side * s, side * s, CV_8U, cv::Scalar(255));
+  const std::string path = svg.substr(svg.find(" d=\"") + 4);
+  std::istringstream in(path);
+  char m;
+  int x, y;
+  while (in >> m && m == 'M' && in >> x >> y) {
+    img(cv::Rect(x * s, y * s, s, s)).setTo(0);
+    in.ignore(8);  // h1v1h-1z
+  }
+  return img;
+}
+
 }  // namespace
+
+TEST(PhoneLink, TheWatchLinksQrCodeIsAnSvgThatDecodesToTheLink) {
+  const std::string link = watch_link("192.168.1.20:8443", "three=session%3Dabc&device=phone&token=t-1");
+  EXPECT_EQ(link, "https://192.168.1.20:8443/three.html#session%3Dabc&device=phone&token=t-1");
+  const std::string svg = qr_svg(qr_modules(link));
+  EXPECT_EQ(svg.rfind("<svg xmlns=\"http://www.w3.org/2000/svg\"", 0), 0u);
+  EXPECT_EQ(decode_qr(render_svg_qr(svg)), link);
+  // Only such links: no other parameter, host or characters (no markup, no other URL).
+  EXPECT_EQ(watch_link("host", "text=https://evil.example/"), "");
+  EXPECT_EQ(watch_link("host", "three=<script>"), "");
+  EXPECT_EQ(watch_link("host", "three=" + std::string(513, 'a')), "");
+  EXPECT_EQ(watch_link("evil.example/x?", "three=a"), "");
+  EXPECT_EQ(watch_link("", "three=a"), "");
+}
 
 TEST(PhoneLink, UrlCarriesDeviceAndTokenInTheFragmentEncoded) {
   EXPECT_EQ(phone_url("192.168.1.20", 8443, "phone", "abc123"),

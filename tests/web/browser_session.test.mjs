@@ -98,6 +98,10 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     // "Watch this room": /three.html for this session, with this device's credentials.
     const watch = await page.$eval('#s-watch', (a) => a.getAttribute('href'));
     assert.equal(watch, `three.html#session=${status.session_id}&device=phone&token=${TOKEN}`);
+    // ... and as a QR code arlightd drew (an SVG the page loaded).
+    const qr = await page.$eval('#s-watch-qr', (img) => ({ src: img.getAttribute('src'), width: img.naturalWidth, hidden: img.hidden }));
+    assert.equal(qr.src, `qr.svg?three=session=${status.session_id}&device=phone&token=${TOKEN}`);
+    assert.ok(qr.width > 0 && !qr.hidden, JSON.stringify(qr));
     // The room's irradiance as the session captured it, against the simulator's truth.
     const dc = status.sh[1] / truth[0][1];
     const rms = irradianceRelativeRms(status.sh, truth);

@@ -43,6 +43,10 @@ export function updatePanel(coverage, q, params) {
   if (link && url && link.getAttribute('href') !== url) {
     link.setAttribute('href', url);
     link.textContent = 'open in three.js (another device)';
+    // The same link as a QR code for a second phone, drawn by arlightd (libqrencode).
+    const qr = $('s-watch-qr');
+    qr.src = `qr.svg?three=${url.slice(url.indexOf('#') + 1)}`;
+    qr.hidden = false;
   }
   const p = report();
   $('s-speed').textContent =

@@ -222,4 +222,38 @@ std::string qr_terminal(const std::vector<std::vector<bool>>& modules, bool colo
   return out;
 }
 
+std::string qr_svg(const std::vector<std::vector<bool>>& modules) {
+  constexpr int kQuiet = 4;
+  const int n = int(modules.size()), side = n + 2 * kQuiet;
+  std::string path;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      if (modules[std::size_t(y)][std::size_t(x)]) {
+        path += 'M';
+        path += std::to_string(x + kQuiet);
+        path += ' ';
+        path += std::to_string(y + kQuiet);
+        path += "h1v1h-1z";
+      }
+  const std::string size = std::to_string(side);
+  return "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " + size + " " + size +
+         "\" shape-rendering=\"crispEdges\"><rect width=\"" + size + "\" height=\"" + size +
+         "\" fill=\"#fff\"/><path fill=\"#000\" d=\"" + path + "\"/></svg>\n";
+}
+
+std::string watch_link(std::string_view host, std::string_view query) {
+  const auto allowed = [](std::string_view text, std::string_view extra) {
+    return std::all_of(text.begin(), text.end(), [&](char c) {
+      return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+             extra.find(c) != std::string_view::npos;
+    });
+  };
+  constexpr std::string_view kKey = "three=";
+  if (host.empty() || host.size() > 255 || !allowed(host, ".-:[]")) return "";
+  if (query.substr(0, kKey.size()) != kKey) return "";
+  const std::string_view fragment = query.substr(kKey.size());
+  if (fragment.empty() || fragment.size() > 512 || !allowed(fragment, "=&%._-~")) return "";
+  return "https://" + std::string(host) + "/three.html#" + std::string(fragment);
+}
+
 }  // namespace arlight::daemon

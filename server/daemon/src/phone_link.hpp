@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace arlight::daemon {
@@ -41,5 +42,15 @@ std::vector<std::vector<bool>> qr_modules(const std::string& text);
 // quiet zone; light modules are drawn (the block characters), dark ones are spaces. With
 // `colour`, ANSI colours force black on white so the code reads the same on any terminal theme.
 std::string qr_terminal(const std::vector<std::vector<bool>>& modules, bool colour);
+
+// The modules as an SVG image (one unit a module, a 4-module light quiet zone, one path of the
+// dark modules), for a page to show.
+std::string qr_svg(const std::vector<std::vector<bool>>& modules);
+
+// The watch link a phone page shows as a QR code (issue 35): https://HOST/three.html#FRAGMENT
+// for the `three` parameter of a /qr.svg?three=FRAGMENT request reaching `host` (its Host
+// header), or "" when either is not what such a link holds (a host of letters, digits, '.',
+// '-', ':' and brackets; a fragment of at most 512 URL-safe characters).
+std::string watch_link(std::string_view host, std::string_view query);
 
 }  // namespace arlight::daemon

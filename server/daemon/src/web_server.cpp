@@ -13,6 +13,7 @@
 #include <iterator>
 
 #include "arlight/protocol/websocket_transport.hpp"
+#include "phone_link.hpp"
 
 namespace arlight::daemon {
 
@@ -211,6 +212,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return send_text(std::move(res), "only GET and HEAD\n", keep_alive);
     }
     const std::string_view target(req.target().data(), req.target().size());
+    if (target.substr(0, target.find('?')) == "/qr.svg") return respond_qr(req, target, keep_alive);
     const StaticFile file = resolve_static_file(server_->options.root, target);
     if (!file.path) {
       const bool no_client = !fs::exists(server_->options.root / "index.html");
@@ -243,6 +245,30 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         std::make_tuple(http::status::ok, 11));
     headers(*res);
     write(res, keep_alive);
+  }
+
+  // The phone page's "watch this room" QR code (issue 35): /qr.svg?three=FRAGMENT, the link to
+  // /three.html#FRAGMENT on the host the page reached (phone_link.hpp, watch_link).
+  void respond_qr(const http::request<http::string_body>& req, std::string_view target,
+                  bool keep_alive) {
+    const std::size_t question = target.find('?');
+    const std::string link =
+        question == std::string_view::npos
+            ? std::string()
+            : watch_link(std::string_view(req[http::field::host].data(), req[http::field::host].size()),
+                         target.substr(question + 1));
+    if (link.empty())
+      return respond_text(http::status::bad_request,
+                          "qr.svg: ?three=FRAGMENT of a /three.html link (at most 512 URL-safe "
+                          "characters) and a plain Host\n",
+                          keep_alive);
+    http::response<http::string_body> res{http::status::ok, 11};
+    set_common_headers(res);
+    res.set(http::field::content_type, "image/svg+xml");
+    res.body() = req.method() == http::verb::head ? std::string() : qr_svg(qr_modules(link));
+    res.prepare_payload();
+    res.keep_alive(keep_alive);
+    write(std::make_shared<http::response<http::string_body>>(std::move(res)), keep_alive);
   }
 
   void respond_text(http::status status, std::string body, bool keep_alive) {
