@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <type_traits>
 #include <nlohmann/json.hpp>
 
 #include "arlight/common/atomic_file.hpp"
@@ -18,6 +20,28 @@ using nlohmann::json;
 
 namespace {
 
+// A whole number field of a manifest in T's range, or InputError naming it: nlohmann's get<T>()
+// of a number that does not fit (5e19 for a uint64, a fraction) is undefined behaviour.
+template <class T>
+T whole(const json& parent, const char* key, const std::string& where) {
+  const json& v = parent.at(key);
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    if (u <= std::uint64_t(std::numeric_limits<T>::max())) return T(u);
+  } else if (v.is_number_integer()) {
+    const auto i = v.get<std::int64_t>();
+    if (std::is_signed_v<T> && i >= std::int64_t(std::numeric_limits<T>::min()) &&
+        i <= std::int64_t(std::numeric_limits<T>::max()))
+      return T(i);
+  }
+  throw InputError(where + ": '" + key + "' is not a whole number in range");
+}
+
+template <class T>
+T whole_or(const json& parent, const char* key, T fallback, const std::string& where) {
+  return parent.contains(key) ? whole<T>(parent, key, where) : fallback;
+}
+
 constexpr char kAccumMagic[8] = {'A', 'R', 'L', 'A', 'C', 'C', '0', '1'};
 constexpr char kManifest[] = "session.json";
 
@@ -26,9 +50,9 @@ json camera_json(const CameraIntrinsics& k) {
           {"cy", k.cy},       {"distortion", k.distortion}};
 }
 
-CameraIntrinsics camera_from_json(const json& j) {
+CameraIntrinsics camera_from_json(const json& j, const std::string& where) {
   CameraIntrinsics k;
-  k.width = j.at("width"), k.height = j.at("height");
+  k.width = whole<int>(j, "width", where), k.height = whole<int>(j, "height", where);
   k.fx = j.at("fx"), k.fy = j.at("fy"), k.cx = j.at("cx"), k.cy = j.at("cy");
   k.distortion = j.at("distortion").get<std::array<double, 5>>();
   return k;
@@ -122,27 +146,27 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
   const std::string where = "session checkpoint '" + manifest.string() + "'";
   try {
     const json meta = json::parse(std::ifstream(manifest));
-    const int version = meta.at("version").get<int>();
+    const int version = whole<int>(meta, "version", where);
     if (meta.at("format") != "arlight-session" || version < 1 || version > kCheckpointVersion)
       throw InputError(where + ": not a version 1 or 2 session checkpoint");
     SessionCheckpoint c;
     c.id = meta.at("id").get<std::string>();
     c.device_id = meta.at("device_id").get<std::string>();
-    c.camera = camera_from_json(meta.at("camera"));
+    c.camera = camera_from_json(meta.at("camera"), where);
     c.response = meta.value("response", std::string("srgb"));
-    c.map_size = meta.at("map_size").get<int>();
-    c.frames_received = meta.at("frames_received");
-    c.frames_processed = meta.at("frames_processed");
-    c.frames_dropped = meta.at("frames_dropped");
-    c.frames_skipped = meta.at("frames_skipped");
-    c.last_sequence = meta.at("last_sequence");
+    c.map_size = whole<int>(meta, "map_size", where);
+    c.frames_received = whole<std::uint64_t>(meta, "frames_received", where);
+    c.frames_processed = whole<std::uint64_t>(meta, "frames_processed", where);
+    c.frames_dropped = whole<std::uint64_t>(meta, "frames_dropped", where);
+    c.frames_skipped = whole<std::uint64_t>(meta, "frames_skipped", where);
+    c.last_sequence = whole<std::uint64_t>(meta, "last_sequence", where);
     c.coverage = meta.value("coverage", 0.0);
     if (meta.contains("layout")) {
       const json& l = meta["layout"];
       const auto projection = parse_projection(l.at("projection").get<std::string>());
       if (!projection) throw InputError(where + ": unknown layout projection");
       try {
-        c.layout = EnvLayout(*projection, l.at("width").get<int>(), l.at("height").get<int>());
+        c.layout = EnvLayout(*projection, whole<int>(l, "width", where), whole<int>(l, "height", where));
       } catch (const std::invalid_argument& e) {
         throw InputError(where + ": layout: " + e.what());
       }
@@ -151,7 +175,7 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
       const json& r = meta["request"];
       MapRequest req;
       req.shininess = r.at("shininess").get<std::vector<double>>();
-      req.size = r.at("size");
+      req.size = whole<int>(r, "size", where);
       const auto projection = parse_projection(r.at("projection").get<std::string>());
       if (!projection) throw InputError(where + ": unknown projection");
       req.projection = *projection;
@@ -161,7 +185,7 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
       if (kind != "phong" && kind != "ggx")
         throw InputError(where + ": unknown map kind '" + kind + "'");
       req.kind = kind == "ggx" ? wire::MapKind::Ggx : wire::MapKind::Phong;
-      req.levels = r.value("levels", 0);
+      req.levels = whole_or<int>(r, "levels", 0, where);
       c.request = req;
     }
     const std::string file = meta.at("accumulators").get<std::string>();
@@ -170,12 +194,12 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     // Checkpoints before 2026-12 name their generation only in the file name.
     int named_generation = 0;
     if (std::sscanf(file.c_str(), "accum-%d.bin", &named_generation) != 1) named_generation = 0;
-    c.generation = std::max(meta.value("generation", 0), named_generation);
+    c.generation = std::max(whole_or<int>(meta, "generation", 0, where), named_generation);
     std::ifstream in(dir / file, std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     const bool intact =
-        version == 1 ? checkpoint_fnv1a(bytes) == meta.at("checksum").get<std::uint64_t>()
-                     : checkpoint_xxh3(bytes) == meta.at("checksum_xxh3").get<std::uint64_t>();
+        version == 1 ? checkpoint_fnv1a(bytes) == whole<std::uint64_t>(meta, "checksum", where)
+                     : checkpoint_xxh3(bytes) == whole<std::uint64_t>(meta, "checksum_xxh3", where);
     if (!intact)
       throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
     c.accumulators = parse_accumulators(bytes, where);
