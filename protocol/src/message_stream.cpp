@@ -150,6 +150,11 @@ void MessageStream::send(std::shared_ptr<const std::vector<std::uint8_t>> envelo
   enqueue({std::move(envelope), true});
 }
 
+void MessageStream::send_bulk(std::shared_ptr<const std::vector<std::uint8_t>> envelope,
+                              std::uint32_t lane, std::uint64_t group) {
+  enqueue({std::move(envelope), true, true, lane, group});
+}
+
 void MessageStream::send_unframed(std::vector<std::uint8_t> bytes) {
   enqueue({std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes)), false});
 }
@@ -161,39 +166,53 @@ void MessageStream::enqueue(Outgoing message) {
       self->queued_bytes_ -= m.bytes->size();
       return;
     }
-    self->out_.push_back(std::move(m));
+    if (m.bulk) {
+      // A newer group of the lane (a newer map set) replaces what of the older ones still waits:
+      // a client that reads slowly gets the newest set, not a queue of stale ones.
+      const auto stale = [&](const Outgoing& o) { return o.lane == m.lane && o.group < m.group; };
+      for (const Outgoing& o : self->bulk_)
+        if (stale(o)) self->queued_bytes_ -= o.bytes->size(), ++self->bulk_replaced_;
+      std::erase_if(self->bulk_, stale);
+      self->bulk_.push_back(std::move(m));
+    } else {
+      self->out_.push_back(std::move(m));
+    }
     if (self->options_.max_queued_bytes && self->queued_bytes_ > self->options_.max_queued_bytes &&
         !self->closing_) {
-      // A peer that does not read would make us hold everything we send it. The message being
-      // written (the front, while writing_) must stay alive until its write ends.
-      const std::size_t keep = self->writing_ ? 1 : 0;
-      while (self->out_.size() > keep) {
-        self->queued_bytes_ -= self->out_.back().bytes->size();
-        self->out_.pop_back();
-      }
+      // A peer that does not read would make us hold everything we send it (the message being
+      // written stays alive in writing_ until its write ends).
+      self->drop_queued();
       if (self->handlers_.on_overflow) self->handlers_.on_overflow();
     }
     if (!self->writing_) self->write_next();
   });
 }
 
+void MessageStream::drop_queued() {
+  for (const auto* q : {&out_, &bulk_})
+    for (const Outgoing& o : *q) queued_bytes_ -= o.bytes->size();
+  out_.clear();
+  bulk_.clear();
+}
+
+// Control messages first (a LightingUpdate never waits behind a map set's tiles); bulk ones
+// when none waits, one at a time, so a control message waits for at most one tile.
 void MessageStream::write_next() {
-  if (out_.empty()) {
-    writing_ = false;
+  std::deque<Outgoing>& q = out_.empty() ? bulk_ : out_;
+  if (q.empty()) {
+    writing_.reset();
     if (closing_) end("closed after sending");
     return;
   }
-  writing_ = true;
-  transport_->async_write(*out_.front().bytes, out_.front().framed,
+  writing_ = std::move(q.front());
+  q.pop_front();
+  transport_->async_write(*writing_->bytes, writing_->framed,
                           [self = shared_from_this()](const boost::system::error_code& ec) {
-                            const std::size_t n = self->out_.front().bytes->size();
+                            const std::size_t n = self->writing_->bytes->size();
                             self->queued_bytes_ -= n;
-                            self->out_.pop_front();
+                            self->writing_.reset();
                             if (ec) {
-                              for (const auto& m : self->out_)
-                                self->queued_bytes_ -= m.bytes->size();
-                              self->out_.clear();
-                              self->writing_ = false;
+                              self->drop_queued();
                               return self->end("send failed: " + ec.message());
                             }
                             if (self->handlers_.on_sent) self->handlers_.on_sent(n);

@@ -7,6 +7,7 @@
 #include "watchers.hpp"
 
 using namespace arlight;
+using daemon::BulkGroup;
 using daemon::EncodedMessage;
 using daemon::WatcherSet;
 
@@ -20,7 +21,7 @@ struct FakeWatcher {
 
   WatcherSet::Watcher watcher(wire::TileCoding coding = wire::TileCoding::ZstdHalf) {
     WatcherSet::Watcher w;
-    w.send = [this](EncodedMessage m) { got.push_back(wire::decode(*m)); };
+    w.send = [this](EncodedMessage m, std::optional<BulkGroup>) { got.push_back(wire::decode(*m)); };
     w.backlog = [this] { return backlog; };
     w.coding = coding;
     w.disconnect = [this] { disconnected = true; };

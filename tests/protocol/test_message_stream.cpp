@@ -121,6 +121,51 @@ TEST(MessageStream, APeerThatDoesNotReadOverflowsTheBoundedQueue) {
   EXPECT_TRUE(eventually([&] { return server->queued_bytes() == 0; }));
 }
 
+// Issue 36 §1: nothing the client needs now waits behind bulk data. To a peer that reads late,
+// a LightingUpdate sent after a map set's tiles arrives ahead of the tiles still queued, and a
+// newer set replaces what of the older one has not been written.
+TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
+  Loopback net;
+  Seen at_server, at_client;
+  auto server = stream(net.server);
+  server->start(at_server.handlers());
+  wire::MapTile tile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 0, 0, 64, 64, {}};
+  tile.data.assign(1u << 20, 1);  // 1 MiB: a few fill the sockets' buffers
+  const auto encoded = [](const wire::Message& m) {
+    return std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m));
+  };
+  constexpr int kTiles = 40;
+  for (int i = 0; i < kTiles; ++i) server->send_bulk(encoded(tile), 0, 1);
+  wire::LightingUpdate update;
+  update.frame_sequence = 7;
+  server->send(update);
+  tile.map_set = 2;
+  for (int i = 0; i < kTiles; ++i) server->send_bulk(encoded(tile), 0, 2);
+  server->send_bulk(encoded(wire::MapSetComplete{2, 1, 0.1f, 0.5f, 3}), 0, 2);
+  // Only now does the client read.
+  ASSERT_TRUE(eventually([&] { return server->bulk_replaced() > 0; }));
+  auto client = stream(net.client);
+  client->start(at_client.handlers());
+  ASSERT_TRUE(at_client.wait([&] {
+    return !at_client.messages.empty() &&
+           std::holds_alternative<wire::MapSetComplete>(at_client.messages.back());
+  }));
+  std::lock_guard lock(at_client.mutex);
+  int first = 0, second = 0, update_at = -1;
+  for (std::size_t i = 0; i < at_client.messages.size(); ++i) {
+    if (const auto* t = std::get_if<wire::MapTile>(&at_client.messages[i]))
+      (t->map_set == 1 ? first : second) += 1;
+    if (std::holds_alternative<wire::LightingUpdate>(at_client.messages[i])) update_at = int(i);
+  }
+  EXPECT_EQ(second, kTiles);          // the newest set whole
+  EXPECT_LT(first, kTiles / 2);       // of the older one, only what the sockets held
+  EXPECT_EQ(std::uint64_t(kTiles - first), server->bulk_replaced());
+  EXPECT_GE(update_at, 0);
+  EXPECT_LE(update_at, first);        // behind no tile that was still queued
+  client->close();
+  server->close();
+}
+
 TEST(MessageStream, SendsAfterTheEndAreDropped) {
   Loopback net;
   Seen at_server;

@@ -15,6 +15,13 @@ Clock::duration to_clock(std::chrono::duration<double> d) {
   return std::chrono::duration_cast<Clock::duration>(d);
 }
 
+// A session's message onto a client's queue: a map set's as bulk data (issue 36 §1), which waits
+// behind every other message and gives way to the next set.
+void send_on(wire::MessageStream& stream, EncodedMessage envelope, std::optional<BulkGroup> bulk) {
+  if (bulk) return stream.send_bulk(std::move(envelope), bulk->lane, bulk->group);
+  stream.send(std::move(envelope));
+}
+
 }  // namespace
 
 std::string peer_address(const std::string& peer) {
@@ -161,8 +168,8 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
   std::weak_ptr<wire::MessageStream> weak = stream_;
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   attachment_ = session_->attach(
-      [weak](EncodedMessage envelope) {
-        if (auto stream = weak.lock()) stream->send(std::move(envelope));
+      [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
+        if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
       },
       wire::choose_tile_coding(m.capabilities),
       [weak_self] {
@@ -185,8 +192,8 @@ void ClientConnection::watch(const wire::Hello& m) {
   std::weak_ptr<wire::MessageStream> weak = stream_;
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   WatcherSet::Watcher w;
-  w.send = [weak](EncodedMessage envelope) {
-    if (auto stream = weak.lock()) stream->send(std::move(envelope));
+  w.send = [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
+    if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
   };
   w.backlog = [weak] {
     const auto stream = weak.lock();

@@ -178,7 +178,7 @@ void Session::unwatch(std::uint64_t watcher) {
   if (watchers_.remove(watcher) && env_.watchers) env_.watchers->add(-1);
 }
 
-void Session::send(const wire::Message& message) {
+void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk) {
   Sink sink;
   {
     std::lock_guard lock(mutex_);
@@ -186,8 +186,8 @@ void Session::send(const wire::Message& message) {
   }
   // Encoded once, here on the worker, not on the network; the same bytes go to the watchers.
   const auto bytes = std::make_shared<const std::vector<std::uint8_t>>(wire::encode(message));
-  if (sink) sink(bytes);
-  watchers_.publish(message, bytes);
+  if (sink) sink(bytes, bulk);
+  watchers_.publish(message, bytes, bulk);
 }
 
 void Session::submit(FrameJob job) {
@@ -451,9 +451,19 @@ void Session::on_idle(Clock::time_point) {
 
 void Session::compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> jobs) {
   for (const MapSetJob& job : jobs) {
-    const double seconds = stream_map_set(job, stop, [this, &job](const wire::Message& m) {
-      if (!job.for_watchers) return send(m);
-      watchers_.publish(m, std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m)));
+    // The set's progress, tiles and completion as bulk data of its kind's lane (an Error of
+    // the computation is not).
+    const BulkGroup group{std::uint32_t(job.request.kind), job.id};
+    const auto send_as = [&](const wire::Message& m) {
+      const bool part = std::holds_alternative<wire::MapTile>(m) ||
+                        std::holds_alternative<wire::Progress>(m) ||
+                        std::holds_alternative<wire::MapSetComplete>(m);
+      return part ? std::optional(group) : std::nullopt;
+    };
+    const double seconds = stream_map_set(job, stop, [&](const wire::Message& m) {
+      if (!job.for_watchers) return send(m, send_as(m));
+      watchers_.publish(m, std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m)),
+                        send_as(m));
     });
     if (seconds >= 0.0) {
       env_.map_sets->inc();

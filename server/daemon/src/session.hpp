@@ -64,10 +64,6 @@ struct SessionEnv {
   admin::Histogram* map_set_seconds = nullptr;
 };
 
-// Sends one encoded message (wire::encode) to the session's client; thread-safe; a no-op when
-// detached. Shared: the same bytes go to the session's watchers.
-using Sink = std::function<void(EncodedMessage)>;
-
 // Where a session lives on disk: DATA/sessions/<id>/ (checkpoint, lease).
 std::filesystem::path session_dir(const SessionEnv& env, const std::string& id);
 
@@ -169,7 +165,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<MapRequest> watcher_request() const;
   static constexpr int kWatcherGgxFace = 256;
   void compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> jobs);
-  void send(const wire::Message& message);
+  // To the client and the watchers; a map set's messages as bulk data of `bulk` (watchers.hpp).
+  void send(const wire::Message& message, std::optional<BulkGroup> bulk = std::nullopt);
 
   std::string id_, device_id_;
   SessionEnv env_;

@@ -28,7 +28,7 @@ std::uint64_t WatcherSet::add(Watcher watcher, const EncodedMessage& first) {
   if (watchers_.size() >= limit_) return 0;
   const std::uint64_t id = ++next_id_;
   Entry& e = watchers_.emplace(id, Entry{std::move(watcher)}).first->second;
-  e.watcher.send(first);
+  e.watcher.send(first, std::nullopt);
   e.owes_update = bool(latest_update_);
   for (std::size_t k = 0; k < latest_sets_.size(); ++k) e.owes_set[k] = !latest_sets_[k].empty();
   catch_up(e);
@@ -46,9 +46,9 @@ std::size_t WatcherSet::size() const {
 }
 
 void WatcherSet::send_held(Entry& e, Held& h) {
-  if (!h.tile_coding || *h.tile_coding == e.watcher.coding) return e.watcher.send(h.bytes);
+  if (!h.tile_coding || *h.tile_coding == e.watcher.coding) return e.watcher.send(h.bytes, h.bulk);
   if (!h.recoded) h.recoded = recode_tile(h.bytes, e.watcher.coding);
-  if (h.recoded) e.watcher.send(h.recoded);
+  if (h.recoded) e.watcher.send(h.recoded, h.bulk);
 }
 
 // Never in the middle of a set it is receiving: the newest complete set would interleave its
@@ -56,7 +56,7 @@ void WatcherSet::send_held(Entry& e, Held& h) {
 void WatcherSet::catch_up(Entry& e) {
   if (behind(e)) return;
   if (e.owes_update) {
-    e.watcher.send(latest_update_);
+    e.watcher.send(latest_update_, std::nullopt);
     e.owes_update = false;
   }
   if (building_id_ != 0 && e.in_set == building_id_) return;
@@ -67,7 +67,8 @@ void WatcherSet::catch_up(Entry& e) {
     }
 }
 
-void WatcherSet::publish(const wire::Message& message, const EncodedMessage& bytes) {
+void WatcherSet::publish(const wire::Message& message, const EncodedMessage& bytes,
+                         std::optional<BulkGroup> bulk) {
   std::uint32_t set = 0;
   std::optional<wire::TileCoding> tile_coding;
   if (const auto* p = std::get_if<wire::Progress>(&message)) set = p->map_set;
@@ -95,7 +96,7 @@ void WatcherSet::publish(const wire::Message& message, const EncodedMessage& byt
       e.in_set = behind(e) ? 0 : set;  // one behind skips the set and is owed it at the end
   }
   if (tile) building_kind_ = tile->kind;
-  Held held{bytes, tile_coding, nullptr};
+  Held held{bytes, tile_coding, nullptr, bulk};
   for (auto& [id, e] : watchers_)
     if (e.in_set == set) send_held(e, held);
   if (!std::holds_alternative<wire::Progress>(message)) building_.push_back(std::move(held));

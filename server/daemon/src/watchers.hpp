@@ -21,10 +21,20 @@ namespace arlight::daemon {
 
 using EncodedMessage = std::shared_ptr<const std::vector<std::uint8_t>>;
 
+// A map set's message on its way to a client: bulk data of the set `group` in `lane` (its kind),
+// which a connection writes after any other message and drops unwritten when a newer set of the
+// lane comes (MessageStream::send_bulk). Other messages have none.
+struct BulkGroup {
+  std::uint32_t lane = 0;
+  std::uint64_t group = 0;
+};
+// Sends one encoded message to a connection; thread-safe.
+using Sink = std::function<void(EncodedMessage, std::optional<BulkGroup>)>;
+
 class WatcherSet {
  public:
   struct Watcher {
-    std::function<void(EncodedMessage)> send;  // thread-safe; onto its connection's queue
+    Sink send;  // onto its connection's queue
     std::function<std::size_t()> backlog;      // bytes waiting on its connection
     wire::TileCoding coding = wire::TileCoding::ZstdHalf;  // the tiles its Hello accepts
     std::function<void()> disconnect;          // closes its connection
@@ -46,7 +56,8 @@ class WatcherSet {
   // A message the session sent its client, encoded as `bytes`. LightingUpdate, Progress,
   // MapTile and MapSetComplete go to the watchers; the rest (ExposureAdvice, Error,
   // CalibrationResult) are the capturing client's own.
-  void publish(const wire::Message& message, const EncodedMessage& bytes);
+  void publish(const wire::Message& message, const EncodedMessage& bytes,
+               std::optional<BulkGroup> bulk = std::nullopt);
   // A watcher's connection wrote a message: it gets what it skipped once it has caught up.
   void drained(std::uint64_t id);
   // The session ended here (closed, handed over): every watcher's connection closes. Returns
@@ -60,6 +71,7 @@ class WatcherSet {
     EncodedMessage bytes;
     std::optional<wire::TileCoding> tile_coding;  // a MapTile's
     EncodedMessage recoded;                       // in the other coding
+    std::optional<BulkGroup> bulk;
   };
   struct Entry {
     Watcher watcher;

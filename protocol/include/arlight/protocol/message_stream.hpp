@@ -16,6 +16,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -85,6 +86,11 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   void send(const Message& message) { send(encode(message)); }
   // The same bytes to several streams (a session's watchers) without a copy each.
   void send(std::shared_ptr<const std::vector<std::uint8_t>> envelope);
+  // Bulk data (a map set's tiles, progress and completion): written only while no other message
+  // waits, and replaced while it waits by a newer `group` of the same `lane` (a newer map set of
+  // the same kind), which drops what of the older groups has not been written yet.
+  void send_bulk(std::shared_ptr<const std::vector<std::uint8_t>> envelope, std::uint32_t lane,
+                 std::uint64_t group);
   // Any thread: bytes onto the connection as they are, bypassing the framing (tests only).
   void send_unframed(std::vector<std::uint8_t> bytes);
   // Any thread: read nothing more, close once everything queued is written.
@@ -93,6 +99,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   void close();
 
   std::size_t queued_bytes() const { return queued_bytes_.load(); }
+  // Bulk messages dropped unwritten because a newer group of their lane came (send_bulk).
+  std::uint64_t bulk_replaced() const { return bulk_replaced_.load(); }
   const std::string& peer() const { return peer_; }
   boost::asio::any_io_executor executor() const { return executor_; }
 
@@ -100,8 +108,12 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   struct Outgoing {
     std::shared_ptr<const std::vector<std::uint8_t>> bytes;
     bool framed = true;
+    bool bulk = false;  // send_bulk's, with its lane and group
+    std::uint32_t lane = 0;
+    std::uint64_t group = 0;
   };
   void enqueue(Outgoing message);
+  void drop_queued();  // on the strand: everything not being written
   void read_next();
   void write_next();
   void end(const std::string& why);  // on the strand; idempotent
@@ -112,9 +124,11 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   std::string peer_;
   Handlers handlers_;
   std::vector<std::uint8_t> in_;
-  std::deque<Outgoing> out_;
-  std::atomic<std::size_t> queued_bytes_{0};
-  bool writing_ = false, closing_ = false, ended_ = false;
+  std::deque<Outgoing> out_, bulk_;  // control messages first, then bulk ones
+  std::optional<Outgoing> writing_;   // the message being written
+  std::atomic<std::size_t> queued_bytes_{0};  // of all three
+  std::atomic<std::uint64_t> bulk_replaced_{0};
+  bool closing_ = false, ended_ = false;
 };
 
 }  // namespace arlight::wire
