@@ -15,6 +15,7 @@
 #include "support/client_frames.hpp"
 #include "support/daemon_process.hpp"
 #include "support/run_tool.hpp"
+#include "support/sanitizer.hpp"
 
 namespace fs = std::filesystem;
 using namespace arlight;
@@ -163,12 +164,14 @@ TEST(Watchers, GetAGgxChainWhenTheClientStreamsNone) {
   client::Client viewer;
   viewer.watch(welcome.session_id);
   viewer.connect("127.0.0.1", d.port(), test::kWatchName, test::kWatchToken, "watcher");
+  // Under the sanitizers a full chain takes ~10 s, and the other tests share the cores.
+  const auto slow = test::kSanitized ? 6 : 1;
   ASSERT_TRUE(viewer.wait_for(
       [&] {
         const auto c = viewer.last_complete_ggx();
         return c && c->maps[0].layout.width() == 256;
       },
-      30s))
+      30s * slow))
       << "no full chain for the watcher";
   const auto chain = *viewer.last_complete_ggx();
   ASSERT_EQ(chain.maps.size(), 5u);  // 256 -> 16
@@ -180,13 +183,13 @@ TEST(Watchers, GetAGgxChainWhenTheClientStreamsNone) {
   const std::uint64_t chains = viewer.map_sets_completed();
   for (const std::uint64_t end = seq + 10; seq < end; ++seq)
     ASSERT_TRUE(frame_gets_update(phone, rec, seq)) << "frame " << seq;
-  EXPECT_TRUE(viewer.wait_for([&] { return viewer.map_sets_completed() > chains; }, 30s));
-  ASSERT_TRUE(phone.wait_for([&] { return phone.last_complete_maps().has_value(); }, 30s));
+  EXPECT_TRUE(viewer.wait_for([&] { return viewer.map_sets_completed() > chains; }, 30s * slow));
+  ASSERT_TRUE(phone.wait_for([&] { return phone.last_complete_maps().has_value(); }, 30s * slow));
   EXPECT_EQ(phone.last_complete_maps()->maps.size(), 3u);
   EXPECT_FALSE(phone.last_complete_ggx().has_value());
   // Once the full sets after the pause are out, a settled room costs no more sets.
-  std::this_thread::sleep_for(3s);
+  std::this_thread::sleep_for(3s * slow);
   const std::uint64_t settled = viewer.map_sets_completed();
-  std::this_thread::sleep_for(2s);
+  std::this_thread::sleep_for(2s * slow);
   EXPECT_EQ(viewer.map_sets_completed(), settled);
 }
