@@ -26,21 +26,7 @@ constexpr double kBasis[9] = {0.282094791773878, 0.488602511902920, 0.4886025119
 // The clamped cosine's zonal factors A_l (Ramamoorthi & Hanrahan 2001).
 constexpr double kCosineLobe[3] = {kPi, 2.0 * kPi / 3.0, kPi / 4.0};
 
-void check_sh(const ShCoeffs& sh) {
-  if (sh.order < 3 || sh.c.size() < 9)
-    throw std::invalid_argument("light files: SH of order " + std::to_string(sh.order) +
-                                "; SH-9 needs order 3 or more");
-}
-
 }  // namespace
-
-std::array<float, 27> sh9_webxr(const ShCoeffs& sh) {
-  check_sh(sh);
-  std::array<float, 27> out{};
-  for (int i = 0; i < 9; ++i)
-    for (int c = 0; c < 3; ++c) out[std::size_t(3 * i + c)] = float(sh.c[std::size_t(i)][c]);
-  return out;
-}
 
 std::array<float, 27> sh9_filament(const ShCoeffs& sh) {
   std::array<float, 27> out = sh9_webxr(sh);

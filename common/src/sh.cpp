@@ -377,6 +377,16 @@ void sh_accumulate(ShCoeffs& coeffs, std::span<const glm::dvec3> dirs,
     for (int c = 0; c < 3; ++c) coeffs.c[k][c] += acc[3 * k + c];
 }
 
+std::array<float, 27> sh9_webxr(const ShCoeffs& sh) {
+  if (sh.order < 3 || sh.c.size() < 9)
+    throw std::invalid_argument("SH of order " + std::to_string(sh.order) +
+                                ": SH-9 needs order 3 or more");
+  std::array<float, 27> out{};
+  for (int i = 0; i < 9; ++i)
+    for (int c = 0; c < 3; ++c) out[std::size_t(3 * i + c)] = float(sh.c[std::size_t(i)][c]);
+  return out;
+}
+
 DominantLight sh_dominant_light(const ShCoeffs& coeffs) {
   DominantLight light;
   if (coeffs.order < 2) return light;

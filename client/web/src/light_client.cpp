@@ -76,15 +76,15 @@ class LightClient {
   double frame_sequence() const { return double(state_.lighting().frame_sequence); }
   double coverage() const { return state_.lighting().coverage; }
 
-  // SH-9 as WebXR's sphericalHarmonicsCoefficients and three.js's LightProbe take them: the
-  // session's radiance SH is on that basis already (common/include/arlight/common/
-  // light_files.hpp, sh9_webxr), 9 RGB triples in index order l(l+1)+m. Empty before an update.
+  // SH-9 as WebXR and three.js's LightProbe take it (sh.hpp's sh9_webxr); empty before an
+  // update.
   val sh9() const {
     const auto& sh = state_.lighting().sh;
     std::vector<float> out;
-    if (sh && sh->c.size() >= 9)
-      for (int i = 0; i < 9; ++i)
-        for (int c = 0; c < 3; ++c) out.push_back(float(sh->c[std::size_t(i)][c]));
+    if (sh && sh->order >= 3) {
+      const std::array<float, 27> webxr = sh9_webxr(*sh);
+      out.assign(webxr.begin(), webxr.end());
+    }
     return typed_array("Float32Array", out);
   }
 

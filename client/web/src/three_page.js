@@ -107,11 +107,12 @@ function render(now) {
 }
 
 function status() {
+  const s = light.status();
   return {
-    ...light.status(),
+    ...s,
     model: modelName,
     fps: frameTimes.length > 1 ? ((frameTimes.length - 1) * 1000) / (frameTimes.at(-1) - frameTimes[0]) : 0,
-    last_error: lastError || light.status().last_error,
+    last_error: lastError || s.last_error,
   };
 }
 

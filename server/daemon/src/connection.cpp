@@ -177,14 +177,14 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
       },
       wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice));
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
-  stream_->send(wire::Welcome{session_->id(),
-                              env_.server_version,
-                              !m.resume_session.empty(),
-                              session_->frames_processed(),
-                              env_.limits,
-                              {wire::kServerCapabilityLocation}});
+  stream_->send(welcome(!m.resume_session.empty()));
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
+}
+
+wire::Welcome ClientConnection::welcome(bool resumed) const {
+  return {session_->id(),       env_.server_version, resumed, session_->frames_processed(),
+          env_.limits,          {wire::kServerCapabilityLocation}};
 }
 
 void ClientConnection::watch(const wire::Hello& m) {
@@ -204,11 +204,8 @@ void ClientConnection::watch(const wire::Hello& m) {
     if (auto self = weak_self.lock()) self->close();  // the session ended or moved
   };
   // Admitted, it gets the Welcome, then the session's newest update and set.
-  const wire::Welcome welcome{session_->id(),      env_.server_version,
-                              false,               session_->frames_processed(),
-                              env_.limits,         {wire::kServerCapabilityLocation}};
-  watcher_ = session_->watch(std::move(w),
-                             std::make_shared<const std::vector<std::uint8_t>>(wire::encode(welcome)));
+  watcher_ = session_->watch(
+      std::move(w), std::make_shared<const std::vector<std::uint8_t>>(wire::encode(welcome(false))));
   if (!watcher_) {
     if (env_.watchers_refused) env_.watchers_refused->inc();
     return fail(wire::ErrorCode::Busy, "session " + session_->id() +

@@ -57,6 +57,7 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
   void handle(wire::Message&& m);
   void handle_hello(const wire::Hello& m);
   void watch(const wire::Hello& m);  // after handle_hello found the session
+  wire::Welcome welcome(bool resumed) const;  // the session's, to this connection
   void handle_intrinsics(const CameraIntrinsics& k);
   void handle_calibration(wire::CalibrationSet&& set);
   void handle_frame(wire::CameraFrame&& m);

@@ -175,7 +175,7 @@ export class ArlightEstimatedLight extends Group {
    * @param {'arlight'|'pmrem'} [options.filter] the environment as arlightd filtered it (default)
    *   or the chain's mirror level filtered by three's PMREMGenerator
    * @param {number} [options.environmentFace] the face of `environment`'s level 0 (default 256)
-   * @param {number} [options.fadeSeconds] how long a change cross-fades (default 0.3)
+   * @param {number} [options.fadeSeconds] how long a change cross-fades (default 0.2)
    */
   constructor(renderer, options = {}) {
     super();
@@ -204,7 +204,6 @@ export class ArlightEstimatedLight extends Group {
     this._environment = null;  // the target behind `environment`: what the scene samples
     this._shown = null;        // what it showed when its cross-fade to _chain began
     this._environmentFade = null;  // when that began
-    this._blend = blend;
     this._pmrem = null;
     this._started = false;
     this._disposed = false;
@@ -358,11 +357,11 @@ export class ArlightEstimatedLight extends Group {
       this._shown = chainTarget(out, this._environment.texture.mipmaps.length);
       this.environment = this._environment.texture;
       this._status.environment_face = out;
-      this._blend.render(renderer, this._environment, null, chain, 1);
+      blend.render(renderer, this._environment, null, chain, 1);
       return;
     }
     // Fade from what `environment` shows now (mid-fade too) to the new chain.
-    this._blend.render(renderer, this._shown, null, this._environment, 1);
+    blend.render(renderer, this._shown, null, this._environment, 1);
     this._environmentFade = performance.now();
     this._startTicking();
   }
@@ -409,9 +408,9 @@ export class ArlightEstimatedLight extends Group {
       if (t < 1) going = true;
       else this._lightFade = null;
     }
-    if (this._environmentFade !== null && this._environmentFade !== undefined) {
+    if (this._environmentFade !== null) {
       const t = progress(this._environmentFade);
-      this._blend.render(this._renderer, this._environment, this._shown, this._chain, t);
+      blend.render(this._renderer, this._environment, this._shown, this._chain, t);
       if (t < 1) going = true;
       else this._environmentFade = null;
     }

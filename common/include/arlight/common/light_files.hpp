@@ -46,15 +46,13 @@ struct LightFilesInput {
 // SH-9 as 27 floats, 9 RGB triples in the order (l, m) = (0,0), (1,-1), (1,0), (1,1), (2,-2),
 // (2,-1), (2,0), (2,1), (2,2), in the world frame of common/CONVENTIONS.md (right-handed, +Y up,
 // -Z forward; glTF's, three.js's and Filament's too):
-// - webxr: raw radiance coefficients on the real orthonormal basis without the Condon-Shortley
-//   phase (Y_1,-1 ~ y, Y_1,0 ~ z, Y_1,1 ~ x), as WebXR's sphericalHarmonicsCoefficients and
-//   three.js's LightProbe.sh.fromArray take them;
+// - webxr: sh.hpp's sh9_webxr() — raw radiance coefficients, as WebXR's
+//   sphericalHarmonicsCoefficients and three.js's LightProbe.sh.fromArray take them;
 // - filament: pre-scaled for IndirectLight::Builder::irradiance(3, ...) (cmgen --sh-shader):
 //   each coefficient times its band's cosine-lobe factor A_l / pi and the basis constant, so
 //   Filament's shader polynomial gives irradiance / pi;
 // - unity: raw radiance coefficients in Unity's left-handed frame (+Z forward: z mirrored),
 //   as SphericalHarmonicsL2[channel, i] holds them (written per channel).
-std::array<float, 27> sh9_webxr(const ShCoeffs& sh);
 std::array<float, 27> sh9_filament(const ShCoeffs& sh);
 std::array<float, 27> sh9_unity(const ShCoeffs& sh);
 

@@ -5,6 +5,8 @@
 // "Order" N means bands l = 0..N-1, N^2 coefficients, coefficient (l, m) at index l(l+1)+m.
 #pragma once
 
+#include <array>
+
 #include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 #include <span>
@@ -60,6 +62,12 @@ struct DominantLight {
   glm::vec3 colour{0.0f};
 };
 DominantLight sh_dominant_light(const ShCoeffs& coeffs);
+
+// SH-9 as WebXR's sphericalHarmonicsCoefficients and three.js's LightProbe.sh.fromArray take it:
+// 27 floats, 9 RGB triples in index order l(l+1)+m — raw radiance coefficients on this real
+// orthonormal basis without the Condon-Shortley phase (Y_1,-1 ~ y, Y_1,0 ~ z, Y_1,1 ~ x), in
+// common/CONVENTIONS.md's frame. std::invalid_argument below order 3.
+std::array<float, 27> sh9_webxr(const ShCoeffs& sh);
 
 // Evaluates the expansion at every valid texel of `layout` (others stay 0). All cores.
 Image sh_reconstruct(const ShCoeffs& coeffs, const EnvLayout& layout);
