@@ -79,7 +79,7 @@ for inst in sorted({r[0] for r in rss}, key=int):
         growth[inst] = int(mine[-1][3]) / minute - 1
 per_restart = {}
 for o in load["outages"]:
-    lost = (o["frames_not_sent"] + o["frames_lost_after_checkpoint"]) / load["rate"]
+    lost = o["frames_lost"] / load["rate"]
     k = round(o["at_s"])
     per_restart[k] = max(per_restart.get(k, 0), lost)
 summary = {
@@ -92,12 +92,14 @@ summary = {
     "rss_end_vs_first_minute": end / first - 1,
     "rss_growth_per_instance": growth,
     "frames_sent": load["frames_sent"], "frames_dropped": load["frames_dropped"],
+    "frames_resent": load["frames_resent"], "frames_lost": load["frames_lost"],
     "latency_ms": load["latency_ms"], "load_status": status,
 }
 json.dump(summary, open(f"{out}/soak.json", "w"), indent=2)
 print(f"soak: {summary['seconds']:.0f} s, {summary['sessions']} sessions, {restarts} kill -9 "
       f"restarts: {summary['sessions_failed']} sessions failed, {summary['outages']} outages, "
-      f"worst {summary['worst_frames_lost_s']:.2f} s of frames lost; RSS {first} KiB after "
+      f"{summary['frames_lost']} frames lost ({summary['frames_resent']} sent again after resumes), "
+      f"worst {summary['worst_frames_lost_s']:.2f} s of frames lost in one; RSS {first} KiB after "
       f"the first minute, {end} KiB at the end ({100 * summary['rss_end_vs_first_minute']:+.1f} %); "
       f"each arlightd from its first minute to its end: "
       + ", ".join(f"{100 * g:+.1f} %" for g in growth.values()))

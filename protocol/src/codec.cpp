@@ -111,7 +111,7 @@ Offset<void> build(FlatBufferBuilder& b, const Welcome& m) {
   Offset<flatbuffers::Vector<Offset<flatbuffers::String>>> caps = 0;
   if (!m.capabilities.empty()) caps = b.CreateVectorOfStrings(m.capabilities);
   return fb::CreateWelcome(b, text(b, m.session_id), text(b, m.server_version), m.resumed,
-                           m.frames_processed, limits, caps)
+                           m.frames_processed, limits, caps, m.last_sequence)
       .Union();
 }
 
@@ -127,7 +127,8 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
                                   m.coverage, m.frames_processed, m.frames_dropped, m.estimated,
                                   m.frame_exposure, std::uint8_t(m.sun_state),
                                   m.sun_state == SunState::Unknown ? nullptr : &sun,
-                                  m.advised_width, m.advised_height, m.advised_fps)
+                                  m.advised_width, m.advised_height, m.advised_fps,
+                                  m.saved_sequence)
       .Union();
 }
 
@@ -329,6 +330,7 @@ Welcome read(const fb::Welcome& m, const WireLimits&) {
   w.server_version = text(m.server_version(), "Welcome", "server_version");
   w.resumed = m.resumed();
   w.frames_processed = m.frames_processed();
+  w.last_sequence = m.last_sequence();
   if (const fb::Limits* l = m.limits())
     w.limits =
         WireLimits{l->max_message_bytes(), l->max_frame_pixels(), l->max_map_size(), l->max_maps()};
@@ -386,6 +388,7 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.advised_width = m.advised_width();
   u.advised_height = m.advised_height();
   u.advised_fps = m.advised_fps();
+  u.saved_sequence = m.saved_sequence();
   if ((u.advised_width == 0) != (u.advised_height == 0))
     refuse(Fault::OutOfRange, "LightingUpdate", "advised_width",
            std::to_string(u.advised_width) + "x" + std::to_string(u.advised_height) +
@@ -612,7 +615,7 @@ bool CameraFrame::operator==(const CameraFrame& o) const {
 bool Welcome::operator==(const Welcome& o) const {
   return session_id == o.session_id && server_version == o.server_version && resumed == o.resumed &&
          frames_processed == o.frames_processed && limits == o.limits &&
-         capabilities == o.capabilities;
+         capabilities == o.capabilities && last_sequence == o.last_sequence;
 }
 
 bool LightingUpdate::operator==(const LightingUpdate& o) const {
@@ -623,7 +626,7 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          estimated == o.estimated && frame_exposure == o.frame_exposure &&
          sun_state == o.sun_state && sun_direction == o.sun_direction &&
          advised_width == o.advised_width && advised_height == o.advised_height &&
-         advised_fps == o.advised_fps;
+         advised_fps == o.advised_fps && saved_sequence == o.saved_sequence;
 }
 
 const char* message_name(const Message& m) {

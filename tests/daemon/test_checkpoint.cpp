@@ -89,6 +89,29 @@ TEST(Checkpoint, RoundTripsEverythingAndKeepsOnlyTheNewestGeneration) {
             checkpoint_xxh3(read_bytes(dir / "accum-2.bin")));
 }
 
+// Frames that changed nothing move only the manifest's counts and sequence (issue 36 §5): the
+// accumulator file is not written again, and the manifest still names it with its checksum.
+TEST(Checkpoint, NewFrameCountsAloneRewriteOnlyTheManifest) {
+  const fs::path dir = fresh_dir("manifest_only");
+  SessionCheckpoint c = sample();
+  const AccumulatorFile file = write_checkpoint(dir, c, 3);
+  EXPECT_EQ(file.name, "accum-3.bin");
+  const auto written = fs::last_write_time(dir / file.name);
+  const SessionCheckpoint full = c;
+  c.frames_received += 40, c.frames_processed += 40, c.last_sequence += 40;
+  c.accumulators = {};  // not read
+  EXPECT_EQ(write_checkpoint(dir, c, 3, file).name, file.name);
+  EXPECT_EQ(fs::last_write_time(dir / file.name), written);
+  const auto back = read_checkpoint(dir);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->last_sequence, full.last_sequence + 40);
+  EXPECT_EQ(back->frames_received, full.frames_received + 40);
+  EXPECT_EQ(back->accumulators.weight, full.accumulators.weight);  // the map as it was
+  ASSERT_TRUE(back->accumulator_file);
+  EXPECT_EQ(back->accumulator_file->name, file.name);
+  EXPECT_EQ(back->accumulator_file->checksum_xxh3, file.checksum_xxh3);
+}
+
 // A session that asked for a GGX chain resumes asking for it (issue 34 §2).
 TEST(Checkpoint, KeepsAGgxChainRequest) {
   const fs::path dir = fresh_dir("ggx");

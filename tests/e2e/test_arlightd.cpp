@@ -445,9 +445,24 @@ TEST(Arlightd, KilledAndRestartedDaemonResumesTheCheckpointedSession) {
   EXPECT_TRUE(w.resumed);
   EXPECT_EQ(w.session_id, session);
   EXPECT_EQ(w.frames_processed, 60u);
+  EXPECT_EQ(w.last_sequence, 60u);  // the checkpoint holds every frame the replay sent
   const auto [status, png] = again.admin_get("/sessions/" + session + "/envmap.png");
   ASSERT_EQ(status, 200);
   EXPECT_TRUE(png == before_png) << "the resumed map differs from the checkpointed one";
+  // A client sending frames again that the session has (issue 36 §5): 58-60 are duplicates,
+  // neither counted nor answered; 61-63 count.
+  const recording::Recording rec = recording::read_recording(sample_recording());
+  c.send_intrinsics(rec.camera);
+  for (std::uint64_t seq = 58; seq <= 63; ++seq)
+    c.send_jpeg_frame(seq, rec.frames[seq % rec.frames.size()], rec.camera.width,
+                      rec.camera.height, recording::read_frame_bytes(rec, seq % rec.frames.size()));
+  ASSERT_TRUE(c.wait_for([&] { return c.last_update() && c.last_update()->frame_sequence == 63; },
+                         30s));
+  EXPECT_LE(c.updates_received(), 3u);
+  const json s = json::parse(again.admin_get("/sessions").second).at(0);
+  EXPECT_EQ(s.at("frames_received"), 63);
+  EXPECT_EQ(s.at("frames_duplicate"), 3);
+  EXPECT_EQ(s.at("last_sequence"), 63);
   // Someone else's device cannot take it over; an unknown id is refused.
   client::Client other;
   EXPECT_THROW(other.connect("127.0.0.1", again.port(), "arlight-sim", kToken, "t", "deadbeef"),

@@ -10,6 +10,7 @@
 #include "arlight/net/frame_pacer.hpp"
 #include "arlight/net/lighting_state.hpp"
 #include "arlight/net/map_assembly.hpp"
+#include "arlight/net/unsaved_frames.hpp"
 
 using namespace arlight;
 using namespace arlight::client;
@@ -287,4 +288,61 @@ TEST(FramePacer, HoldsTheNewestFrameWhileTwoAreUnanswered) {
   const std::uint64_t held = pacer.held_in_flight();
   for (int k = 0; k < 10; ++k) EXPECT_TRUE(offer());
   EXPECT_EQ(pacer.held_in_flight(), held);
+}
+
+// Issue 36 §5: the frames a fail-over would lose. Kept while no checkpoint holds them, sent again
+// after a resume from the one after the Welcome's last_sequence, in order, and frames due without
+// a daemon wait behind them; past the size limit the oldest go.
+TEST(UnsavedFrames, KeepsWhatNoCheckpointHoldsAndSendsItAgainAfterAResume) {
+  client::UnsavedFrames kept(1000);  // bytes
+  const std::vector<std::uint8_t> jpeg(100, 7);
+  const auto keep = [&](std::uint64_t s, bool sent) { kept.keep(s, {double(s)}, 8, 8, jpeg, sent); };
+  for (std::uint64_t s = 1; s <= 6; ++s) keep(s, true);
+  EXPECT_FALSE(kept.waiting());
+  kept.saved(3);  // a checkpoint with frames 1-3
+  EXPECT_EQ(kept.size(), 3u);
+  keep(7, false), keep(8, false);  // no daemon
+  kept.saved(8);  // forgets 4-6; 7 and 8 never went, so no checkpoint has them, whatever it says
+  EXPECT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept.waiting_unsent(), 2u);
+  // A fail-over: frames 3-6 sent, 7 due without a daemon; the resumed session holds 1-4.
+  client::UnsavedFrames lost(1000);
+  const auto keep2 = [&](std::uint64_t s, bool sent) { lost.keep(s, {double(s)}, 8, 8, jpeg, sent); };
+  for (std::uint64_t s = 1; s <= 6; ++s) keep2(s, true);
+  lost.saved(2);
+  keep2(7, false);
+  lost.welcomed(4);  // the resumed session holds 1-4
+  std::vector<std::uint64_t> order;
+  while (const client::UnsavedFrames::Frame* f = lost.next_waiting()) {
+    order.push_back(f->sequence);
+    EXPECT_EQ(f->info.timestamp, double(f->sequence));
+    EXPECT_EQ(f->jpeg, jpeg);
+    lost.sent_next();
+  }
+  EXPECT_EQ(order, (std::vector<std::uint64_t>{5, 6, 7}));
+  EXPECT_EQ(lost.resent(), 2u);  // 5 and 6 went twice; 7 once
+  EXPECT_EQ(lost.waiting_unsent(), 0u);
+  // The size limit: ten frames of 100 bytes fit, the eleventh drops the oldest.
+  for (std::uint64_t s = 8; s <= 20; ++s) keep2(s, s % 2 == 0 && !lost.waiting());
+  EXPECT_LE(lost.bytes(), 1000u);
+  EXPECT_EQ(lost.size(), 10u);
+  EXPECT_EQ(lost.given_up(), 6u);  // 5, 6, 7 and 8-10
+  EXPECT_GT(lost.given_up_unsent(), 0u);
+}
+
+// Sending again goes at the daemon's pace: two frames in flight even without a limit.
+TEST(FramePacer, FramesSentAgainWaitForAnswers) {
+  client::FramePacer pacer;  // no in-flight limit for new frames
+  EXPECT_TRUE(pacer.may_resend(1.0));
+  pacer.sent(1.0, 5);
+  EXPECT_TRUE(pacer.may_resend(1.0));
+  pacer.sent(1.0, 6);
+  EXPECT_FALSE(pacer.may_resend(1.0));
+  wire::LightingUpdate u;
+  u.frame_sequence = 5;
+  pacer.advise(u);
+  EXPECT_TRUE(pacer.may_resend(1.0));
+  pacer.sent(1.0, 7);
+  EXPECT_FALSE(pacer.may_resend(1.5));
+  EXPECT_TRUE(pacer.may_resend(1.0 + client::FramePacer::kInFlightTimeout + 0.1));  // lost
 }

@@ -81,6 +81,10 @@ int main(int argc, char** argv) {
       output.add(r, composited);
     }
 
+    // Frames an outage near the end kept waiting go before the report (and the Bye).
+    if (!link.flush(std::chrono::seconds(10)))
+      spdlog::warn("{} frames were never sent", link.stats().frames_not_sent);
+
     // ---- report ----
     output.finish(stats, link.stats(),
                   {{"renderer", gl.renderer()},

@@ -64,6 +64,7 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
                           {"frames_taken", s.exposure_requested}};
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                   {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
+                  {"frames_resent", ls.frames_resent}, {"frames_delayed", ls.frames_delayed},
                   {"frames_held_back", ls.frames_held_back},
                   {"frames_held_in_flight", ls.frames_held_in_flight},
                   {"updates", ls.updates},         {"map_sets", ls.map_sets},
@@ -72,6 +73,8 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
   for (const Resume& r : ls.resumes)
     j["session"]["resumes"].push_back({{"frames_sent_before", r.frames_sent_before},
                                        {"frames_processed", r.frames_processed},
+                                       {"last_sequence", r.last_sequence},
+                                       {"frames_to_resend", r.frames_to_resend},
                                        {"first_coverage", r.first_coverage}});
   return j;
 }

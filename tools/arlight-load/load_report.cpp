@@ -35,6 +35,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   nlohmann::json j;
   std::vector<double> all;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0, held_back = 0, bytes = 0;
+  std::uint64_t resent = 0, lost = 0;
   std::uint64_t held_in_flight = 0;
   std::vector<double> watcher_latency;
   std::uint64_t watcher_updates = 0, watcher_map_sets = 0, watchers_failed = 0;
@@ -47,6 +48,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   for (std::size_t s = 0; s < reports.size(); ++s) {
     const SessionReport& r = reports[s];
     sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
+    resent += r.resent, lost += r.lost;
     held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
     watcher_latency.insert(watcher_latency.end(), r.watcher_latency_ms.begin(),
@@ -66,6 +68,8 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
          {"bytes_sent", r.bytes_sent},
          {"frames_processed", r.processed},
          {"frames_dropped", r.dropped},
+         {"frames_resent", r.resent},
+         {"frames_lost", r.lost},
          {"map_sets_completed", r.map_sets},
          {"map_set_ms", r.map_set_ms},
          {"map_set_interval_ms_median", median_map_set_interval(r.map_set_ms, duration)},
@@ -76,9 +80,10 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
       outages.push_back({{"session", s},
                          {"at_s", o.at_s},
                          {"seconds", o.seconds},
-                         {"frames_not_sent", o.not_sent},
-                         {"frames_lost_after_checkpoint", o.lost_after_checkpoint}});
-      worst_lost_s = std::max(worst_lost_s, double(o.not_sent + o.lost_after_checkpoint) / rate);
+                         {"frames_delayed", o.delayed},
+                         {"frames_to_resend", o.to_resend},
+                         {"frames_lost", o.lost}});
+      worst_lost_s = std::max(worst_lost_s, double(o.lost) / rate);
     }
   }
   j["outages"] = outages;
@@ -87,6 +92,8 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   j["phases"] = phases;
   j["failed"] = failed;
   j["frames_sent"] = sent;
+  j["frames_resent"] = resent;  // after resumes: the checkpoint they resumed from lacked them
+  j["frames_lost"] = lost;      // never reached a session (issue 36 §5: 0)
   j["frames_held_back"] = held_back;  // the frame advice asked for fewer, or
   j["frames_held_in_flight"] = held_in_flight;  // (of them) --max-in-flight were unanswered
   // The frames' bytes a second per session: the uplink a phone would use.

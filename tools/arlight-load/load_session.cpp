@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <condition_variable>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -14,6 +15,7 @@
 #include "arlight/net/client_messages.hpp"
 #include "arlight/net/client_net.hpp"
 #include "arlight/net/frame_pacer.hpp"
+#include "arlight/net/unsaved_frames.hpp"
 
 namespace arlight::load {
 
@@ -55,9 +57,15 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
                  SessionReport& report) {
   try {
     std::mutex m;
+    std::condition_variable answer;  // an update came
     std::uint64_t answered = 0;  // the newest sequence an update has reflected
     client::FramePacer pacer;    // the daemon's frame advice (PROTOCOL.md), frames in flight
     pacer.limit_in_flight(plan.max_in_flight);
+    client::UnsavedFrames unsaved;  // for a fail-over (issue 36 §5)
+    // Frames up to this one were sent again or delayed by an outage: their latency is the
+    // outage's, not the daemon's.
+    std::uint64_t outage_frames = 0;
+    const auto now_s = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
     Clock::time_point first;
     const auto open = [&](const std::string& resume) {
       auto c = std::make_unique<client::Client>();
@@ -71,14 +79,19 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         // Updates come in sequence order; the frames skipped over were dropped.
         if (u.frame_sequence > answered && u.frame_sequence <= report.sent_ms.size()) {
           answered = u.frame_sequence;
-          const double ms = std::chrono::duration<double, std::milli>(u.received - start).count() -
-                            report.sent_ms[u.frame_sequence - 1];
-          report.latency_ms.push_back(ms);
-          report.frame_latency_ms[u.frame_sequence - 1] = ms;
+          if (u.frame_sequence > outage_frames) {
+            const double ms =
+                std::chrono::duration<double, std::milli>(u.received - start).count() -
+                report.sent_ms[u.frame_sequence - 1];
+            report.latency_ms.push_back(ms);
+            report.frame_latency_ms[u.frame_sequence - 1] = ms;
+          }
         }
         report.processed = u.frames_processed;
         report.dropped = u.frames_dropped;
         pacer.advise(u);
+        unsaved.saved(u.saved_sequence);
+        answer.notify_all();
       };
       c->on_map_set_complete = [&](const client::ReceivedMapSet&) {
         std::lock_guard lock(m);
@@ -129,10 +142,34 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     std::optional<Clock::time_point> lost_since;
     Outage outage;
     Clock::time_point next_attempt;
+    // Kept frames waiting to go (after a resume), as fast as the daemon answers them.
+    const auto send_waiting = [&](client::Client& to) {
+      for (;;) {
+        client::UnsavedFrames::Frame f;
+        {
+          std::lock_guard lock(m);
+          const client::UnsavedFrames::Frame* next = unsaved.next_waiting();
+          if (!next || !pacer.may_resend(now_s())) return;
+          f = *next;
+          unsaved.sent_next();
+          pacer.sent(now_s(), f.sequence);
+        }
+        try {
+          to.send_jpeg_frame(f.sequence, f.info, f.width, f.height, f.jpeg);
+        } catch (const client::ClientError&) {
+          return;  // noticed before the next frame; a resume sends it again
+        }
+      }
+    };
+    int reduction = 1;  // the advice's, as of the last frame it allowed
     for (std::uint64_t k = 0;; ++k) {
       const auto due = first + std::chrono::duration_cast<Clock::duration>(period * double(k));
       if (due - first > std::chrono::duration<double>(plan.duration)) break;
-      std::this_thread::sleep_until(due);
+      for (;;) {  // until the frame is due; kept frames go meanwhile as updates make room
+        if (!lost_since) send_waiting(*c);
+        std::unique_lock lock(m);
+        if (answer.wait_until(lock, due) == std::cv_status::timeout) break;
+      }
       if (!lost_since) {
         const auto e = c->server_error();
         if (e || !c->connected()) {
@@ -140,7 +177,8 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
                                         e ? e->second : "connection lost");
           if (plan.reconnect_s <= 0 || !retryable(err)) throw err;
           lost_since = Clock::now(), next_attempt = Clock::now();
-          outage = {std::chrono::duration<double>(*lost_since - start).count(), 0, 0, 0};
+          outage = {std::chrono::duration<double>(*lost_since - start).count(), 0, 0, 0, 0};
+          outage.lost = unsaved.given_up();  // until the resume: those given up before it
           map_sets_before += c->map_sets_completed();
         }
       }
@@ -148,11 +186,12 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         try {
           auto [fresh, w] = open(session_id);
           std::lock_guard lock(m);
-          // Frames lost in earlier outages are in neither count: they do not count again.
-          std::uint64_t kept = w.frames_processed + report.dropped;
-          for (const Outage& o : report.outages) kept += o.lost_after_checkpoint;
-          outage.lost_after_checkpoint = report.sent > kept ? report.sent - kept : 0;
+          // What the resumed session lacks goes first (send_waiting below).
+          unsaved.welcomed(w.last_sequence);
+          outage.to_resend = unsaved.size() - outage.delayed;
+          outage.lost = unsaved.given_up() - outage.lost;
           outage.seconds = std::chrono::duration<double>(Clock::now() - *lost_since).count();
+          outage_frames = report.sent;
           report.outages.push_back(outage);
           c = std::move(fresh);
           lost_since.reset();
@@ -165,47 +204,58 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
           next_attempt = Clock::now() + std::chrono::milliseconds(100);
         }
       }
-      if (lost_since) {
-        ++outage.not_sent;
-        continue;
-      }
       const std::size_t i = usable[(k + plan.first_frame) % usable.size()];
       const auto& f = rec.frames[i];
-      int reduction = 1;
+      const FrameInfo info{double(k) / plan.rate, f.exposure, f.gain, f.orientation};
+      std::uint64_t sequence;
+      bool send_now;
       {
         std::lock_guard lock(m);
-        if (plan.follow_advice) {
-          const double now_s = std::chrono::duration<double>(Clock::now() - start).count();
+        // Without a daemon, or behind kept frames still to go, the frame waits its turn.
+        send_now = !lost_since && !unsaved.waiting();
+        if (send_now && plan.follow_advice) {
           const client::FramePacer::Decision d =
-              pacer.frame_due(now_s, jpegs.width(), jpegs.height(), plan.rate);
+              pacer.frame_due(now_s(), jpegs.width(), jpegs.height(), plan.rate);
           report.held_back = pacer.held_back(), report.held_in_flight = pacer.held_in_flight();
           if (!d.send) continue;
           reduction = d.reduction;
-          pacer.sent(now_s, report.sent + 1);  // the sequence it goes with
         }
+        sequence = ++report.sent;
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
-        ++report.sent;
-      }
-      try {
         const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
         report.bytes_sent += jpeg.size();
-        c->send_jpeg_frame(report.sent, {double(k) / plan.rate, f.exposure, f.gain, f.orientation},
-                           rec.camera.width / reduction, rec.camera.height / reduction, jpeg);
-      } catch (const client::ClientError&) {  // noticed before the next frame
+        unsaved.keep(sequence, info, rec.camera.width / reduction, rec.camera.height / reduction,
+                     jpeg, send_now);
+        if (send_now) pacer.sent(now_s(), sequence);
+        if (lost_since) ++outage.delayed;
       }
+      if (send_now) {
+        try {
+          const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
+          c->send_jpeg_frame(sequence, info, rec.camera.width / reduction,
+                             rec.camera.height / reduction, jpeg);
+        } catch (const client::ClientError&) {  // noticed before the next frame
+        }
+      }
+      if (!lost_since) send_waiting(*c);
     }
     if (lost_since) throw client::ClientError("Network", "the session ended without a daemon");
-    // Let the last updates arrive.
-    c->wait_for(
-        [&] {
-          std::lock_guard lock(m);
-          std::uint64_t lost = 0;  // in outages: never to be answered
-          for (const Outage& o : report.outages) lost += o.lost_after_checkpoint;
-          return report.processed + report.dropped + lost >= report.sent;
-        },
-        std::chrono::seconds(5));
+    // Let the kept frames go and the last updates arrive.
+    const auto end = Clock::now() + std::chrono::seconds(5);
+    for (;;) {
+      send_waiting(*c);
+      std::unique_lock lock(m);
+      if ((answered >= report.sent && !unsaved.waiting()) || Clock::now() >= end || !c->connected())
+        break;
+      answer.wait_until(lock, std::min(end, Clock::now() + std::chrono::milliseconds(100)));
+    }
+    {
+      std::lock_guard lock(m);
+      report.resent = unsaved.resent();
+      report.lost = unsaved.given_up_unsent() + unsaved.waiting_unsent();
+    }
     if (const auto e = c->server_error()) throw client::ClientError(e->first, e->second);
     report.map_sets = map_sets_before + c->map_sets_completed();
     c->bye();

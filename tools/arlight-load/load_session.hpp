@@ -15,19 +15,23 @@ namespace arlight::load {
 
 using Clock = std::chrono::steady_clock;
 
-// One time a session lost its daemon and resumed (--reconnect).
+// One time a session lost its daemon and resumed (--reconnect). No frame need be lost (issue 36
+// §5): the session keeps the frames no checkpoint holds yet (client::UnsavedFrames) and sends
+// them again after the resume, and the frames due meanwhile wait to go after them.
 struct Outage {
   double at_s = 0, seconds = 0;  // when it was noticed (since the start) and how long it lasted
-  std::uint64_t not_sent = 0;    // frames due while there was no daemon
-  // Frames the lost daemon had been sent but not checkpointed: sent until the loss, minus what
-  // the resumed session holds (the Welcome's frames_processed) and had dropped.
-  std::uint64_t lost_after_checkpoint = 0;
+  std::uint64_t delayed = 0;     // frames due while there was no daemon (sent after the resume)
+  std::uint64_t to_resend = 0;   // frames the resumed session lacked (its Welcome's last_sequence)
+  std::uint64_t lost = 0;        // frames dropped from the kept ones (their size limit) meanwhile
 };
 
 struct SessionReport {
   bool failed = false;
   std::string error;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+  // Frames sent again after resumes, and frames that never reached a session (dropped from the
+  // kept ones, or still waiting at the end).
+  std::uint64_t resent = 0, lost = 0;
   std::uint64_t held_back = 0;   // frames not sent: the daemon's frame advice asked for fewer
   std::uint64_t held_in_flight = 0;  // of them: held while max_in_flight were unanswered
   std::uint64_t bytes_sent = 0;  // of the frames' JPEGs

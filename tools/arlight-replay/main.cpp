@@ -86,7 +86,8 @@ int main(int argc, char** argv) {
     });
     while (const auto item = reader.next()) {
       const std::size_t i = item->index;
-      const std::uint64_t seq = w.frames_processed + i + 1;
+      // After the frames the session has (a resume): a frame at or below it would be a duplicate.
+      const std::uint64_t seq = w.last_sequence + i + 1;
       c.send_jpeg_frame(seq, *item->frame, rec.camera.width, rec.camera.height, item->jpeg);
       ++sent;
       last_sequence = seq;

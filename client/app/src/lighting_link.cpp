@@ -60,7 +60,9 @@ bool LightingLink::connect_once() {
     std::lock_guard lock(mutex_);
     lighting_.apply(u);
     pacer_.advise(u);
+    unsaved_.saved(link_sequence(u.saved_sequence));
     ++stats_.updates;
+    changed_.notify_all();  // room for a kept frame to go again
     if (!stats_.resumes.empty() && stats_.resumes.back().first_coverage < 0)
       stats_.resumes.back().first_coverage = u.coverage;
   };
@@ -100,8 +102,15 @@ bool LightingLink::connect_once() {
     std::lock_guard lock(mutex_);
     if (!stats_.session_id.empty() && w.session_id != stats_.session_id)
       spdlog::warn("arlightd started a new session {} (the old one is gone)", w.session_id);
+    // A session resumed from before this link: its frames so far are numbered up to
+    // last_sequence, and the link's follow them (a frame at or below it would be a duplicate).
+    if (first_handshake_ && w.resumed) sequence_offset_ = w.last_sequence;
+    first_handshake_ = false;
+    // What the session lacks of the frames kept goes (again) first (issue 36 §5).
+    unsaved_.welcomed(w.resumed ? link_sequence(w.last_sequence) : 0);
     if (w.resumed && w.session_id == resume)
-      stats_.resumes.push_back({stats_.frames_sent, w.frames_processed, -1.0});
+      stats_.resumes.push_back({stats_.frames_sent, w.frames_processed,
+                                link_sequence(w.last_sequence), unsaved_.size(), -1.0});
     client_ = std::move(c);
     pacer_.forget_in_flight();  // nothing sent on the old connection will be answered
     stats_.connected = true;
@@ -132,6 +141,10 @@ void LightingLink::run() {
       c = client_;
     }
     if (c && c->connected()) {
+      {
+        std::lock_guard sending(send_mutex_);
+        send_waiting(*c);
+      }
       std::unique_lock lock(mutex_);
       changed_.wait_for(lock, 100ms, [&] { return stop_.load(); });
       continue;
@@ -172,6 +185,14 @@ void LightingLink::run() {
   }
 }
 
+bool LightingLink::flush(std::chrono::duration<double> timeout) {
+  std::unique_lock lock(mutex_);
+  // The link's thread sends them as updates make room.
+  return changed_.wait_for(lock, timeout,
+                           [&] { return !unsaved_.waiting() || stop_ || refused_; }) &&
+         !unsaved_.waiting();
+}
+
 client::FramePacer::Decision LightingLink::frame_due(double timestamp, int width, int height) {
   constexpr double kCameraFps = 30.0;  // the jitter the pacer allows: half a frame of it
   std::lock_guard lock(mutex_);
@@ -183,22 +204,60 @@ client::FramePacer::Decision LightingLink::frame_due(double timestamp, int width
 
 void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                               std::span<const std::uint8_t> jpeg) {
+  std::lock_guard sending(send_mutex_);
   std::shared_ptr<client::Client> c;
+  bool behind;  // kept frames wait to go first
+  std::uint64_t wire;
   {
     std::lock_guard lock(mutex_);
     c = client_;
+    behind = unsaved_.waiting();
+    wire = wire_sequence(sequence);
+    newest_timestamp_ = std::max(newest_timestamp_, info.timestamp);
   }
   bool sent = false;
-  if (c && c->connected()) {
+  if (!behind && c && c->connected()) {
     try {
-      c->send_jpeg_frame(sequence, info, width, height, jpeg);
+      c->send_jpeg_frame(wire, info, width, height, jpeg);
       sent = true;
     } catch (const client::ClientError&) {  // the link notices and reconnects
     }
   }
-  std::lock_guard lock(mutex_);
-  ++(sent ? stats_.frames_sent : stats_.frames_not_sent);
-  if (sent) pacer_.sent(info.timestamp, sequence);
+  {
+    std::lock_guard lock(mutex_);
+    unsaved_.keep(sequence, info, width, height, jpeg, sent);
+    if (sent) {
+      ++stats_.frames_sent;
+      pacer_.sent(info.timestamp, wire);
+    } else {
+      ++stats_.frames_delayed;
+    }
+  }
+  if (!sent && c && c->connected()) send_waiting(*c);
+}
+
+void LightingLink::send_waiting(client::Client& c) {
+  for (;;) {
+    client::UnsavedFrames::Frame f;
+    std::uint64_t wire;
+    {
+      std::lock_guard lock(mutex_);
+      const client::UnsavedFrames::Frame* next = unsaved_.next_waiting();
+      if (!next || !pacer_.may_resend(newest_timestamp_)) return;
+      f = *next;
+      wire = wire_sequence(f.sequence);
+    }
+    try {
+      c.send_jpeg_frame(wire, f.info, f.width, f.height, f.jpeg);
+    } catch (const client::ClientError&) {
+      return;  // the link notices and reconnects; the frame still waits
+    }
+    std::lock_guard lock(mutex_);
+    const std::uint64_t resent_before = unsaved_.resent();
+    unsaved_.sent_next();
+    if (unsaved_.resent() == resent_before) ++stats_.frames_sent;
+    pacer_.sent(newest_timestamp_, wire);
+  }
 }
 
 Lighting LightingLink::lighting() const {
@@ -215,6 +274,8 @@ LinkStats LightingLink::stats() const {
   std::lock_guard lock(mutex_);
   LinkStats s = stats_;
   s.refused = refused_;
+  s.frames_resent = unsaved_.resent();
+  s.frames_not_sent = unsaved_.given_up_unsent() + unsaved_.waiting_unsent();
   return s;
 }
 

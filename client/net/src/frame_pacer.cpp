@@ -1,5 +1,7 @@
 #include "arlight/net/frame_pacer.hpp"
 
+#include <algorithm>
+
 namespace arlight::client {
 
 void FramePacer::advise(const wire::LightingUpdate& update) {
@@ -10,14 +12,24 @@ void FramePacer::advise(const wire::LightingUpdate& update) {
 
 void FramePacer::sent(double now_s, std::uint64_t sequence) {
   last_sent_s_ = now_s, any_sent_ = true;
-  if (sequence > 0 && max_in_flight_ > 0) in_flight_.emplace_back(sequence, now_s);
+  forget_lost(now_s);
+  if (sequence > 0) in_flight_.emplace_back(sequence, now_s);
+}
+
+void FramePacer::forget_lost(double now_s) {
+  while (!in_flight_.empty() && now_s - in_flight_.front().second > kInFlightTimeout)
+    in_flight_.pop_front();
+}
+
+bool FramePacer::may_resend(double now_s) {
+  forget_lost(now_s);
+  return int(in_flight_.size()) < std::max(max_in_flight_, kResendInFlight);
 }
 
 FramePacer::Decision FramePacer::frame_due(double now_s, int width, int height,
                                            double camera_fps) {
   Decision d;
-  while (!in_flight_.empty() && now_s - in_flight_.front().second > kInFlightTimeout)
-    in_flight_.pop_front();
+  forget_lost(now_s);
   if (max_in_flight_ > 0 && int(in_flight_.size()) >= max_in_flight_) {
     ++held_back_, ++held_in_flight_;
     d.send = false;

@@ -105,7 +105,11 @@ export class Connection {
     const name = this.client.receive(bytes);
     if (name === 'Welcome') {
       state.connected = true;
-      state.sessionId = this.client.status().session_id;
+      const status = this.client.status();
+      state.sessionId = status.session_id;
+      // A resumed session (a reloaded page) has frames up to this one: a frame numbered at or
+      // below it would be taken as one sent again, and not counted (PROTOCOL.md, fail-over).
+      this.sequence = Math.max(this.sequence, status.session_last_sequence);
       this.onWelcome();
     } else if (name === 'LightingUpdate') {
       this.reflected(this.client.lastSequence());

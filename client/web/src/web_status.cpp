@@ -11,6 +11,8 @@ val WebClient::status() const {
   s.set("connected", welcome.has_value());
   s.set("session_id", welcome ? welcome->session_id : std::string());
   s.set("server_version", welcome ? welcome->server_version : std::string());
+  // The newest frame the (resumed) session holds: the page numbers its frames after it.
+  s.set("session_last_sequence", welcome ? double(welcome->last_sequence) : 0.0);
   s.set("updates", double(state_.updates()));
   s.set("last_sequence", double(l.frame_sequence));
   s.set("frames_processed", double(l.frames_processed));

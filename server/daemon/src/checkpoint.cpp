@@ -101,7 +101,8 @@ std::uint64_t checkpoint_xxh3(const std::string& bytes) {
   return XXH3_64bits(bytes.data(), bytes.size());
 }
 
-void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int generation) {
+AccumulatorFile write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int generation,
+                                 const std::optional<AccumulatorFile>& same_accumulators) {
   json meta = {{"format", "arlight-session"},
                {"version", kCheckpointVersion},
                {"id", c.id},
@@ -128,16 +129,23 @@ void write_checkpoint(const fs::path& dir, const SessionCheckpoint& c, int gener
                        {"kind", c.request->kind == wire::MapKind::Ggx ? "ggx" : "phong"},
                        {"levels", c.request->levels}};
   fs::create_directories(dir);
-  const std::string bytes = accumulator_bytes(c.accumulators);
-  const std::string name = "accum-" + std::to_string(generation) + ".bin";
-  write_file_atomically(dir / name, bytes);
-  meta["accumulators"] = name;
-  meta["checksum_xxh3"] = checkpoint_xxh3(bytes);
-  write_file_atomically(dir / kManifest, meta.dump(1) + "\n");
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string f = entry.path().filename().string();
-    if (f.starts_with("accum-") && f != name) fs::remove(entry.path());
+  AccumulatorFile file;
+  if (same_accumulators) {
+    file = *same_accumulators;
+  } else {
+    const std::string bytes = accumulator_bytes(c.accumulators);
+    file = {"accum-" + std::to_string(generation) + ".bin", checkpoint_xxh3(bytes)};
+    write_file_atomically(dir / file.name, bytes);
   }
+  meta["accumulators"] = file.name;
+  meta["checksum_xxh3"] = file.checksum_xxh3;
+  write_file_atomically(dir / kManifest, meta.dump(1) + "\n");
+  if (!same_accumulators)
+    for (const auto& entry : fs::directory_iterator(dir)) {
+      const std::string f = entry.path().filename().string();
+      if (f.starts_with("accum-") && f != file.name) fs::remove(entry.path());
+    }
+  return file;
 }
 
 std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
@@ -203,6 +211,8 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
     if (!intact)
       throw InputError(where + ": the accumulator file is missing or damaged (checksum)");
     c.accumulators = parse_accumulators(bytes, where);
+    if (version >= 2)
+      c.accumulator_file = AccumulatorFile{file, whole<std::uint64_t>(meta, "checksum_xxh3", where)};
     std::optional<EnvLayout> layout;
     try {
       layout = c.capture_layout();

@@ -24,6 +24,12 @@ namespace arlight::daemon {
 
 inline constexpr int kCheckpointVersion = 2;
 
+// The accumulator file a manifest names, with its checksum.
+struct AccumulatorFile {
+  std::string name;
+  std::uint64_t checksum_xxh3 = 0;
+};
+
 struct SessionCheckpoint {
   std::string id, device_id;
   CameraIntrinsics camera;
@@ -35,6 +41,8 @@ struct SessionCheckpoint {
   EnvLayout capture_layout() const {
     return layout ? *layout : EnvLayout::for_size(Projection::AngleMap, map_size);
   }
+  // last_sequence: every frame up to it is in the checkpoint (processed, dropped or skipped);
+  // a client sends the frames after it again after a resume (issue 36 §5).
   std::uint64_t frames_received = 0, frames_processed = 0, frames_dropped = 0, frames_skipped = 0,
                 last_sequence = 0;
   // The fraction of the sphere the map had seen (for people and fail-over checks; a resume
@@ -46,12 +54,20 @@ struct SessionCheckpoint {
   int generation = 0;
   std::optional<MapRequest> request;
   capture::Accumulators accumulators;
+  // Read: the file they came from (a version 2 checkpoint's), so that a checkpoint of new
+  // frame counts alone can name it again.
+  std::optional<AccumulatorFile> accumulator_file;
 };
 
 // Writes `c` into `dir` (created if needed) as generation `generation` (increasing per session)
-// and removes the accumulator files of older generations. Throws on I/O failure; the previous
-// checkpoint stays whole then.
-void write_checkpoint(const std::filesystem::path& dir, const SessionCheckpoint& c, int generation);
+// and removes the accumulator files of older generations; returns the accumulators' file.
+// With `same_accumulators` (a file an earlier call of this generation returned: the map has not
+// changed since, only the frame counts and sequence have) only the manifest is rewritten, naming
+// that file, and c.accumulators is not read. Throws on I/O failure; the previous checkpoint
+// stays whole then.
+AccumulatorFile write_checkpoint(const std::filesystem::path& dir, const SessionCheckpoint& c,
+                                 int generation,
+                                 const std::optional<AccumulatorFile>& same_accumulators = {});
 
 // The checkpoint in `dir`; std::nullopt when it has none (no manifest). InputError naming the
 // file and what is wrong when it is damaged: a manifest that does not parse or lacks a field,

@@ -183,8 +183,13 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
 }
 
 wire::Welcome ClientConnection::welcome(bool resumed) const {
-  return {session_->id(),       env_.server_version, resumed, session_->frames_processed(),
-          env_.limits,          {wire::kServerCapabilityLocation}};
+  return {session_->id(),
+          env_.server_version,
+          resumed,
+          session_->frames_processed(),
+          env_.limits,
+          {wire::kServerCapabilityLocation},
+          session_->newest_sequence()};
 }
 
 void ClientConnection::watch(const wire::Hello& m) {

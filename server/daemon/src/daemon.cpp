@@ -166,6 +166,9 @@ struct Daemon::Impl {
         &metrics.counter("arlight_frames_processed_total", "frames merged into a session's map");
     session_env.frames_dropped = &metrics.counter(
         "arlight_frames_dropped_total", "frames replaced by a newer one before processing");
+    session_env.frames_duplicate = &metrics.counter(
+        "arlight_frames_duplicate_total",
+        "frames a session already had, sent again by a client after a resume (not counted)");
     session_env.frames_skipped =
         &metrics.counter("arlight_frames_skipped_total", "frames refused by the capture library");
     session_env.frames_unchanged = &metrics.counter(

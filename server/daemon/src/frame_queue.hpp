@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <optional>
@@ -40,6 +41,12 @@ class FrameQueue {
   void end_turn() { busy_ = false; }
 
   bool empty() const { return waiting_.empty(); }
+  std::size_t size() const { return waiting_.size(); }
+  // The sequence of the oldest frame waiting (every older frame was processed or dropped).
+  std::optional<std::uint64_t> oldest_sequence() const {
+    if (waiting_.empty()) return std::nullopt;
+    return waiting_.front().frame.sequence;
+  }
   // A frame waits, or a turn is posted or running (a map set's scheduler reads "frames are
   // still coming").
   bool active() const { return busy_ || !waiting_.empty(); }

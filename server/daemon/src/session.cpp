@@ -159,6 +159,17 @@ std::uint64_t Session::frames_processed() const {
   return processed_;
 }
 
+std::uint64_t Session::newest_sequence() const {
+  std::lock_guard lock(mutex_);
+  return newest_sequence_.value_or(0);
+}
+
+std::uint64_t Session::handled_sequence() const {
+  // Frames wait in sequence order: everything before the oldest waiting one was handled.
+  if (const auto oldest = frames_.oldest_sequence()) return *oldest > 0 ? *oldest - 1 : 0;
+  return newest_sequence_.value_or(0);
+}
+
 std::uint64_t Session::watch(WatcherSet::Watcher watcher, const EncodedMessage& welcome) {
   const std::uint64_t id = watchers_.add(std::move(watcher), welcome);
   if (!id) return 0;
@@ -191,8 +202,16 @@ void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk) 
 }
 
 void Session::submit(FrameJob job) {
-  env_.frames_received->inc();
   std::lock_guard lock(mutex_);
+  // A frame the session has already had: a client that resumed sends the frames its checkpoint
+  // may lack again (issue 36 §5), and the ones it did have must not count twice.
+  if (newest_sequence_ && job.frame.sequence <= *newest_sequence_) {
+    ++duplicates_;
+    if (env_.frames_duplicate) env_.frames_duplicate->inc();
+    return;
+  }
+  newest_sequence_ = job.frame.sequence;
+  env_.frames_received->inc();
   ++received_;
   last_activity_ = Clock::now();
   maps_.frame_arrived(last_activity_);
@@ -312,7 +331,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .sun_direction = glm::vec3(sun_.direction()),
           .advised_width = std::uint16_t(camera_->width / capture_->frame_reduction()),
           .advised_height = std::uint16_t(camera_->height / capture_->frame_reduction()),
-          .advised_fps = unchanged_run_ >= kSettledFrames ? kSettledFps : kChangingFps};
+          .advised_fps = unchanged_run_ >= kSettledFrames ? kSettledFps : kChangingFps,
+          .saved_sequence = saved_sequence_};
 }
 
 std::string Session::request_maps(MapRequest r) {
@@ -543,28 +563,43 @@ void Session::checkpoint() {
   if (!lease_) return;  // released: another daemon may own the folder now
   SessionCheckpoint c;
   int generation;
+  bool map_changed;
   {
     std::lock_guard serial(process_mutex_);  // the accumulators between two frames, not during one
     std::lock_guard lock(mutex_);
-    if (!dirty_ || !capture_) return;
-    c.accumulators = capture_->accumulators();
-    generation = ++checkpoint_generation_;
+    if (!capture_) return;
+    c.last_sequence = handled_sequence();
+    map_changed = dirty_;
+    // Frames that changed nothing still move the sequence a resumed client continues from, so
+    // the manifest (not the map) is rewritten for them.
+    if (!map_changed && (!accumulators_written_ || c.last_sequence == saved_sequence_)) return;
+    if (map_changed) {
+      c.accumulators = capture_->accumulators();
+      ++checkpoint_generation_;
+    }
+    generation = checkpoint_generation_;
     c.id = id_, c.device_id = device_id_, c.camera = *camera_, c.response = response_name_;
     c.map_size = env_.map_size;
     c.layout = capture_->layout();
-    c.frames_received = received_, c.frames_processed = processed_, c.frames_dropped = dropped_;
-    c.frames_skipped = skipped_, c.last_sequence = last_sequence_;
+    // The frames still waiting are not in it: a resumed client sends them again.
+    c.frames_received = received_ - frames_.size(), c.frames_processed = processed_;
+    c.frames_dropped = dropped_, c.frames_skipped = skipped_;
     c.request = request_;
     c.coverage = capture_->coverage();
     dirty_ = false;
   }
   try {
-    write_checkpoint(session_dir(env_, id_), c, generation);
+    accumulators_written_ = write_checkpoint(
+        session_dir(env_, id_), c, generation,
+        map_changed ? std::nullopt : accumulators_written_);
   } catch (...) {
     std::lock_guard lock(mutex_);
     dirty_ = true;  // the next checkpoint tries again
+    accumulators_written_.reset();
     throw;
   }
+  std::lock_guard lock(mutex_);
+  saved_sequence_ = std::max(saved_sequence_, c.last_sequence);
 }
 
 void Session::release() {
@@ -618,6 +653,9 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   s->merged_ = c->frames_processed;  // not checkpointed: what counts is that it grows
   s->dropped_ = c->frames_dropped, s->skipped_ = c->frames_skipped;
   s->last_sequence_ = c->last_sequence;
+  if (c->frames_received > 0) s->newest_sequence_ = c->last_sequence;
+  s->saved_sequence_ = c->last_sequence;
+  s->accumulators_written_ = c->accumulator_file;
   s->request_ = c->request;
   s->checkpoint_generation_ = c->generation;
   // A checkpoint of another layout is rewritten in this daemon's at the next checkpoint.
@@ -636,6 +674,7 @@ json Session::summary() const {
             {"frames_processed", processed_},
             {"frames_dropped", dropped_},
             {"frames_skipped", skipped_},
+            {"frames_duplicate", duplicates_},
             {"frames_unchanged", unchanged_},
             {"frames_glanced", glanced_},
             {"last_sequence", last_sequence_},

@@ -53,6 +53,7 @@ struct SessionEnv {
   admin::Counter* frames_received = nullptr;
   admin::Counter* frames_processed = nullptr;
   admin::Counter* frames_dropped = nullptr;
+  admin::Counter* frames_duplicate = nullptr;
   admin::Counter* frames_skipped = nullptr;
   admin::Counter* frames_unchanged = nullptr;
   admin::Counter* frames_glanced = nullptr;
@@ -121,6 +122,9 @@ class Session : public std::enable_shared_from_this<Session> {
   void calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vector<double> times,
                  std::string method);
   std::uint64_t frames_processed() const;
+  // The newest frame sequence the session holds (Welcome.last_sequence): a resumed client sends
+  // the frames after it again.
+  std::uint64_t newest_sequence() const;
 
   // Called periodically: starts the map set of a change that came while the last set was
   // younger than the map interval, or the full set after previews once frames pause, when no
@@ -184,6 +188,13 @@ class Session : public std::enable_shared_from_this<Session> {
   SunTracker sun_;      // the client's place and time, and the sun checked against the map
   FrameQueue frames_;   // at most env_.queue_depth frames wait; one a turn on the worker pool
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;
+  // Fail-over without a lost frame (issue 36 §5, PROTOCOL.md): the newest sequence received (a
+  // frame at or below it is a duplicate a resumed client sent again: not counted twice), and the
+  // newest every frame up to which the last checkpoint holds (LightingUpdate.saved_sequence).
+  std::optional<std::uint64_t> newest_sequence_;
+  std::uint64_t duplicates_ = 0, saved_sequence_ = 0;
+  // With mutex_ held: every frame up to this sequence was processed, dropped or skipped.
+  std::uint64_t handled_sequence() const;
   // Of the processed frames: merged into the map (what map sets and light files follow), or
   // not, agreeing with it (capture::FrameResult::unchanged).
   std::uint64_t merged_ = 0, unchanged_ = 0;
@@ -217,6 +228,9 @@ class Session : public std::enable_shared_from_this<Session> {
   mutable std::shared_ptr<const LightFiles> light_files_;
   mutable std::uint64_t light_files_frames_ = 0;
   std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
+  // The accumulator file the newest checkpoint names, while the map has not changed since
+  // (a checkpoint of new frame counts alone rewrites only the manifest); checkpoint_mutex_.
+  std::optional<AccumulatorFile> accumulators_written_;
   WatcherSet watchers_;  // thread-safe; its own lock is taken after mutex_ when both are
 };
 

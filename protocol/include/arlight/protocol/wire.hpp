@@ -145,6 +145,8 @@ struct Welcome {
   std::uint64_t frames_processed = 0;  // of the session so far (non-zero after a resume)
   std::optional<WireLimits> limits;    // what this server accepts
   std::vector<std::string> capabilities;  // e.g. kServerCapabilityLocation
+  // The newest frame sequence the session holds: after a resume, send the frames after it again.
+  std::uint64_t last_sequence = 0;
   bool operator==(const Welcome& o) const;
 };
 
@@ -175,6 +177,9 @@ struct LightingUpdate {
   // advised_fps a second (fewer once the frames agree with the map). 0: no advice.
   std::uint16_t advised_width = 0, advised_height = 0;
   float advised_fps = 0;
+  // Frames up to this sequence are in the session's newest checkpoint: no longer worth keeping
+  // for a fail-over (PROTOCOL.md, fail-over).
+  std::uint64_t saved_sequence = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

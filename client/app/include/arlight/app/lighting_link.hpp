@@ -16,6 +16,7 @@
 
 #include "arlight/net/client_net.hpp"
 #include "arlight/net/frame_pacer.hpp"
+#include "arlight/net/unsaved_frames.hpp"
 
 namespace arlight::client_app {
 
@@ -51,6 +52,8 @@ using client::Lighting;
 struct Resume {
   std::uint64_t frames_sent_before = 0;  // this client's frames sent until then
   std::uint64_t frames_processed = 0;    // the Welcome's: what the resumed session holds
+  std::uint64_t last_sequence = 0;       // the Welcome's: the newest frame it holds (this link's numbering)
+  std::uint64_t frames_to_resend = 0;    // frames kept after it, sent (again) after the resume
   double first_coverage = -1;            // -1 until an update arrives
 };
 
@@ -59,7 +62,11 @@ struct LinkStats {
   std::string session_id;
   std::uint64_t connects = 0;  // successful handshakes (1 + reconnections)
   std::vector<Resume> resumes;
-  std::uint64_t frames_sent = 0, frames_not_sent = 0, updates = 0, map_sets = 0;
+  // Frames sent (the first time), sent again after a resume (the checkpoint it resumed from
+  // lacked them), kept waiting at some point (due while there was no daemon, or behind frames
+  // sent again), and never sent (dropped from the kept frames' limit, or waiting at the end).
+  std::uint64_t frames_sent = 0, frames_resent = 0, frames_delayed = 0, frames_not_sent = 0;
+  std::uint64_t updates = 0, map_sets = 0;
   std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
   std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send, or
   std::uint64_t frames_held_in_flight = 0;  // (of them) held while max_in_flight were unanswered
@@ -84,9 +91,15 @@ class LightingLink {
   // reduced: the daemon's newest frame advice (client::FramePacer). A frame send_frame() sent
   // counts from its timestamp.
   client::FramePacer::Decision frame_due(double timestamp, int width, int height);
-  // Forwards a frame when connected; counted as not sent otherwise (the renderer goes on).
+  // Forwards a frame (`sequence` increasing) when connected and kept until a checkpoint holds
+  // it; otherwise kept waiting and sent after the next handshake (the renderer goes on). After a
+  // resume the frames the session lacks go again first (client::UnsavedFrames, issue 36 §5).
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                   std::span<const std::uint8_t> jpeg);
+
+  // At the end of a capture: waits up to `timeout` for the kept frames still waiting (an outage
+  // near the end) to go; whether none waits.
+  bool flush(std::chrono::duration<double> timeout);
 
   // Waits up to `timeout` for the first complete map set (the GGX chain when the link asks for
   // one); whether one came.
@@ -104,6 +117,14 @@ class LightingLink {
  private:
   void run();
   bool connect_once();
+  // With send_mutex_ held: sends kept frames waiting to go while the in-flight limit allows.
+  void send_waiting(client::Client& c);
+  // This link's frame numbers on the wire: a session resumed from before the link started has
+  // frames up to its Welcome's last_sequence already, so the link's continue after it.
+  std::uint64_t wire_sequence(std::uint64_t sequence) const { return sequence + sequence_offset_; }
+  std::uint64_t link_sequence(std::uint64_t wire) const {
+    return wire > sequence_offset_ ? wire - sequence_offset_ : 0;
+  }
 
   LinkOptions options_;
   mutable std::mutex mutex_;
@@ -113,6 +134,11 @@ class LightingLink {
   LinkStats stats_;
   std::optional<double> advice_;
   client::FramePacer pacer_;
+  client::UnsavedFrames unsaved_;  // in this link's numbering
+  std::uint64_t sequence_offset_ = 0;
+  bool first_handshake_ = true;
+  double newest_timestamp_ = 0;  // of the frames given: the pacer's clock
+  std::mutex send_mutex_;        // one sender at a time (frames go in sequence order); before mutex_
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool refused_ = false;  // the server said no (a wrong token): retrying cannot help
   std::atomic<bool> stop_{false};

@@ -43,6 +43,11 @@ class FramePacer {
   Decision frame_due(double now_s, int width, int height, double camera_fps);
   // The frame went, as `sequence` (0: not tracked for the in-flight limit).
   void sent(double now_s, std::uint64_t sequence = 0);
+  // Whether a frame kept for a fail-over (unsaved_frames.hpp) may go again now: fewer than the
+  // in-flight limit (at least kResendInFlight, even with none) are unanswered, so that frames
+  // sent again arrive at the daemon's pace instead of overflowing its queue.
+  bool may_resend(double now_s);
+  static constexpr int kResendInFlight = 2;
 
   // Frames frame_due() held back, and the advice now.
   std::uint64_t held_back() const { return held_back_; }
@@ -58,6 +63,7 @@ class FramePacer {
   bool any_sent_ = false;
   std::uint64_t held_back_ = 0, held_in_flight_ = 0;
   int max_in_flight_ = 0;
+  void forget_lost(double now_s);  // frames unanswered for kInFlightTimeout
   std::deque<std::pair<std::uint64_t, double>> in_flight_;  // (sequence, sent at), oldest first
 };
 
