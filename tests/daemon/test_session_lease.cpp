@@ -70,6 +70,47 @@ TEST(SessionLease, TheKernelLetsGoWhenTheOwnerIsKilled) {
   close(ready[0]), close(ready[1]);
 }
 
+// A stopped owner (SIGSTOP) keeps its flock but stops renewing: its lease is taken over once
+// it expires, and the owner, continued, finds it has lost it (issue 36 §5).
+TEST(SessionLease, AStoppedOwnersLeaseIsTakenOverOnceItExpires) {
+  const fs::path dir = fresh_dir("stopped") / "s";
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    auto lease = SessionLease::try_acquire(dir, "child");
+    const char ok = lease ? '1' : '0';
+    [[maybe_unused]] const ssize_t n = write(ready[1], &ok, 1);
+    // The owner's housekeeping: renew every 100 ms; exit 3 once the lease is lost.
+    while (lease && lease->renew()) std::this_thread::sleep_for(100ms);
+    _exit(3);
+  }
+  char ok = 0;
+  ASSERT_EQ(read(ready[0], &ok, 1), 1);
+  ASSERT_EQ(ok, '1');
+  std::this_thread::sleep_for(SessionLease::kExpiry + 500ms);  // renewed all along
+  EXPECT_FALSE(SessionLease::try_acquire(dir, "parent").has_value());
+  kill(child, SIGSTOP);
+  const auto stopped = std::chrono::steady_clock::now();
+  std::optional<SessionLease> taken;
+  while (!taken && std::chrono::steady_clock::now() - stopped < SessionLease::kExpiry + 2s) {
+    taken = SessionLease::try_acquire(dir, "parent");
+    if (!taken) std::this_thread::sleep_for(100ms);
+  }
+  const auto waited = std::chrono::steady_clock::now() - stopped;
+  kill(child, SIGCONT);
+  ASSERT_TRUE(taken.has_value()) << "the stopped owner's lease never expired";
+  EXPECT_GE(waited, SessionLease::kExpiry - 200ms);  // not before it expired
+  EXPECT_TRUE(taken->held());
+  EXPECT_EQ(SessionLease::owner_of(dir), "parent");
+  int status = 0;
+  waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 3) << "the owner never saw it lost";
+  EXPECT_TRUE(taken->renew());  // the new owner keeps it
+  EXPECT_FALSE(SessionLease::try_acquire(dir, "third").has_value());
+  close(ready[0]), close(ready[1]);
+}
+
 TEST(SessionLease, HandOverRequestsComeAndGo) {
   const fs::path dir = fresh_dir("request") / "s";
   const auto lease = SessionLease::try_acquire(dir, "owner");

@@ -15,7 +15,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <regex>
+#include <thread>
+#include <vector>
 
 #include "arlight/net/client_net.hpp"
 #include "arlight/protocol/recording.hpp"
@@ -38,12 +41,13 @@ namespace {
 struct WebDaemon {
   fs::path dir;
   std::unique_ptr<DaemonProcess> d;
-  explicit WebDaemon(const std::string& name) : dir(test::fresh_temp_dir(name)) {
+  explicit WebDaemon(const std::string& name, const std::vector<std::string>& extra = {})
+      : dir(test::fresh_temp_dir(name)) {
     fs::create_directories(dir / "root");
     std::ofstream(dir / "root" / "index.html") << "<!doctype html><title>arlight</title>";
-    d = std::make_unique<DaemonProcess>(
-        dir / "daemon",
-        std::vector<std::string>{"--web", "127.0.0.1:0", "--web-root", (dir / "root").string()});
+    std::vector<std::string> args{"--web", "127.0.0.1:0", "--web-root", (dir / "root").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    d = std::make_unique<DaemonProcess>(dir / "daemon", args);
   }
   fs::path certificate() const { return dir / "daemon" / "data" / "tls" / "self-signed-cert.pem"; }
 };
@@ -153,6 +157,33 @@ TEST(ArlightdWeb, ServesTheClientOverHttpsAndPrintsThePhoneLink) {
 // The same frames over wss (a browser's capabilities: raw half-float tiles, no exposure) and
 // over TCP (zstd tiles, also exposure:unknown, so the daemon estimates every frame's exposure
 // the same way) give the same maps.
+// Plain HTTPS connections count against the connection limits too (issue 36): with three
+// allowed from one address, three idle keep-alive connections to the web port leave no room for
+// a fourth, on either port; one closed makes room again.
+TEST(ArlightdWeb, PlainHttpsConnectionsCountAgainstTheConnectionLimits) {
+  WebDaemon w("web_limits", {"--max-per-address", "3"});
+  const DaemonProcess& d = *w.d;
+  asio::io_context io;
+  asio::ssl::context ctx(asio::ssl::context::tls_client);
+  ctx.set_verify_mode(asio::ssl::verify_none);
+  std::vector<std::unique_ptr<beast::ssl_stream<beast::tcp_stream>>> open;
+  for (int k = 0; k < 3; ++k) {
+    auto& s = open.emplace_back(std::make_unique<beast::ssl_stream<beast::tcp_stream>>(io, ctx));
+    beast::get_lowest_layer(*s).connect({asio::ip::make_address("127.0.0.1"), d.web()});
+    s->handshake(asio::ssl::stream_base::client);  // admitted: its TLS handshake is answered
+  }
+  EXPECT_ANY_THROW(https_get(d.web(), w.certificate(), "/")) << "a fourth HTTPS connection";
+  client::Client tcp;
+  EXPECT_ANY_THROW(tcp.connect("127.0.0.1", d.port(), "arlight-sim", kToken))
+      << "a protocol connection beside three HTTPS ones";
+  const std::string metrics = d.admin_get("/metrics").second;
+  EXPECT_NE(metrics.find("arlight_connections_refused_per_address_total 2"), std::string::npos)
+      << metrics;
+  open.pop_back();  // closed
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(https_get(d.web(), w.certificate(), "/").status, 200);
+}
+
 TEST(ArlightdWeb, BrowserSessionOverWssMatchesTheSameFramesOverTcp) {
   WebDaemon w("web_session");
   const DaemonProcess& d = *w.d;

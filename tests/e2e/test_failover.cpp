@@ -1,6 +1,7 @@
 // More than one arlightd on one data folder (deploy/haproxy): a session is owned by one daemon
 // at a time (its lease), a resume on another daemon takes it over, from a live owner by a
-// hand-over and from a killed one at once; and the whole thing behind the real HAProxy with
+// hand-over, from a killed one at once and from a stopped one once its lease expires; and the
+// whole thing behind the real HAProxy with
 // deploy/haproxy/haproxy.cfg, a client replaying in real time and the serving daemon killed
 // with SIGKILL mid-session.
 #include <gtest/gtest.h>
@@ -8,8 +9,10 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
@@ -161,6 +164,80 @@ TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
   EXPECT_GT(read_json(session / "session.json")["generation"].get<int>(), generation_a);
   EXPECT_NE(lease_owner(session).find(std::to_string(b.pid())), std::string::npos)
       << "the lease does not name B";
+}
+
+// A stopped owner (SIGSTOP) holds its flock for ever; its lease expires instead (issue 36 §5):
+// a resume on B is answered Busy while the lease is fresh, and takes the session over within
+// 5 s of the stop. A, continued, finds its lease taken, closes the session unsaved and never
+// writes it again.
+TEST(Failover, AStoppedOwnersSessionIsTakenOverWhenItsLeaseExpires) {
+  const fs::path dir = test::fresh_temp_dir("failover_sigstop");
+  const fs::path data = dir / "data";
+  const std::vector<std::string> args = {"--checkpoint-interval", "0.5"};
+  DaemonProcess a(dir / "a", args, 0, data), b(dir / "b", args, 0, data);
+  const recording::Recording rec = recording::read_recording(test::daemon_sample_recording());
+  const auto frame = [&](client::Client& c, std::uint64_t seq) {
+    c.send_jpeg_frame(seq, rec.frames[seq], rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, seq));
+  };
+
+  client::Client on_a;
+  const std::string id = on_a.connect("127.0.0.1", a.port(), "arlight-sim", kToken).session_id;
+  on_a.send_intrinsics(rec.camera);
+  for (std::uint64_t seq = 1; seq <= 12; ++seq) frame(on_a, seq);
+  const fs::path session = data / "sessions" / id;
+  ASSERT_TRUE(eventually(
+      [&] {
+        return fs::exists(session / "session.json") &&
+               read_json(session / "session.json")["frames_received"] == 12;
+      },
+      20s))
+      << "A never checkpointed its 12 frames";
+
+  ASSERT_EQ(::kill(a.pid(), SIGSTOP), 0);
+  struct Continue {  // whatever happens below, A runs again (a stopped child never exits)
+    pid_t pid;
+    ~Continue() { ::kill(pid, SIGCONT); }
+  } continue_a{a.pid()};
+  const auto stopped = std::chrono::steady_clock::now();
+  std::optional<client::Welcome> w;
+  std::unique_ptr<client::Client> on_b;
+  int busy = 0;
+  while (!w && std::chrono::steady_clock::now() - stopped < 10s) {
+    try {
+      on_b = std::make_unique<client::Client>();
+      w = on_b->connect("127.0.0.1", b.port(), "arlight-sim", kToken, "t", id);
+    } catch (const client::ClientError& e) {
+      EXPECT_EQ(e.code(), "Busy") << e.what();
+      ++busy;
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - stopped).count();
+  std::printf("a stopped owner's session taken over after %.2f s (%d Busy answers)\n", took, busy);
+  ASSERT_TRUE(w.has_value()) << "B never took the session over";
+  EXPECT_LE(took, 5.0);
+  EXPECT_GT(busy, 0) << "B took a lease that was still fresh";
+  EXPECT_TRUE(w->resumed);
+  EXPECT_EQ(w->last_sequence, 12u);
+  on_b->send_intrinsics(rec.camera);
+  frame(*on_b, 13);
+  ASSERT_TRUE(eventually(
+      [&] { return read_json(session / "session.json")["frames_received"] == 13; }, 10s));
+  EXPECT_NE(lease_owner(session).find(std::to_string(b.pid())), std::string::npos);
+
+  // A runs again: it closes the session unsaved within a housekeeping tick or two.
+  ASSERT_EQ(::kill(a.pid(), SIGCONT), 0);
+  EXPECT_TRUE(eventually([&] { return !session_on(a, id).has_value(); }, 5s))
+      << "A still has the session";
+  EXPECT_NE(a.admin_get("/metrics").second.find("arlight_sessions_lost_total 1"),
+            std::string::npos);
+  EXPECT_TRUE(on_a.wait_for([&] { return !on_a.connected(); }, 5s)) << "A kept its client";
+  std::this_thread::sleep_for(1500ms);  // three of A's checkpoint intervals
+  const json manifest = read_json(session / "session.json");
+  EXPECT_EQ(manifest["frames_received"], 13) << "A wrote the session after losing it";
+  EXPECT_NE(lease_owner(session).find(std::to_string(b.pid())), std::string::npos);
+  ASSERT_TRUE(session_on(b, id).has_value());
 }
 
 // The issue's end-to-end case: two arlightd on one data folder behind HAProxy (the committed

@@ -138,6 +138,7 @@ struct Daemon::Impl {
   admin::Counter* refused_unauthenticated = nullptr;
   admin::Counter* refused_per_address = nullptr;
   admin::Counter* sessions_handed_over = nullptr;
+  admin::Counter* sessions_lost = nullptr;
   admin::Counter* sessions_takeover_waits = nullptr;
   const std::string lease_owner = lease_owner_name();
 
@@ -219,6 +220,10 @@ struct Daemon::Impl {
     sessions_handed_over =
         &metrics.counter("arlight_sessions_handed_over_total",
                          "sessions closed here because a client resumed them on another daemon");
+    sessions_lost = &metrics.counter(
+        "arlight_sessions_lost_total",
+        "sessions closed here unsaved: this daemon stopped past the lease's expiry and another "
+        "took them over");
     sessions_takeover_waits = &metrics.counter(
         "arlight_session_takeover_waits_total",
         "resumes answered Busy while another daemon still held the session's lease");
@@ -295,6 +300,7 @@ struct Daemon::Impl {
     o.port = config.web_port;
     o.root = config.web_root.empty() ? default_web_root() : config.web_root;
     o.on_websocket = [this](std::unique_ptr<wire::Transport> t) { adopt(std::move(t)); };
+    o.admit = [this](const std::string& peer) { return admit_web_connection(peer); };
     o.log = [this](const std::string& line) { log(line); };
     web_server = std::make_unique<WebServer>(io, *web_tls, std::move(o));
     phone_url = daemon::phone_url(
@@ -536,26 +542,8 @@ struct Daemon::Impl {
     std::string refused;
     {
       std::lock_guard lock(connections_mutex);
-      std::erase_if(connections, [](const auto& w) { return w.expired(); });
-      int all = 0, unauthenticated = 0, from_address = 0;
-      for (const auto& w : connections)
-        if (const auto other = w.lock()) {
-          ++all;
-          unauthenticated += !other->authenticated();
-          from_address += other->address() == address;
-        }
-      if (all >= config.max_connections) {
-        refused_total->inc();
-        refused = "the limit of " + std::to_string(config.max_connections) + " connections";
-      } else if (unauthenticated >= config.max_unauthenticated) {
-        refused_unauthenticated->inc();
-        refused = "the limit of " + std::to_string(config.max_unauthenticated) +
-                  " connections before their Hello";
-      } else if (from_address >= config.max_connections_per_address) {
-        refused_per_address->inc();
-        refused = "the limit of " + std::to_string(config.max_connections_per_address) +
-                  " connections from one address";
-      } else {
+      refused = over_a_limit(address);
+      if (refused.empty()) {
         c = std::make_shared<ClientConnection>(std::move(transport), connection_env);
         connections.push_back(c);
       }
@@ -566,6 +554,59 @@ struct Daemon::Impl {
       return;
     }
     c->start();
+  }
+
+  // The web port's connections before they become protocol connections (plain HTTPS, and /ws
+  // until its upgrade): counted against the same limits, all of them "before their Hello".
+  struct WebConnectionSlot {
+    std::string address;
+  };
+  std::vector<std::weak_ptr<WebConnectionSlot>> web_connections;  // connections_mutex
+  std::shared_ptr<void> admit_web_connection(const std::string& peer) {
+    const std::string address = peer_address(peer);
+    std::string refused;
+    {
+      std::lock_guard lock(connections_mutex);
+      refused = over_a_limit(address);
+      if (refused.empty()) {
+        auto slot = std::make_shared<WebConnectionSlot>(WebConnectionSlot{address});
+        web_connections.push_back(slot);
+        return slot;
+      }
+    }
+    log(address + ": web connection refused: " + refused);
+    return nullptr;
+  }
+
+  // With connections_mutex held: which connection limit one more connection from `address`
+  // would pass (counted in its metric), or empty when none.
+  std::string over_a_limit(const std::string& address) {
+    std::erase_if(connections, [](const auto& w) { return w.expired(); });
+    std::erase_if(web_connections, [](const auto& w) { return w.expired(); });
+    int all = 0, unauthenticated = 0, from_address = 0;
+    for (const auto& w : connections)
+      if (const auto other = w.lock()) {
+        ++all;
+        unauthenticated += !other->authenticated();
+        from_address += other->address() == address;
+      }
+    for (const auto& w : web_connections)
+      if (const auto other = w.lock()) ++all, ++unauthenticated, from_address += other->address == address;
+    if (all >= config.max_connections) {
+      refused_total->inc();
+      return "the limit of " + std::to_string(config.max_connections) + " connections";
+    }
+    if (unauthenticated >= config.max_unauthenticated) {
+      refused_unauthenticated->inc();
+      return "the limit of " + std::to_string(config.max_unauthenticated) +
+             " connections before their Hello";
+    }
+    if (from_address >= config.max_connections_per_address) {
+      refused_per_address->inc();
+      return "the limit of " + std::to_string(config.max_connections_per_address) +
+             " connections from one address";
+    }
+    return {};
   }
 
   // Every second: checkpoint what changed (at the configured interval) and close sessions idle
@@ -594,6 +635,18 @@ struct Daemon::Impl {
         });
       }
       for (const auto& s : all) s->on_idle(now);
+      // Leases expire unless renewed (session_lease.hpp): one lost, this daemon was stopped
+      // and another has the session now; it is closed here without a write.
+      for (const auto& s : all)
+        if (!s->renew_lease())
+          asio::post(disk, [this, s] {
+            if (!s->abandon()) return;
+            forget(s);
+            sessions_lost->inc();
+            spdlog::warn("session {} was taken over by another daemon while this one was "
+                         "stopped; closed here unsaved",
+                         s->id());
+          });
       for (const auto& s : all)
         if (SessionLease::release_requested(session_dir(session_env, s->id()))) {
           asio::post(disk, [this, s] { hand_over(s); });

@@ -560,7 +560,7 @@ void Session::checkpoint() {
   // Two at once would race: one's clean-up deletes the other's files, and manifests could
   // name an older generation after a newer one.
   std::lock_guard serial(checkpoint_mutex_);
-  if (!lease_) return;  // released: another daemon may own the folder now
+  if (!holds_lease()) return;  // released, or taken over: another daemon may own the folder now
   SessionCheckpoint c;
   int generation;
   bool map_changed;
@@ -588,6 +588,9 @@ void Session::checkpoint() {
     c.coverage = capture_->coverage();
     dirty_ = false;
   }
+  // Checked again right before writing: this daemon may have been stopped meanwhile and the
+  // session taken over (a stop between this check and the write is the window that remains).
+  if (!holds_lease()) return;
   try {
     accumulators_written_ = write_checkpoint(
         session_dir(env_, id_), c, generation,
@@ -603,33 +606,51 @@ void Session::checkpoint() {
 }
 
 void Session::release() {
+  disconnect_all(false);  // the client reconnects, to whichever daemon takes it
+  shutdown();
+  checkpoint();  // throws: the lease is kept and the session stays usable
+  {
+    std::lock_guard serial(checkpoint_mutex_);
+    std::lock_guard lease(lease_mutex_);
+    lease_.reset();
+  }
+  // A client that resumed here while the last checkpoint was written holds a session that can
+  // no longer be saved: it goes too, and its retry finds the session on disk.
+  disconnect_all(true);
+}
+
+void Session::disconnect_all(bool watchers) {
   std::function<void()> disconnect;
   {
     std::lock_guard lock(mutex_);
     disconnect = disconnect_;
   }
-  if (disconnect) disconnect();  // the client reconnects, to whichever daemon takes it
-  shutdown();
-  checkpoint();  // throws: the lease is kept and the session stays usable
-  {
-    std::lock_guard serial(checkpoint_mutex_);
-    lease_.reset();
-  }
-  // A client that resumed here while the last checkpoint was written holds a session that can
-  // no longer be saved: it goes too, and its retry finds the session on disk.
-  {
-    std::lock_guard lock(mutex_);
-    disconnect = disconnect_;
-  }
   if (disconnect) disconnect();
-  // Its watchers too: the session is no longer live here (they watch it again where it is).
+  if (!watchers) return;
+  // The session is no longer live here: its watchers watch it again where it is.
   const std::size_t watching = watchers_.disconnect_all();
   if (env_.watchers) env_.watchers->add(-double(watching));
 }
 
 bool Session::holds_lease() const {
-  std::lock_guard serial(checkpoint_mutex_);
-  return lease_.has_value();
+  std::lock_guard lock(lease_mutex_);
+  return lease_ && lease_->held();
+}
+
+bool Session::renew_lease() {
+  std::lock_guard lock(lease_mutex_);
+  return !lease_ || lease_->renew();
+}
+
+bool Session::abandon() {
+  {
+    std::lock_guard lock(lease_mutex_);
+    if (!lease_) return false;
+    lease_.reset();  // first: no checkpoint writes it from here on
+  }
+  disconnect_all(true);
+  shutdown();
+  return true;
 }
 
 std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& env,

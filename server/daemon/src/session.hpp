@@ -138,6 +138,13 @@ class Session : public std::enable_shared_from_this<Session> {
   // usable) when the checkpoint fails.
   void release();
   bool holds_lease() const;
+  // Housekeeping: renews the session's lease (session_lease.hpp); false when it was lost (this
+  // daemon was stopped for longer than the lease's expiry and another took the session over):
+  // then abandon() it.
+  bool renew_lease();
+  // Closes the session here without writing it (another daemon owns it now): its connection,
+  // its watchers, its work; the lease goes. False when it had gone already.
+  bool abandon();
   void shutdown();  // cancels the map computation and waits for running work
   nlohmann::json summary() const;
   std::vector<std::uint8_t> envmap_png() const;  // the live map for people to look at
@@ -154,6 +161,8 @@ class Session : public std::enable_shared_from_this<Session> {
 
  private:
   void process();  // on the worker pool
+  // Closes the client's connection, and with `watchers` the watchers' too.
+  void disconnect_all(bool watchers);
   void end_frame_turn();  // with mutex_ held: the session's turn on the worker pool is over
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
   // With process_mutex_ and mutex_ held: asks the scheduler and starts the set it says (or arms
@@ -227,7 +236,10 @@ class Session : public std::enable_shared_from_this<Session> {
   mutable std::mutex light_files_mutex_;
   mutable std::shared_ptr<const LightFiles> light_files_;
   mutable std::uint64_t light_files_frames_ = 0;
-  std::optional<SessionLease> lease_;    // guarded by checkpoint_mutex_
+  // Taken inside checkpoint_mutex_, never around disk writes: the lease is renewed on a network
+  // thread, which must not wait for a checkpoint.
+  mutable std::mutex lease_mutex_;
+  std::optional<SessionLease> lease_;    // guarded by lease_mutex_
   // The accumulator file the newest checkpoint names, while the map has not changed since
   // (a checkpoint of new frame counts alone rewrites only the manifest); checkpoint_mutex_.
   std::optional<AccumulatorFile> accumulators_written_;

@@ -2,10 +2,12 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <stdexcept>
 
@@ -17,6 +19,41 @@ namespace {
 
 constexpr char kLeaseFile[] = "lease";
 constexpr char kRequestFile[] = "release-request";
+constexpr char kTakeoverFile[] = "lease.takeover";
+
+}  // namespace
+
+namespace {
+
+// The lease file opened and locked, or -1 while another process holds it. Throws naming the
+// file when it cannot be opened or locked at all.
+int open_locked(const fs::path& path, int flags) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | flags, 0644);
+  if (fd < 0) {
+    if (errno == EEXIST) return -1;  // another contender made it first
+    throw std::runtime_error("cannot open the session lease " + path.string() + ": " +
+                             std::strerror(errno));
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd);
+    if (e == EWOULDBLOCK || e == EINTR) return -1;
+    throw std::runtime_error("cannot lock the session lease " + path.string() + ": " +
+                             std::strerror(e));
+  }
+  return fd;
+}
+
+// Whether the lease file was last renewed more than SessionLease::kExpiry ago.
+bool expired(const fs::path& path) {
+  struct stat st{};
+  if (::stat(path.c_str(), &st) != 0) return false;
+  struct timespec now{};
+  ::clock_gettime(CLOCK_REALTIME, &now);
+  const double age = double(now.tv_sec - st.st_mtim.tv_sec) +
+                     1e-9 * double(now.tv_nsec - st.st_mtim.tv_nsec);
+  return age > double(SessionLease::kExpiry.count());
+}
 
 }  // namespace
 
@@ -24,23 +61,43 @@ std::optional<SessionLease> SessionLease::try_acquire(const fs::path& dir,
                                                       const std::string& owner) {
   fs::create_directories(dir);
   const fs::path path = dir / kLeaseFile;
-  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0)
-    throw std::runtime_error("cannot open the session lease " + path.string() + ": " +
-                             std::strerror(errno));
-  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    const int e = errno;
-    ::close(fd);
-    if (e == EWOULDBLOCK || e == EINTR) return std::nullopt;
-    throw std::runtime_error("cannot lock the session lease " + path.string() + ": " +
-                             std::strerror(e));
+  int fd = open_locked(path, 0);
+  if (fd < 0 && expired(path)) {
+    // Its owner stopped renewing it: take it over, one contender at a time (a second one
+    // finds the new file locked and renewed).
+    const int takeover = open_locked(dir / kTakeoverFile, 0);
+    if (takeover >= 0) {
+      fd = open_locked(path, 0);
+      if (fd < 0 && expired(path)) {
+        std::error_code ec;
+        fs::remove(path, ec);
+        fd = open_locked(path, O_EXCL);
+      }
+      ::close(takeover);
+    }
   }
+  if (fd < 0) return std::nullopt;
   // The owner line is for people; the lock is what counts, so a failed write changes nothing.
   const std::string line = owner + "\n";
   if (::ftruncate(fd, 0) == 0) {
     [[maybe_unused]] const ssize_t n = ::pwrite(fd, line.data(), line.size(), 0);
   }
-  return SessionLease(fd);
+  SessionLease lease(fd, path);
+  lease.renew();
+  return lease;
+}
+
+bool SessionLease::renew() {
+  if (fd_ < 0) return false;
+  ::futimens(fd_, nullptr);  // now
+  return held();
+}
+
+bool SessionLease::held() const {
+  if (fd_ < 0) return false;
+  struct stat mine{}, named{};
+  if (::fstat(fd_, &mine) != 0 || ::stat(path_.c_str(), &named) != 0) return false;
+  return mine.st_ino == named.st_ino && mine.st_dev == named.st_dev;
 }
 
 std::string SessionLease::owner_of(const fs::path& dir) {
@@ -64,12 +121,16 @@ void SessionLease::clear_release_request(const fs::path& dir) {
   fs::remove(dir / kRequestFile, ec);
 }
 
-SessionLease::SessionLease(SessionLease&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+SessionLease::SessionLease(SessionLease&& other) noexcept
+    : fd_(other.fd_), path_(std::move(other.path_)) {
+  other.fd_ = -1;
+}
 
 SessionLease& SessionLease::operator=(SessionLease&& other) noexcept {
   if (this != &other) {
     if (fd_ >= 0) ::close(fd_);
     fd_ = other.fd_;
+    path_ = std::move(other.path_);
     other.fd_ = -1;
   }
   return *this;

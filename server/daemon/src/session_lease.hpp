@@ -5,11 +5,19 @@
 // resume on another daemon takes over at once and reads the last checkpoint the dead one wrote;
 // while the owner lives, nobody else can take the lock, so two daemons never write one session.
 //
+// A stopped owner (SIGSTOP, a VM paused, a process swapped out for good) would keep its flock
+// for ever, so a lease also expires: its owner renews it (the file's modification time) every
+// housekeeping tick, and a lease not renewed for kExpiry is taken over — the file is replaced
+// by a new one (under DATA/sessions/<id>/lease.takeover, held by one contender at a time) and
+// that is locked. An owner that wakes up finds its file replaced (held() is false), and stops:
+// it neither writes the session again nor keeps it (issue 36 §5).
+//
 // A live owner hands a session over when asked: the daemon a client resumed on writes
 // DATA/sessions/<id>/release-request; the owner notices it (its housekeeping), checkpoints the
 // session, closes it and lets go, and the client's next attempt gets it wherever it lands.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -27,6 +35,14 @@ class SessionLease {
   // Who holds (or last held) the lease of `dir`, as its file says; empty when unknown.
   static std::string owner_of(const std::filesystem::path& dir);
 
+  // A lease whose owner has not renewed it for this long is taken over by the next try_acquire.
+  static constexpr std::chrono::seconds kExpiry{3};
+  // The owner is alive: marks the lease renewed now. Returns held().
+  bool renew();
+  // Whether this is still the lease of its folder (false once another process took it over
+  // from this one while it was stopped).
+  bool held() const;
+
   // Asks the owner of `dir` to hand the session over (`who` says who asks); whether a request
   // is pending; withdraws it (the owner does once it has let go, and so does a new owner).
   static void request_release(const std::filesystem::path& dir, const std::string& who);
@@ -40,8 +56,9 @@ class SessionLease {
   ~SessionLease();  // lets go
 
  private:
-  explicit SessionLease(int fd) : fd_(fd) {}
+  SessionLease(int fd, std::filesystem::path path) : fd_(fd), path_(std::move(path)) {}
   int fd_ = -1;
+  std::filesystem::path path_;
 };
 
 // This process as a lease owner: "host pid=N".

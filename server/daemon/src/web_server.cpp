@@ -161,8 +161,10 @@ namespace {
 // One HTTPS connection: TLS, then requests until it closes or asks for a WebSocket on /ws.
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(tcp::socket socket, std::shared_ptr<WebServer::Impl> server)
-      : stream_(std::move(socket), server->tls), server_(std::move(server)) {}
+  HttpSession(tcp::socket socket, std::shared_ptr<WebServer::Impl> server,
+              std::shared_ptr<void> slot)
+      : stream_(std::move(socket), server->tls), server_(std::move(server)),
+        slot_(std::move(slot)) {}
 
   void start() {
     beast::get_lowest_layer(stream_).expires_after(kHandshakeTimeout);
@@ -199,6 +201,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         return respond_text(http::status::not_found, "WebSocket only on /ws\n", false);
       // The WebSocket stream has timeouts of its own; the session has its idle timeout.
       beast::get_lowest_layer(stream_).expires_never();
+      slot_.reset();  // the daemon counts it as its own connection from here on
       wire::SecureWebSocket ws(std::move(stream_));
       if (server_->options.on_websocket)
         server_->options.on_websocket(
@@ -314,6 +317,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::shared_ptr<WebServer::Impl> server_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
+  std::shared_ptr<void> slot_;  // its place under the daemon's connection limits
 };
 
 }  // namespace
@@ -333,7 +337,24 @@ void WebServer::Impl::accept() {
                             });
                             return;
                           }
-                          std::make_shared<HttpSession>(std::move(socket), self)->start();
+                          std::shared_ptr<void> slot;
+                          if (self->options.admit) {
+                            beast::error_code peer_ec;
+                            const auto peer = socket.remote_endpoint(peer_ec);
+                            slot = self->options.admit(
+                                peer_ec ? std::string("unknown")
+                                        : (peer.address().is_v6()
+                                               ? "[" + peer.address().to_string() + "]"
+                                               : peer.address().to_string()) +
+                                              ":" + std::to_string(peer.port()));
+                            if (!slot) {  // over a limit: closed before anything is read
+                              socket.close(peer_ec);
+                              self->accept();
+                              return;
+                            }
+                          }
+                          std::make_shared<HttpSession>(std::move(socket), self, std::move(slot))
+                              ->start();
                           self->accept();
                         });
 }

@@ -46,8 +46,10 @@ struct DaemonConfig {
   // A session without a connection, or a connected one that sent nothing, for this long is
   // closed (kept on disk for a resume).
   double idle_timeout_s = 300;
-  // Connections (client port and web port's /ws together): a Hello within hello_timeout_s of
-  // connecting, and at most this many at once in all, before their Hello, and from one address.
+  // Connections (the client port and every connection to the web port together: plain HTTPS
+  // counts as "before its Hello" until it closes or becomes a /ws session): a Hello within
+  // hello_timeout_s of connecting, and at most this many at once in all, before their Hello, and
+  // from one address.
   // Over a limit a new connection is closed at once (counted on /metrics, logged).
   double hello_timeout_s = 5;
   int max_connections = 256;
