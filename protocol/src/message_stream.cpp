@@ -8,6 +8,8 @@
 #include <boost/asio/write.hpp>
 #include <variant>
 
+#include "socket_options.hpp"
+
 namespace arlight::wire {
 
 namespace asio = boost::asio;
@@ -26,7 +28,7 @@ class FramedTransport final : public Transport {
     boost::system::error_code ec;
     const auto ep = stream_.lowest_layer().remote_endpoint(ec);
     peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
-    stream_.lowest_layer().set_option(tcp::no_delay(true), ec);
+    configure_socket(stream_.lowest_layer());
   }
 
   asio::any_io_executor executor() override { return strand_; }
@@ -130,6 +132,7 @@ void MessageStream::read_next() {
           if (self->handlers_.on_bad_message) self->handlers_.on_bad_message(*refused);
           return;
         }
+        self->bytes_received_ += self->in_.size() + 4;  // the Envelope and its length
         std::optional<Message> message;
         try {
           message = decode(self->in_, self->options_.limits);
@@ -167,9 +170,14 @@ void MessageStream::enqueue(Outgoing message) {
       return;
     }
     if (m.bulk) {
-      // A newer group of the lane (a newer map set) replaces what of the older ones still waits:
-      // a client that reads slowly gets the newest set, not a queue of stale ones.
-      const auto stale = [&](const Outgoing& o) { return o.lane == m.lane && o.group < m.group; };
+      // A newer group of the lane (a newer map set) replaces the older ones still waiting whole:
+      // a client that reads slowly gets the newest set, not a queue of stale ones; the one
+      // being written is finished first.
+      const auto begun = self->begun_.find(m.lane);
+      const auto stale = [&](const Outgoing& o) {
+        return o.lane == m.lane && o.group < m.group &&
+               !(begun != self->begun_.end() && begun->second == o.group);
+      };
       for (const Outgoing& o : self->bulk_)
         if (stale(o)) self->queued_bytes_ -= o.bytes->size(), ++self->bulk_replaced_;
       std::erase_if(self->bulk_, stale);
@@ -206,6 +214,7 @@ void MessageStream::write_next() {
   }
   writing_ = std::move(q.front());
   q.pop_front();
+  if (writing_->bulk) begun_[writing_->lane] = writing_->group;
   transport_->async_write(*writing_->bytes, writing_->framed,
                           [self = shared_from_this()](const boost::system::error_code& ec) {
                             const std::size_t n = self->writing_->bytes->size();

@@ -7,6 +7,8 @@
 #include <boost/beast/websocket/ssl.hpp>
 #include <optional>
 
+#include "socket_options.hpp"
+
 namespace arlight::wire {
 
 namespace asio = boost::asio;
@@ -54,7 +56,7 @@ class WebSocketTransport final : public Transport {
     boost::system::error_code ec;
     const auto ep = socket.remote_endpoint(ec);
     peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
-    socket.set_option(asio::ip::tcp::no_delay(true), ec);
+    configure_socket(socket);
   }
 
   asio::any_io_executor executor() override { return ws_->get_executor(); }
@@ -92,6 +94,12 @@ class WebSocketTransport final : public Transport {
       beast::get_lowest_layer(*ws_).socket().close(ec);
       return;
     }
+    // A peer gone quiet (a link in a blackout, a client closing a stalled connection to open a
+    // new one) gets a second for its closing handshake, not the opening one's ten.
+    websocket::stream_base::timeout timeout;
+    ws_->get_option(timeout);
+    timeout.handshake_timeout = std::chrono::seconds(1);
+    ws_->set_option(timeout);
     ws_->async_close(websocket::close_code::normal, [ws = ws_](boost::system::error_code) {
       boost::system::error_code ec;
       beast::get_lowest_layer(*ws).socket().close(ec);

@@ -47,3 +47,17 @@ add_dependencies(e2e_busy_machine_tests arlight-sim arlightd arlight-load)
 set_target_properties(e2e_busy_machine_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
 arlight_discover_sanitized_tests(e2e_busy_machine_tests DISCOVERY_TIMEOUT 60
   PROPERTIES TIMEOUT 120 RUN_SERIAL TRUE)
+
+# A phone on a shaped link (issue 36 §3): network namespaces, tbf and nftables; needs root.
+add_executable(e2e_shaped_link_tests ${CMAKE_CURRENT_LIST_DIR}/test_shaped_link.cpp)
+target_include_directories(e2e_shaped_link_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..)
+target_link_libraries(e2e_shaped_link_tests PRIVATE arlight_warnings GTest::gtest_main
+  nlohmann_json::nlohmann_json Boost::system Threads::Threads)
+target_compile_definitions(e2e_shaped_link_tests PRIVATE
+  ARLIGHT_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
+  ARLIGHT_SIM_EXE="$<TARGET_FILE:arlight-sim>"
+  ARLIGHTD_EXE="$<TARGET_FILE:arlightd>"
+  ARLIGHT_LOAD_EXE="$<TARGET_FILE:arlight-load>")
+add_dependencies(e2e_shaped_link_tests arlight-sim arlightd arlight-load)
+set_target_properties(e2e_shaped_link_tests PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+arlight_discover_sanitized_tests(e2e_shaped_link_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 120)

@@ -124,6 +124,7 @@ TEST(MessageStream, APeerThatDoesNotReadOverflowsTheBoundedQueue) {
 // Issue 36 §1: nothing the client needs now waits behind bulk data. To a peer that reads late,
 // a LightingUpdate sent after a map set's tiles arrives ahead of the tiles still queued, and a
 // newer set replaces what of the older one has not been written.
+// A set being written is finished; one not begun is replaced by a newer one (issue 36 §1, §3).
 TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
   Loopback net;
   Seen at_server, at_client;
@@ -135,33 +136,42 @@ TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
     return std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m));
   };
   constexpr int kTiles = 40;
-  for (int i = 0; i < kTiles; ++i) server->send_bulk(encoded(tile), 0, 1);
+  const auto send_set = [&](std::uint32_t set) {
+    tile.map_set = set;
+    for (int i = 0; i < kTiles; ++i) server->send_bulk(encoded(tile), 0, set);
+    server->send_bulk(encoded(wire::MapSetComplete{set, 1, 0.1f, 0.5f, 3}), 0, set);
+  };
+  send_set(1);  // begun at once
   wire::LightingUpdate update;
   update.frame_sequence = 7;
   server->send(update);
-  tile.map_set = 2;
-  for (int i = 0; i < kTiles; ++i) server->send_bulk(encoded(tile), 0, 2);
-  server->send_bulk(encoded(wire::MapSetComplete{2, 1, 0.1f, 0.5f, 3}), 0, 2);
+  send_set(2);  // waits whole behind set 1 ...
+  send_set(3);  // ... and is replaced by set 3
   // Only now does the client read.
   ASSERT_TRUE(eventually([&] { return server->bulk_replaced() > 0; }));
   auto client = stream(net.client);
   client->start(at_client.handlers());
-  ASSERT_TRUE(at_client.wait([&] {
-    return !at_client.messages.empty() &&
-           std::holds_alternative<wire::MapSetComplete>(at_client.messages.back());
-  }));
+  const auto completed = [&](std::uint32_t set) {
+    for (const wire::Message& m : at_client.messages)
+      if (const auto* c = std::get_if<wire::MapSetComplete>(&m); c && c->map_set == set)
+        return true;
+    return false;
+  };
+  ASSERT_TRUE(at_client.wait([&] { return completed(3); }));
   std::lock_guard lock(at_client.mutex);
-  int first = 0, second = 0, update_at = -1;
+  int tiles[4] = {0, 0, 0, 0}, update_at = -1;
   for (std::size_t i = 0; i < at_client.messages.size(); ++i) {
-    if (const auto* t = std::get_if<wire::MapTile>(&at_client.messages[i]))
-      (t->map_set == 1 ? first : second) += 1;
+    if (const auto* t = std::get_if<wire::MapTile>(&at_client.messages[i])) ++tiles[t->map_set];
     if (std::holds_alternative<wire::LightingUpdate>(at_client.messages[i])) update_at = int(i);
   }
-  EXPECT_EQ(second, kTiles);          // the newest set whole
-  EXPECT_LT(first, kTiles / 2);       // of the older one, only what the sockets held
-  EXPECT_EQ(std::uint64_t(kTiles - first), server->bulk_replaced());
+  EXPECT_EQ(tiles[1], kTiles);  // the set begun, whole
+  EXPECT_TRUE(completed(1));
+  EXPECT_EQ(tiles[2], 0);       // the one that waited, replaced
+  EXPECT_FALSE(completed(2));
+  EXPECT_EQ(tiles[3], kTiles);  // the newest, whole
+  EXPECT_EQ(server->bulk_replaced(), std::uint64_t(kTiles + 1));
   EXPECT_GE(update_at, 0);
-  EXPECT_LE(update_at, first);        // behind no tile that was still queued
+  EXPECT_LT(update_at, kTiles / 2);  // behind only what the sockets held, not set 1's rest
   client->close();
   server->close();
 }

@@ -40,8 +40,11 @@ class DaemonProcess {
  public:
   // `listen_port` 0: an ephemeral port (a restart can pass the previous one). `data_dir`:
   // the data folder (default dir/data; daemons behind a balancer share one).
+  // `host`: the address its client port listens on (a shaped link's, tests/support/shaped_link.sh).
   explicit DaemonProcess(const fs::path& dir, const std::vector<std::string>& extra_args = {},
-                         std::uint16_t listen_port = 0, const fs::path& data_dir = {}) {
+                         std::uint16_t listen_port = 0, const fs::path& data_dir = {},
+                         const std::string& host = "127.0.0.1")
+      : host_(host) {
     fs::create_directories(dir);
     data_ = data_dir.empty() ? dir / "data" : data_dir;
     std::ofstream(dir / "tokens") << "# device token\narlight-sim " << kToken << "\n"
@@ -55,7 +58,7 @@ class DaemonProcess {
       close(out[0]);
       std::vector<std::string> args = {ARLIGHTD_EXE,
                                        "--listen",
-                                       "127.0.0.1:" + std::to_string(listen_port),
+                                       host + ":" + std::to_string(listen_port),
                                        "--admin",
                                        "127.0.0.1:0",
                                        "--data-dir",
@@ -75,7 +78,7 @@ class DaemonProcess {
     close(out[1]);
     // A line on stdout names the ports ("arlightd: listening on 127.0.0.1:P, admin on A, web
     // on W"); the lines before it (the phone page's URL and QR code) are kept as the banner.
-    const std::regex ports(R"(listening on 127\.0\.0\.1:(\d+), admin on (\d+), web on (\d+))");
+    const std::regex ports(R"(listening on [0-9.]+:(\d+), admin on (\d+), web on (\d+))");
     std::string line, seen;
     std::smatch m;
     char c;
@@ -108,9 +111,10 @@ class DaemonProcess {
   std::uint16_t port() const { return port_; }
   std::uint16_t admin() const { return admin_; }
   std::uint16_t web() const { return web_; }  // 0 without --web
+  const fs::path& data_dir() const { return data_; }
   pid_t pid() const { return pid_; }
   const std::string& banner() const { return banner_; }
-  std::string server() const { return "127.0.0.1:" + std::to_string(port_); }
+  std::string server() const { return host_ + ":" + std::to_string(port_); }
   // The admin token the daemon made in its data folder (its last line).
   std::string admin_token() const {
     std::ifstream in(data_ / "admin.token");
@@ -127,6 +131,7 @@ class DaemonProcess {
  private:
   fs::path data_;
   pid_t pid_ = -1;
+  std::string host_;
   std::uint16_t port_ = 0, admin_ = 0, web_ = 0;
   std::string banner_;
 };

@@ -47,7 +47,8 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   double worst_lost_s = 0;  // frames lost in one outage of one session, in seconds of frames
   for (std::size_t s = 0; s < reports.size(); ++s) {
     const SessionReport& r = reports[s];
-    sent += r.sent, processed += r.processed, dropped += r.dropped, map_sets += r.map_sets;
+    sent += r.sent - r.replaced, processed += r.processed, dropped += r.dropped;
+    map_sets += r.map_sets, held_back += r.replaced;
     resent += r.resent, lost += r.lost;
     held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
@@ -62,7 +63,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
       j["errors"].push_back("session " + std::to_string(s) + ": " + r.error);
     }
     j["per_session"].push_back(
-        {{"frames_sent", r.sent},
+        {{"frames_sent", r.sent - r.replaced},
          {"frames_held_back", r.held_back},
          {"frames_held_in_flight", r.held_in_flight},
          {"bytes_sent", r.bytes_sent},
@@ -99,6 +100,18 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   // The frames' bytes a second per session: the uplink a phone would use.
   j["upload_bytes_per_s_per_session"] =
       reports.empty() ? 0.0 : double(bytes) / duration / double(reports.size());
+  // The daemon's bytes a second per session (its messages, before a WebSocket's compression):
+  // while the recording's first pass captures the room, and after it, as the same frames come
+  // again (the map settled).
+  double down_first = 0, down_after = 0;
+  for (const SessionReport& r : reports) {
+    if (r.first_pass_s > 0) down_first += double(r.bytes_received_first_pass) / r.first_pass_s;
+    if (duration > r.first_pass_s + 0.5)
+      down_after += double(r.bytes_received_after) / (duration - r.first_pass_s);
+  }
+  const double n = reports.empty() ? 1.0 : double(reports.size());
+  j["download_bytes_per_s_per_session"] = {{"capturing", down_first / n},
+                                           {"settled", down_after / n}};
   j["frames_processed"] = processed;
   j["frames_dropped"] = dropped;
   j["latency_ms"] = {
@@ -149,9 +162,12 @@ void print_summary(const nlohmann::json& j) {
       latency["p95"].get<double>(), latency["p99"].get<double>(), count("map_sets_completed"));
   std::printf(
       "frames held back by the daemon's advice: %llu (%llu while --max-in-flight were "
-      "unanswered); upload %.0f kB/s a session\n",
+      "unanswered); upload %.0f kB/s a session; download %.0f kB/s capturing, %.0f kB/s "
+      "settled\n",
       count("frames_held_back"), count("frames_held_in_flight"),
-      j["upload_bytes_per_s_per_session"].get<double>() / 1e3);
+      j["upload_bytes_per_s_per_session"].get<double>() / 1e3,
+      j["download_bytes_per_s_per_session"]["capturing"].get<double>() / 1e3,
+      j["download_bytes_per_s_per_session"]["settled"].get<double>() / 1e3);
   if (j["map_set_interval_ms"]["median"].get<double>() > 0.0)
     std::printf("map sets while sending: every %.0f ms (median session), %.0f ms (slowest)\n",
                 j["map_set_interval_ms"]["median"].get<double>(),

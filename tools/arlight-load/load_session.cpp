@@ -98,8 +98,10 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         report.map_set_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - first).count());
       };
+      // A reconnection tries for a second at a time: a link back from a blackout is used at once.
       const client::Welcome w =
-          c->connect(plan.host, plan.port, plan.device, plan.token, "arlight-load", resume);
+          c->connect(plan.host, plan.port, plan.device, plan.token, "arlight-load", resume,
+                     resume.empty() ? std::chrono::seconds(10) : std::chrono::seconds(1));
       if (!resume.empty() && !w.resumed)
         throw client::ClientError("SessionNotFound", "the daemon did not resume " + resume);
       c->send_intrinsics(rec.camera);
@@ -162,7 +164,13 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
       }
     };
     int reduction = 1;  // the advice's, as of the last frame it allowed
+    std::uint64_t received_before = 0;  // bytes of the connections before this one
+    std::optional<std::uint64_t> received_at_first_pass;
     for (std::uint64_t k = 0;; ++k) {
+      if (k == usable.size()) {  // the recording's first pass is over
+        received_at_first_pass = received_before + c->bytes_received();
+        report.first_pass_s = std::chrono::duration<double>(Clock::now() - first).count();
+      }
       const auto due = first + std::chrono::duration_cast<Clock::duration>(period * double(k));
       if (due - first > std::chrono::duration<double>(plan.duration)) break;
       for (;;) {  // until the frame is due; kept frames go meanwhile as updates make room
@@ -172,14 +180,20 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
       }
       if (!lost_since) {
         const auto e = c->server_error();
-        if (e || !c->connected()) {
-          const client::ClientError err(e ? e->first : "Network",
-                                        e ? e->second : "connection lost");
+        // A link gone quiet (a blackout) counts as lost: a new connection gets through the
+        // moment it is back, while the old one's TCP backs off for seconds (issue 36 §3).
+        const bool stalled = plan.reconnect_s > 0 && c->stalled();
+        if (e || !c->connected() || stalled) {
+          const client::ClientError err(
+              e ? e->first : "Network",
+              e ? e->second : stalled ? "no answer for 1.5 s" : "connection lost");
+          if (stalled) c->close();
           if (plan.reconnect_s <= 0 || !retryable(err)) throw err;
           lost_since = Clock::now(), next_attempt = Clock::now();
           outage = {std::chrono::duration<double>(*lost_since - start).count(), 0, 0, 0, 0};
           outage.lost = unsaved.given_up();  // until the resume: those given up before it
           map_sets_before += c->map_sets_completed();
+          received_before += c->bytes_received();
         }
       }
       if (lost_since && Clock::now() >= next_attempt) {
@@ -188,7 +202,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
           std::lock_guard lock(m);
           // What the resumed session lacks goes first (send_waiting below).
           unsaved.welcomed(w.last_sequence);
-          outage.to_resend = unsaved.size() - outage.delayed;
+          outage.to_resend = unsaved.size() - unsaved.waiting_unsent();
           outage.lost = unsaved.given_up() - outage.lost;
           outage.seconds = std::chrono::duration<double>(Clock::now() - *lost_since).count();
           outage_frames = report.sent;
@@ -226,8 +240,11 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         report.frame_latency_ms.push_back(std::nan(""));
         const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
         report.bytes_sent += jpeg.size();
+        // Without a daemon a phone's newest frames wait, as many as it keeps in flight.
+        const std::size_t max_unsent =
+            plan.follow_advice ? std::size_t(std::max(plan.max_in_flight, 0)) : 0;
         unsaved.keep(sequence, info, rec.camera.width / reduction, rec.camera.height / reduction,
-                     jpeg, send_now);
+                     jpeg, send_now, max_unsent);
         if (send_now) pacer.sent(now_s(), sequence);
         if (lost_since) ++outage.delayed;
       }
@@ -254,10 +271,16 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     {
       std::lock_guard lock(m);
       report.resent = unsaved.resent();
+      report.replaced = unsaved.replaced();
       report.lost = unsaved.given_up_unsent() + unsaved.waiting_unsent();
     }
     if (const auto e = c->server_error()) throw client::ClientError(e->first, e->second);
     report.map_sets = map_sets_before + c->map_sets_completed();
+    const std::uint64_t received = received_before + c->bytes_received();
+    report.bytes_received_first_pass = received_at_first_pass.value_or(received);
+    report.bytes_received_after = received - report.bytes_received_first_pass;
+    if (!received_at_first_pass)
+      report.first_pass_s = std::chrono::duration<double>(Clock::now() - first).count();
     c->bye();
     for (auto& w : watchers) {
       report.watcher_updates += w->updates_received();

@@ -32,9 +32,17 @@ struct SessionReport {
   // Frames sent again after resumes, and frames that never reached a session (dropped from the
   // kept ones, or still waiting at the end).
   std::uint64_t resent = 0, lost = 0;
+  // Frames due without a daemon that a newer one replaced before they went (a live camera's
+  // newest frame wins): counted in `sent` (they had a sequence) but never sent.
+  std::uint64_t replaced = 0;
   std::uint64_t held_back = 0;   // frames not sent: the daemon's frame advice asked for fewer
   std::uint64_t held_in_flight = 0;  // of them: held while max_in_flight were unanswered
   std::uint64_t bytes_sent = 0;  // of the frames' JPEGs
+  // What the daemon sent (client::Client::bytes_received, every connection): during the
+  // recording's first pass (the room being captured, `first_pass_s` long) and after it (the
+  // same frames again: a settled map).
+  std::uint64_t bytes_received_first_pass = 0, bytes_received_after = 0;
+  double first_pass_s = 0;
   std::vector<double> latency_ms;
   std::vector<double> map_set_ms;  // from the first frame to each completed map set
   // Per frame (index = sequence - 1): when it was sent (ms since the run started) and its

@@ -105,6 +105,10 @@ int main(int argc, char** argv) {
     std::vector<SessionReport> reports(static_cast<std::size_t>(sessions));
     std::vector<std::thread> threads;
     const auto start = Clock::now();
+    // The same moment on the wall clock, for scripts that time events against the run
+    // (bench/shaped_links.sh: when a blackout ended).
+    const double started_unix_s =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
     for (int s = 0; s < sessions; ++s)
       threads.emplace_back([&, s] {
         SessionPlan plan = base;
@@ -114,7 +118,8 @@ int main(int argc, char** argv) {
       });
     for (auto& t : threads) t.join();
 
-    const nlohmann::json j = report_json(reports, phases, rate, duration);
+    nlohmann::json j = report_json(reports, phases, rate, duration);
+    j["started_unix_s"] = started_unix_s;
     if (!json_path.empty()) write_file_atomically(json_path, j.dump(2) + "\n");
     if (!trace_path.empty()) write_file_atomically(trace_path, trace_csv(reports));
     print_summary(j);

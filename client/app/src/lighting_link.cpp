@@ -225,7 +225,10 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
   }
   {
     std::lock_guard lock(mutex_);
-    unsaved_.keep(sequence, info, width, height, jpeg, sent);
+    // A live camera's newest frames wait for a daemon, as many as it keeps in flight; a
+    // recording's every frame.
+    unsaved_.keep(sequence, info, width, height, jpeg, sent,
+                  std::size_t(std::max(options_.max_in_flight, 0)));
     if (sent) {
       ++stats_.frames_sent;
       pacer_.sent(info.timestamp, wire);
@@ -275,6 +278,7 @@ LinkStats LightingLink::stats() const {
   LinkStats s = stats_;
   s.refused = refused_;
   s.frames_resent = unsaved_.resent();
+  s.frames_held_back += unsaved_.replaced();  // a newer frame went in their place
   s.frames_not_sent = unsaved_.given_up_unsent() + unsaved_.waiting_unsent();
   return s;
 }

@@ -10,7 +10,10 @@
 #include <boost/beast/core/tcp_stream.hpp>
 #include <boost/beast/ssl.hpp>
 #include <boost/beast/websocket.hpp>
+#include <algorithm>
 #include <cstring>
+#include <functional>
+#include <optional>
 #include <thread>
 
 #include "arlight/protocol/message_stream.hpp"
@@ -46,6 +49,11 @@ struct Client::Impl {
   bool open = false;
   LightingState state;  // what the server's messages built (the one dispatch of them)
   std::optional<LightingUpdate> last_update;  // state's, with the time it arrived
+  // stalled(): when the last message arrived, the newest frame sent, and when the oldest frame
+  // no update has answered yet was sent (none: every frame is answered).
+  Clock::time_point last_received = Clock::now();
+  std::uint64_t newest_frame_sent = 0;
+  std::optional<Clock::time_point> unanswered_since;
   // The server's Error, or why the connection failed (Network, Protocol).
   std::optional<std::pair<std::string, std::string>> error;
   Client* owner = nullptr;
@@ -98,6 +106,7 @@ struct Client::Impl {
     std::optional<ReceivedMapSet> maps_copy;
     {
       std::lock_guard lock(mutex);
+      last_received = Clock::now();
       switch (state.receive(std::move(message))) {
         case LightingState::Change::Error:
           error = state.error();
@@ -106,6 +115,7 @@ struct Client::Impl {
           LightingUpdate u;
           static_cast<wire::LightingUpdate&>(u) = *state.last_update();
           u.received = Clock::now();
+          if (u.frame_sequence >= newest_frame_sent) unanswered_since.reset();
           last_update = u;
           update_cb = owner->on_update;
           update_copy = std::move(u);
@@ -172,6 +182,28 @@ void Client::add_capability(std::string capability) {
 
 void Client::watch(std::string session_id) { impl_->watch_session = std::move(session_id); }
 
+namespace {
+
+// Runs the asynchronous operation `start` (handed a completion that takes an error code) on `io`
+// until it completes or `deadline`; past it, `cancel()` and its completion is awaited. Every step
+// of connecting goes through it, so a server behind a link in a blackout (its SYNs or handshake
+// dropped) fails within the caller's timeout instead of the kernel's minutes of retries.
+boost::system::error_code run_until(
+    asio::io_context& io, Clock::time_point deadline,
+    const std::function<void(std::function<void(boost::system::error_code)>)>& start,
+    const std::function<void()>& cancel) {
+  std::optional<boost::system::error_code> result;
+  start([&result](boost::system::error_code ec) { result = ec; });
+  io.restart();
+  while (!result && Clock::now() < deadline) io.run_one_until(deadline);
+  if (result) return *result;
+  cancel();
+  while (!result) io.run_one();
+  return asio::error::timed_out;
+}
+
+}  // namespace
+
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                         const std::string& token, const std::string& client_name,
                         const std::string& resume_session, std::chrono::milliseconds timeout) {
@@ -182,37 +214,75 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
   if (ec) throw ClientError("Network", "cannot resolve " + host + ": " + ec.message());
   const std::string where = host + ":" + std::to_string(port);
+  const auto deadline = Clock::now() + timeout;
+  const auto in_time = [&](const boost::system::error_code& e) {
+    return e == asio::error::timed_out ? "no answer within " + std::to_string(timeout.count()) +
+                                             " ms"
+                                       : e.message();
+  };
   std::unique_ptr<wire::Transport> transport;
   if (d.websocket) {
     namespace beast = boost::beast;
     if (!d.tls_context) use_tls({.enabled = true, .ca_file = {}, .verify = true});
     beast::ssl_stream<beast::tcp_stream> tls(asio::make_strand(d.io), *d.tls_context);
-    beast::get_lowest_layer(tls).connect(endpoints, ec);
-    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
+    auto& socket = beast::get_lowest_layer(tls).socket();
+    const auto cancel = [&] {
+      boost::system::error_code ignored;
+      socket.close(ignored);
+    };
+    ec = run_until(
+        d.io, deadline,
+        [&](auto done) {
+          asio::async_connect(socket, endpoints, [done](auto e, const auto&) { done(e); });
+        },
+        cancel);
+    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + in_time(ec));
     SSL_set_tlsext_host_name(tls.native_handle(), host.c_str());
     if (d.tls_options.verify) tls.set_verify_callback(asio::ssl::host_name_verification(host));
-    tls.handshake(asio::ssl::stream_base::client, ec);
-    if (ec) throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
+    ec = run_until(
+        d.io, deadline,
+        [&](auto done) { tls.async_handshake(asio::ssl::stream_base::client, done); }, cancel);
+    if (ec) throw ClientError("TLS", "TLS handshake with " + where + " failed: " + in_time(ec));
     wire::SecureWebSocket ws(std::move(tls));
     wire::configure_websocket(ws, /*server=*/false);
-    ws.handshake(where, d.websocket_path, ec);
+    ec = run_until(
+        d.io, deadline, [&](auto done) { ws.async_handshake(where, d.websocket_path, done); },
+        [&] {
+          boost::system::error_code ignored;
+          beast::get_lowest_layer(ws).socket().close(ignored);
+        });
     if (ec)
       throw ClientError("Network", "WebSocket handshake with " + where + d.websocket_path +
-                                       " failed: " + ec.message());
+                                       " failed: " + in_time(ec));
     transport = wire::make_websocket_transport(std::move(ws));
   } else {
     tcp::socket socket(d.io);
-    asio::connect(socket, endpoints, ec);
-    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + ec.message());
+    const auto cancel = [&] {
+      boost::system::error_code ignored;
+      socket.close(ignored);
+    };
+    ec = run_until(
+        d.io, deadline,
+        [&](auto done) {
+          asio::async_connect(socket, endpoints, [done](auto e, const auto&) { done(e); });
+        },
+        cancel);
+    if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + in_time(ec));
     if (d.tls_context) {
       wire::TlsSocket tls(std::move(socket), *d.tls_context);
       // Server name indication, and the certificate must name the host (or its IP address).
       SSL_set_tlsext_host_name(tls.native_handle(), host.c_str());
       if (d.tls_options.verify) tls.set_verify_callback(asio::ssl::host_name_verification(host));
-      tls.handshake(asio::ssl::stream_base::client, ec);
+      ec = run_until(
+          d.io, deadline,
+          [&](auto done) { tls.async_handshake(asio::ssl::stream_base::client, done); },
+          [&] {
+            boost::system::error_code ignored;
+            tls.lowest_layer().close(ignored);
+          });
       if (ec) {
         tls.lowest_layer().close(ec);
-        throw ClientError("TLS", "TLS handshake with " + where + " failed: " + ec.message());
+        throw ClientError("TLS", "TLS handshake with " + where + " failed: " + in_time(ec));
       }
       transport = wire::make_tls_transport(std::move(tls), wire::TlsRole::Established);
     } else {
@@ -230,11 +300,13 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
     d.state.expect_any_maps();  // a watcher takes the sets the session streams
   }
   d.stream->start(d.handlers());
+  d.io.restart();  // the handshakes above may have left it stopped
   d.io_thread = std::thread([&d] { d.io.run(); });
   d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, d.capabilities,
                      resume_session, d.watch_session});
   std::unique_lock lock(d.mutex);
-  d.changed.wait_for(lock, timeout, [&] { return d.state.welcome() || d.error || !d.open; });
+  d.changed.wait_until(lock, std::max(deadline, Clock::now() + std::chrono::milliseconds(100)),
+                       [&] { return d.state.welcome() || d.error || !d.open; });
   if (d.state.welcome()) return *d.state.welcome();
   const auto err = d.error.value_or(std::pair<std::string, std::string>{"Network", "no Welcome"});
   lock.unlock();
@@ -250,6 +322,9 @@ void Client::send_intrinsics(const CameraIntrinsics& k) {
 void Client::send_jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
                              std::span<const std::uint8_t> jpeg) {
   impl_->send(jpeg_frame(sequence, info, width, height, jpeg));
+  std::lock_guard lock(impl_->mutex);
+  impl_->newest_frame_sent = std::max(impl_->newest_frame_sent, sequence);
+  if (!impl_->unanswered_since) impl_->unanswered_since = Clock::now();  // a frame is answered
 }
 
 void Client::request_maps(const std::vector<double>& shininess, int size, Projection projection,
@@ -341,6 +416,18 @@ std::uint64_t Client::updates_received() const {
 std::uint64_t Client::map_sets_completed() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->state.map_sets();
+}
+
+bool Client::stalled() const {
+  std::lock_guard lock(impl_->mutex);
+  if (!impl_->unanswered_since) return false;
+  const Clock::time_point quiet_since = std::max(impl_->last_received, *impl_->unanswered_since);
+  return std::chrono::duration<double>(Clock::now() - quiet_since).count() > kStallSeconds;
+}
+
+std::uint64_t Client::bytes_received() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->stream ? impl_->stream->bytes_received() : 0;
 }
 
 }  // namespace arlight::client

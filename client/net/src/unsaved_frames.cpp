@@ -3,11 +3,21 @@
 namespace arlight::client {
 
 void UnsavedFrames::keep(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                         std::span<const std::uint8_t> jpeg, bool sent) {
+                         std::span<const std::uint8_t> jpeg, bool sent, std::size_t max_unsent) {
   Kept k{{sequence, info, width, height, {jpeg.begin(), jpeg.end()}}, sent};
   bytes_ += k.frame.jpeg.size();
   frames_.push_back(std::move(k));
   if (sent && next_ == frames_.size() - 1) ++next_;  // nothing waited before it
+  if (!sent && max_unsent > 0 && waiting_unsent() > max_unsent) {
+    // The oldest frame never sent goes (those sent once stay: a checkpoint lacks them).
+    for (std::size_t i = next_; i < frames_.size(); ++i)
+      if (!frames_[i].ever_sent) {
+        bytes_ -= frames_[i].frame.jpeg.size();
+        frames_.erase(frames_.begin() + std::ptrdiff_t(i));
+        ++replaced_;
+        break;
+      }
+  }
   while (bytes_ > max_bytes_ && !frames_.empty()) {
     ++given_up_;
     if (!frames_.front().ever_sent) ++given_up_unsent_;

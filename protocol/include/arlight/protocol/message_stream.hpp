@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -88,7 +89,9 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   void send(std::shared_ptr<const std::vector<std::uint8_t>> envelope);
   // Bulk data (a map set's tiles, progress and completion): written only while no other message
   // waits, and replaced while it waits by a newer `group` of the same `lane` (a newer map set of
-  // the same kind), which drops what of the older groups has not been written yet.
+  // the same kind), which drops the older groups not begun yet. A group whose writing has begun
+  // is finished: on a link slower than the groups come, dropping it too would leave the client
+  // with halves of sets and never a whole one (issue 36 §3).
   void send_bulk(std::shared_ptr<const std::vector<std::uint8_t>> envelope, std::uint32_t lane,
                  std::uint64_t group);
   // Any thread: bytes onto the connection as they are, bypassing the framing (tests only).
@@ -99,6 +102,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   void close();
 
   std::size_t queued_bytes() const { return queued_bytes_.load(); }
+  // The messages read so far, in bytes (each Envelope and its 4-byte length).
+  std::uint64_t bytes_received() const { return bytes_received_.load(); }
   // Bulk messages dropped unwritten because a newer group of their lane came (send_bulk).
   std::uint64_t bulk_replaced() const { return bulk_replaced_.load(); }
   const std::string& peer() const { return peer_; }
@@ -128,6 +133,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   std::optional<Outgoing> writing_;   // the message being written
   std::atomic<std::size_t> queued_bytes_{0};  // of all three
   std::atomic<std::uint64_t> bulk_replaced_{0};
+  std::atomic<std::uint64_t> bytes_received_{0};
+  std::map<std::uint32_t, std::uint64_t> begun_;  // the newest group begun of each lane
   bool closing_ = false, ended_ = false;
 };
 

@@ -84,7 +84,8 @@ class Client {
   // capturing client; frames, intrinsics and requests are refused.
   void watch(std::string session_id);
 
-  // Connects and handshakes; throws ClientError (e.g. code "Unauthorized", "TLS").
+  // Connects and handshakes (TCP, TLS, WebSocket, Hello and Welcome) within `timeout`; throws
+  // ClientError (e.g. code "Unauthorized", "TLS", "Network" when nothing answered in time).
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                   const std::string& token, const std::string& client_name = "arlight-client-net",
                   const std::string& resume_session = {},
@@ -127,6 +128,13 @@ class Client {
   bool connected() const;
   std::uint64_t updates_received() const;
   std::uint64_t map_sets_completed() const;
+  // What the server sent on this connection so far, in bytes (its messages and their framing).
+  std::uint64_t bytes_received() const;
+  // A frame waits for its answer and nothing at all has come for kStallSeconds (since it was
+  // sent, or since the last message): a link in a blackout, on which TCP would back off and
+  // retry for seconds to minutes; reconnect instead (issue 36 §3).
+  static constexpr double kStallSeconds = 1.5;
+  bool stalled() const;
 
  private:
   struct Impl;

@@ -31,9 +31,12 @@ class UnsavedFrames {
 
   // A frame in sequence order: sent now (`sent`), or waiting to be sent (no daemon, or frames
   // before it still wait: a frame never goes before an older one, or the session would take
-  // the older as a duplicate).
+  // the older as a duplicate). `max_unsent` > 0 (a live camera): at most that many frames
+  // never sent wait, the newest; an older one is replaced (replaced()), as a live camera's
+  // newest frame wins everywhere else, so a long outage costs neither memory nor, once the link
+  // is back, seconds of stale frames.
   void keep(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-            std::span<const std::uint8_t> jpeg, bool sent);
+            std::span<const std::uint8_t> jpeg, bool sent, std::size_t max_unsent = 0);
   // LightingUpdate.saved_sequence: the frames up to it are in a checkpoint.
   void saved(std::uint64_t sequence);
   // A Welcome (after any handshake): the session holds the frames up to `last_sequence`; every
@@ -53,6 +56,7 @@ class UnsavedFrames {
   std::uint64_t given_up() const { return given_up_; }
   std::uint64_t given_up_unsent() const { return given_up_unsent_; }
   std::uint64_t waiting_unsent() const;  // waiting, never sent
+  std::uint64_t replaced() const { return replaced_; }  // by a newer one (keep's max_unsent)
 
  private:
   struct Kept {
@@ -65,7 +69,7 @@ class UnsavedFrames {
   std::deque<Kept> frames_;  // in sequence order; [next_, end) wait to be sent
   std::size_t next_ = 0;
   std::size_t bytes_ = 0;
-  std::uint64_t resent_ = 0, given_up_ = 0, given_up_unsent_ = 0;
+  std::uint64_t resent_ = 0, given_up_ = 0, given_up_unsent_ = 0, replaced_ = 0;
 };
 
 }  // namespace arlight::client
