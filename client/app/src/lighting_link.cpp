@@ -85,8 +85,10 @@ bool LightingLink::connect_once() {
   try {
     c->use_tls(options_.tls);
     if (options_.exposure_advice) c->add_capability(wire::kCapabilityExposureAdvice);
-    const client::Welcome w = c->connect(options_.host, options_.port, options_.device_id,
-                                         options_.token, "arlight-client", resume, 5s);
+    // A reconnection tries for a second at a time: a link back from a blackout is used at once.
+    const client::Welcome w =
+        c->connect(options_.host, options_.port, options_.device_id, options_.token,
+                   "arlight-client", resume, first_handshake_ ? 5000ms : 1000ms);
     c->send_intrinsics(options_.camera);
     if (options_.location &&
         wire::has_capability(w.capabilities, wire::kServerCapabilityLocation)) {
@@ -139,6 +141,12 @@ void LightingLink::run() {
     {
       std::lock_guard lock(mutex_);
       c = client_;
+    }
+    // A link gone quiet (a blackout): a new connection gets through the moment it is back,
+    // while this one's TCP backs off for seconds (issue 36 §3).
+    if (c && c->connected() && c->stalled()) {
+      spdlog::warn("arlightd has not answered for {} s; reconnecting", client::Client::kStallSeconds);
+      c->close();
     }
     if (c && c->connected()) {
       {
