@@ -160,6 +160,7 @@ bench: deps
 	  --probe data/probes/studio.exr --json out/bench/pbr.json --grid out/bench/pbr-spheres.png
 	for p in venice park; do node bench/three_spheres.mjs $(BUILD)/bin out/bench/three_$$p \
 	  data/probes/$$p.exr; done
+	bench/shaped_links.sh $(BUILD) out/bench/shaped_links
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out

@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -48,46 +49,48 @@ TEST(SessionLease, OneOwnerAtATimeAndFreeOnceLetGo) {
   EXPECT_EQ(SessionLease::owner_of(dir), "host-b pid=2");
 }
 
-// The fail-over case: the owner is killed with SIGKILL; its lease is free at once.
-TEST(SessionLease, TheKernelLetsGoWhenTheOwnerIsKilled) {
-  const fs::path dir = fresh_dir("killed") / "s";
+// A child process that takes the lease of `dir` as "child", then runs `then` with it (never
+// returning); its pid once it holds the lease, or -1 when it could not take it.
+pid_t lease_owner_process(const fs::path& dir, const std::function<void(SessionLease&)>& then) {
   int ready[2];
-  ASSERT_EQ(pipe(ready), 0);
+  if (pipe(ready) != 0) return -1;
   const pid_t child = fork();
   if (child == 0) {
     auto lease = SessionLease::try_acquire(dir, "child");
     const char ok = lease ? '1' : '0';
     [[maybe_unused]] const ssize_t n = write(ready[1], &ok, 1);
-    for (;;) pause();
+    if (lease) then(*lease);
+    _exit(0);
   }
   char ok = 0;
-  ASSERT_EQ(read(ready[0], &ok, 1), 1);
-  ASSERT_EQ(ok, '1');
+  const bool held = read(ready[0], &ok, 1) == 1 && ok == '1';
+  close(ready[0]), close(ready[1]);
+  return held ? child : -1;
+}
+
+// The fail-over case: the owner is killed with SIGKILL; its lease is free at once.
+TEST(SessionLease, TheKernelLetsGoWhenTheOwnerIsKilled) {
+  const fs::path dir = fresh_dir("killed") / "s";
+  const pid_t child = lease_owner_process(dir, [](SessionLease&) {
+    for (;;) pause();
+  });
+  ASSERT_GT(child, 0);
   EXPECT_FALSE(SessionLease::try_acquire(dir, "parent").has_value());
   kill(child, SIGKILL);
   waitpid(child, nullptr, 0);
   EXPECT_TRUE(SessionLease::try_acquire(dir, "parent").has_value());
-  close(ready[0]), close(ready[1]);
 }
 
 // A stopped owner (SIGSTOP) keeps its flock but stops renewing: its lease is taken over once
 // it expires, and the owner, continued, finds it has lost it (issue 36 §5).
 TEST(SessionLease, AStoppedOwnersLeaseIsTakenOverOnceItExpires) {
   const fs::path dir = fresh_dir("stopped") / "s";
-  int ready[2];
-  ASSERT_EQ(pipe(ready), 0);
-  const pid_t child = fork();
-  if (child == 0) {
-    auto lease = SessionLease::try_acquire(dir, "child");
-    const char ok = lease ? '1' : '0';
-    [[maybe_unused]] const ssize_t n = write(ready[1], &ok, 1);
-    // The owner's housekeeping: renew every 100 ms; exit 3 once the lease is lost.
-    while (lease && lease->renew()) std::this_thread::sleep_for(100ms);
+  // The owner's housekeeping: renew every 100 ms; exit 3 once the lease is lost.
+  const pid_t child = lease_owner_process(dir, [](SessionLease& lease) {
+    while (lease.renew()) std::this_thread::sleep_for(100ms);
     _exit(3);
-  }
-  char ok = 0;
-  ASSERT_EQ(read(ready[0], &ok, 1), 1);
-  ASSERT_EQ(ok, '1');
+  });
+  ASSERT_GT(child, 0);
   std::this_thread::sleep_for(SessionLease::kExpiry + 500ms);  // renewed all along
   EXPECT_FALSE(SessionLease::try_acquire(dir, "parent").has_value());
   kill(child, SIGSTOP);
@@ -108,7 +111,6 @@ TEST(SessionLease, AStoppedOwnersLeaseIsTakenOverOnceItExpires) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 3) << "the owner never saw it lost";
   EXPECT_TRUE(taken->renew());  // the new owner keeps it
   EXPECT_FALSE(SessionLease::try_acquire(dir, "third").has_value());
-  close(ready[0]), close(ready[1]);
 }
 
 TEST(SessionLease, HandOverRequestsComeAndGo) {

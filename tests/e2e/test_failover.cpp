@@ -81,24 +81,38 @@ bool eventually(Pred pred, std::chrono::milliseconds timeout) {
   return pred();
 }
 
+// Two daemons on one data folder, checkpointing every 0.5 s, and frames to send them.
+struct TwoDaemons {
+  explicit TwoDaemons(const std::string& name)
+      : dir(test::fresh_temp_dir(name)),
+        data(dir / "data"),
+        a(dir / "a", {"--checkpoint-interval", "0.5"}, 0, data),
+        b(dir / "b", {"--checkpoint-interval", "0.5"}, 0, data),
+        rec(recording::read_recording(test::daemon_sample_recording())) {}
+  void frame(client::Client& c, std::uint64_t seq) const {
+    c.send_jpeg_frame(seq, rec.frames[seq], rec.camera.width, rec.camera.height,
+                      recording::read_frame_bytes(rec, seq));
+  }
+  fs::path dir, data;
+  DaemonProcess a, b;
+  recording::Recording rec;
+};
+
 }  // namespace
 
 // A client resumes on daemon B a session that daemon A still holds (a balancer moved it): B
 // answers Busy and asks A, A checkpoints, closes its connection and lets go, and the retry
 // resumes the session on B with everything A had. A never writes it again.
 TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
-  const fs::path dir = test::fresh_temp_dir("failover_handover");
-  const fs::path data = dir / "data";
-  const std::vector<std::string> args = {"--checkpoint-interval", "0.5"};
-  DaemonProcess a(dir / "a", args, 0, data), b(dir / "b", args, 0, data);
-  const recording::Recording rec = recording::read_recording(test::daemon_sample_recording());
+  TwoDaemons two("failover_handover");
+  const fs::path& data = two.data;
+  DaemonProcess &a = two.a, &b = two.b;
+  const recording::Recording& rec = two.rec;
 
   client::Client on_a;
   const std::string id = on_a.connect("127.0.0.1", a.port(), "arlight-sim", kToken).session_id;
   on_a.send_intrinsics(rec.camera);
-  for (std::uint64_t seq = 1; seq <= 12; ++seq)
-    on_a.send_jpeg_frame(seq, rec.frames[seq], rec.camera.width, rec.camera.height,
-                         recording::read_frame_bytes(rec, seq));
+  for (std::uint64_t seq = 1; seq <= 12; ++seq) two.frame(on_a, seq);
   ASSERT_TRUE(on_a.wait_for(
       [&] {
         const auto u = on_a.last_update();
@@ -156,8 +170,7 @@ TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
   client::Client again;
   again.connect("127.0.0.1", b.port(), "arlight-sim", kToken, "t", id);
   again.send_intrinsics(rec.camera);
-  again.send_jpeg_frame(13, rec.frames[13], rec.camera.width, rec.camera.height,
-                        recording::read_frame_bytes(rec, 13));
+  two.frame(again, 13);
   ASSERT_TRUE(again.wait_for([&] { return again.updates_received() > 0; }, 20s));
   ASSERT_TRUE(eventually(
       [&] { return read_json(session / "session.json")["frames_received"] == 13; }, 10s));
@@ -171,15 +184,11 @@ TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
 // 5 s of the stop. A, continued, finds its lease taken, closes the session unsaved and never
 // writes it again.
 TEST(Failover, AStoppedOwnersSessionIsTakenOverWhenItsLeaseExpires) {
-  const fs::path dir = test::fresh_temp_dir("failover_sigstop");
-  const fs::path data = dir / "data";
-  const std::vector<std::string> args = {"--checkpoint-interval", "0.5"};
-  DaemonProcess a(dir / "a", args, 0, data), b(dir / "b", args, 0, data);
-  const recording::Recording rec = recording::read_recording(test::daemon_sample_recording());
-  const auto frame = [&](client::Client& c, std::uint64_t seq) {
-    c.send_jpeg_frame(seq, rec.frames[seq], rec.camera.width, rec.camera.height,
-                      recording::read_frame_bytes(rec, seq));
-  };
+  TwoDaemons two("failover_sigstop");
+  const fs::path& data = two.data;
+  DaemonProcess &a = two.a, &b = two.b;
+  const recording::Recording& rec = two.rec;
+  const auto frame = [&](client::Client& c, std::uint64_t seq) { two.frame(c, seq); };
 
   client::Client on_a;
   const std::string id = on_a.connect("127.0.0.1", a.port(), "arlight-sim", kToken).session_id;

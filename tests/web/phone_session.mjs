@@ -59,11 +59,12 @@ function holdFirstFrame(y4m, truth, count, width, height) {
  * arlightd on loopback with its web port serving `webRoot`; one device, "phone".
  * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>}>}
  */
-export async function startDaemon({ bin, dir, webRoot, token }) {
+export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1' }) {
   fs.mkdirSync(dir, { recursive: true });
   fs.writeFileSync(path.join(dir, 'tokens'), `phone ${token}\n`);
+  // `host`: the address it serves on (a shaped link's, bench/shaped_links.sh); admin on loopback.
   const daemon = spawn(path.join(bin, 'arlightd'), [
-    '--listen', '127.0.0.1:0', '--admin', '127.0.0.1:0', '--web', '127.0.0.1:0',
+    '--listen', `${host}:0`, '--admin', '127.0.0.1:0', '--web', `${host}:0`,
     '--web-root', webRoot, '--data-dir', path.join(dir, 'data'),
     '--tokens', path.join(dir, 'tokens'), '--idle-timeout', '600',
   ], { stdio: ['ignore', 'pipe', 'pipe'] });
@@ -75,7 +76,7 @@ export async function startDaemon({ bin, dir, webRoot, token }) {
     daemon.stdout.on('data', (d) => {
       out += d;
       const url = /phone page (\S+)/.exec(out);
-      const ports = /listening on 127\.0\.0\.1:(\d+), admin on (\d+), web on (\d+)/.exec(out);
+      const ports = /listening on [0-9.]+:(\d+), admin on (\d+), web on (\d+)/.exec(out);
       if (url && ports) {
         clearTimeout(timer);
         resolve({ url: url[1], web: Number(ports[3]), banner: out });

@@ -202,6 +202,23 @@ boost::system::error_code run_until(
   return asio::error::timed_out;
 }
 
+void close_quietly(tcp::socket& socket) {  // what cancels a pending connect or handshake
+  boost::system::error_code ignored;
+  socket.close(ignored);
+}
+
+// A TCP connection to one of `endpoints` by `deadline`.
+boost::system::error_code connect_by(asio::io_context& io, tcp::socket& socket,
+                                     const tcp::resolver::results_type& endpoints,
+                                     Clock::time_point deadline) {
+  return run_until(
+      io, deadline,
+      [&](auto done) {
+        asio::async_connect(socket, endpoints, [done](auto e, const auto&) { done(e); });
+      },
+      [&] { close_quietly(socket); });
+}
+
 }  // namespace
 
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
@@ -226,47 +243,27 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
     if (!d.tls_context) use_tls({.enabled = true, .ca_file = {}, .verify = true});
     beast::ssl_stream<beast::tcp_stream> tls(asio::make_strand(d.io), *d.tls_context);
     auto& socket = beast::get_lowest_layer(tls).socket();
-    const auto cancel = [&] {
-      boost::system::error_code ignored;
-      socket.close(ignored);
-    };
-    ec = run_until(
-        d.io, deadline,
-        [&](auto done) {
-          asio::async_connect(socket, endpoints, [done](auto e, const auto&) { done(e); });
-        },
-        cancel);
+    ec = connect_by(d.io, socket, endpoints, deadline);
     if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + in_time(ec));
     SSL_set_tlsext_host_name(tls.native_handle(), host.c_str());
     if (d.tls_options.verify) tls.set_verify_callback(asio::ssl::host_name_verification(host));
     ec = run_until(
         d.io, deadline,
-        [&](auto done) { tls.async_handshake(asio::ssl::stream_base::client, done); }, cancel);
+        [&](auto done) { tls.async_handshake(asio::ssl::stream_base::client, done); },
+        [&] { close_quietly(socket); });
     if (ec) throw ClientError("TLS", "TLS handshake with " + where + " failed: " + in_time(ec));
     wire::SecureWebSocket ws(std::move(tls));
     wire::configure_websocket(ws, /*server=*/false);
     ec = run_until(
         d.io, deadline, [&](auto done) { ws.async_handshake(where, d.websocket_path, done); },
-        [&] {
-          boost::system::error_code ignored;
-          beast::get_lowest_layer(ws).socket().close(ignored);
-        });
+        [&] { close_quietly(beast::get_lowest_layer(ws).socket()); });
     if (ec)
       throw ClientError("Network", "WebSocket handshake with " + where + d.websocket_path +
                                        " failed: " + in_time(ec));
     transport = wire::make_websocket_transport(std::move(ws));
   } else {
     tcp::socket socket(d.io);
-    const auto cancel = [&] {
-      boost::system::error_code ignored;
-      socket.close(ignored);
-    };
-    ec = run_until(
-        d.io, deadline,
-        [&](auto done) {
-          asio::async_connect(socket, endpoints, [done](auto e, const auto&) { done(e); });
-        },
-        cancel);
+    ec = connect_by(d.io, socket, endpoints, deadline);
     if (ec) throw ClientError("Network", "cannot connect to " + where + ": " + in_time(ec));
     if (d.tls_context) {
       wire::TlsSocket tls(std::move(socket), *d.tls_context);
@@ -276,10 +273,7 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
       ec = run_until(
           d.io, deadline,
           [&](auto done) { tls.async_handshake(asio::ssl::stream_base::client, done); },
-          [&] {
-            boost::system::error_code ignored;
-            tls.lowest_layer().close(ignored);
-          });
+          [&] { close_quietly(tls.next_layer()); });
       if (ec) {
         tls.lowest_layer().close(ec);
         throw ClientError("TLS", "TLS handshake with " + where + " failed: " + in_time(ec));
