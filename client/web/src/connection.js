@@ -11,6 +11,11 @@ import { showError, state } from './status.js';
 const kMaxBuffered = 256 * 1024;
 const kJpegQuality = 0.85;
 const kReconnectMs = 1000;
+// A link gone quiet (issue 36 §3, PROTOCOL.md item 5): a frame unanswered and nothing received
+// for this long, or a connection not open this long after it was asked for, is given up and a
+// new one opened at once; the browser's own TCP would back off for seconds after a blackout.
+const kStallMs = 1500;
+const kOpenTimeoutMs = 1500;
 const kLatenciesKept = 2000;
 const kSentKept = 1000;  // state.sent
 
@@ -37,17 +42,45 @@ export class Connection {
   open() {
     const ws = new WebSocket(`wss://${location.host}/ws`);
     this.ws = ws;
+    this.lastReceived = performance.now();
+    this.unansweredSince = null;  // when the oldest frame no update has answered yet went
     ws.binaryType = 'arraybuffer';
+    const opening = setTimeout(() => {
+      if (ws.readyState === WebSocket.CONNECTING) this.abandon(ws);
+    }, kOpenTimeoutMs);
     ws.onopen = () => {
+      clearTimeout(opening);
       ws.send(this.client.hello(this.device, this.token, state.sessionId));
       ws.send(this.client.intrinsics());
       ws.send(this.client.requestMaps());
     };
     ws.onmessage = (event) => this.receive(new Uint8Array(event.data));
     ws.onclose = () => {
+      clearTimeout(opening);
       state.connected = false;
       if (!this.refused) setTimeout(() => this.open(), kReconnectMs);
     };
+    if (!this.watchdog) this.watchdog = setInterval(() => this.checkStalled(), 250);
+  }
+
+  // A frame waits for its answer and nothing at all has come for kStallMs: the link is gone.
+  checkStalled() {
+    const { ws } = this;
+    if (!ws || ws.readyState !== WebSocket.OPEN || this.unansweredSince === null) return;
+    if (performance.now() - Math.max(this.lastReceived, this.unansweredSince) > kStallMs) {
+      showError('arlightd has not answered for 1.5 s: reconnecting');
+      this.abandon(ws);
+    }
+  }
+
+  // Gives `ws` up without waiting for its closing handshake (a quiet link may never complete
+  // it) and connects again at once; the Hello resumes the session.
+  abandon(ws) {
+    if (this.ws !== ws) return;
+    ws.onopen = ws.onmessage = ws.onclose = null;
+    ws.close();
+    state.connected = false;
+    this.open();
   }
 
   /** `message()`'s bytes, if the socket is open and it has any; nothing otherwise. */
@@ -84,11 +117,14 @@ export class Connection {
       // The frame drawn for the composite, reduced and encoded off the main thread.
       const jpeg = await this.encoder.encode(await take(), kJpegQuality, reduction);
       state.jpegMs = performance.now() - t0;
+      const { ws } = this;
+      if (!ws || ws.readyState !== WebSocket.OPEN) return;  // reconnecting meanwhile
       const seq = ++this.sequence;
-      this.ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg,
-                                     reduction));
+      ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg,
+                                reduction));
       this.sentAt.set(seq, performance.now());
-      state.framesSent = seq;
+      if (this.unansweredSince === null) this.unansweredSince = performance.now();
+      state.framesSent += 1;
       state.sent.push({ media_time: mediaTime, orientation: q, sequence: seq, sent_at_ms: Date.now() });
       if (state.sent.length > kSentKept) state.sent.shift();
       this.onFrameSent(q);
@@ -102,6 +138,7 @@ export class Connection {
   // One message from arlightd, into the client core (which keeps what it says: status.js reads
   // it from there); here only what the connection does about it.
   receive(bytes) {
+    this.lastReceived = performance.now();
     const name = this.client.receive(bytes);
     if (name === 'Welcome') {
       state.connected = true;
@@ -113,6 +150,7 @@ export class Connection {
       this.onWelcome();
     } else if (name === 'LightingUpdate') {
       this.reflected(this.client.lastSequence());
+      if (this.client.lastSequence() >= this.sequence) this.unansweredSince = null;
     } else if (name === 'Error') {
       const error = this.client.status().last_error;
       showError(`refused: ${error}`);
