@@ -10,7 +10,8 @@
 # phone page in headless Chromium run in the phone's namespace (bench/page_on_link.mjs: its own
 # latency figures, frames and map sets). Needs root.
 #   bench/shaped_links.sh [BUILD_DIR] [OUT]   (LINK_SECONDS=20; LINKS="20:0 5:2 ..." to choose;
-#                                              OLD=DIR: also run DIR's arlightd and arlight-load)
+#                                              OLD=DIR: also run DIR's arlightd and arlight-load,
+#                                              and its page where DIR/bin/web has one)
 set -eu
 build=${1:-build}
 out=${2:-out/bench/shaped_links}
@@ -30,10 +31,11 @@ cleanup() {
   [ -n "$daemon_pid" ] && kill -9 "$daemon_pid" 2>/dev/null || true
   "$link" down "$k" || true
 }
-trap cleanup EXIT INT TERM
+trap cleanup EXIT
+trap 'exit 1' INT TERM  # through the EXIT trap
 "$build/bin/arlight-sim" --env "$here/data/probes/venice.exr" --out "$out/rec" --frames 150 \
   --size 640x480 --seed 3 > /dev/null 2>&1
-echo "link shaped-link-token-0123456789" > "$out/tokens"
+echo "arlight-sim shaped-link-token-0123456789" > "$out/tokens"  # the recording's device
 
 # run_case BUILD NAME RATE LOSS [dark]
 run_case() {
@@ -51,19 +53,21 @@ run_case() {
     sleep 0.1
   done
   [ -n "$web" ] || { echo "shaped_links: arlightd did not start" >&2; exit 1; }
+  dark_pid=
   if [ -n "$dark" ]; then  # 8 s in, 3 s without a packet through
     (sleep 8; date +%s.%N > "$out/$name.dark_from"; "$link" loss "$k" 100; sleep 3
      "$link" loss "$k" "$loss"; date +%s.%N > "$out/$name.dark_until") &
+    dark_pid=$!
   fi
   ip netns exec "arlphone-$k" "$bin/arlight-load" --server "10.77.$k.1:$web" --websocket \
     --tls-ca "$out/data/tls/self-signed-cert.pem" --token shaped-link-token-0123456789 \
     --recording "$out/rec" --sessions 1 --rate 30 --maps --duration "$seconds" --reconnect 10 \
     --json "$out/$name.json" > "$out/$name.out" 2>&1 || true
-  wait 2>/dev/null || true
+  [ -z "$dark_pid" ] || wait "$dark_pid" || true
   kill -9 "$daemon_pid" 2>/dev/null || true
   daemon_pid=
   # The phone page through the same link: Chromium in the phone's namespace (PAGE=0: not).
-  if [ "${PAGE:-1}" = 1 ] && [ -z "$dark" ]; then
+  if [ "${PAGE:-1}" = 1 ] && [ -z "$dark" ] && [ -f "$bin/web/index.html" ]; then
     printf '#!/bin/sh\nexec ip netns exec arlphone-%s %s "$@"\n' "$k" "${CHROMIUM:-/usr/bin/chromium}" \
       > "$out/chromium-on-link.sh"
     chmod +x "$out/chromium-on-link.sh"
@@ -77,12 +81,12 @@ run_case() {
 names=
 for l in $links; do
   rate=$(echo "$l" | cut -d: -f1) loss=$(echo "$l" | cut -d: -f2) dark=$(echo "$l" | cut -d: -f3)
-  name="${rate}mbit_${loss}pct${dark:+_$dark}"
-  run_case "$build" "$name" "$rate" "$loss" "$dark"
-  names="$names $name"
+  case_name="${rate}mbit_${loss}pct${dark:+_$dark}"
+  run_case "$build" "$case_name" "$rate" "$loss" "$dark"
+  names="$names $case_name"
   if [ -n "${OLD:-}" ]; then
-    run_case "$OLD" "old_$name" "$rate" "$loss" "$dark"
-    names="$names old_$name"
+    run_case "$OLD" "old_$case_name" "$rate" "$loss" "$dark"
+    names="$names old_$case_name"
   fi
 done
 

@@ -1,7 +1,8 @@
 // The connection to arlightd: a WebSocket to the page's own origin (/ws) carrying the protocol
 // the module encodes and decodes (WebClient.hello, .frame, .receive, ...). Each time it opens:
 // Hello (resuming state.sessionId), the intrinsics, a map request; after a drop, the same again a
-// second later, unless arlightd refused the device, the protocol or the session (then for good).
+// second later, unless arlightd refused the device, the protocol or the session (then for good);
+// after a link gone quiet (no answer for 1.5 s), at once.
 // Frames go one at a time, encoded as JPEG off the main thread (jpeg_encoder.js), and only while
 // little waits in the socket: a frame offered meanwhile is skipped, and a newer one goes instead.
 import { JpegEncoder } from './jpeg_encoder.js';
