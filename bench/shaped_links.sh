@@ -59,7 +59,7 @@ run_case() {
      "$link" loss "$k" "$loss"; date +%s.%N > "$out/$name.dark_until") &
     dark_pid=$!
   fi
-  ip netns exec "arlphone-$k" "$bin/arlight-load" --server "10.77.$k.1:$web" --websocket \
+  $("$link" on-phone "$k") "$bin/arlight-load" --server "10.77.$k.1:$web" --websocket \
     --tls-ca "$out/data/tls/self-signed-cert.pem" --token shaped-link-token-0123456789 \
     --recording "$out/rec" --sessions 1 --rate 30 --maps --duration "$seconds" --reconnect 10 \
     --json "$out/$name.json" > "$out/$name.out" 2>&1 || true
@@ -68,7 +68,7 @@ run_case() {
   daemon_pid=
   # The phone page through the same link: Chromium in the phone's namespace (PAGE=0: not).
   if [ "${PAGE:-1}" = 1 ] && [ -z "$dark" ] && [ -f "$bin/web/index.html" ]; then
-    printf '#!/bin/sh\nexec ip netns exec arlphone-%s %s "$@"\n' "$k" "${CHROMIUM:-/usr/bin/chromium}" \
+    printf '#!/bin/sh\nexec %s %s "$@"\n' "$("$link" on-phone "$k")" "${CHROMIUM:-/usr/bin/chromium}" \
       > "$out/chromium-on-link.sh"
     chmod +x "$out/chromium-on-link.sh"
     CHROMIUM="$out/chromium-on-link.sh" node "$here/bench/page_on_link.mjs" "$bin" "$seconds" \

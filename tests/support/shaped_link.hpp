@@ -16,7 +16,12 @@ class ShapedLink {
   ShapedLink(int k, int rate_mbit, int loss_pct) : k_(k) {
     const RunResult r = run(" up " + std::to_string(k) + " " + std::to_string(rate_mbit) + " " +
                             std::to_string(loss_pct));
-    if (r.status != 0) throw std::runtime_error("shaped_link.sh up failed: " + r.output);
+    if (r.status != 0) {
+      run(" down " + std::to_string(k));  // what was made of it
+      throw std::runtime_error("shaped_link.sh up failed: " + r.output);
+    }
+    const RunResult p = run(" on-phone " + std::to_string(k));
+    on_phone_ = p.output.substr(0, p.output.find('\n')) + " ";
   }
   ~ShapedLink() { run(" down " + std::to_string(k_)); }
   ShapedLink(const ShapedLink&) = delete;
@@ -28,14 +33,15 @@ class ShapedLink {
     if (r.status != 0) throw std::runtime_error("shaped_link.sh loss failed: " + r.output);
   }
   std::string server_address() const { return "10.77." + std::to_string(k_) + ".1"; }
-  // The prefix that runs a command on the phone's side of the link.
-  std::string on_phone() const { return "ip netns exec arlphone-" + std::to_string(k_) + " "; }
+  // The prefix that runs a command on the phone's side of the link (nsenter into its namespace).
+  const std::string& on_phone() const { return on_phone_; }
 
  private:
   static RunResult run(const std::string& args) {
     return run_tool(std::string(ARLIGHT_SOURCE_DIR) + "/tests/support/shaped_link.sh", args);
   }
   int k_;
+  std::string on_phone_;
 };
 
 }  // namespace arlight::test
