@@ -15,7 +15,7 @@
 set -eu
 build=${1:-build}
 out=${2:-out/bench/shaped_links}
-seconds=${LINK_SECONDS:-20}
+seconds=${LINK_SECONDS:-20}  # whole seconds, 10 or more
 links=${LINKS:-"20:0 20:1 20:3 5:0 5:1 5:3 2:0 2:1 2:3 5:2:dark"}
 k=${LINK_K:-61}
 if [ "$(id -u)" -ne 0 ]; then
@@ -54,8 +54,8 @@ run_case() {
   done
   [ -n "$web" ] || { echo "shaped_links: arlightd did not start" >&2; exit 1; }
   dark_pid=
-  if [ -n "$dark" ]; then  # 8 s in, 3 s without a packet through
-    (sleep 8; date +%s.%N > "$out/$name.dark_from"; "$link" loss "$k" 100; sleep 3
+  if [ -n "$dark" ]; then  # 2/5 of the way in (8 s of 20), 3 s without a packet through
+    (sleep $((seconds * 2 / 5)); date +%s.%N > "$out/$name.dark_from"; "$link" loss "$k" 100; sleep 3
      "$link" loss "$k" "$loss"; date +%s.%N > "$out/$name.dark_until") &
     dark_pid=$!
   fi
