@@ -37,7 +37,7 @@ arlight_discover_sanitized_tests(e2e_tests DISCOVERY_TIMEOUT 60 PROPERTIES TIMEO
 set(ARLIGHT_E2E_DIR ${CMAKE_CURRENT_LIST_DIR})
 function(arlight_load_test_program name source)
   add_executable(${name} ${ARLIGHT_E2E_DIR}/${source})
-  target_include_directories(${name} PRIVATE ${ARLIGHT_E2E_DIR}/..)
+  target_include_directories(${name} PRIVATE ${ARLIGHT_E2E_DIR}/.. ${CMAKE_SOURCE_DIR}/common/include)
   target_link_libraries(${name} PRIVATE arlight_warnings GTest::gtest_main
     nlohmann_json::nlohmann_json Boost::system Threads::Threads)
   target_compile_definitions(${name} PRIVATE

@@ -300,7 +300,7 @@ struct Daemon::Impl {
     o.port = config.web_port;
     o.root = config.web_root.empty() ? default_web_root() : config.web_root;
     o.on_websocket = [this](std::unique_ptr<wire::Transport> t) { adopt(std::move(t)); };
-    o.admit = [this](const std::string& peer) { return admit_web_connection(peer); };
+    o.admit = [this](const std::string& address) { return admit_web_connection(address); };
     o.log = [this](const std::string& line) { log(line); };
     web_server = std::make_unique<WebServer>(io, *web_tls, std::move(o));
     phone_url = daemon::phone_url(
@@ -562,8 +562,7 @@ struct Daemon::Impl {
     std::string address;
   };
   std::vector<std::weak_ptr<WebConnectionSlot>> web_connections;  // connections_mutex
-  std::shared_ptr<void> admit_web_connection(const std::string& peer) {
-    const std::string address = peer_address(peer);
+  std::shared_ptr<void> admit_web_connection(const std::string& address) {
     std::string refused;
     {
       std::lock_guard lock(connections_mutex);
@@ -591,7 +590,10 @@ struct Daemon::Impl {
         from_address += other->address() == address;
       }
     for (const auto& w : web_connections)
-      if (const auto other = w.lock()) ++all, ++unauthenticated, from_address += other->address == address;
+      if (const auto other = w.lock()) {
+        ++all, ++unauthenticated;
+        from_address += other->address == address;
+      }
     if (all >= config.max_connections) {
       refused_total->inc();
       return "the limit of " + std::to_string(config.max_connections) + " connections";

@@ -341,12 +341,8 @@ void WebServer::Impl::accept() {
                           if (self->options.admit) {
                             beast::error_code peer_ec;
                             const auto peer = socket.remote_endpoint(peer_ec);
-                            slot = self->options.admit(
-                                peer_ec ? std::string("unknown")
-                                        : (peer.address().is_v6()
-                                               ? "[" + peer.address().to_string() + "]"
-                                               : peer.address().to_string()) +
-                                              ":" + std::to_string(peer.port()));
+                            slot = self->options.admit(peer_ec ? std::string("?")
+                                                               : peer.address().to_string());
                             if (!slot) {  // over a limit: closed before anything is read
                               socket.close(peer_ec);
                               self->accept();

@@ -24,11 +24,11 @@ struct WebServerOptions {
   // the transport starts).
   std::function<void(std::unique_ptr<wire::Transport>)> on_websocket;
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
-  // Each accepted connection's admission by its peer address ("host:port"): a slot the
+  // Each accepted connection's admission by its peer's IP address: a slot the
   // connection holds while it lasts (so plain HTTPS connections count against the daemon's
   // connection limits, issue 36), or nullptr to close it at once, before its TLS handshake.
   // Unset: every connection is admitted.
-  std::function<std::shared_ptr<void>(const std::string& peer)> admit;
+  std::function<std::shared_ptr<void>(const std::string& address)> admit;
 };
 
 // The response to a GET or HEAD of `target` (its path; a query is ignored) from `root`: the

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "arlight/common/build.hpp"
 #include "arlight/common/camera.hpp"
 #include "arlight/common/frame.hpp"
 #include "arlight/common/projection.hpp"
@@ -27,20 +28,6 @@
 #include "arlight/protocol/wire.hpp"
 
 namespace arlight::client {
-
-// Built with AddressSanitizer (make test-sanitize): everything runs several times slower, and
-// the link's timing allowances widen.
-#if defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kSanitizedBuild = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-inline constexpr bool kSanitizedBuild = true;
-#else
-inline constexpr bool kSanitizedBuild = false;
-#endif
-#else
-inline constexpr bool kSanitizedBuild = false;
-#endif
 
 // The server refused something or the connection failed; `code` is the wire ErrorCode's name
 // when the server sent an Error ("Unauthorized", ...), "Network" or "Protocol" otherwise.
