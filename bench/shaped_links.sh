@@ -11,7 +11,9 @@
 # latency figures, frames and map sets). Needs root.
 #   bench/shaped_links.sh [BUILD_DIR] [OUT]   (LINK_SECONDS=20; LINKS="20:0 5:2 ..." to choose;
 #                                              OLD=DIR: also run DIR's arlightd and arlight-load,
-#                                              and its page where DIR/bin/web has one)
+#                                              and its page where DIR/bin/web has one; WHOLE=1:
+#                                              also arlight-load --whole-sets, every map set
+#                                              whole as before issue 36 §2)
 set -eu
 build=${1:-build}
 out=${2:-out/bench/shaped_links}
@@ -37,9 +39,9 @@ trap 'exit 1' INT TERM  # through the EXIT trap
   --size 640x480 --seed 3 > /dev/null 2>&1
 echo "arlight-sim shaped-link-token-0123456789" > "$out/tokens"  # the recording's device
 
-# run_case BUILD NAME RATE LOSS [dark]
+# run_case BUILD NAME RATE LOSS [dark [arlight-load flag]]
 run_case() {
-  bin=$1/bin name=$2 rate=$3 loss=$4 dark=${5:-}
+  bin=$1/bin name=$2 rate=$3 loss=$4 dark=${5:-} load_flag=${6:-}
   "$link" up "$k" "$rate" "$loss"
   rm -rf "$out/data"
   fifo="$out/daemon.out"
@@ -62,12 +64,12 @@ run_case() {
   $("$link" on-phone "$k") "$bin/arlight-load" --server "10.77.$k.1:$web" --websocket \
     --tls-ca "$out/data/tls/self-signed-cert.pem" --token shaped-link-token-0123456789 \
     --recording "$out/rec" --sessions 1 --rate 30 --maps --duration "$seconds" --reconnect 10 \
-    --json "$out/$name.json" > "$out/$name.out" 2>&1 || true
+    --json "$out/$name.json" $load_flag > "$out/$name.out" 2>&1 || true
   [ -z "$dark_pid" ] || wait "$dark_pid" || true
   kill -9 "$daemon_pid" 2>/dev/null || true
   daemon_pid=
   # The phone page through the same link: Chromium in the phone's namespace (PAGE=0: not).
-  if [ "${PAGE:-1}" = 1 ] && [ -z "$dark" ] && [ -f "$bin/web/index.html" ]; then
+  if [ "${PAGE:-1}" = 1 ] && [ -z "$dark" ] && [ -z "$load_flag" ] && [ -f "$bin/web/index.html" ]; then
     printf '#!/bin/sh\nexec %s %s "$@"\n' "$("$link" on-phone "$k")" "${CHROMIUM:-/usr/bin/chromium}" \
       > "$out/chromium-on-link.sh"
     chmod +x "$out/chromium-on-link.sh"
@@ -84,6 +86,10 @@ for l in $links; do
   case_name="${rate}mbit_${loss}pct${dark:+_$dark}"
   run_case "$build" "$case_name" "$rate" "$loss" "$dark"
   names="$names $case_name"
+  if [ "${WHOLE:-0}" = 1 ]; then
+    run_case "$build" "whole_$case_name" "$rate" "$loss" "$dark" --whole-sets
+    names="$names whole_$case_name"
+  fi
   if [ -n "${OLD:-}" ]; then
     run_case "$OLD" "old_$case_name" "$rate" "$loss" "$dark"
     names="$names old_$case_name"
@@ -93,7 +99,7 @@ done
 python3 - "$out" $names <<'PY'
 import json, os, sys
 out, names = sys.argv[1], sys.argv[2:]
-rows = ["| link | p50 ms | p99 ms | map sets (median interval) | frames sent / dropped / lost | down kB/s capturing / settled | back after the blackout | the page: p50 / p99 ms, frames, map sets |",
+rows = ["| link | p50 ms | p99 ms | map sets (median interval; as changes) | frames sent / dropped / lost | down kB/s capturing / settled | back after the blackout | the page: p50 / p99 ms, frames, map sets |",
         "|---|---|---|---|---|---|---|---|"]
 def page(n):
     p = f"{out}/{n}.page.json"
@@ -120,7 +126,7 @@ for n in names:
         back = f"{len(j['outages'])} outages noticed"
     interval = j["map_set_interval_ms"]["median"]
     rows.append(f"| {n} | {lat['p50']:.0f} | {lat['p99']:.0f} | {j['map_sets_completed']} "
-                f"({interval:.0f} ms) | {j['frames_sent']} / {j['frames_dropped']} / "
+                f"({interval:.0f} ms; {j.get('map_sets_from_changes', '-')}) | {j['frames_sent']} / {j['frames_dropped']} / "
                 f"{j.get('frames_lost', '-')} | {down.get('capturing', 0) / 1e3:.0f} / "
                 f"{down.get('settled', 0) / 1e3:.0f} | {back}{' (failed)' if j['failed'] else ''} | {page(n)} |")
 open(f"{out}/shaped_links.md", "w").write("\n".join(rows) + "\n")

@@ -142,7 +142,9 @@ Offset<void> build(FlatBufferBuilder& b, const MapTile& m) {
 }
 
 Offset<void> build(FlatBufferBuilder& b, const MapSetComplete& m) {
-  return fb::CreateMapSetComplete(b, m.map_set, m.maps, m.seconds, m.coverage, m.frames).Union();
+  return fb::CreateMapSetComplete(b, m.map_set, m.maps, m.seconds, m.coverage, m.frames,
+                                   m.base_set, m.tiles)
+      .Union();
 }
 
 Offset<void> build(FlatBufferBuilder& b, const Progress& m) {
@@ -450,7 +452,8 @@ MapTile read(const fb::MapTile& m, const WireLimits&) {
 }
 
 MapSetComplete read(const fb::MapSetComplete& m, const WireLimits&) {
-  return {m.map_set(), m.maps(), m.seconds(), m.coverage(), m.frames()};
+  return {m.map_set(), m.maps(),      m.seconds(), m.coverage(),
+          m.frames(),  m.base_set(), m.tiles()};
 }
 
 Progress read(const fb::Progress& m, const WireLimits&) {

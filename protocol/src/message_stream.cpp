@@ -6,6 +6,7 @@
 #include <boost/asio/ssl.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/asio/write.hpp>
+#include <future>
 #include <variant>
 
 #include "socket_options.hpp"
@@ -194,6 +195,25 @@ void MessageStream::enqueue(Outgoing message) {
     }
     if (!self->writing_) self->write_next();
   });
+}
+
+std::optional<std::uint64_t> MessageStream::bulk_begun(std::uint32_t lane,
+                                                       std::chrono::milliseconds timeout) {
+  // Posted behind the messages sent before it (the executor is a strand: in order), so what it
+  // reads counts their replacements.
+  auto answer = std::make_shared<std::promise<std::optional<std::uint64_t>>>();
+  auto result = answer->get_future();
+  asio::post(executor_, [self = shared_from_this(), lane, answer] {
+    if (self->ended_) return answer->set_value(std::nullopt);
+    const auto it = self->begun_.find(lane);
+    answer->set_value(it == self->begun_.end() ? 0 : it->second);
+  });
+  if (result.wait_for(timeout) != std::future_status::ready) return std::nullopt;
+  try {
+    return result.get();
+  } catch (const std::future_error&) {  // the executor was destroyed with the post in it
+    return std::nullopt;
+  }
 }
 
 void MessageStream::drop_queued() {

@@ -20,25 +20,28 @@ namespace {
 // Angle maps of 16x16 in 8x8 tiles; each map's texels hold its index + 1.
 constexpr int kSize = 16, kTile = 8;
 
+// One 8x8 tile of map k of `set`, every texel `value`.
+wire::MapTile tile_of(std::uint32_t set, int k, int x, int y, float value) {
+  const std::vector<float> px(std::size_t(kTile * kTile * 3), value);
+  return {.map_set = set,
+          .map_index = std::uint16_t(k),
+          .shininess = float(10 * (k + 1)),
+          .projection = Projection::AngleMap,
+          .map_width = kSize,
+          .map_height = kSize,
+          .level = 0,
+          .x = std::uint32_t(x),
+          .y = std::uint32_t(y),
+          .width = kTile,
+          .height = kTile,
+          .data = wire::encode_half_rgb(px.data(), px.size() / 3)};
+}
+
 std::vector<wire::MapTile> tiles_of(std::uint32_t set, int maps) {
   std::vector<wire::MapTile> out;
   for (int k = 0; k < maps; ++k)
     for (int y = 0; y < kSize; y += kTile)
-      for (int x = 0; x < kSize; x += kTile) {
-        const std::vector<float> px(std::size_t(kTile * kTile * 3), float(k + 1));
-        out.push_back({.map_set = set,
-                       .map_index = std::uint16_t(k),
-                       .shininess = float(10 * (k + 1)),
-                       .projection = Projection::AngleMap,
-                       .map_width = kSize,
-                       .map_height = kSize,
-                       .level = 0,
-                       .x = std::uint32_t(x),
-                       .y = std::uint32_t(y),
-                       .width = kTile,
-                       .height = kTile,
-                       .data = wire::encode_half_rgb(px.data(), px.size() / 3)});
-      }
+      for (int x = 0; x < kSize; x += kTile) out.push_back(tile_of(set, k, x, y, float(k + 1)));
   return out;
 }
 
@@ -77,6 +80,15 @@ wire::MapSetComplete done(std::uint32_t set, int maps) {
       .map_set = set, .maps = std::uint16_t(maps), .seconds = 0.1f, .coverage = 0.5f, .frames = 7};
 }
 
+// A set sent as its change from `base`, `tiles` level-0 tiles of it.
+wire::MapSetComplete change(std::uint32_t set, int maps, std::uint32_t base, std::uint32_t tiles) {
+  wire::MapSetComplete c = done(set, maps);
+  c.base_set = base;
+  c.tiles = tiles;
+  c.frames = 8;
+  return c;
+}
+
 }  // namespace
 
 TEST(MapSetAssembler, AWholeSetCompletesWithEveryMapAndItsShininess) {
@@ -109,6 +121,77 @@ TEST(MapSetAssembler, ASetMissingItsFirstTilesIsDroppedAndTheNextWholeOneUsed) {
   const auto set = a.complete(done(6, 3));
   ASSERT_TRUE(set);
   EXPECT_EQ(set->shininess, (std::vector<double>{10.0, 20.0, 30.0}));
+}
+
+// Issue 36 §2: a set sent as what changed takes its other tiles from the set it names, one of
+// the two newest this client completed; a change against any other, or missing one of its
+// tiles (begun on an earlier connection), is not used.
+TEST(MapSetAssembler, ASetOfChangesTakesTheRestFromTheSetItNames) {
+  MapSetAssembler a;
+  a.expect(phong({10.0, 20.0}));
+  for (const auto& t : tiles_of(3, 2)) a.add_tile(t);
+  const auto whole = a.complete(done(3, 2));
+  ASSERT_TRUE(whole);
+  a.add_tile(tile_of(4, 1, 8, 0, 9.0f));  // one tile of map 1 moved
+  const auto set = a.complete(change(4, 2, 3, 1));
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->id, 4u);
+  EXPECT_EQ(set->base_set, 3u);
+  EXPECT_EQ(set->frames, 8u);
+  EXPECT_EQ(set->shininess, (std::vector<double>{10.0, 20.0}));
+  EXPECT_EQ(set->maps[1].image.at(8, 0).r, 9.0f);
+  EXPECT_EQ(set->maps[1].image.at(15, 7).g, 9.0f);
+  EXPECT_EQ(set->maps[1].image.at(7, 0).r, 2.0f);   // the base's, beside it
+  EXPECT_EQ(set->maps[1].image.at(8, 8).r, 2.0f);
+  EXPECT_EQ(set->maps[0].image.at(8, 0).r, 1.0f);   // a map with no change: the base's
+  EXPECT_EQ(whole->maps[1].image.at(8, 0).r, 2.0f);  // the base itself is untouched
+
+  // Nothing changed: the base's maps under the new set's number.
+  const auto same = a.complete(change(5, 2, 4, 0));
+  ASSERT_TRUE(same);
+  EXPECT_EQ(same->maps[1].image.at(8, 0).r, 9.0f);
+  // Against the second newest (4; 5 is newer): still held.
+  a.add_tile(tile_of(6, 0, 0, 8, 5.0f));
+  const auto older = a.complete(change(6, 2, 4, 1));
+  ASSERT_TRUE(older);
+  EXPECT_EQ(older->maps[0].image.at(0, 8).r, 5.0f);
+  EXPECT_EQ(older->maps[1].image.at(8, 0).r, 9.0f);
+
+  // A base no longer held (3: 5 and 6 are the newest two), one that never was, a change
+  // missing one of its two tiles: dropped.
+  EXPECT_FALSE(a.complete(change(7, 2, 3, 0)));
+  EXPECT_FALSE(a.complete(change(8, 2, 99, 0)));
+  a.add_tile(tile_of(9, 0, 0, 0, 3.0f));
+  EXPECT_FALSE(a.complete(change(9, 2, 6, 2)));
+  // Another request: its sets start whole, and nothing before it is a base.
+  a.expect(phong({10.0, 20.0}));
+  EXPECT_FALSE(a.complete(change(10, 2, 6, 0)));
+  for (const auto& t : tiles_of(11, 2)) a.add_tile(t);
+  EXPECT_TRUE(a.complete(done(11, 2)));
+  EXPECT_TRUE(a.complete(change(12, 2, 11, 0)));
+}
+
+// A chain sent as changes: a level's first changed tile makes that level at its own size,
+// even when the levels before it changed nowhere.
+TEST(MapSetAssembler, AChainOfChangesKeepsEachLevelsSize) {
+  MapSetAssembler a;
+  a.expect(ggx_request(16, 3));
+  for (const auto& t : chain_of(1, {0.0f, 0.3f, 1.0f})) a.add_tile(t);
+  ASSERT_TRUE(a.complete(done(1, 3)));
+  const auto chain = chain_of(2, {0.0f, 0.3f, 1.0f});
+  std::vector<wire::MapTile> changed;
+  for (const auto& t : chain)
+    if (t.map_index == 2) changed.push_back(t);  // level 2 (4x24) only
+  for (auto t : changed) {
+    const std::vector<float> px(std::size_t(t.width * t.height * 3), 7.0f);
+    t.data = wire::encode_half_rgb(px.data(), px.size() / 3);
+    a.add_tile(t);
+  }
+  const auto set = a.complete(change(2, 3, 1, std::uint32_t(changed.size())));
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->maps[2].image.at(3, 23).r, 7.0f);
+  EXPECT_EQ(set->maps[1].image.at(7, 47).r, 2.0f);
+  EXPECT_EQ(set->maps[0].layout.width(), 16);
 }
 
 // A whole set that answers another request (a resumed session's set in flight for the earlier

@@ -149,6 +149,9 @@ TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
   send_set(3);  // ... and is replaced by set 3
   // Only now does the client read.
   ASSERT_TRUE(eventually([&] { return server->bulk_replaced() > 0; }));
+  // What a set sent now would be sent against (issue 36 §2): set 1, the one begun.
+  EXPECT_EQ(server->bulk_begun(0, 5s), std::optional<std::uint64_t>(1));
+  EXPECT_EQ(server->bulk_begun(1, 5s), std::optional<std::uint64_t>(0));  // another lane
   auto client = stream(net.client);
   client->start(at_client.handlers());
   const auto completed = [&](std::uint32_t set) {
@@ -170,6 +173,7 @@ TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
   EXPECT_FALSE(completed(2));
   EXPECT_EQ(tiles[3], kTiles);  // the newest, whole
   EXPECT_EQ(server->bulk_replaced(), std::uint64_t(kTiles + 1));
+  EXPECT_EQ(server->bulk_begun(0, 5s), std::optional<std::uint64_t>(3));
   EXPECT_GE(update_at, 0);
   EXPECT_LT(update_at, kTiles / 2);  // behind only what the sockets held, not set 1's rest
   client->close();
@@ -185,6 +189,7 @@ TEST(MessageStream, SendsAfterTheEndAreDropped) {
   ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
   server->send(wire::Ping{1});
   EXPECT_TRUE(eventually([&] { return server->queued_bytes() == 0; }));
+  EXPECT_EQ(server->bulk_begun(0, 5s), std::nullopt);  // ended: no set will be written
 }
 
 }  // namespace

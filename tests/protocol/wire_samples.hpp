@@ -61,7 +61,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
                            .advised_fps = 10.0f},
       wire::MapTile{3, 2, 40.0f, Projection::LatLong, 256, 128, 0, 64, 64, 64, 64, {1, 2, 3},
                     wire::TileCoding::Half, wire::MapKind::Ggx, 0.25f},
-      wire::MapSetComplete{3, 8, 0.25f, 0.5f, 120},
+      wire::MapSetComplete{3, 8, 0.25f, 0.5f, 120, 2, 17},
       wire::Progress{3, 5, 10},
       wire::Error{wire::ErrorCode::SessionNotFound, "no session 42 for this device"},
       wire::Pong{42},

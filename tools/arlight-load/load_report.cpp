@@ -35,6 +35,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   nlohmann::json j;
   std::vector<double> all;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0, held_back = 0, bytes = 0;
+  std::uint64_t map_sets_from_changes = 0;
   std::uint64_t resent = 0, lost = 0;
   std::uint64_t held_in_flight = 0;
   std::vector<double> watcher_latency;
@@ -49,6 +50,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
     const SessionReport& r = reports[s];
     sent += r.sent - r.replaced, processed += r.processed, dropped += r.dropped;
     map_sets += r.map_sets, held_back += r.replaced;
+    map_sets_from_changes += r.map_sets_from_changes;
     resent += r.resent, lost += r.lost;
     held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
@@ -117,6 +119,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   j["latency_ms"] = {
       {"p50", percentile(all, 50)}, {"p95", percentile(all, 95)}, {"p99", percentile(all, 99)}};
   j["map_sets_completed"] = map_sets;
+  j["map_sets_from_changes"] = map_sets_from_changes;  // sent as the tiles that changed
   // --watchers: frame sent by its session -> the LightingUpdate at a watcher; their totals.
   j["watchers"] = {{"latency_ms",
                     {{"p50", percentile(watcher_latency, 50)},

@@ -69,6 +69,8 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     Clock::time_point first;
     const auto open = [&](const std::string& resume) {
       auto c = std::make_unique<client::Client>();
+      if (plan.whole_sets)
+        c->set_capabilities({"maps", "jpeg", wire::kCapabilityTilesZstd, wire::kCapabilityTilesHalf});
       plan.connection.apply(*c);
       {
         std::lock_guard lock(m);
@@ -93,8 +95,9 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         unsaved.saved(u.saved_sequence);
         answer.notify_all();
       };
-      c->on_map_set_complete = [&](const client::ReceivedMapSet&) {
+      c->on_map_set_complete = [&](const client::ReceivedMapSet& set) {
         std::lock_guard lock(m);
+        if (set.base_set != 0) ++report.map_sets_from_changes;
         report.map_set_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - first).count());
       };

@@ -29,6 +29,7 @@ struct SessionReport {
   bool failed = false;
   std::string error;
   std::uint64_t sent = 0, processed = 0, dropped = 0, map_sets = 0;
+  std::uint64_t map_sets_from_changes = 0;  // of them: sent as what changed (base_set)
   // Frames sent again after resumes, and frames that never reached a session (dropped from the
   // kept ones, or still waiting at the end).
   std::uint64_t resent = 0, lost = 0;
@@ -77,6 +78,8 @@ struct SessionPlan {
   // Devices watching each session (Hello's watch_session) with the device's own token; they
   // only receive.
   int watchers = 0;
+  // Take every map set whole (a Hello without maps:deltas, as clients before issue 36 §2).
+  bool whole_sets = false;
 };
 
 // The recording's JPEGs at the camera's size and, with `reduced`, also reduced by 2, 4 and 8

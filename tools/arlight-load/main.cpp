@@ -66,6 +66,10 @@ int main(int argc, char** argv) {
                  "seconds a session may be without its daemon (killed, restarted, behind a "
                  "balancer) while it reconnects and resumes; 0: a lost connection fails it")
       ->capture_default_str();
+  bool whole_sets = false;
+  app.add_flag("--whole-sets", whole_sets,
+               "take every map set whole, as clients did before sets were sent as what changed "
+               "(a Hello without maps:deltas; for comparisons)");
   tools::ConnectionFlags connection;
   connection.add_to(app);
   try {
@@ -99,6 +103,7 @@ int main(int argc, char** argv) {
     base.follow_advice = !ignore_advice;
     base.max_in_flight = max_in_flight;
     base.watchers = watchers;
+    base.whole_sets = whole_sets;
     const FrameJpegs frames(std::move(jpegs), rec.camera.width, rec.camera.height,
                             base.follow_advice);
 

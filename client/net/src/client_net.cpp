@@ -37,7 +37,7 @@ struct Client::Impl {
   bool websocket = false;
   std::string websocket_path = "/ws";
   std::vector<std::string> capabilities = {"maps", "jpeg", wire::kCapabilityTilesZstd,
-                                           wire::kCapabilityTilesHalf};
+                                           wire::kCapabilityTilesHalf, wire::kCapabilityMapDeltas};
   std::string watch_session;  // Hello.watch_session: a watcher
   std::unique_ptr<asio::ssl::context> tls_context;
   std::shared_ptr<wire::MessageStream> stream;

@@ -48,7 +48,7 @@ LightingState::Change LightingState::receive(wire::Message&& message) {
   if (auto* c = std::get_if<wire::MapSetComplete>(&message)) {
     auto set = assembler_.complete(*c);
     if (!set) return Change::Nothing;
-    newest_set_ = std::make_shared<const ReceivedMapSet>(std::move(*set));
+    newest_set_ = std::move(set);
     lighting_.apply(newest_set_);
     ++map_sets_;
     return Change::MapSet;

@@ -167,15 +167,22 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
   if (!m.watch_session.empty()) return watch(m);
   std::weak_ptr<wire::MessageStream> weak = stream_;
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
-  attachment_ = session_->attach(
-      [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
-        if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
-      },
-      wire::choose_tile_coding(m.capabilities),
-      [weak_self] {
-        if (auto self = weak_self.lock()) self->close();  // handed over to another daemon
-      },
-      wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice));
+  Session::ClientLink client;
+  client.send = [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
+    if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
+  };
+  client.tile_coding = wire::choose_tile_coding(m.capabilities);
+  client.disconnect = [weak_self] {
+    if (auto self = weak_self.lock()) self->close();  // handed over to another daemon
+  };
+  client.exposure_advice = wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice);
+  if (wire::has_capability(m.capabilities, wire::kCapabilityMapDeltas))
+    client.bulk_begun = [weak](std::uint32_t lane) -> std::optional<std::uint64_t> {
+      const auto stream = weak.lock();
+      if (!stream) return std::nullopt;
+      return stream->bulk_begun(lane, std::chrono::milliseconds(500));
+    };
+  attachment_ = session_->attach(std::move(client));
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(welcome(!m.resume_session.empty()));
   authenticated_ = true;

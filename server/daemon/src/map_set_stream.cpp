@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include "arlight/common/resample.hpp"
 #include "arlight/lighting/lighting.hpp"
@@ -100,6 +101,12 @@ SetMaps compute_set(const MapSetJob& job, const lighting::Hooks& hooks) {
 
 double stream_map_set(const MapSetJob& job, std::stop_token stop,
                       const std::function<void(const wire::Message&)>& send) {
+  return stream_map_set(job, stop, [&](const wire::Message& m, Audience) { send(m); });
+}
+
+double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSink& send_to,
+                      MapSetDeltas* changes, std::uint32_t base) {
+  const auto send = [&](const wire::Message& m) { send_to(m, Audience::Everyone); };
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   const std::uint32_t id = job.id;
@@ -120,13 +127,16 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     arena.initialize();
     const BackgroundPriority background(arena);
     arena.execute([&] { set = compute_set(job, hooks); });
-    const auto tile_message = [&](std::size_t map, const Image& img, int level, int x, int y,
-                                  int w, int h) {
-      const wire::TileCoding coding = job.tile_coding();
+    const auto texels_of = [](const Image& img, int x, int y, int w, int h) {
       std::vector<float> px(std::size_t(w) * h * 3);
       for (int r = 0; r < h; ++r)
         std::memcpy(&px[std::size_t(r) * w * 3], img.view().pixel(x, y + r),
                     sizeof(float) * 3 * std::size_t(w));
+      return px;
+    };
+    const auto tile_message = [&](std::size_t map, const std::vector<float>& px, int level, int x,
+                                  int y, int w, int h) {
+      const wire::TileCoding coding = job.tile_coding();
       const EnvLayout& layout = set.maps[map].layout;
       return wire::MapTile{.map_set = id,
                            .map_index = std::uint16_t(map),
@@ -146,22 +156,53 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop,
     };
     // Phong: coarse first, each map 4x smaller in one tile (a preview the client can use at
     // once), then the full-resolution tiles.
+    // A client sent changes holds a whole set already: no coarse preview.
     if (set.kind == wire::MapKind::Phong)
       for (std::size_t k = 0; k < set.maps.size() && !stop.stop_requested(); ++k) {
         Image coarse = downsample2x(downsample2x(set.maps[k].image.view()).view());
-        send(tile_message(k, coarse, 2, 0, 0, coarse.width(), coarse.height()));
+        send_to(tile_message(k, texels_of(coarse, 0, 0, coarse.width(), coarse.height()), 2, 0, 0,
+                             coarse.width(), coarse.height()),
+                base != 0 ? Audience::Watchers : Audience::Everyone);
       }
+    std::uint32_t tiles = 0, tiles_changed = 0;
     for (std::size_t k = 0; k < set.maps.size(); ++k) {
       const EnvLayout& layout = set.maps[k].layout;
       for (int y = 0; y < layout.height() && !stop.stop_requested(); y += kTileSide)
-        for (int x = 0; x < layout.width(); x += kTileSide)
-          send(tile_message(k, set.maps[k].image, 0, x, y, std::min(kTileSide, layout.width() - x),
-                            std::min(kTileSide, layout.height() - y)));
+        for (int x = 0; x < layout.width(); x += kTileSide) {
+          const int w = std::min(kTileSide, layout.width() - x);
+          const int h = std::min(kTileSide, layout.height() - y);
+          const std::vector<float> px = texels_of(set.maps[k].image, x, y, w, h);
+          bool changed = true;
+          if (changes) {  // compared as the client decodes it: rounded to half floats
+            std::string why;
+            auto held = wire::decode_half_rgb(
+                wire::encode_half_rgb(px.data(), px.size() / 3, wire::TileCoding::Half),
+                px.size() / 3, wire::TileCoding::Half, why);
+            changed = changes->changed(
+                {std::uint16_t(k), std::uint32_t(layout.width()), std::uint32_t(layout.height()),
+                 std::uint32_t(x), std::uint32_t(y), std::uint32_t(w), std::uint32_t(h)},
+                std::make_shared<const std::vector<float>>(std::move(*held)));
+          }
+          ++tiles;
+          tiles_changed += changed ? 1 : 0;
+          send_to(tile_message(k, px, 0, x, y, w, h),
+                  changed ? Audience::Everyone : Audience::Watchers);
+        }
     }
     if (stop.stop_requested()) return -1.0;
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    send(wire::MapSetComplete{id, std::uint16_t(set.maps.size()), float(seconds),
-                              float(job.coverage), job.frames});
+    const wire::MapSetComplete whole{id, std::uint16_t(set.maps.size()), float(seconds),
+                                     float(job.coverage), job.frames, 0, tiles};
+    if (base != 0) {
+      wire::MapSetComplete change = whole;
+      change.base_set = base;
+      change.tiles = tiles_changed;
+      send_to(change, Audience::Client);
+      send_to(whole, Audience::Watchers);
+    } else {
+      send(whole);
+    }
+    if (changes) changes->complete();
     return seconds;
   } catch (const lighting::Cancelled&) {
   } catch (const std::exception& e) {

@@ -2,7 +2,8 @@
 // live path's priority (its own low-priority oneTBB arena, threads at kBackgroundNice, stepping
 // aside for frames: frame_path_gate.hpp), then streamed as
 // messages — Progress every tenth of the tiles, a coarse preview of each Phong map (level 2, one
-// tile), the full-resolution 64x64 tiles, then MapSetComplete (protocol/PROTOCOL.md, item 7).
+// tile), the full-resolution 64x64 tiles, then MapSetComplete (protocol/PROTOCOL.md, item 7);
+// to a client that takes changes, only the tiles that changed since a set it holds.
 // A GGX chain's set sends each level's tiles, level 0 first (its small levels are its preview).
 #pragma once
 
@@ -16,6 +17,7 @@
 #include "arlight/lighting/ggx.hpp"
 #include "arlight/protocol/wire.hpp"
 #include "frame_path_gate.hpp"
+#include "map_set_delta.hpp"
 #include "map_request.hpp"
 
 namespace arlight::daemon {
@@ -65,8 +67,18 @@ lighting::GgxChainSpec ggx_preview_spec(const MapRequest& request);
 EnvLayout ggx_preview_input(const MapRequest& request, const EnvLayout& capture);
 lighting::GgxChainSpec ggx_spec(const MapRequest& request);
 
+// Who a message of a set is for: a client sent only what changed gets its own MapSetComplete
+// and not the tiles it holds, which the watchers (sent whole sets) still get.
+enum class Audience { Everyone, Client, Watchers };
+using MapSetSink = std::function<void(const wire::Message&, Audience)>;
+
 // Computes and sends the set; returns its seconds when it completed, or a negative number when
-// it was stopped. A failure of the computation is sent as Error{Internal}.
+// it was stopped. A failure of the computation is sent as Error{Internal}. With `changes`
+// (begun for this set against `base`: MapSetDeltas::begin), the client is sent the level-0
+// tiles that changed since `base` and a MapSetComplete naming it; without, every tile.
+double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSink& send,
+                      MapSetDeltas* changes = nullptr, std::uint32_t base = 0);
+// Every message to everyone: a whole set.
 double stream_map_set(const MapSetJob& job, std::stop_token stop,
                       const std::function<void(const wire::Message&)>& send);
 

@@ -116,14 +116,15 @@ bool Session::has_camera() const {
   return camera_.has_value();
 }
 
-std::uint64_t Session::attach(Sink sink, wire::TileCoding tile_coding,
-                              std::function<void()> disconnect, bool exposure_advice) {
+std::uint64_t Session::attach(ClientLink client) {
   std::lock_guard lock(mutex_);
-  sink_ = std::move(sink);
-  disconnect_ = std::move(disconnect);
-  tile_coding_ = tile_coding;
+  sink_ = std::move(client.send);
+  disconnect_ = std::move(client.disconnect);
+  bulk_begun_ = std::move(client.bulk_begun);
+  client_sets_.clear();
+  tile_coding_ = client.tile_coding;
   advisor_.reset();
-  if (exposure_advice) advisor_.emplace();
+  if (client.exposure_advice) advisor_.emplace();
   // A connection's map request is its own (every client sends RequestMaps after its Hello when
   // it wants maps): a client resuming the session without one gets no more sets computed for
   // the previous connection's request. A set already running still streams (a client that
@@ -141,6 +142,7 @@ void Session::detach(std::uint64_t attachment) {
   if (attachment != attachment_) return;  // a newer connection has the session
   sink_ = nullptr;
   disconnect_ = nullptr;
+  bulk_begun_ = nullptr;
   last_activity_ = Clock::now();
 }
 
@@ -189,16 +191,32 @@ void Session::unwatch(std::uint64_t watcher) {
   if (watchers_.remove(watcher) && env_.watchers) env_.watchers->add(-1);
 }
 
-void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk) {
+void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk,
+                   Audience audience) {
   Sink sink;
   {
     std::lock_guard lock(mutex_);
-    sink = sink_;
+    if (audience != Audience::Watchers) sink = sink_;
   }
+  const bool watchers = audience != Audience::Client && watchers_.size() > 0;
+  if (!sink && !watchers) return;
   // Encoded once, here on the worker, not on the network; the same bytes go to the watchers.
   const auto bytes = std::make_shared<const std::vector<std::uint8_t>>(wire::encode(message));
   if (sink) sink(bytes, bulk);
-  watchers_.publish(message, bytes, bulk);
+  if (watchers) watchers_.publish(message, bytes, bulk);
+}
+
+std::uint32_t Session::begin_client_set(std::uint32_t id, std::uint32_t lane) {
+  std::function<std::optional<std::uint64_t>(std::uint32_t)> begun;
+  {
+    std::lock_guard lock(mutex_);
+    begun = bulk_begun_;
+  }
+  // The set the connection has begun writing, after this session's earlier sets were queued:
+  // it will be written whole, so the client will hold it (a set queued but not begun yet is
+  // replaced by this one). No answer: whole.
+  const std::optional<std::uint64_t> base = begun ? begun(lane) : std::nullopt;
+  return client_sets_.begin(id, base.value_or(0));
 }
 
 void Session::submit(FrameJob job) {
@@ -363,6 +381,7 @@ std::string Session::request_maps(MapRequest r) {
   request_ = std::move(r);
   previews_.reset();
   ggx_previews_.reset();
+  client_sets_.clear();     // the new request's first set goes whole
   maps_.request_changed();  // a new request is computed at once
   dirty_ = true;
   maybe_start_maps();
@@ -480,11 +499,20 @@ void Session::compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> j
                         std::holds_alternative<wire::MapSetComplete>(m);
       return part ? std::optional(group) : std::nullopt;
     };
-    const double seconds = stream_map_set(job, stop, [&](const wire::Message& m) {
-      if (!job.for_watchers) return send(m, send_as(m));
+    // The client's set as what changed since one it holds, when it takes changes.
+    const bool changes = !job.for_watchers && [&] {
+      std::lock_guard lock(mutex_);
+      return bool(bulk_begun_);
+    }();
+    const std::uint32_t base = changes ? begin_client_set(job.id, group.lane) : 0;
+    const auto sink = [&](const wire::Message& m, Audience to) {
+      if (!job.for_watchers) return send(m, send_as(m), to);
+      if (to == Audience::Client) return;
       watchers_.publish(m, std::make_shared<const std::vector<std::uint8_t>>(wire::encode(m)),
                         send_as(m));
-    });
+    };
+    const double seconds =
+        stream_map_set(job, stop, sink, changes ? &client_sets_ : nullptr, base);
     if (seconds >= 0.0) {
       env_.map_sets->inc();
       env_.map_set_seconds->observe(seconds);

@@ -93,14 +93,21 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string set_camera(const CameraIntrinsics& camera, bool exposure_unknown = false);
   bool has_camera() const;
 
-  // The connected client: where messages go, the tile coding its Hello accepts, how to close
-  // its connection (when the session moves to another daemon), and whether it follows exposure
-  // advice (Hello's exposure:advice; each attachment starts a fresh ExposureAdvisor, since
-  // what a client can reach is its own).
+  // The connected client.
+  struct ClientLink {
+    Sink send;  // where messages go
+    wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf;  // what its Hello accepts
+    std::function<void()> disconnect;  // closes it (the session moves to another daemon)
+    // Whether it follows exposure advice (Hello's exposure:advice; each attachment starts a
+    // fresh ExposureAdvisor, since what a client can reach is its own).
+    bool exposure_advice = false;
+    // A client that takes map sets as what changed (Hello's maps:deltas): its connection's
+    // MessageStream::bulk_begun, which says which set it will hold. Empty: whole sets.
+    std::function<std::optional<std::uint64_t>(std::uint32_t lane)> bulk_begun;
+  };
   // Returns the attachment's number: detach(n) lets go only if no newer connection attached
   // since (a resumed session's old connection closing late must not cut off the new one).
-  std::uint64_t attach(Sink sink, wire::TileCoding tile_coding = wire::TileCoding::ZstdHalf,
-                       std::function<void()> disconnect = {}, bool exposure_advice = false);
+  std::uint64_t attach(ClientLink client);
   void detach(std::uint64_t attachment);
   bool attached() const;
   Clock::time_point last_activity() const;
@@ -179,7 +186,10 @@ class Session : public std::enable_shared_from_this<Session> {
   static constexpr int kWatcherGgxFace = 256;
   void compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> jobs);
   // To the client and the watchers; a map set's messages as bulk data of `bulk` (watchers.hpp).
-  void send(const wire::Message& message, std::optional<BulkGroup> bulk = std::nullopt);
+  void send(const wire::Message& message, std::optional<BulkGroup> bulk = std::nullopt,
+            Audience audience = Audience::Everyone);
+  // With mutex_ held nowhere: the base a client set `id` of `lane` is sent against (0: whole).
+  std::uint32_t begin_client_set(std::uint32_t id, std::uint32_t lane);
 
   std::string id_, device_id_;
   SessionEnv env_;
@@ -191,6 +201,10 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string response_name_ = "srgb";
   Sink sink_;
   std::function<void()> disconnect_;
+  std::function<std::optional<std::uint64_t>(std::uint32_t)> bulk_begun_;  // ClientLink's
+  // What the client holds of the sets it was sent (issue 36 §2): cleared for a new connection
+  // or request, so their first set goes whole.
+  MapSetDeltas client_sets_;
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice

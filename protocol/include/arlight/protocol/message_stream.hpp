@@ -9,6 +9,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl/stream.hpp>
@@ -104,6 +105,12 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   std::size_t queued_bytes() const { return queued_bytes_.load(); }
   // The messages read so far, in bytes (each Envelope and its 4-byte length).
   std::uint64_t bytes_received() const { return bytes_received_.load(); }
+  // Any thread but the stream's own: the newest group of `lane` whose writing has begun, after
+  // every message sent before this call was queued (so a group sent before it and not begun
+  // yet will be replaced by the next group sent). 0 when none began; nullopt when the stream
+  // has ended or did not answer within `timeout`. A group begun is written whole, so the peer
+  // will have it (issue 36 §2: the set a map set's change is sent against).
+  std::optional<std::uint64_t> bulk_begun(std::uint32_t lane, std::chrono::milliseconds timeout);
   // Bulk messages dropped unwritten because a newer group of their lane came (send_bulk).
   std::uint64_t bulk_replaced() const { return bulk_replaced_.load(); }
   const std::string& peer() const { return peer_; }

@@ -198,6 +198,9 @@ inline constexpr double kLockedExposureSeconds = 1.0 / 60.0;
 // The client can take a frame at an exposure it is told (ExposureAdvice): only such clients
 // are sent the advice.
 inline constexpr const char* kCapabilityExposureAdvice = "exposure:advice";
+// The client assembles a map set from the tiles that changed and an earlier set it holds
+// (MapSetComplete.base_set, issue 36 §2): such clients are sent only what changed.
+inline constexpr const char* kCapabilityMapDeltas = "maps:deltas";
 
 // The coding the server sends a client with these capabilities: ZstdHalf when it accepts it or
 // names no coding at all (clients from before codings were negotiated), otherwise Half.
@@ -225,6 +228,10 @@ struct MapSetComplete {
   std::uint16_t maps = 0;
   float seconds = 0, coverage = 0;
   std::uint64_t frames = 0;  // frames merged into the map this set was computed from
+  // A set of only the tiles that changed since `base_set` (kCapabilityMapDeltas): the client
+  // takes every other tile from that set; `tiles` is how many level-0 tiles this one sent, so a
+  // client that missed one (a set resumed on a new connection mid-way) drops it. 0: whole.
+  std::uint32_t base_set = 0, tiles = 0;
   bool operator==(const MapSetComplete&) const = default;
 };
 
