@@ -83,6 +83,11 @@ TEST(MapSetDeltas, ANewConnectionOrRequestStartsWholeAndASetBegunBeforeIsNeverAB
   }
   EXPECT_EQ(d.held(), 2u);  // 8 and 9
   EXPECT_EQ(d.begin(10, 7), 0u);
+  // Maps of another size than the base's (a chain's preview at face 128, then the full chain
+  // at 256): whole, even where a tile has the base's key and values.
+  EXPECT_EQ(d.begin(11, 9), 9u);
+  EXPECT_EQ(d.shape({{256, 1536}}), 0u);
+  EXPECT_TRUE(d.changed(kTile, texels(9.0f)));
 }
 
 // A real set streamed twice from a map that changed in one place: the second reaches the client

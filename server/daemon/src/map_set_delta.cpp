@@ -35,20 +35,29 @@ std::uint32_t MapSetDeltas::begin(std::uint32_t id, std::uint64_t base) {
   return used;
 }
 
+std::uint32_t MapSetDeltas::shape(Shape maps) {
+  std::lock_guard lock(mutex_);
+  if (!building_) return 0;
+  const auto base = held_.find(building_->base);
+  if (base == held_.end() || base->second.shape != maps) building_->base = 0;
+  building_->set.shape = std::move(maps);
+  return building_->base;
+}
+
 bool MapSetDeltas::changed(const TileKey& key, std::shared_ptr<const std::vector<float>> texels) {
   std::lock_guard lock(mutex_);
   if (!building_) return true;
   if (building_->base != 0) {
     const auto base = held_.find(building_->base);
     if (base != held_.end()) {
-      const auto tile = base->second.find(key);
-      if (tile != base->second.end() && same(*tile->second, *texels)) {
-        building_->tiles[key] = tile->second;  // the client keeps the base's
+      const auto tile = base->second.tiles.find(key);
+      if (tile != base->second.tiles.end() && same(*tile->second, *texels)) {
+        building_->set.tiles[key] = tile->second;  // the client keeps the base's
         return false;
       }
     }
   }
-  building_->tiles[key] = std::move(texels);
+  building_->set.tiles[key] = std::move(texels);
   return true;
 }
 
@@ -61,7 +70,7 @@ void MapSetDeltas::complete() {
   // Sets older than this one's base are never a base again: the connection's newest begun set
   // only moves on.
   if (b.base != 0) held_.erase(held_.begin(), held_.lower_bound(b.base));
-  held_[b.id] = std::move(b.tiles);
+  held_[b.id] = std::move(b.set);
   while (held_.size() > kHeld) held_.erase(held_.begin());
 }
 

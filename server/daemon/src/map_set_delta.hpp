@@ -15,6 +15,7 @@
 #include <mutex>
 #include <optional>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 namespace arlight::daemon {
@@ -41,6 +42,10 @@ class MapSetDeltas {
   // has begun writing: it finishes, so the client will hold it). Returns the base it is sent
   // against: `base`, or 0 (whole) when that set is not held.
   std::uint32_t begin(std::uint32_t id, std::uint64_t base);
+  // The set begun has maps of these sizes (width, height each): against a base of others (a
+  // GGX chain's preview at face 128 before the full one at 256) it goes whole. Returns the
+  // base it is sent against now.
+  std::uint32_t shape(std::vector<std::pair<std::uint32_t, std::uint32_t>> maps);
   // A level-0 tile of the set begun, as the client decodes it (RGB rounded to half floats):
   // true when the client must be sent it. Either way the client holds it from now on: these
   // texels when sent, the base's otherwise.
@@ -51,14 +56,18 @@ class MapSetDeltas {
   std::size_t held() const;
 
  private:
-  using Tiles = std::map<TileKey, std::shared_ptr<const std::vector<float>>>;
+  using Shape = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+  struct Held {
+    Shape shape;
+    std::map<TileKey, std::shared_ptr<const std::vector<float>>> tiles;
+  };
   mutable std::mutex mutex_;
   std::uint64_t generation_ = 0;  // clear() calls
-  std::map<std::uint32_t, Tiles> held_;
+  std::map<std::uint32_t, Held> held_;
   struct Building {
     std::uint32_t id = 0, base = 0;
     std::uint64_t generation = 0;
-    Tiles tiles;
+    Held set;
   };
   std::optional<Building> building_;
 };

@@ -156,6 +156,12 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSi
     };
     // Phong: coarse first, each map 4x smaller in one tile (a preview the client can use at
     // once), then the full-resolution tiles.
+    if (changes) {
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> shape;
+      for (const EnvMap& m : set.maps)
+        shape.emplace_back(std::uint32_t(m.layout.width()), std::uint32_t(m.layout.height()));
+      base = changes->shape(std::move(shape));
+    }
     // A client sent changes holds a whole set already: no coarse preview.
     if (set.kind == wire::MapKind::Phong)
       for (std::size_t k = 0; k < set.maps.size() && !stop.stop_requested(); ++k) {

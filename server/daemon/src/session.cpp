@@ -198,12 +198,11 @@ void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk,
     std::lock_guard lock(mutex_);
     if (audience != Audience::Watchers) sink = sink_;
   }
-  const bool watchers = audience != Audience::Client && watchers_.size() > 0;
-  if (!sink && !watchers) return;
-  // Encoded once, here on the worker, not on the network; the same bytes go to the watchers.
+  // Encoded once, here on the worker, not on the network; the same bytes go to the watchers,
+  // who keep the newest update and whole set for those who join later (so even with none).
   const auto bytes = std::make_shared<const std::vector<std::uint8_t>>(wire::encode(message));
   if (sink) sink(bytes, bulk);
-  if (watchers) watchers_.publish(message, bytes, bulk);
+  if (audience != Audience::Client) watchers_.publish(message, bytes, bulk);
 }
 
 std::uint32_t Session::begin_client_set(std::uint32_t id, std::uint32_t lane) {
