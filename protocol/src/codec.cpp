@@ -420,7 +420,7 @@ MapTile read(const fb::MapTile& m, const WireLimits&) {
   t.level = m.level();
   t.x = m.x(), t.y = m.y(), t.width = m.width(), t.height = m.height();
   const int coding = int(m.coding());
-  if (coding < int(TileCoding::ZstdHalf) || coding > int(TileCoding::Half))
+  if (coding < int(TileCoding::ZstdHalf) || coding > int(TileCoding::Planar))
     refuse(Fault::OutOfRange, name, "coding", "unknown tile coding " + std::to_string(coding));
   t.coding = TileCoding(coding);
   t.kind = map_kind(m.kind(), name);

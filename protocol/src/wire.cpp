@@ -101,10 +101,46 @@ bool has_capability(const std::vector<std::string>& capabilities, std::string_vi
 }
 
 TileCoding choose_tile_coding(const std::vector<std::string>& capabilities) {
-  const bool zstd = has_capability(capabilities, kCapabilityTilesZstd);
-  const bool half = has_capability(capabilities, kCapabilityTilesHalf);
-  return half && !zstd ? TileCoding::Half : TileCoding::ZstdHalf;
+  const auto has = [&](const char* name) { return has_capability(capabilities, name); };
+  if (has(kCapabilityTilesZstdPlanar)) return TileCoding::ZstdPlanar;
+  const bool zstd = has(kCapabilityTilesZstd);
+  if (!zstd && has(kCapabilityTilesPlanar)) return TileCoding::Planar;
+  return has(kCapabilityTilesHalf) && !zstd ? TileCoding::Half : TileCoding::ZstdHalf;
 }
+
+namespace {
+
+bool planar(TileCoding coding) {
+  return coding == TileCoding::Planar || coding == TileCoding::ZstdPlanar;
+}
+
+// Planar: each channel's low bytes, then its high bytes, then every byte as its difference
+// from the one before plus 128 (OpenEXR's ZIP predictor): a smooth map's bytes become runs
+// near 128 that deflate and zstd pack a third smaller than interleaved halves (bench_tiles.cpp).
+std::vector<std::uint8_t> to_planes(const std::vector<std::uint8_t>& half) {
+  const std::size_t n = half.size() / 6;
+  std::vector<std::uint8_t> out(half.size());
+  std::size_t o = 0;
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t byte = 0; byte < 2; ++byte)
+      for (std::size_t i = 0; i < n; ++i) out[o++] = half[2 * (3 * i + c) + byte];
+  for (std::size_t i = out.size(); i-- > 1;) out[i] = std::uint8_t(out[i] - out[i - 1] + 128);
+  return out;
+}
+
+std::vector<std::uint8_t> from_planes(std::vector<std::uint8_t> planes) {
+  for (std::size_t i = 1; i < planes.size(); ++i)
+    planes[i] = std::uint8_t(planes[i] + planes[i - 1] - 128);
+  const std::size_t n = planes.size() / 6;
+  std::vector<std::uint8_t> half(planes.size());
+  std::size_t o = 0;
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t byte = 0; byte < 2; ++byte)
+      for (std::size_t i = 0; i < n; ++i) half[2 * (3 * i + c) + byte] = planes[o++];
+  return half;
+}
+
+}  // namespace
 
 std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels, TileCoding coding) {
   std::vector<std::uint8_t> half(pixels * 6);
@@ -112,7 +148,8 @@ std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels, 
     const std::uint16_t bits = Imath::half(rgb[i]).bits();
     half[2 * i] = std::uint8_t(bits & 0xff), half[2 * i + 1] = std::uint8_t(bits >> 8);
   }
-  if (coding == TileCoding::Half) return half;
+  if (planar(coding)) half = to_planes(half);
+  if (coding == TileCoding::Half || coding == TileCoding::Planar) return half;
 #if ARLIGHT_NO_ZSTD
   throw std::logic_error("this build has no zstd: send TileCoding::Half");
 #else
@@ -128,7 +165,7 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
                                                   std::string& why) {
   std::vector<std::uint8_t> unpacked;
   std::span<const std::uint8_t> half = data;
-  if (coding == TileCoding::ZstdHalf) {
+  if (coding == TileCoding::ZstdHalf || coding == TileCoding::ZstdPlanar) {
 #if ARLIGHT_NO_ZSTD
     why = "tile data is zstd, which this build cannot read (its Hello did not accept it)";
     return std::nullopt;
@@ -156,6 +193,10 @@ std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> 
     why = "tile data holds " + std::to_string(data.size()) + " bytes, expected " +
           std::to_string(pixels * 6);
     return std::nullopt;
+  }
+  if (planar(coding)) {
+    unpacked = from_planes(std::vector<std::uint8_t>(half.begin(), half.end()));
+    half = unpacked;
   }
   std::vector<float> out(pixels * 3);
   for (std::size_t i = 0; i < out.size(); ++i) {

@@ -83,11 +83,20 @@ TEST(MapSetDeltas, ANewConnectionOrRequestStartsWholeAndASetBegunBeforeIsNeverAB
   }
   EXPECT_EQ(d.held(), 2u);  // 8 and 9
   EXPECT_EQ(d.begin(10, 7), 0u);
+  d.complete();
+  // A slow link: set 10 is written for a long time while 11 ... 20 are computed, each
+  // replacing the one queued before it; each goes against 10, which stays held.
+  for (std::uint32_t id = 11; id <= 20; ++id) {
+    EXPECT_EQ(d.begin(id, 10), 10u) << id;
+    d.changed(kTile, texels(float(id)));
+    d.complete();
+  }
+  EXPECT_EQ(d.held(), 3u);  // 10, 19 (it might have begun) and 20
   // Maps of another size than the base's (a chain's preview at face 128, then the full chain
   // at 256): whole, even where a tile has the base's key and values.
-  EXPECT_EQ(d.begin(11, 9), 9u);
+  EXPECT_EQ(d.begin(21, 20), 20u);
   EXPECT_EQ(d.shape({{256, 1536}}), 0u);
-  EXPECT_TRUE(d.changed(kTile, texels(9.0f)));
+  EXPECT_TRUE(d.changed(kTile, texels(20.0f)));
 }
 
 // A real set streamed twice from a map that changed in one place: the second reaches the client

@@ -386,7 +386,8 @@ TEST(WireCodec, FramingAddsTheLittleEndianLength) {
 
 TEST(WireCodec, HalfFloatTilesRoundTripAndRefuseDamage) {
   std::vector<float> rgb = {0.0f, 0.5f, 1.0f, 2.0f, 65000.0f, 1e-3f};
-  for (const auto coding : {wire::TileCoding::ZstdHalf, wire::TileCoding::Half}) {
+  for (const auto coding : {wire::TileCoding::ZstdHalf, wire::TileCoding::Half,
+                            wire::TileCoding::ZstdPlanar, wire::TileCoding::Planar}) {
     SCOPED_TRACE(int(coding));
     const auto data = wire::encode_half_rgb(rgb.data(), 2, coding);
     std::string why;
@@ -412,6 +413,13 @@ TEST(WireCodec, HalfFloatTilesRoundTripAndRefuseDamage) {
   EXPECT_FALSE(wire::decode_half_rgb(wire::encode_half_rgb(inf.data(), 2, wire::TileCoding::Half),
                                      2, wire::TileCoding::Half, why));
   EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
+
+  // Planar: the same halves as byte planes, each byte the difference from the one before + 128.
+  const auto planes = wire::encode_half_rgb(rgb.data(), 2, wire::TileCoding::Planar);
+  ASSERT_EQ(planes.size(), 12u);
+  EXPECT_EQ(planes[0], half[0]);                         // R's low bytes first
+  EXPECT_EQ(planes[1], std::uint8_t(half[6] - half[0] + 128));  // texel 1's R low byte
+  EXPECT_EQ(planes[3], std::uint8_t(half[7] - half[1] + 128));  // R's high bytes next
 }
 
 TEST(WireCodec, TileCodingFollowsTheHelloCapabilities) {
@@ -421,6 +429,14 @@ TEST(WireCodec, TileCodingFollowsTheHelloCapabilities) {
   EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesHalf, wire::kCapabilityTilesZstd}),
             TileCoding::ZstdHalf);
   EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesZstd}), TileCoding::ZstdHalf);
+  // The planes when named: zstd's for a client with zstd, raw for a browser.
+  EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesZstdPlanar, wire::kCapabilityTilesZstd,
+                                      wire::kCapabilityTilesHalf}),
+            TileCoding::ZstdPlanar);
+  EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesPlanar, wire::kCapabilityTilesHalf}),
+            TileCoding::Planar);
+  EXPECT_EQ(wire::choose_tile_coding({wire::kCapabilityTilesPlanar, wire::kCapabilityTilesZstd}),
+            TileCoding::ZstdHalf);
 }
 
 // The seed corpus for the fuzzers: valid/ decodes, broken/ is refused. ARLIGHT_WRITE_CORPUS=1

@@ -36,8 +36,12 @@ struct Client::Impl {
   TlsOptions tls_options;
   bool websocket = false;
   std::string websocket_path = "/ws";
-  std::vector<std::string> capabilities = {"maps", "jpeg", wire::kCapabilityTilesZstd,
-                                           wire::kCapabilityTilesHalf, wire::kCapabilityMapDeltas};
+  std::vector<std::string> capabilities = {"maps",
+                                           "jpeg",
+                                           wire::kCapabilityTilesZstdPlanar,
+                                           wire::kCapabilityTilesZstd,
+                                           wire::kCapabilityTilesHalf,
+                                           wire::kCapabilityMapDeltas};
   std::string watch_session;  // Hello.watch_session: a watcher
   std::unique_ptr<asio::ssl::context> tls_context;
   std::shared_ptr<wire::MessageStream> stream;

@@ -38,7 +38,7 @@ class LightClient {
     h.client_name = "arlight-three 0.1";
     h.device_id = device;
     h.auth_token = token;
-    h.capabilities = {"maps", wire::kCapabilityTilesHalf};
+    h.capabilities = {"maps", wire::kCapabilityTilesPlanar, wire::kCapabilityTilesHalf};
     h.watch_session = session;
     state_.expect_any_maps();
     return bytes_to_js(wire::encode(h));

@@ -41,8 +41,8 @@ val WebClient::hello(const std::string& device, const std::string& token,
                   "arlight-web 0.1",
                   device,
                   token,
-                  {"maps", "jpeg", wire::kCapabilityTilesHalf, wire::kCapabilityExposureUnknown,
-                   wire::kCapabilityMapDeltas},
+                  {"maps", "jpeg", wire::kCapabilityTilesPlanar, wire::kCapabilityTilesHalf,
+                   wire::kCapabilityExposureUnknown, wire::kCapabilityMapDeltas},
                   resume,
                   ""}));
 }

@@ -67,11 +67,18 @@ void MapSetDeltas::complete() {
   Building b = std::move(*building_);
   building_.reset();
   if (b.generation != generation_) return;
-  // Sets older than this one's base are never a base again: the connection's newest begun set
-  // only moves on.
-  if (b.base != 0) held_.erase(held_.begin(), held_.lower_bound(b.base));
   held_[b.id] = std::move(b.set);
-  while (held_.size() > kHeld) held_.erase(held_.begin());
+  // A later set's base is the connection's newest begun set when it starts: this one's base
+  // (still being written), the set before this one (queued when this one's base was read: it
+  // may begin before this one replaces it), or this one. The rest never begin: on a slow link
+  // the sets computed while one is written replace each other unsent, and must not push out
+  // the one being written.
+  const auto self = held_.find(b.id);
+  const std::uint32_t before = self == held_.begin() ? 0 : std::prev(self)->first;
+  std::erase_if(held_, [&](const auto& entry) {
+    const std::uint32_t id = entry.first;
+    return id != b.id && id != before && (b.base == 0 || id != b.base);
+  });
 }
 
 std::size_t MapSetDeltas::held() const {

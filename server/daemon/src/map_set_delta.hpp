@@ -25,9 +25,6 @@ class MapSetDeltas {
   // A texel within 1/256 of the value the client holds (a step of an 8-bit display at its
   // brightest) is not sent again.
   static constexpr float kTolerance = 1.0f / 256.0f;
-  // Sets held at most (a base is one of the newest few: the connection's newest begun set).
-  static constexpr std::size_t kHeld = 4;
-
   // Where a level-0 tile lies: its map, the map's size, and its rectangle.
   struct TileKey {
     std::uint16_t map = 0;

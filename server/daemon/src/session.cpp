@@ -431,7 +431,7 @@ MapSetJob Session::map_set_job(const MapRequest& request, bool preview, bool for
                   return tile_coding_;
                 }};
   job.for_watchers = for_watchers;
-  if (for_watchers) job.tile_coding = [] { return wire::TileCoding::Half; };  // mostly browsers
+  if (for_watchers) job.tile_coding = [] { return wire::TileCoding::Planar; };  // mostly browsers
   std::shared_ptr<lighting::GgxUpdater>& ggx_updater =
       for_watchers ? watcher_ggx_previews_ : ggx_previews_;
   if (preview && ggx) {

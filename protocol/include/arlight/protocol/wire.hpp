@@ -184,11 +184,15 @@ struct LightingUpdate {
 };
 
 // How a MapTile's texels are coded (arlight.fbs TileCoding).
-enum class TileCoding : std::uint8_t { ZstdHalf = 0, Half = 1 };
+enum class TileCoding : std::uint8_t { ZstdHalf = 0, Half = 1, ZstdPlanar = 2, Planar = 3 };
 
 // Capabilities a Hello may name beside "maps" and "jpeg" (PROTOCOL.md, capabilities).
 inline constexpr const char* kCapabilityTilesZstd = "tiles:zstd-half";  // accepts ZstdHalf tiles
 inline constexpr const char* kCapabilityTilesHalf = "tiles:half";       // accepts Half tiles
+// ... the same half floats as byte planes with OpenEXR's ZIP predictor (issue 36 §2: a third
+// fewer bytes once compressed), zstd-compressed or (browsers: deflate) not.
+inline constexpr const char* kCapabilityTilesZstdPlanar = "tiles:zstd-planar";
+inline constexpr const char* kCapabilityTilesPlanar = "tiles:planar";
 // The client cannot report exposure or gain (most browsers): the server treats its frames as
 // taken at one locked exposure, whatever CameraFrame.exposure and gain say.
 inline constexpr const char* kCapabilityExposureUnknown = "exposure:unknown";
@@ -202,8 +206,9 @@ inline constexpr const char* kCapabilityExposureAdvice = "exposure:advice";
 // (MapSetComplete.base_set, issue 36 §2): such clients are sent only what changed.
 inline constexpr const char* kCapabilityMapDeltas = "maps:deltas";
 
-// The coding the server sends a client with these capabilities: ZstdHalf when it accepts it or
-// names no coding at all (clients from before codings were negotiated), otherwise Half.
+// The coding the server sends a client with these capabilities: ZstdPlanar when it accepts it;
+// ZstdHalf when it accepts that or names no coding at all (clients from before codings were
+// negotiated); otherwise Planar when it accepts it, else Half.
 TileCoding choose_tile_coding(const std::vector<std::string>& capabilities);
 bool has_capability(const std::vector<std::string>& capabilities, std::string_view name);
 
@@ -328,10 +333,11 @@ std::array<std::uint8_t, kHeaderBytes> frame_header(std::size_t envelope_bytes);
 std::uint32_t read_header(std::span<const std::uint8_t, kHeaderBytes> header,
                           std::uint32_t max_message_bytes);
 
-// Map tiles travel as IEEE half floats (RGB, row-major, little-endian), zstd-compressed or not.
+// Map tiles travel as IEEE half floats (RGB, row-major, little-endian), interleaved or as byte
+// planes (Planar codings), zstd-compressed or not.
 std::vector<std::uint8_t> encode_half_rgb(const float* rgb, std::size_t pixels,
                                           TileCoding coding = TileCoding::ZstdHalf);
-// Inverse of encode_half_rgb; std::nullopt (with why) when the data is not zstd (ZstdHalf), is
+// Inverse of encode_half_rgb; std::nullopt (with why) when the data is not zstd (Zstd codings), is
 // not exactly pixels * 6 bytes (after decompression), or holds non-finite values.
 std::optional<std::vector<float>> decode_half_rgb(std::span<const std::uint8_t> data,
                                                   std::size_t pixels, TileCoding coding,
