@@ -9,6 +9,7 @@
 #include <future>
 #include <variant>
 
+#include "send_path.hpp"
 #include "socket_options.hpp"
 
 namespace arlight::wire {
@@ -34,6 +35,7 @@ class FramedTransport final : public Transport {
 
   asio::any_io_executor executor() override { return strand_; }
   std::string peer() const override { return peer_; }
+  int native_socket() override { return stream_.lowest_layer().native_handle(); }
 
   void async_start(Done done) override {
     if constexpr (std::is_same_v<Stream, TlsSocket>) {
@@ -105,7 +107,8 @@ MessageStream::MessageStream(std::unique_ptr<Transport> transport, Options optio
     : transport_(std::move(transport)),
       options_(options),
       executor_(transport_->executor()),
-      peer_(transport_->peer()) {}
+      peer_(transport_->peer()),
+      bulk_retry_(executor_) {}
 
 MessageStream::~MessageStream() = default;
 
@@ -216,6 +219,11 @@ std::optional<std::uint64_t> MessageStream::bulk_begun(std::uint32_t lane,
   }
 }
 
+bool MessageStream::bulk_has_room() {
+  const auto path = send_path(transport_->native_socket());
+  return !path || path->unacked <= bulk_in_flight_limit(*path);
+}
+
 void MessageStream::drop_queued() {
   for (const auto* q : {&out_, &bulk_})
     for (const Outgoing& o : *q) queued_bytes_ -= o.bytes->size();
@@ -230,6 +238,17 @@ void MessageStream::write_next() {
   if (q.empty()) {
     writing_.reset();
     if (closing_) end("closed after sending");
+    return;
+  }
+  if (&q == &bulk_ && !closing_ && !bulk_has_room()) {
+    writing_.reset();  // a control message sent meanwhile is written at once
+    if (bulk_waiting_) return;
+    bulk_waiting_ = true;
+    bulk_retry_.expires_after(std::chrono::milliseconds(5));
+    bulk_retry_.async_wait([self = shared_from_this()](const boost::system::error_code& ec) {
+      self->bulk_waiting_ = false;
+      if (!ec && !self->ended_ && !self->writing_) self->write_next();
+    });
     return;
   }
   writing_ = std::move(q.front());
@@ -263,6 +282,7 @@ void MessageStream::close() {
 void MessageStream::end(const std::string& why) {
   if (ended_) return;
   ended_ = true;
+  bulk_retry_.cancel();
   transport_->close();  // pending reads and writes complete with an error
   // The handlers usually hold their owner, which holds this stream: let go of them here.
   Handlers h = std::move(handlers_);

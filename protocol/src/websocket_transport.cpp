@@ -61,6 +61,7 @@ class WebSocketTransport final : public Transport {
 
   asio::any_io_executor executor() override { return ws_->get_executor(); }
   std::string peer() const override { return peer_; }
+  int native_socket() override { return beast::get_lowest_layer(*ws_).socket().native_handle(); }
 
   void async_start(Done done) override {
     if (!upgrade_) return asio::post(ws_->get_executor(), [done = std::move(done)] { done({}); });

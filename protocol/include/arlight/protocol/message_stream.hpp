@@ -12,6 +12,7 @@
 #include <chrono>
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/ssl/stream.hpp>
 #include <cstdint>
 #include <deque>
@@ -47,6 +48,8 @@ class Transport {
   // of what a misbehaving peer can send).
   virtual void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) = 0;
   virtual void close() = 0;              // ends the connection at once (no TLS close_notify)
+  // The TCP socket underneath (the kernel's view of the path: send_path.hpp); -1: none.
+  virtual int native_socket() { return -1; }
   virtual std::string peer() const = 0;  // "address:port"
 };
 
@@ -128,6 +131,9 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   void drop_queued();  // on the strand: everything not being written
   void read_next();
   void write_next();
+  // Whether bulk data may be written now: the bytes in flight are within the path's bound
+  // (send_path.hpp). When not, a timer tries again shortly; control messages go meanwhile.
+  bool bulk_has_room();
   void end(const std::string& why);  // on the strand; idempotent
 
   std::unique_ptr<Transport> transport_;
@@ -138,6 +144,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   std::vector<std::uint8_t> in_;
   std::deque<Outgoing> out_, bulk_;  // control messages first, then bulk ones
   std::optional<Outgoing> writing_;   // the message being written
+  boost::asio::steady_timer bulk_retry_;  // bulk waiting for the path to have room
+  bool bulk_waiting_ = false;
   std::atomic<std::size_t> queued_bytes_{0};  // of all three
   std::atomic<std::uint64_t> bulk_replaced_{0};
   std::atomic<std::uint64_t> bytes_received_{0};
