@@ -1,6 +1,8 @@
 // MessageStream over a real loopback TCP connection: messages in order both ways, framing
-// refused before allocation, orderly close after an Error, and the send queue's bound.
+// refused before allocation, orderly close after an Error, the send queue's bound, map sets as
+// bulk data behind control messages and within what the path can carry.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <boost/asio/connect.hpp>
 #include <boost/asio/executor_work_guard.hpp>
@@ -13,6 +15,7 @@
 #include <thread>
 
 #include "arlight/protocol/message_stream.hpp"
+#include "send_path.hpp"
 #include "stream_seen.hpp"
 
 namespace arlight {
@@ -178,6 +181,34 @@ TEST(MessageStream, UpdatesGoAheadOfTilesAndANewerSetReplacesTheQueuedOne) {
   EXPECT_LT(update_at, kTiles / 2);  // behind only what the sockets held, not set 1's rest
   client->close();
   server->close();
+}
+
+// Issue 36 §1/§3: tiles go only while the bytes in flight stay within the path's bandwidth-delay
+// product plus 40 ms of queue — on a 5 Mbit/s link (625 kB/s) with a 1 ms round trip, 25.6 kB
+// — and never less than 16 KiB; on loopback the bound is out of reach.
+TEST(MessageStream, BulkInFlightFollowsThePathsRateAndRoundTrip) {
+  EXPECT_EQ(wire::bulk_in_flight_limit({0, 625e3, 0.001}), 25625u);
+  EXPECT_EQ(wire::bulk_in_flight_limit({0, 625e3, 0.060}), 62500u);  // a cellular 60 ms
+  EXPECT_EQ(wire::bulk_in_flight_limit({0, 0.0, 0.0}), wire::kMinBulkInFlight);  // no sample yet
+  EXPECT_EQ(wire::bulk_in_flight_limit({0, 1e5, 0.0}), wire::kMinBulkInFlight);
+  EXPECT_GT(wire::bulk_in_flight_limit({0, 5e9, 20e-6}), std::size_t(100) << 20);
+
+  // The kernel's view of a real connection: nothing unacknowledged once the peer has it all.
+  Loopback net;
+  const std::vector<std::uint8_t> bytes(100000, 7);
+  asio::write(net.server, asio::buffer(bytes));
+  std::vector<std::uint8_t> got(bytes.size());
+  asio::read(net.client, asio::buffer(got));
+  ASSERT_TRUE(eventually([&] {
+    const auto path = wire::send_path(net.server.native_handle());
+    return path && path->unacked == 0 && path->delivery_rate > 0;
+  }));
+  int pipe_ends[2];
+  ASSERT_EQ(pipe(pipe_ends), 0);
+  EXPECT_FALSE(wire::send_path(pipe_ends[1]));  // not a TCP socket: no bound
+  EXPECT_FALSE(wire::send_path(-1));
+  close(pipe_ends[0]);
+  close(pipe_ends[1]);
 }
 
 TEST(MessageStream, SendsAfterTheEndAreDropped) {
