@@ -1038,8 +1038,16 @@ TEST(Arlightd, GgxChainsFollowTheMapWhileCapturingAndTheFullOneFollows) {
                       recording::read_frame_bytes(rec, i));
     std::this_thread::sleep_for(period);
   }
-  ASSERT_TRUE(c.wait_for([&] { return c.last_complete_ggx() && c.last_complete_ggx()->maps[0].layout.width() == 256; },
-                         60s));
+  // The full chain of the final map: on a busy machine a pause in the frames' processing may
+  // bring a full chain mid-way too, and previews after it.
+  ASSERT_TRUE(c.wait_for(
+      [&] {
+        const auto chain = c.last_complete_ggx();
+        const auto update = c.last_update();
+        return chain && update && chain->maps[0].layout.width() == 256 &&
+               chain->frames == update->frames_processed && update->frame_sequence == 40;
+      },
+      60s));
   std::lock_guard lock(m);
   ASSERT_GE(chains.size(), 2u);
   std::size_t previews = 0;

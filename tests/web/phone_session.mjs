@@ -59,12 +59,13 @@ function holdFirstFrame(y4m, truth, count, width, height) {
  * arlightd on loopback with its web port serving `webRoot`; one device, "phone".
  * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>}>}
  */
-export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1' }) {
+export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1', webPort = 0 }) {
   fs.mkdirSync(dir, { recursive: true });
   fs.writeFileSync(path.join(dir, 'tokens'), `phone ${token}\n`);
   // `host`: the address it serves on (a shaped link's, bench/shaped_links.sh); admin on loopback.
+  // `webPort`: the web port (0: any; a daemon taking over a dead one's page: the same).
   const daemon = spawn(path.join(bin, 'arlightd'), [
-    '--listen', `${host}:0`, '--admin', '127.0.0.1:0', '--web', `${host}:0`,
+    '--listen', `${host}:0`, '--admin', '127.0.0.1:0', '--web', `${host}:${webPort}`,
     '--web-root', webRoot, '--data-dir', path.join(dir, 'data'),
     '--tokens', path.join(dir, 'tokens'), '--idle-timeout', '600',
   ], { stdio: ['ignore', 'pipe', 'pipe'] });
@@ -79,7 +80,7 @@ export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1'
       const ports = /listening on [0-9.]+:(\d+), admin on (\d+), web on (\d+)/.exec(out);
       if (url && ports) {
         clearTimeout(timer);
-        resolve({ url: url[1], web: Number(ports[3]), banner: out });
+        resolve({ url: url[1], web: Number(ports[3]), admin: Number(ports[2]), banner: out });
       }
     });
     daemon.on('exit', (code) => reject(new Error(`arlightd exited (${code}): ${out}${err}`)));
@@ -90,7 +91,19 @@ export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1'
     daemon.kill('SIGTERM');
     await exited;
   };
-  return { ...ready, log: () => err, stop };
+  // SIGKILL: gone with whatever no checkpoint holds (a crash, a machine lost).
+  const kill = async () => {
+    daemon.kill('SIGKILL');
+    await exited;
+  };
+  // The admin API (its token from the data folder): the parsed JSON of `route`.
+  const adminGet = async (route) => {
+    const token = fs.readFileSync(path.join(dir, 'data', 'admin.token'), 'utf8').split('\n')
+      .map((l) => l.trim()).find((l) => l && !l.startsWith('#'));
+    const res = await fetch(`http://127.0.0.1:${ready.admin}${route}`, { headers: { Authorization: `Bearer ${token}` } });
+    return res.json();
+  };
+  return { ...ready, log: () => err, stop, kill, adminGet };
 }
 
 /** The sensor reading (device -> ENU, [x, y, z, w] as {x, y, z, w}) of a camera pose. */

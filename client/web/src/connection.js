@@ -5,6 +5,8 @@
 // after a link gone quiet (no answer for 1.5 s), at once.
 // Frames go one at a time, encoded as JPEG off the main thread (jpeg_encoder.js), and only while
 // little waits in the socket: a frame offered meanwhile is skipped, and a newer one goes instead.
+// The client core keeps the frames no checkpoint holds yet; after a resume the ones the session
+// lacks go again before any newer frame (no frame lost in a fail-over, PROTOCOL.md).
 import { JpegEncoder } from './jpeg_encoder.js';
 import { showError, state } from './status.js';
 
@@ -105,6 +107,9 @@ export class Connection {
     const { ws } = this;
     if (!(state.connected && !this.encoding && ws.readyState === WebSocket.OPEN &&
           ws.bufferedAmount <= kMaxBuffered)) return;
+    // Frames a resumed session lacks go first (issue 36 §5): a newer one now would make the
+    // daemon take them as duplicates.
+    if (this.client.framesWaiting()) return this.resendKept();
     // The daemon's frame advice (PROTOCOL.md): at most the rate it needs, at the size it needs.
     const due = this.client.frameDue(performance.now() / 1000);
     if (due.send) this.sendFrame(q, take, mediaTime, due.reduction);
@@ -136,6 +141,17 @@ export class Connection {
     }
   }
 
+  // The kept frames a resumed session lacks, oldest first, at most the in-flight limit
+  // unanswered (the client core says which and when).
+  resendKept() {
+    const { ws } = this;
+    if (!ws || ws.readyState !== WebSocket.OPEN) return;
+    for (let bytes; (bytes = this.client.resendFrame(performance.now() / 1000)) !== null;) {
+      ws.send(bytes);
+      if (this.unansweredSince === null) this.unansweredSince = performance.now();
+    }
+  }
+
   // One message from arlightd, into the client core (which keeps what it says: status.js reads
   // it from there); here only what the connection does about it.
   receive(bytes) {
@@ -149,9 +165,11 @@ export class Connection {
       // below it would be taken as one sent again, and not counted (PROTOCOL.md, fail-over).
       this.sequence = Math.max(this.sequence, status.session_last_sequence);
       this.onWelcome();
+      this.resendKept();
     } else if (name === 'LightingUpdate') {
       this.reflected(this.client.lastSequence());
       if (this.client.lastSequence() >= this.sequence) this.unansweredSince = null;
+      this.resendKept();
     } else if (name === 'Error') {
       const error = this.client.status().last_error;
       showError(`refused: ${error}`);

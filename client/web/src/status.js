@@ -61,6 +61,8 @@ const kNoClient = {
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
   ggx_face: 0, maps_requested: 'phong', frames_held_back: 0, frames_held_in_flight: 0,
   advised_width: 0, advised_height: 0, advised_fps: 0,
+  last_sequence: 0, session_last_sequence: 0, session_resumed: false, saved_sequence: 0,
+  frames_kept: 0, frames_resent: 0,
 };
 export function clientStatus() {
   return state.client ? state.client.status() : kNoClient;
@@ -82,6 +84,15 @@ export function report() {
     advised_size: [object.advised_width, object.advised_height],
     advised_fps: object.advised_fps,
     updates: object.updates,
+    // Fail-over (issue 36 §5): the newest frame an update answered, the newest the (resumed)
+    // session held when it welcomed the page, whether it was resumed, the newest every frame up
+    // to which a checkpoint holds, the frames kept for a fail-over and those sent again.
+    last_sequence: object.last_sequence,
+    session_last_sequence: object.session_last_sequence,
+    session_resumed: object.session_resumed,
+    saved_sequence: object.saved_sequence,
+    frames_kept: object.frames_kept,
+    frames_resent: object.frames_resent,
     frames_processed: object.frames_processed,
     map_sets: object.map_sets,
     ggx_face: object.ggx_face,

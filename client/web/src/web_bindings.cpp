@@ -17,6 +17,8 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("intrinsics", &WebClient::intrinsics)
       .function("frame", &WebClient::frame)
       .function("frameDue", &WebClient::frame_due)
+      .function("resendFrame", &WebClient::resend_frame)
+      .function("framesWaiting", &WebClient::frames_waiting)
       .function("requestMaps", &WebClient::request_maps)
       .function("requestMapsIfChanged", &WebClient::request_maps_if_changed)
       .function("receive", &WebClient::receive)

@@ -70,9 +70,21 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
       emscripten::convertJSArrayToNumberVector<std::uint8_t>(jpeg);
   ++frames_sent_;
   pacer_.sent(timestamp, std::uint64_t(sequence));
+  unsaved_.keep(std::uint64_t(sequence), info, width_ / reduction, height_ / reduction, bytes,
+                /*sent=*/true);
   return bytes_to_js(wire::encode(client::jpeg_frame(std::uint64_t(sequence), info,
                                                      width_ / reduction, height_ / reduction,
                                                      bytes)));
+}
+
+val WebClient::resend_frame(double timestamp) {
+  const client::UnsavedFrames::Frame* f = unsaved_.next_waiting();
+  if (!f || !pacer_.may_resend(timestamp)) return val::null();
+  val bytes =
+      bytes_to_js(wire::encode(client::jpeg_frame(f->sequence, f->info, f->width, f->height, f->jpeg)));
+  pacer_.sent(timestamp, f->sequence);
+  unsaved_.sent_next();
+  return bytes;
 }
 
 val WebClient::request_maps() {
@@ -106,7 +118,12 @@ std::string WebClient::receive(const val& bytes) {
   if (!decoded) return "refused: " + last_error_;
   wire::Message& m = *decoded;
   const std::string name = wire::message_name(m);
-  if (const auto* u = std::get_if<wire::LightingUpdate>(&m)) pacer_.advise(*u);
+  if (const auto* u = std::get_if<wire::LightingUpdate>(&m)) {
+    pacer_.advise(*u);
+    unsaved_.saved(u->saved_sequence);
+  }
+  // The session resumed holds the frames up to last_sequence: those kept after it go again.
+  if (const auto* w = std::get_if<wire::Welcome>(&m)) unsaved_.welcomed(w->last_sequence);
   const client::Lighting& lighting = state_.lighting();
   switch (state_.receive(std::move(m))) {
     case client::LightingState::Change::Error:

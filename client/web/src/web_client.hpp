@@ -24,6 +24,7 @@
 #include "arlight/app/placement.hpp"
 #include "arlight/net/frame_pacer.hpp"
 #include "arlight/net/lighting_state.hpp"
+#include "arlight/net/unsaved_frames.hpp"
 #include "arlight/render/render.hpp"
 #include "arlight/track/pose_filter.hpp"
 #include "arlight/track/world_from_marker.hpp"
@@ -58,6 +59,13 @@ class WebClient {
   // Whether a frame due at `timestamp` (seconds, the clock frame() is given) should go, and how
   // reduced: {send, reduction}, as the daemon's frame advice says (client::FramePacer).
   val frame_due(double timestamp);
+  // No frame lost in a fail-over (issue 36 §5, PROTOCOL.md): the frames sent that no checkpoint
+  // holds yet are kept (up to kUnsavedBytes); after a Welcome whose session lacks some of them,
+  // the next one to send again, encoded, when fewer than the in-flight limit are unanswered
+  // (timestamp as frame_due's), else null. While any waits, the page sends no newer frame
+  // (the session would take the older ones as duplicates).
+  val resend_frame(double timestamp);
+  bool frames_waiting() const { return unsaved_.waiting(); }
   // The maps the material needs: the Phong set, or the GGX chain for a metallic-roughness one.
   val request_maps();
   // The same when the material now needs the other kind than was last asked for, else null.
@@ -186,6 +194,8 @@ class WebClient {
   // (issue 36 §1: the page's frames used to queue for seconds behind each other).
   static constexpr int kMaxInFlight = 2;
   client::FramePacer pacer_;
+  static constexpr std::size_t kUnsavedBytes = std::size_t(8) << 20;  // a phone's: ~4 s of frames
+  client::UnsavedFrames unsaved_{kUnsavedBytes};
   // Soft shadows: the native client's --shadow-lights and --target-fps defaults.
   client_app::ShadowBudget shadow_{16, 30.0};
   bool shadow_drawn_ = false;  // the last render() drew the shadow catcher

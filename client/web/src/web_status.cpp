@@ -13,6 +13,10 @@ val WebClient::status() const {
   s.set("server_version", welcome ? welcome->server_version : std::string());
   // The newest frame the (resumed) session holds: the page numbers its frames after it.
   s.set("session_last_sequence", welcome ? double(welcome->last_sequence) : 0.0);
+  s.set("session_resumed", welcome ? welcome->resumed : false);
+  // Every frame up to this one is in the session's newest checkpoint (0: none yet).
+  const auto& update = state_.last_update();
+  s.set("saved_sequence", update ? double(update->saved_sequence) : 0.0);
   s.set("updates", double(state_.updates()));
   s.set("last_sequence", double(l.frame_sequence));
   s.set("frames_processed", double(l.frames_processed));
@@ -24,6 +28,9 @@ val WebClient::status() const {
   s.set("estimated", l.estimated);
   s.set("frame_exposure", frame_exposure());
   s.set("frames_encoded", double(frames_sent_));
+  // Fail-over (issue 36 §5): frames sent again after a resume, and those kept for it now.
+  s.set("frames_resent", double(unsaved_.resent()));
+  s.set("frames_kept", double(unsaved_.size()));
   // The daemon's frame advice (issue 37 §1) and the frames it held back.
   s.set("frames_held_back", double(pacer_.held_back()));
   s.set("frames_held_in_flight", double(pacer_.held_in_flight()));
