@@ -154,15 +154,15 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSi
                            .kind = set.kind,
                            .roughness = set.roughness[map]};
     };
-    // Phong: coarse first, each map 4x smaller in one tile (a preview the client can use at
-    // once), then the full-resolution tiles.
-    if (changes) {
+    if (changes) {  // maps of another size than the base's: whole
       std::vector<std::pair<std::uint32_t, std::uint32_t>> shape;
       for (const EnvMap& m : set.maps)
         shape.emplace_back(std::uint32_t(m.layout.width()), std::uint32_t(m.layout.height()));
       base = changes->shape(std::move(shape));
     }
-    // A client sent changes holds a whole set already: no coarse preview.
+    // Phong: coarse first, each map 4x smaller in one tile (a preview the client can use at
+    // once), then the full-resolution tiles. A client sent changes holds a whole set already:
+    // no coarse preview.
     if (set.kind == wire::MapKind::Phong)
       for (std::size_t k = 0; k < set.maps.size() && !stop.stop_requested(); ++k) {
         Image coarse = downsample2x(downsample2x(set.maps[k].image.view()).view());
@@ -184,10 +184,12 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSi
             auto held = wire::decode_half_rgb(
                 wire::encode_half_rgb(px.data(), px.size() / 3, wire::TileCoding::Half),
                 px.size() / 3, wire::TileCoding::Half, why);
-            changed = changes->changed(
-                {std::uint16_t(k), std::uint32_t(layout.width()), std::uint32_t(layout.height()),
-                 std::uint32_t(x), std::uint32_t(y), std::uint32_t(w), std::uint32_t(h)},
-                std::make_shared<const std::vector<float>>(std::move(*held)));
+            // A texel beyond half floats (a sun over 65504) reads back as none: sent, as ever.
+            if (held)
+              changed = changes->changed(
+                  {std::uint16_t(k), std::uint32_t(layout.width()), std::uint32_t(layout.height()),
+                   std::uint32_t(x), std::uint32_t(y), std::uint32_t(w), std::uint32_t(h)},
+                  std::make_shared<const std::vector<float>>(std::move(*held)));
           }
           ++tiles;
           tiles_changed += changed ? 1 : 0;
