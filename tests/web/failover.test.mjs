@@ -21,7 +21,7 @@ test('a killed daemon\'s session resumes on another with every frame the page se
   let first, second, browser;
   try {
     const room = simulateRoom({ bin: BIN, probe: path.join(SOURCE, 'data/probes/venice.exr'), dir,
-      frames: 60, fps: 4, width: 320, height: 240, seed: 5 });
+      frames: 40, fps: 4, width: 320, height: 240, seed: 5 });
     const daemonDir = path.join(dir, 'daemon');
     const webRoot = path.join(BIN, 'web');
     first = await startDaemon({ bin: BIN, dir: daemonDir, webRoot, token: TOKEN });
