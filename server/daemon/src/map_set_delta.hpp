@@ -25,6 +25,8 @@ class MapSetDeltas {
   // A texel within 1/256 of the value the client holds (a step of an 8-bit display at its
   // brightest) is not sent again.
   static constexpr float kTolerance = 1.0f / 256.0f;
+  // Each map's size (width, height) in a set.
+  using Shape = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
   // Where a level-0 tile lies: its map, the map's size, and its rectangle.
   struct TileKey {
     std::uint16_t map = 0;
@@ -42,7 +44,7 @@ class MapSetDeltas {
   // The set begun has maps of these sizes (width, height each): against a base of others (a
   // GGX chain's preview at face 128 before the full one at 256) it goes whole. Returns the
   // base it is sent against now.
-  std::uint32_t shape(std::vector<std::pair<std::uint32_t, std::uint32_t>> maps);
+  std::uint32_t shape(Shape maps);
   // A level-0 tile of the set begun, as the client decodes it (RGB rounded to half floats):
   // true when the client must be sent it. Either way the client holds it from now on: these
   // texels when sent, the base's otherwise.
@@ -53,7 +55,6 @@ class MapSetDeltas {
   std::size_t held() const;
 
  private:
-  using Shape = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
   struct Held {
     Shape shape;
     std::map<TileKey, std::shared_ptr<const std::vector<float>>> tiles;

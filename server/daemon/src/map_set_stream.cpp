@@ -155,7 +155,7 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSi
                            .roughness = set.roughness[map]};
     };
     if (changes) {  // maps of another size than the base's: whole
-      std::vector<std::pair<std::uint32_t, std::uint32_t>> shape;
+      MapSetDeltas::Shape shape;
       for (const EnvMap& m : set.maps)
         shape.emplace_back(std::uint32_t(m.layout.width()), std::uint32_t(m.layout.height()));
       base = changes->shape(std::move(shape));

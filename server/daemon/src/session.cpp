@@ -205,17 +205,17 @@ void Session::send(const wire::Message& message, std::optional<BulkGroup> bulk,
   if (audience != Audience::Client) watchers_.publish(message, bytes, bulk);
 }
 
-std::uint32_t Session::begin_client_set(std::uint32_t id, std::uint32_t lane) {
+std::optional<std::uint32_t> Session::begin_client_set(std::uint32_t id, std::uint32_t lane) {
   std::function<std::optional<std::uint64_t>(std::uint32_t)> begun;
   {
     std::lock_guard lock(mutex_);
     begun = bulk_begun_;
   }
+  if (!begun) return std::nullopt;
   // The set the connection has begun writing, after this session's earlier sets were queued:
   // it will be written whole, so the client will hold it (a set queued but not begun yet is
   // replaced by this one). No answer: whole.
-  const std::optional<std::uint64_t> base = begun ? begun(lane) : std::nullopt;
-  return client_sets_.begin(id, base.value_or(0));
+  return client_sets_.begin(id, begun(lane).value_or(0));
 }
 
 void Session::submit(FrameJob job) {
@@ -499,11 +499,8 @@ void Session::compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> j
       return part ? std::optional(group) : std::nullopt;
     };
     // The client's set as what changed since one it holds, when it takes changes.
-    const bool changes = !job.for_watchers && [&] {
-      std::lock_guard lock(mutex_);
-      return bool(bulk_begun_);
-    }();
-    const std::uint32_t base = changes ? begin_client_set(job.id, group.lane) : 0;
+    const std::optional<std::uint32_t> base =
+        job.for_watchers ? std::nullopt : begin_client_set(job.id, group.lane);
     const auto sink = [&](const wire::Message& m, Audience to) {
       if (!job.for_watchers) return send(m, send_as(m), to);
       if (to == Audience::Client) return;
@@ -511,7 +508,7 @@ void Session::compute_maps_thread(std::stop_token stop, std::vector<MapSetJob> j
                         send_as(m));
     };
     const double seconds =
-        stream_map_set(job, stop, sink, changes ? &client_sets_ : nullptr, base);
+        stream_map_set(job, stop, sink, base ? &client_sets_ : nullptr, base.value_or(0));
     if (seconds >= 0.0) {
       env_.map_sets->inc();
       env_.map_set_seconds->observe(seconds);

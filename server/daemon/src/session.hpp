@@ -188,8 +188,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // To the client and the watchers; a map set's messages as bulk data of `bulk` (watchers.hpp).
   void send(const wire::Message& message, std::optional<BulkGroup> bulk = std::nullopt,
             Audience audience = Audience::Everyone);
-  // With mutex_ held nowhere: the base a client set `id` of `lane` is sent against (0: whole).
-  std::uint32_t begin_client_set(std::uint32_t id, std::uint32_t lane);
+  // With mutex_ not held: begins the client's set `id` of `lane` in client_sets_ and returns the
+  // set it is sent against (0: whole), or nullopt when the client takes only whole sets.
+  std::optional<std::uint32_t> begin_client_set(std::uint32_t id, std::uint32_t lane);
 
   std::string id_, device_id_;
   SessionEnv env_;
