@@ -1039,13 +1039,16 @@ TEST(Arlightd, GgxChainsFollowTheMapWhileCapturingAndTheFullOneFollows) {
     std::this_thread::sleep_for(period);
   }
   // The full chain of the final map: on a busy machine a pause in the frames' processing may
-  // bring a full chain mid-way too, and previews after it.
+  // bring a full chain mid-way too, and previews after it. The client holds a set before its
+  // on_map_set_complete has run: wait for that too.
   ASSERT_TRUE(c.wait_for(
       [&] {
         const auto chain = c.last_complete_ggx();
         const auto update = c.last_update();
+        std::lock_guard lock(m);
         return chain && update && chain->maps[0].layout.width() == 256 &&
-               chain->frames == update->frames_processed && update->frame_sequence == 40;
+               chain->frames == update->frames_processed && update->frame_sequence == 40 &&
+               !chains.empty() && chains.back().first == 256;
       },
       60s));
   std::lock_guard lock(m);
