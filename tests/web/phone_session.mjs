@@ -55,6 +55,94 @@ function holdFirstFrame(y4m, truth, count, width, height) {
     truth.marker_visible = [...Array(count).fill(truth.marker_visible[0]), ...truth.marker_visible];
 }
 
+// Each frame's index, written into the video itself: the fake camera's media times follow its
+// timer, not the file (a late tick stamps the next frame late), so at 30 fps a media time alone
+// can name the wrong frame. Bits as 8×8 luma blocks along the bottom-left corner, bit 0 first.
+const kIndexBits = 12;
+const kIndexBlock = 8;
+
+/** Stamps every frame of `room`'s Y4M with its index (frameSyncedSensor reads it back). */
+export function stampFrameIndices(room) {
+  const { y4m, width: w, height: h } = room;
+  const bytes = fs.readFileSync(y4m);
+  const headerEnd = bytes.indexOf(0x0a) + 1;
+  const frameBytes = 6 + (w * h * 3) / 2;
+  if ((bytes.length - headerEnd) % frameBytes !== 0) throw new Error(`${y4m}: not whole ${w}x${h} I420 frames`);
+  const frames = (bytes.length - headerEnd) / frameBytes;
+  if (frames >= 1 << kIndexBits) throw new Error(`${frames} frames: more than ${kIndexBits} bits name`);
+  for (let i = 0; i < frames; ++i) {
+    const luma = headerEnd + i * frameBytes + 6;
+    for (let b = 0; b < kIndexBits; ++b) {
+      const value = (i >> b) & 1 ? 235 : 16;
+      for (let y = h - kIndexBlock; y < h; ++y) bytes.fill(value, luma + y * w + b * kIndexBlock, luma + y * w + (b + 1) * kIndexBlock);
+    }
+  }
+  fs.writeFileSync(y4m, bytes);
+}
+
+/**
+ * The page's orientation sensor in step with its video, exactly: before the page loads, its
+ * AbsoluteOrientationSensor is replaced by one that, as each video frame reaches the page
+ * (requestVideoFrameCallback, before the page's own callback runs), reads the stamped index
+ * (stampFrameIndices) of the frame the page will take and reports that frame's true pose. The frames' indices by media
+ * time (the VideoFrame's timestamp, as the page labels what it shows) are kept in
+ * window.__arlightFrameIndex. (Chromium's sensor override over CDP arrives
+ * ~100 ms late: playRoom's pacing suits a few frames a second, not 30.)
+ */
+export async function frameSyncedSensor(page, room) {
+  const readings = room.poses.map((p) => { const r = sensorReadingFor(p); return [r.x, r.y, r.z, r.w]; });
+  await page.addInitScript(({ readings, bits, block }) => {
+    const sensors = [];
+    window.AbsoluteOrientationSensor = class extends EventTarget {
+      constructor() {
+        super();
+        this.quaternion = null;
+        sensors.push(this);
+      }
+      start() {}
+      stop() {}
+    };
+    const frameIndex = new Map();
+    window.__arlightFrameIndex = frameIndex;
+    const canvas = new OffscreenCanvas(bits * block, 1);
+    const ctx = canvas.getContext('2d', { willReadFrequently: true });
+    const request = HTMLVideoElement.prototype.requestVideoFrameCallback;
+    // Within a frame callback, `new VideoFrame(video)` is whatever frame the video holds at that
+    // instant: a frame or more newer than the callback's after a few milliseconds here. The page
+    // gets the frame whose index was read (a clone), so its orientation is that frame's.
+    let current = null;
+    window.VideoFrame = new Proxy(window.VideoFrame, {
+      construct(target, args, newTarget) {
+        if (current && args[0] === current.video && args.length === 1) return current.frame.clone();
+        return Reflect.construct(target, args, newTarget);
+      },
+    });
+    HTMLVideoElement.prototype.requestVideoFrameCallback = function (callback) {
+      return request.call(this, (now, metadata) => {
+        const frame = new VideoFrame(this);
+        ctx.drawImage(frame, 0, this.videoHeight - block / 2, bits * block, 1, 0, 0, bits * block, 1);
+        const row = ctx.getImageData(0, 0, bits * block, 1).data;  // the stamp's middle row
+        let index = 0;
+        for (let b = 0; b < bits; ++b) if (row[4 * (b * block + block / 2)] > 128) index |= 1 << b;
+        frameIndex.set(frame.timestamp / 1e6, index);
+        if (index < readings.length) {
+          for (const s of sensors) {
+            s.quaternion = readings[index];
+            s.dispatchEvent(new Event('reading'));
+          }
+        }
+        current = { video: this, frame };
+        try {
+          callback(now, metadata);
+        } finally {
+          current = null;
+          frame.close();
+        }
+      });
+    };
+  }, { readings, bits: kIndexBits, block: kIndexBlock });
+}
+
 /**
  * arlightd on loopback with its web port serving `webRoot`; one device, "phone".
  * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>}>}

@@ -20,12 +20,14 @@ add_test(NAME web.browser_session
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/browser_session.test.mjs)
 add_test(NAME web.marker_session
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/marker_session.test.mjs)
+add_test(NAME web.marker_motion
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/marker_motion.test.mjs)
 add_test(NAME web.shadow_control
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/shadow_control.test.mjs)
 add_test(NAME web.failover
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/failover.test.mjs)
-set_tests_properties(web.harness web.browser_session web.marker_session web.shadow_control
-  web.failover PROPERTIES
+set_tests_properties(web.harness web.browser_session web.marker_session web.marker_motion
+  web.shadow_control web.failover PROPERTIES
   TIMEOUT 400
   # Chromium and SwiftShader want both cores, and the session's sensor pacing wants the page
   # not starved: these run alone (1 of 3 full `ctest -j2` runs failed the session test when it

@@ -29,7 +29,7 @@ import { Connection } from './connection.js';
 import { CoverageView } from './coverage_view.js';
 import { updatePanel } from './status_panel.js';
 import { Compositor } from './compositor.js';
-import { enableProbe, installHooks } from './test_hooks.js';
+import { enableProbe, installHooks, recordDrawn } from './test_hooks.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -47,8 +47,8 @@ async function open(params) {
     return null;
   }
   await askMotionPermission();
-  if (params.markerError) {
-    showError(params.markerError);
+  if (params.markerError || params.placementError) {
+    showError(params.markerError || params.placementError);
     return null;
   }
   const tracking = new MarkerTracking(params.marker);
@@ -125,36 +125,33 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
   state.upload = upload;
   const compositor = new Compositor(upload, client);
   const frameShown = enableProbe({ video: camera.video, grabber, canvas, client, compositor, width, height });
-  grabber.onFrame(async (info) => {
-    state.frameMediaTime = info.mediaTime;
-    const q = orientation();
-    const t = performance.now() / 1000;  // the frame's time, as the tracker's results carry it
-    frameShown(t, q, info.mediaTime);
-    // One VideoFrame of what shows now, for the composite, the tracker and arlightd alike (each
-    // paired with the orientation read with it); a fresh bitmap each where there are none.
+  // As each frame arrives: its orientation, its time (the clock the tracker's results carry) and
+  // one VideoFrame of it (a bitmap is made when needed where there are none), kept together
+  // while an earlier frame is composited.
+  const capture = (info) => {
     let video = null;
     try {
       if (typeof VideoFrame === 'function') video = new VideoFrame(camera.video);
     } catch {
       video = null;  // this browser cannot wrap the video: bitmaps
     }
-    const take = () => (video ? Promise.resolve(video.clone()) : createImageBitmap(camera.video));
+    // The frame's own media time: new VideoFrame(video) in a frame callback is often a newer
+    // frame than the callback's (1-8 frames at 30 fps here while the page is busy).
+    const mediaTime = video && Number.isFinite(video.timestamp) ? video.timestamp / 1e6 : info.mediaTime;
+    return { q: orientation(), t: performance.now() / 1000, video, mediaTime };
+  };
+  const release = (captured) => captured && captured.video && captured.video.close();
+  // A frame into the canvas with its own orientation and time (and the pose the tracker found
+  // in it, when it waited for one); the panel once a second.
+  const show = async ({ q, t, video, mediaTime }) => {
     try {
-      tracking.offer(take, client.camera(), { t, q, mediaTime: info.mediaTime });
-      if (compositor.busy) return;  // still on the previous frame: this one is skipped
-      try {
-        await compositor.composite(t, q, video);
-        ++frames;
-      } catch (e) {
-        if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);
-        return;
-      }
-      connection.offerFrame(q, take, info.mediaTime);
-    } finally {
-      // The clones handed out stay valid (take() runs before the offers return); this one is
-      // done once the composite has it.
-      if (video) video.close();
+      await compositor.composite(t, q, video);
+    } catch (e) {
+      if (!/no current frame/.test(String(e.message))) showError(`render: ${e.message || e}`);
+      return false;
     }
+    recordDrawn(client, mediaTime, t);
+    ++frames;
     const now = performance.now();
     if (now - since >= 1000) {
       state.fps = (frames * 1000) / (now - since);
@@ -162,7 +159,37 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
       since = now;
       updatePanel(coverage, q, params);
     }
-  });
+    return true;
+  };
+  grabber.onFrame(async (info) => {
+    const captured = info.captured ?? { q: orientation(), t: performance.now() / 1000, video: null, mediaTime: info.mediaTime };
+    const { q, t, video, mediaTime } = captured;
+    state.frameMediaTime = mediaTime;
+    frameShown(t, q, mediaTime);
+    // The frame for the tracker, the composite and arlightd alike (each paired with the
+    // orientation read as it arrived). The clones handed out stay valid: take() runs before the
+    // offers return.
+    const take = () => (video ? Promise.resolve(video.clone()) : createImageBitmap(camera.video));
+    // Issue 36 §4, registration first: while the marker is tracked, a frame is shown only with
+    // the pose the tracker finds in it (the worker's time later), and the frames that reach the
+    // page while the worker is busy are not shown. Predicting the pose of frames the tracker has
+    // not seen missed by up to ~300 px at 30 fps on a 2-core machine (marker_motion.test.mjs).
+    // Without the marker (searching, or opencv.js still loading) every frame shows at once.
+    const registering = params.placement === 'registered' && tracking.registering;
+    const registration = tracking.offer(take, client.camera(), { t, q, mediaTime });
+    if (registering) {
+      connection.offerFrame(q, take, mediaTime);
+      if (registration) registration.then(() => show(captured)).finally(() => release(captured));
+      else release(captured);
+      return;
+    }
+    try {
+      if (compositor.busy) return;  // still on the previous frame: this one is skipped
+      if (await show(captured)) connection.offerFrame(q, take, mediaTime);
+    } finally {
+      release(captured);  // done once the composite has it
+    }
+  }, { capture, release });
 }
 
 // Start (the button, or &autostart=1), with the parameters parsed at load.

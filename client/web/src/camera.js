@@ -424,6 +424,7 @@ export async function openCamera({ width = 640, height = 480, timeoutMs = 10000 
  * @property {number|undefined} captureTime rVFC's capture time stamp (ms) where the browser has it
  * @property {number} dropped how many new frames were coalesced into this call because the
  *   previous callback was still running (presentedFrames gaps included where known)
+ * @property {*} captured what `onFrame`'s `capture` took as the frame arrived (undefined without)
  */
 
 /**
@@ -552,11 +553,15 @@ export class FrameGrabber {
   /**
    * Calls `cb` once for each new camera frame, newest frame wins: while a callback's promise is
    * pending, newer frames are coalesced and `cb` runs once more afterwards (with `dropped` > 0).
-   * Only one subscriber; a second call replaces the first.
+   * Only one subscriber; a second call replaces the first. `capture(info)` runs as each frame
+   * arrives, before any wait, and its result comes as `info.captured`: what must belong to that
+   * very frame (the video's current frame, the sensors' reading then), not to a newer one shown
+   * by the time a coalesced frame's turn comes. `release(captured)` gets a dropped frame's.
    * @param {(info: FrameInfo) => (void|Promise<void>)} cb
+   * @param {{capture?: (info: FrameInfo) => *, release?: (captured: *) => void}} [hooks]
    * @returns {() => void} stops the callbacks
    */
-  onFrame(cb) {
+  onFrame(cb, { capture = () => undefined, release = () => {} } = {}) {
     if (this._stopFrames) this._stopFrames();
     const v = this.video;
     let stopped = false;
@@ -591,12 +596,24 @@ export class FrameGrabber {
     };
     const deliver = (info) => {
       if (stopped) return;
+      try {
+        info.captured = capture(info);
+      } catch (e) {
+        reportCallbackError(e);
+      }
       if (busy) {
-        if (pending) coalesced += 1 + pending.dropped;
+        if (pending) {
+          coalesced += 1 + pending.dropped;
+          release(pending.captured);
+        }
         pending = info;
         return;
       }
       run(info);
+    };
+    const dropPending = () => {
+      if (pending) release(pending.captured);
+      pending = null;
     };
 
     if (typeof v.requestVideoFrameCallback === 'function') {
@@ -622,6 +639,7 @@ export class FrameGrabber {
       this._stopFrames = () => {
         stopped = true;
         v.cancelVideoFrameCallback(handle);
+        dropPending();
         this._stopFrames = null;
       };
     } else {
@@ -646,6 +664,7 @@ export class FrameGrabber {
       this._stopFrames = () => {
         stopped = true;
         cancelAnimationFrame(handle);
+        dropPending();
         this._stopFrames = null;
       };
     }

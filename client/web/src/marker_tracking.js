@@ -38,8 +38,12 @@ export class MarkerTracking {
       this.frames.delete(data.id);
       this.busy = false;
       if (data.type === 'result') this.found = Boolean(data.found && !data.found.refused);
-      if (data.type === 'result' && frame) this.result(data.found, frame, data.ms);
-      else if (data.type === 'error') this.failed(data.message);
+      try {
+        if (data.type === 'result' && frame) this.result(data.found, frame, data.ms);
+        else if (data.type === 'error') this.failed(data.message);
+      } finally {
+        frame?.resolve(data.type === 'result' && this.found);
+      }
     };
     this.worker.onerror = (e) => this.failed(e.message || 'the tracking worker failed');
     this.worker.postMessage({ type: 'marker', ...marker });
@@ -55,29 +59,36 @@ export class MarkerTracking {
     if (this.ready) this.nowReady();
   }
 
-  // The frame the page shows now (`take` gives a transferable copy of it), with what it knows of
-  // it ({t, q, mediaTime}); skipped while the worker is busy or still loading opencv.js.
-  async offer(take, k, frame) {
-    if (!this.ready || this.busy) return;
+  // Whether the last result found the marker: the page then shows each frame with its own pose.
+  get registering() {
+    return this.ready && this.found;
+  }
+
+  // The frame that reached the page (`take` gives a transferable copy of it), with what it knows
+  // of it ({t, q, mediaTime}). Returns a promise that settles once the worker's result for it is
+  // in the pose filter (true: the marker was found), or null when the frame is not taken: the
+  // worker busy or still loading opencv.js, or a search too soon after the last.
+  offer(take, k, frame) {
+    if (!this.ready || this.busy) return null;
+    // The first frame the tracker could take: the frames before it were never offered (on a
+    // warm cache opencv.js is ready before the camera's first frames reach the page).
+    state.trackerReadyMediaTime ??= frame.mediaTime;
     const now = performance.now();
-    if (!this.found && now - this.lastOffer < kSearchIntervalMs) return;
+    if (!this.found && now - this.lastOffer < kSearchIntervalMs) return null;
     this.lastOffer = now;
     this.busy = true;
     const id = ++this.next;
-    this.frames.set(id, frame);
-    try {
-      const image = await take();
-      this.worker.postMessage({ type: 'frame', id, image, k }, [image]);
-    } catch {
+    const done = new Promise((resolve) => this.frames.set(id, { ...frame, resolve }));
+    take().then((image) => this.worker.postMessage({ type: 'frame', id, image, k }, [image]), () => {
+      this.frames.get(id)?.resolve(false);
       this.frames.delete(id);
       this.busy = false;
-    }
+    });
+    return done;
   }
 
   nowReady() {
     state.tracker = 'ready';
-    // Ready before the first frame was shown (a warm cache): ready for every frame.
-    state.trackerReadyMediaTime = state.frameMediaTime ?? 0;
   }
 
   failed(message) {

@@ -8,6 +8,9 @@
 //   [&location=1]  (tick "the sun from my location": the browser still asks its user)
 //   [&upload=auto|video|yuv|canvas|imagedata]  (how the camera frame reaches WebGL:
 //   frame_upload.js)
+//   [&placement=registered|predicted]  (on the marker: each frame shown with the pose the
+//   tracker finds in it, a tracker's time later; or at once, with the newest pose moved on by
+//   the sensor's rotation and the pose filter's velocity: marker_tracking.js)
 //   [&shadowLights=N][&fps=F]  (soft shadows: at most N hard shadows, 1-32, default 16, as many
 //   as hold F frames a second, default 30, 0: always N; arlight-client's --shadow-lights,
 //   --target-fps)
@@ -52,6 +55,7 @@ export function parseParams(hash) {
   } catch (e) {
     markerError = String(e.message || e);
   }
+  const placement = p.get('placement') || 'registered';
   return {
     device: p.get('device'),
     token: p.get('token'),
@@ -61,6 +65,9 @@ export function parseParams(hash) {
     fov: p.get('fov'),  // degrees, as written
     marker,             // {id, size, dictionary}, or null and markerError
     markerError,
+    placement,
+    placementError: ['registered', 'predicted'].includes(placement) ? null
+      : `placement '${placement}': registered or predicted`,
     shadowLights: parseShadowLights(p),
     model: p.get('model'),
     // The selects' choices, named like their ids.

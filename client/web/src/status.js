@@ -15,6 +15,7 @@ export const state = {
   fps: 0,
   renderMs: 0,
   grabMs: 0,        // the camera frame into the renderer's texture
+  drawn: [],        // the recent composites (window.arlight.drawn())
   // connection.js
   connected: false,
   sessionId: '',    // sent as the Hello's resume_session (app.js sets the URL's &session=)
@@ -28,7 +29,7 @@ export const state = {
   trackMs: 0,               // the worker's time for the last frame
   tracks: [],               // the recent tracking results (window.arlight.tracks())
   tracker: 'loading',       // opencv.js in the worker: 'loading', 'ready' or 'failed'
-  trackerReadyMediaTime: null,  // the frame shown when it became ready
+  trackerReadyMediaTime: null,  // the first frame offered to it once ready
   tracking: 'preview',  // the object floats ahead of the view; 'marker' once it stands on it
   intrinsics: 'default',    // or 'refined' (from the marker's views)
   refinedMediaTime: null,   // the frame shown when the focal length was last refined

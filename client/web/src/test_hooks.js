@@ -5,6 +5,7 @@ import { snapshotFrame } from './camera.js';
 import { report, state } from './status.js';
 
 const kRecentFrames = 8;  // the frames shown whose orientations the probe can look up
+const kDrawnKept = 2000;  // state.drawn: a minute at 30 fps
 
 let probeComposite = () => null;  // until the page composites (enableProbe)
 
@@ -22,6 +23,13 @@ export function installHooks() {
     // velocity (the pose filter's, m/s in the marker frame), reprojection_px}.
     tracks() {
       return state.tracks.slice();
+    },
+    // The recent composites, one per camera frame the page showed: {media_time (the frame's),
+    // centre (the object's centre in the canvas, pixels, row 0 at the top; null without an
+    // object), on_marker (placed by the marker's pose, not the preview), after_ms (from the
+    // frame reaching the page to its composite)}.
+    drawn() {
+      return state.drawn.slice();
     },
     // The recent frames sent to arlightd: {media_time (the frame's), orientation (camera -> world,
     // [w, x, y, z], as sent with it)}.
@@ -99,4 +107,14 @@ export function enableProbe({ video, grabber, canvas, client, compositor, width:
     recent.set(mediaTime, shown);
     if (recent.size > kRecentFrames) recent.delete(recent.keys().next().value);
   };
+}
+
+/**
+ * Keeps what the composite of the frame at `mediaTime`, which reached the page at `t` (s,
+ * performance.now()'s clock), drew (window.arlight.drawn()).
+ */
+export function recordDrawn(client, mediaTime, t) {
+  state.drawn.push({ media_time: mediaTime, centre: client.objectPixel(), on_marker: client.placedOnMarker(),
+    after_ms: performance.now() - 1000 * t });
+  if (state.drawn.length > kDrawnKept) state.drawn.shift();
 }

@@ -37,6 +37,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
       .function("setModel", &WebClient::set_model)
       .function("status", &WebClient::status)
       .function("objectPixel", &WebClient::object_pixel)
+      .function("placedOnMarker", &WebClient::placed_on_marker)
       .function("floorPixel", &WebClient::floor_pixel)
       .function("view", &WebClient::view);
 }

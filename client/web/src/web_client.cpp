@@ -159,7 +159,11 @@ val WebClient::marker_seen(double timestamp, double rx, double ry, double rz, do
   const glm::dquat world_from_camera = glm::normalize(glm::dquat(qw, qx, qy, qz));
   const Pose smoothed = filter_.update(raw, timestamp);
   world_from_marker_.add(timestamp, world_from_camera, raw.orientation);
-  placement_.tracked(timestamp, smoothed, filter_.velocity(), world_from_camera);
+  // The frame's own measurement places the object (issue 36 §4: the page shows a tracked frame
+  // with it; at the page's tracking rate, a few frames a second on a small machine, the filter's
+  // smoothed pose trails the camera by up to 6 px), moved on by the filter's velocity for frames
+  // shown without waiting for their own.
+  placement_.tracked(timestamp, raw, filter_.velocity(), world_from_camera);
   ++tracked_frames_;
   val out = val::object();
   out.set("raw", pose_to_js(raw));
@@ -184,6 +188,7 @@ double WebClient::render(double timestamp, double qw, double qx, double qy, doub
   // filter's velocity. After the marker is lost the object stays there, turned by the sensor
   // alone, until it is seen again. Before any marker: the preview.
   const auto on_marker = placement_.camera_in_marker(timestamp, world_from_camera);
+  placed_on_marker_ = on_marker.has_value();
   const auto [camera_in_scene, world_from_scene] =
       on_marker ? std::pair{*on_marker, world_from_marker()}
                 : client_app::preview_placement(world_from_camera, object_height_);

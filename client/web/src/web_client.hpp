@@ -138,6 +138,8 @@ class WebClient {
   // Where the object's centre is in the last composite (pixels, row 0 at the top), or null when
   // it is behind the camera or nothing was drawn yet.
   val object_pixel() const;
+  // Whether the last render() placed the object by the marker's pose (not the preview).
+  bool placed_on_marker() const { return placed_on_marker_; }
   // Where the floor just in front of the object is in the last composite: the point of the
   // marker plane 1.15 footprint half-widths from the object's centre towards the camera, inside
   // its contact shadow and never behind the object; null as object_pixel().
@@ -199,6 +201,7 @@ class WebClient {
   // Soft shadows: the native client's --shadow-lights and --target-fps defaults.
   client_app::ShadowBudget shadow_{16, 30.0};
   bool shadow_drawn_ = false;  // the last render() drew the shadow catcher
+  bool placed_on_marker_ = false;
 };
 
 }  // namespace arlight::web
