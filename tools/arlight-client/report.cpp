@@ -53,6 +53,11 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
                        {"max_cm", percentile(s.error_cm, 1.0)},
                        {"max_deg", percentile(s.error_deg, 1.0)},
                        {"frames", s.error_cm.size()}};
+  if (!s.object_error_px.empty())
+    j["object_error_px"] = {{"median", median(s.object_error_px)},
+                            {"p95", percentile(s.object_error_px, 0.95)},
+                            {"max", percentile(s.object_error_px, 1.0)},
+                            {"frames", s.object_error_px.size()}};
   j["shadow_lights"] = {{"median", median(s.shadow_lights)},
                         {"min", s.shadow_lights.empty() ? 0.0 : percentile(s.shadow_lights, 0.0)},
                         {"max", percentile(s.shadow_lights, 1.0)},

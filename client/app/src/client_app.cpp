@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "arlight/common/atomic_file.hpp"
+#include "arlight/common/camera.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/number_list.hpp"
 
@@ -161,11 +162,20 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   // pass; it may have drawn fewer hard shadows than asked, or none, when clusters are broad).
   shadow_budget_.frame_took(report.frame_ms, report.drawn && options_.shadow);
 
-  // Pose error against the truth, where it is known.
-  if (const auto expected =
-          tr.tracked && options_.true_pose ? options_.true_pose(f.index) : std::nullopt) {
+  // Pose error against the truth, where it is known, and where that put the object.
+  const auto expected = options_.true_pose ? options_.true_pose(f.index) : std::nullopt;
+  if (expected && tr.tracked) {
     report.error_cm = 100.0 * glm::length(tr.smoothed.position - expected->position);
     report.error_deg = angle_deg(tr.smoothed.orientation, expected->orientation);
+  }
+  if (expected && report.drawn) {
+    const PinholeCamera camera(options_.camera);
+    const glm::dvec3 centre(0.0, 0.0, 0.5 * options_.object_height);
+    const auto pixel = [&](const Pose& p) {
+      return camera.project(glm::conjugate(p.orientation) * (centre - p.position));
+    };
+    const auto drawn_at = pixel(*pose), true_at = pixel(*expected);
+    if (drawn_at && true_at) report.object_error_px = glm::length(*drawn_at - *true_at);
   }
   return report;
 }
@@ -321,6 +331,7 @@ void RunStats::add(const FrameReport& r, double decode) {
   tonemap_ms.push_back(r.tonemap_ms);
   decode_ms.push_back(decode);
   if (r.error_cm) error_cm.push_back(*r.error_cm), error_deg.push_back(*r.error_deg);
+  if (r.object_error_px) object_error_px.push_back(*r.object_error_px);
   if (r.shadow_lights > 0) shadow_lights.push_back(r.shadow_lights);
 }
 

@@ -119,6 +119,9 @@ struct FrameReport {
   int shadow_lights = 0;  // hard shadows blended into the soft one (0: none drawn)
   // Pose error against the truth, for frames where the marker is visible.
   std::optional<double> error_cm, error_deg;
+  // How far the object's centre was drawn from where the truth projects it (pixels), for drawn
+  // frames where the marker is visible (issue 36 §4).
+  std::optional<double> object_error_px;
 };
 
 class FramePipeline {
@@ -182,7 +185,8 @@ std::filesystem::path default_bake_cache();
 
 // Median, 95th percentile and maximum of a run's figures (what arlight-client reports).
 struct RunStats {
-  std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg;
+  std::vector<double> frame_ms, track_ms, render_ms, tonemap_ms, decode_ms, error_cm, error_deg,
+      object_error_px;
   std::vector<double> shadow_lights;  // of the frames whose shadow was drawn
   std::size_t frames = 0, tracked = 0, lit_by_maps = 0, lit_by_sh = 0, lit_by_ggx = 0;
   std::size_t exposure_requested = 0;  // frames taken at arlightd's exposure advice
