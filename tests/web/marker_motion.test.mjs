@@ -80,7 +80,7 @@ test('the object stays on the marker in every frame the page composites at 30 fp
     const after = placed.map((c) => c.after_ms);
     console.log(`${PLACEMENT}: the object's centre against the truth's projection, ${placed.length} composites: ` +
       `p50 ${quantile(px, 0.5).toFixed(1)} px, p95 ${quantile(px, 0.95).toFixed(1)} px, max ${Math.max(...px).toFixed(1)} px; ` +
-      `shown ${quantile(after, 0.5).toFixed(0)} ms (p50), ${quantile(after, 0.95).toFixed(0)} ms (p95) after the frame reached the page`);
+      `shown ${quantile(after, 0.5).toFixed(0)} ms (p50), ${quantile(after, 0.95).toFixed(0)} ms (p95) after the frame was taken`);
     if (process.env.ARLIGHT_DEBUG) for (const o of offsets) console.log(`frame ${o.i}: ${o.px.toFixed(2)} px`);
 
     // On the tracked frames themselves: the tracker's own poses, and the pose filter's.

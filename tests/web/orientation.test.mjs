@@ -16,6 +16,7 @@ import {
   quatNormalize,
   quatRotateVector,
   quatFromAxisAngle,
+  OrientationHistory,
   normalizeScreenAngle,
   Q_ENU_TO_WORLD,
 } from '../../client/web/src/orientation.js';
@@ -375,4 +376,28 @@ test('outputs are unit quaternions with w ≥ 0, also for unnormalised sensor in
       }
     }
   }
+});
+
+test('OrientationHistory: the reading of when a frame was taken, interpolated between two', () => {
+  const h = new OrientationHistory(1000);
+  assertVecClose(h.at(5), [1, 0, 0, 0], 'identity before any reading');
+  const a = quatFromAxisAngle([0, 1, 0], 0);
+  const b = quatFromAxisAngle([0, 1, 0], 30);
+  h.add(100, a);
+  h.add(200, b);
+  assertVecClose(h.at(150), quatFromAxisAngle([0, 1, 0], 15), 'half way: half the angle');
+  assertVecClose(h.at(125), quatFromAxisAngle([0, 1, 0], 7.5), 'a quarter of the way');
+  assertVecClose(h.at(250), b, 'after the newest: the newest');
+  assertVecClose(h.at(50), a, 'before the oldest: the oldest');
+  assertVecClose(h.at(undefined), b, 'no time: the newest');
+  // A reading that arrives late goes in its place; the oldest go after keepMs.
+  h.add(180, quatFromAxisAngle([0, 1, 0], 20));
+  assertVecClose(h.at(190), quatFromAxisAngle([0, 1, 0], 25), 'between the late one and the newest');
+  h.add(1300, a);
+  assertVecClose(h.at(150), b, 'readings older than a second before the newest are gone');
+  // Along the shorter arc, whatever the sign of the quaternions.
+  const g = new OrientationHistory();
+  g.add(0, quatFromAxisAngle([1, 0, 0], 170));
+  g.add(10, quatFromAxisAngle([1, 0, 0], -170).map((v) => -v));
+  assertVecClose(g.at(5), quatFromAxisAngle([1, 0, 0], 180), 'through 180 degrees, not 0');
 });

@@ -97,6 +97,7 @@ export async function frameSyncedSensor(page, room) {
       constructor() {
         super();
         this.quaternion = null;
+        this.timestamp = null;
         sensors.push(this);
       }
       start() {}
@@ -128,6 +129,8 @@ export async function frameSyncedSensor(page, room) {
         if (index < readings.length) {
           for (const s of sensors) {
             s.quaternion = readings[index];
+            // Read when the frame was taken (as the page works it out from the callback's).
+            s.timestamp = metadata.captureTime + 1000 * (frame.timestamp / 1e6 - metadata.mediaTime);
             s.dispatchEvent(new Event('reading'));
           }
         }

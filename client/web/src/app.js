@@ -125,9 +125,10 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
   state.upload = upload;
   const compositor = new Compositor(upload, client);
   const frameShown = enableProbe({ video: camera.video, grabber, canvas, client, compositor, width, height });
-  // As each frame arrives: its orientation, its time (the clock the tracker's results carry) and
-  // one VideoFrame of it (a bitmap is made when needed where there are none), kept together
-  // while an earlier frame is composited.
+  // As each frame arrives: one VideoFrame of it (a bitmap is made when needed where there are
+  // none), when it was taken (s, performance.now()'s clock: the tracker's results and the
+  // placement carry it) and the orientation then, kept together while an earlier frame is
+  // composited.
   const capture = (info) => {
     let video = null;
     try {
@@ -138,7 +139,12 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
     // The frame's own media time: new VideoFrame(video) in a frame callback is often a newer
     // frame than the callback's (1-8 frames at 30 fps here while the page is busy).
     const mediaTime = video && Number.isFinite(video.timestamp) ? video.timestamp / 1e6 : info.mediaTime;
-    return { q: orientation(), t: performance.now() / 1000, video, mediaTime };
+    // Taken tens of milliseconds before it reaches the page (60-200 ms here): the callback's
+    // capture time, moved by the media time between its frame and this one. Browsers that do
+    // not say: now.
+    const takenMs = Number.isFinite(info.captureTime)
+      ? info.captureTime + 1000 * (mediaTime - info.mediaTime) : performance.now();
+    return { q: orientation(takenMs), t: takenMs / 1000, video, mediaTime };
   };
   const release = (captured) => captured && captured.video && captured.video.close();
   // A frame into the canvas with its own orientation and time (and the pose the tracker found

@@ -264,3 +264,65 @@ export function sensorQuaternionFromCameraQuat(cameraWXYZ, screenAngleDeg) {
   const [w, x, y, z] = quatNormalize(quatMultiply(quatMultiply(qWE, qCW), qDC));
   return [x, y, z, w];
 }
+
+/**
+ * Spherical interpolation between unit quaternions a (s = 0) and b (s = 1), along the shorter
+ * arc.
+ * @param {number[]} a unit [w, x, y, z]
+ * @param {number[]} b unit [w, x, y, z]
+ * @param {number} s in [0, 1]
+ * @returns {number[]} unit [w, x, y, z]
+ */
+export function quatSlerp(a, b, s) {
+  let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+  const sign = dot < 0 ? -1 : 1;
+  dot *= sign;
+  if (dot > 0.9995) return quatNormalize(a.map((v, i) => v + s * (sign * b[i] - v)));
+  const theta = Math.acos(dot);
+  const wa = Math.sin((1 - s) * theta) / Math.sin(theta);
+  const wb = (sign * Math.sin(s * theta)) / Math.sin(theta);
+  return quatNormalize(a.map((v, i) => wa * v + wb * b[i]));
+}
+
+/**
+ * The recent orientation readings with their times, and the orientation at a given time: a
+ * camera frame reaches the page tens of milliseconds after it was taken, while the sensors'
+ * newest reading is of now, so a frame is paired with the reading of when it was taken
+ * (interpolated between the two around it; the newest for a time after it, the oldest kept for
+ * one before).
+ */
+export class OrientationHistory {
+  /** @param {number} keepMs how far back readings are kept */
+  constructor(keepMs = 1000) {
+    this.keepMs = keepMs;
+    this.readings = [];  // {ms, q}, oldest first
+  }
+
+  /** A reading taken at `ms` (performance.now()'s clock): q, camera -> world [w, x, y, z]. */
+  add(ms, q) {
+    const r = this.readings;
+    if (!Number.isFinite(ms)) ms = r.length ? r[r.length - 1].ms : 0;
+    // A reading older than the newest (clocks of two sources) goes in its place.
+    let at = r.length;
+    while (at > 0 && r[at - 1].ms > ms) --at;
+    r.splice(at, 0, { ms, q });
+    while (r.length > 2 && r[0].ms < r[r.length - 1].ms - this.keepMs) r.shift();
+  }
+
+  /** The newest reading's orientation, or identity before any. */
+  latest() {
+    return this.readings.length ? this.readings[this.readings.length - 1].q : [1, 0, 0, 0];
+  }
+
+  /** The orientation at `ms`; the newest without a time. */
+  at(ms) {
+    const r = this.readings;
+    if (!Number.isFinite(ms) || r.length === 0 || ms >= r[r.length - 1].ms) return this.latest();
+    if (ms <= r[0].ms) return r[0].q;
+    let i = r.length - 1;
+    while (r[i - 1].ms > ms) --i;
+    const a = r[i - 1];
+    const b = r[i];
+    return b.ms > a.ms ? quatSlerp(a.q, b.q, (ms - a.ms) / (b.ms - a.ms)) : b.q;
+  }
+}

@@ -1,7 +1,7 @@
 // The camera's orientation from the phone's motion sensors: the Generic Sensor API's
 // AbsoluteOrientationSensor where the browser has one, else deviceorientation events; orientation.js
 // converts either to the protocol's camera -> world quaternion. state.orientation says which.
-import { cameraQuatFromDeviceOrientation, cameraQuatFromSensorQuaternion } from './orientation.js';
+import { cameraQuatFromDeviceOrientation, cameraQuatFromSensorQuaternion, OrientationHistory } from './orientation.js';
 import { showError, state } from './status.js';
 
 /** iOS asks for motion sensors on a tap: asked here (on Start), a refusal shown. */
@@ -16,15 +16,20 @@ export async function askMotionPermission() {
   }
 }
 
-/** Starts the sensors; returns the latest orientation's getter (camera -> world, [w, x, y, z]). */
+/**
+ * Starts the sensors; returns the orientation's getter (camera -> world, [w, x, y, z]): at a
+ * time (ms, performance.now()'s clock: when a camera frame was taken), or the newest.
+ */
 export function startOrientation() {
-  let latest = [1, 0, 0, 0];
+  const history = new OrientationHistory();
   const screenAngle = () => (screen.orientation ? screen.orientation.angle : window.orientation || 0);
   if ('AbsoluteOrientationSensor' in window) {
     try {
       const sensor = new AbsoluteOrientationSensor({ frequency: 60, referenceFrame: 'device' });
       sensor.addEventListener('reading', () => {
-        latest = cameraQuatFromSensorQuaternion(sensor.quaternion, screenAngle());
+        // Sensor.timestamp: when the reading was taken, on performance.now()'s clock.
+        const ms = Number.isFinite(sensor.timestamp) ? sensor.timestamp : performance.now();
+        history.add(ms, cameraQuatFromSensorQuaternion(sensor.quaternion, screenAngle()));
         state.orientation = 'absolute-orientation-sensor';
       });
       sensor.addEventListener('error', (e) => showError(`orientation sensor: ${e.error.name}`));
@@ -35,8 +40,8 @@ export function startOrientation() {
   }
   window.addEventListener('deviceorientation', (e) => {
     if (state.orientation === 'absolute-orientation-sensor' || e.alpha === null) return;
-    latest = cameraQuatFromDeviceOrientation(e.alpha, e.beta, e.gamma, screenAngle());
+    history.add(e.timeStamp, cameraQuatFromDeviceOrientation(e.alpha, e.beta, e.gamma, screenAngle()));
     state.orientation = 'deviceorientation';
   });
-  return () => latest;
+  return (ms) => history.at(ms);
 }

@@ -27,7 +27,7 @@ export function installHooks() {
     // The recent composites, one per camera frame the page showed: {media_time (the frame's),
     // centre (the object's centre in the canvas, pixels, row 0 at the top; null without an
     // object), on_marker (placed by the marker's pose, not the preview), after_ms (from the
-    // frame reaching the page to its composite)}.
+    // frame being taken to its composite)}.
     drawn() {
       return state.drawn.slice();
     },
@@ -110,8 +110,8 @@ export function enableProbe({ video, grabber, canvas, client, compositor, width:
 }
 
 /**
- * Keeps what the composite of the frame at `mediaTime`, which reached the page at `t` (s,
- * performance.now()'s clock), drew (window.arlight.drawn()).
+ * Keeps what the composite of the frame at `mediaTime`, taken at `t` (s, performance.now()'s
+ * clock), drew (window.arlight.drawn()).
  */
 export function recordDrawn(client, mediaTime, t) {
   state.drawn.push({ media_time: mediaTime, centre: client.objectPixel(), on_marker: client.placedOnMarker(),
