@@ -179,13 +179,14 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
     // Issue 36 §4, registration first: while the marker is tracked, a frame is shown only with
     // the pose the tracker finds in it (the worker's time later), and the frames that reach the
     // page while the worker is busy are not shown. Predicting the pose of frames the tracker has
-    // not seen missed by up to ~300 px at 30 fps on a 2-core machine (marker_motion.test.mjs).
-    // Without the marker (searching, or opencv.js still loading) every frame shows at once.
+    // not seen missed by up to ~300 px at 30 fps on a 2-core machine (bench/RESULTS.md, issue 36
+    // part 4). A frame in which the marker is not found is not shown; once it has been lost for
+    // a moment, or before it is found (opencv.js loading, searching), every frame shows at once.
     const registering = params.placement === 'registered' && tracking.registering;
     const registration = tracking.offer(take, client.camera(), { t, q, mediaTime });
     if (registering) {
       connection.offerFrame(q, take, mediaTime);
-      if (registration) registration.then(() => show(captured)).finally(() => release(captured));
+      if (registration) registration.then((found) => found && show(captured)).finally(() => release(captured));
       else release(captured);
       return;
     }

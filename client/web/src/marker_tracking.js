@@ -9,6 +9,7 @@ import { focalEstimate } from './intrinsics.js';
 import { showError, state } from './status.js';
 
 const kSearchIntervalMs = 250;
+const kRegisterHoldMs = 500;
 const kTracksKept = 1000;  // state.tracks
 const kViewsKept = 64;     // the focal length's views: the newest
 
@@ -22,6 +23,7 @@ export class MarkerTracking {
     this.frames = new Map();  // what the page knew of each frame in the worker
     this.found = false;       // in the last result
     this.lastOffer = -Infinity;
+    this.lastFoundAt = -Infinity;  // performance.now() of the last result that found it
     this.client = null;       // set by follow()
     this.onFocal = null;
     this.views = [];          // the newest kViewsKept views' corners
@@ -38,6 +40,7 @@ export class MarkerTracking {
       this.frames.delete(data.id);
       this.busy = false;
       if (data.type === 'result') this.found = Boolean(data.found && !data.found.refused);
+      if (this.found) this.lastFoundAt = performance.now();
       try {
         if (data.type === 'result' && frame) this.result(data.found, frame, data.ms);
         else if (data.type === 'error') this.failed(data.message);
@@ -59,9 +62,11 @@ export class MarkerTracking {
     if (this.ready) this.nowReady();
   }
 
-  // Whether the last result found the marker: the page then shows each frame with its own pose.
+  // Whether the page shows each frame with its own pose: the marker was found in the last
+  // result, or lost for less than kRegisterHoldMs (a blurred frame, a hand: those frames are
+  // not shown rather than shown off the marker).
   get registering() {
-    return this.ready && this.found;
+    return this.ready && (this.found || performance.now() - this.lastFoundAt < kRegisterHoldMs);
   }
 
   // The frame that reached the page (`take` gives a transferable copy of it), with what it knows
