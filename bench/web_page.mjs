@@ -4,8 +4,10 @@
 // from Chromium's built-in fake camera, against a real arlightd on loopback. Also the size of
 // the page's code (gzip). Each size with the camera frame uploaded as the <video> and as its YUV
 // planes, and 640x480 with the page's own choice (upload=auto); then 1280x720 in each other
-// compositing mode (hemisphere shading, glass with live refraction, colour matching). Prints a
-// Markdown table.
+// compositing mode (hemisphere shading, glass with live refraction, colour matching). Beside the
+// page's latency: arlightd's own (frame received to update sent, from its /metrics histogram) and
+// the share of the page's main thread spent in long tasks (over 50 ms), where the tail waits.
+// Prints a Markdown table.
 //   node bench/web_page.mjs [BUILD_BIN] [SECONDS]
 import fs from 'node:fs';
 import os from 'node:os';
@@ -27,12 +29,38 @@ const median = (v) => {
   return s.length ? s[Math.floor(s.length / 2)] : 0;
 };
 const rows = [];
+
+// arlightd's own frame -> LightingUpdate time (received to sent): its histogram's cumulative
+// bucket counts from the admin API's /metrics, {bound (s): count}.
+const adminToken = fs.readFileSync(path.join(dir, 'daemon', 'data', 'admin.token'), 'utf8').split('\n')
+  .map((l) => l.trim()).find((l) => l && !l.startsWith('#'));
+async function updateLatencyBuckets() {
+  const res = await fetch(`http://127.0.0.1:${daemon.admin}/metrics`, { headers: { Authorization: `Bearer ${adminToken}` } });
+  const out = {};
+  for (const m of (await res.text()).matchAll(/^arlight_update_latency_seconds_bucket\{le="([^"]+)"\} (\d+)/gm))
+    out[m[1]] = Number(m[2]);
+  return out;
+}
+// The bucket bound (ms) under which fraction q of the updates between two readings fell.
+function bucketQuantile(before, after, q) {
+  const bounds = Object.keys(after).filter((b) => b !== '+Inf').sort((a, b) => Number(a) - Number(b));
+  const total = after['+Inf'] - (before['+Inf'] || 0);
+  for (const b of bounds) if (after[b] - (before[b] || 0) >= q * total) return 1000 * Number(b);
+  return Infinity;
+}
 try {
   for (const [size, upload, mode = ''] of [['640x480', 'video'], ['640x480', 'yuv'], ['640x480', 'auto'],
     ['1280x720', 'video'], ['1280x720', 'yuv'], ['1280x720', 'video', 'shading=hemisphere'],
     ['1280x720', 'video', 'material=glass&refraction=live'], ['1280x720', 'video', 'colour=match']]) {
     const { browser, page } = await launchChromium();
     try {
+      // The main thread's long tasks (over 50 ms): where the latency's tail waits.
+      await page.addInitScript(() => {
+        window.__longTasksMs = 0;
+        new PerformanceObserver((list) => {
+          for (const e of list.getEntries()) window.__longTasksMs += e.duration;
+        }).observe({ type: 'longtask' });
+      });
       await enableOrientationOverride(page);
       await overrideOrientation(page, { x: 0.5, y: 0, z: 0, w: Math.sqrt(0.75) });
       await page.goto(`${daemon.url}&autostart=1&size=${size}&upload=${upload}${mode ? `&${mode}` : ''}`);
@@ -40,11 +68,15 @@ try {
       const samples = [];
       const t0 = Date.now();
       const first = await page.evaluate(() => window.arlight.status());
+      const longFirst = await page.evaluate(() => window.__longTasksMs);
+      const daemonFirst = await updateLatencyBuckets();
       while (Date.now() - t0 < seconds * 1000) {
         await new Promise((r) => setTimeout(r, 250));
         samples.push(await page.evaluate(() => window.arlight.status()));
       }
       const last = samples[samples.length - 1];
+      const longShare = (await page.evaluate(() => window.__longTasksMs) - longFirst) / (Date.now() - t0);
+      const daemonLast = await updateLatencyBuckets();
       rows.push({
         size,
         mode: mode || 'plastic, maps',
@@ -58,6 +90,8 @@ try {
         p50: last.latency_p50_ms,
         p99: last.latency_p99_ms,
         ready: last.ready_ms,
+        longShare,
+        daemonP99: bucketQuantile(daemonFirst, daemonLast, 0.99),
       });
     } finally {
       await browser.close();
@@ -69,11 +103,12 @@ try {
 }
 
 console.log(`headless Chromium ${seconds} s per size, Chromium's fake camera at 30 fps, arlightd on loopback (wss)\n`);
-console.log('| camera | mode | upload | composited fps | camera frame in | frame time (C++) | JPEG (worker) | tracking (worker) | frames sent/s | latency p50 / p99 | first load |');
-console.log('|---|---|---|---|---|---|---|---|---|---|---|');
+console.log('| camera | mode | upload | composited fps | camera frame in | frame time (C++) | JPEG (worker) | tracking (worker) | frames sent/s | latency p50 / p99 | arlightd\'s own p99 (≤) | main thread in long tasks | first load |');
+console.log('|---|---|---|---|---|---|---|---|---|---|---|---|---|');
 for (const r of rows)
   console.log(`| ${r.size} | ${r.mode} | ${r.upload} | ${r.fps.toFixed(1)} | ${r.grab.toFixed(1)} ms | ${r.render.toFixed(1)} ms | ${r.jpeg.toFixed(0)} ms | ${r.track.toFixed(0)} ms | ` +
-    `${(r.sent / seconds).toFixed(1)} | ${r.p50.toFixed(0)} / ${r.p99.toFixed(0)} ms | ${r.ready.toFixed(0)} ms |`);
+    `${(r.sent / seconds).toFixed(1)} | ${r.p50.toFixed(0)} / ${r.p99.toFixed(0)} ms | ${r.daemonP99} ms | ` +
+    `${(100 * r.longShare).toFixed(0)} % | ${r.ready.toFixed(0)} ms |`);
 
 // The page's code as a phone downloads it; opencv.js (the tracking worker's) and the models apart.
 const files = fs.readdirSync(web, { withFileTypes: true })
