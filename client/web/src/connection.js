@@ -99,7 +99,7 @@ export class Connection {
   }
 
   /**
-   * The frame just composited, with orientation `q` (camera -> world, [w, x, y, z]): sent (`take`
+   * A camera frame (the one just composited, or one waiting for its pose), with orientation `q` (camera -> world, [w, x, y, z]): sent (`take`
    * gives a transferable copy of it) unless the page is not connected, a frame is still being
    * encoded, or more than kMaxBuffered waits in the socket. Returns at once.
    */

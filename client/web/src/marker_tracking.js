@@ -10,6 +10,7 @@ import { showError, state } from './status.js';
 
 const kSearchIntervalMs = 250;
 const kRegisterHoldMs = 500;
+const kStuckMs = 2000;
 const kTracksKept = 1000;  // state.tracks
 const kViewsKept = 64;     // the focal length's views: the newest
 
@@ -66,7 +67,11 @@ export class MarkerTracking {
   // result, or lost for less than kRegisterHoldMs (a blurred frame, a hand: those frames are
   // not shown rather than shown off the marker).
   get registering() {
-    return this.ready && (this.found || performance.now() - this.lastFoundAt < kRegisterHoldMs);
+    const now = performance.now();
+    // A worker that has not answered for kStuckMs (it failed, or the machine stalls): every
+    // frame shows again rather than none.
+    if (!this.ready || (this.busy && now - this.lastOffer > kStuckMs)) return false;
+    return this.found || now - this.lastFoundAt < kRegisterHoldMs;
   }
 
   // The frame that reached the page (`take` gives a transferable copy of it), with what it knows
