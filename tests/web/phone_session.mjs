@@ -55,9 +55,10 @@ function holdFirstFrame(y4m, truth, count, width, height) {
     truth.marker_visible = [...Array(count).fill(truth.marker_visible[0]), ...truth.marker_visible];
 }
 
-// Each frame's index, written into the video itself: the fake camera's media times follow its
-// timer, not the file (a late tick stamps the next frame late), so at 30 fps a media time alone
-// can name the wrong frame. Bits as 8×8 luma blocks along the bottom-left corner, bit 0 first.
+// Each frame's index, written into the video itself: the fake camera's media times do not name
+// the file's frames at 30 fps (one run here showed frame 27, due at 0.90 s, at media time 0.80 s,
+// and 6.52 s at 2 fps for frame 13). Bits as 8×8 luma blocks along the bottom-left corner, bit 0
+// first.
 const kIndexBits = 12;
 const kIndexBlock = 8;
 
@@ -84,10 +85,10 @@ export function stampFrameIndices(room) {
  * The page's orientation sensor in step with its video, exactly: before the page loads, its
  * AbsoluteOrientationSensor is replaced by one that, as each video frame reaches the page
  * (requestVideoFrameCallback, before the page's own callback runs), reads the stamped index
- * (stampFrameIndices) of the frame the page will take and reports that frame's true pose. The frames' indices by media
- * time (the VideoFrame's timestamp, as the page labels what it shows) are kept in
- * window.__arlightFrameIndex. (Chromium's sensor override over CDP arrives
- * ~100 ms late: playRoom's pacing suits a few frames a second, not 30.)
+ * (stampFrameIndices) of the frame the page will take and reports that frame's true pose, stamped
+ * with the frame's capture time. The frames' indices by media time (the VideoFrame's timestamp,
+ * as the page labels what it shows) are kept in window.__arlightFrameIndex. (Chromium's sensor
+ * override over CDP arrives ~100 ms late: playRoom's pacing suits a few frames a second, not 30.)
  */
 export async function frameSyncedSensor(page, room) {
   const readings = room.poses.map((p) => { const r = sensorReadingFor(p); return [r.x, r.y, r.z, r.w]; });
