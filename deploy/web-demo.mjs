@@ -62,8 +62,8 @@ try {
     lastFrame: 40,  // mid-orbit (the video starts again after its last frame)
     onTick: async (s) => {
       if (!s.tracked_frames || Date.now() < nextShot) return;
-      // The shown frame composited again once its own pose is in (live, the page draws each
-      // frame with the newest pose the worker has, from the frame before, turned by the sensor).
+      // The shown frame composited again by the probe once its own pose is in (the page itself
+      // shows each frame with the pose tracked in it while the marker is tracked).
       const p = await page.evaluate(() => window.arlight.probe());
       if (!p || p.media_time !== p.tracked_media_time) return;
       nextShot = Date.now() + 2000;
