@@ -32,12 +32,10 @@ const rows = [];
 
 // arlightd's own frame -> LightingUpdate time (received to sent): its histogram's cumulative
 // bucket counts from the admin API's /metrics, {bound (s): count}.
-const adminToken = fs.readFileSync(path.join(dir, 'daemon', 'data', 'admin.token'), 'utf8').split('\n')
-  .map((l) => l.trim()).find((l) => l && !l.startsWith('#'));
 async function updateLatencyBuckets() {
-  const res = await fetch(`http://127.0.0.1:${daemon.admin}/metrics`, { headers: { Authorization: `Bearer ${adminToken}` } });
+  const text = await (await daemon.adminFetch('/metrics')).text();
   const out = {};
-  for (const m of (await res.text()).matchAll(/^arlight_update_latency_seconds_bucket\{le="([^"]+)"\} (\d+)/gm))
+  for (const m of text.matchAll(/^arlight_update_latency_seconds_bucket\{le="([^"]+)"\} (\d+)/gm))
     out[m[1]] = Number(m[2]);
   return out;
 }

@@ -149,7 +149,9 @@ export async function frameSyncedSensor(page, room) {
 
 /**
  * arlightd on loopback with its web port serving `webRoot`; one device, "phone".
- * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>}>}
+ * @returns {Promise<{url: string, web: number, log: () => string, stop: () => Promise<void>,
+ *   kill: () => Promise<void>, adminFetch: (route: string) => Promise<Response>,
+ *   adminGet: (route: string) => Promise<object>}>}
  */
 export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1', webPort = 0 }) {
   fs.mkdirSync(dir, { recursive: true });
@@ -188,14 +190,14 @@ export async function startDaemon({ bin, dir, webRoot, token, host = '127.0.0.1'
     daemon.kill('SIGKILL');
     await exited;
   };
-  // The admin API (its token from the data folder): the parsed JSON of `route`.
-  const adminGet = async (route) => {
+  // The admin API (its token from the data folder): `route`'s response, and its parsed JSON.
+  const adminFetch = async (route) => {
     const token = fs.readFileSync(path.join(dir, 'data', 'admin.token'), 'utf8').split('\n')
       .map((l) => l.trim()).find((l) => l && !l.startsWith('#'));
-    const res = await fetch(`http://127.0.0.1:${ready.admin}${route}`, { headers: { Authorization: `Bearer ${token}` } });
-    return res.json();
+    return fetch(`http://127.0.0.1:${ready.admin}${route}`, { headers: { Authorization: `Bearer ${token}` } });
   };
-  return { ...ready, log: () => err, stop, kill, adminGet };
+  const adminGet = async (route) => (await adminFetch(route)).json();
+  return { ...ready, log: () => err, stop, kill, adminFetch, adminGet };
 }
 
 /** The sensor reading (device -> ENU, [x, y, z, w] as {x, y, z, w}) of a camera pose. */

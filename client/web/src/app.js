@@ -168,7 +168,8 @@ function loop(params, { module, camera, client, tracking, canvas, width, height 
     return true;
   };
   grabber.onFrame(async (info) => {
-    const captured = info.captured ?? { q: orientation(), t: performance.now() / 1000, video: null, mediaTime: info.mediaTime };
+    const { captured } = info;
+    if (!captured) return;  // capture() failed (reported): nothing of this frame to show
     const { q, t, video, mediaTime } = captured;
     state.frameMediaTime = mediaTime;
     frameShown(t, q, mediaTime);

@@ -99,9 +99,10 @@ export class Connection {
   }
 
   /**
-   * A camera frame (the one just composited, or one waiting for its pose), with orientation `q` (camera -> world, [w, x, y, z]): sent (`take`
-   * gives a transferable copy of it) unless the page is not connected, a frame is still being
-   * encoded, or more than kMaxBuffered waits in the socket. Returns at once.
+   * A camera frame (the one just composited, or one waiting for its pose), with orientation `q`
+   * (camera -> world, [w, x, y, z]): sent (`take` gives a transferable copy of it) unless the
+   * page is not connected, a frame is still being encoded, or more than kMaxBuffered waits in
+   * the socket. Returns at once.
    */
   offerFrame(q, take, mediaTime) {
     const { ws } = this;
