@@ -37,6 +37,9 @@ try {
       map_sets: last.map_sets - first.map_sets,
       latency_p50_ms: last.latency_p50_ms,
       latency_p99_ms: last.latency_p99_ms,
+      // The daemon's byte advice at the end and the JPEG quality the page encoded at (issue 36 §1).
+      advised_frame_bytes: last.advised_frame_bytes,
+      jpeg_quality: last.jpeg_quality,
       connected: last.connected,
       last_error: last.last_error || '',
     };

@@ -99,8 +99,8 @@ done
 python3 - "$out" $names <<'PY'
 import json, os, sys
 out, names = sys.argv[1], sys.argv[2:]
-rows = ["| link | p50 ms | p99 ms | map sets (median interval; as changes) | frames sent / dropped / lost | down kB/s capturing / settled | back after the blackout | the page: p50 / p99 ms, frames, map sets |",
-        "|---|---|---|---|---|---|---|---|"]
+rows = ["| link | p50 ms | p99 ms | map sets (median interval; as changes) | frames sent / dropped / lost | frame kB, JPEG quality (advice kB) | down kB/s capturing / settled | back after the blackout | the page: p50 / p99 ms, frames, map sets, quality |",
+        "|---|---|---|---|---|---|---|---|---|"]
 def page(n):
     p = f"{out}/{n}.page.json"
     if not os.path.exists(p): return ""
@@ -109,11 +109,12 @@ def page(n):
     except (ValueError, IndexError):
         return "no result"
     if g.get("failed"): return "failed: " + g.get("error", "")[:80]
-    return f"{g['latency_p50_ms']:.0f} / {g['latency_p99_ms']:.0f}, {g['frames_sent']}, {g['map_sets']}"
+    return (f"{g['latency_p50_ms']:.0f} / {g['latency_p99_ms']:.0f}, {g['frames_sent']}, {g['map_sets']}, "
+            f"{g.get('jpeg_quality', '-')}")
 for n in names:
     p = f"{out}/{n}.json"
     if not os.path.exists(p):
-        rows.append(f"| {n} | failed: {open(f'{out}/{n}.out').read().strip()[-200:]} ||||||| {page(n)} |")
+        rows.append(f"| {n} | failed: {open(f'{out}/{n}.out').read().strip()[-200:]} |||||||| {page(n)} |")
         continue
     j = json.load(open(p))
     lat, down = j["latency_ms"], j.get("download_bytes_per_s_per_session", {})
@@ -125,9 +126,13 @@ for n in names:
     elif os.path.exists(f"{out}/{n}.dark_until"):
         back = f"{len(j['outages'])} outages noticed"
     interval = j["map_set_interval_ms"]["median"]
+    s = j["per_session"][0] if j["per_session"] else {}
+    frame = (f"{s['bytes_per_frame'] / 1e3:.1f}, {s['jpeg_quality_mean']:.0f} ({s['advised_frame_bytes'] / 1e3:.1f})"
+             if "bytes_per_frame" in s else
+             f"{s.get('bytes_sent', 0) / max(s.get('frames_sent', 1), 1) / 1e3:.1f}, 90")
     rows.append(f"| {n} | {lat['p50']:.0f} | {lat['p99']:.0f} | {j['map_sets_completed']} "
                 f"({interval:.0f} ms; {j.get('map_sets_from_changes', '-')}) | {j['frames_sent']} / {j['frames_dropped']} / "
-                f"{j.get('frames_lost', '-')} | {down.get('capturing', 0) / 1e3:.0f} / "
+                f"{j.get('frames_lost', '-')} | {frame} | {down.get('capturing', 0) / 1e3:.0f} / "
                 f"{down.get('settled', 0) / 1e3:.0f} | {back}{' (failed)' if j['failed'] else ''} | {page(n)} |")
 open(f"{out}/shaped_links.md", "w").write("\n".join(rows) + "\n")
 print("\n".join(rows))

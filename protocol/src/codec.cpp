@@ -128,7 +128,7 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
                                   m.frame_exposure, std::uint8_t(m.sun_state),
                                   m.sun_state == SunState::Unknown ? nullptr : &sun,
                                   m.advised_width, m.advised_height, m.advised_fps,
-                                  m.saved_sequence)
+                                  m.saved_sequence, m.advised_frame_bytes)
       .Union();
 }
 
@@ -391,6 +391,7 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.advised_height = m.advised_height();
   u.advised_fps = m.advised_fps();
   u.saved_sequence = m.saved_sequence();
+  u.advised_frame_bytes = m.advised_frame_bytes();
   if ((u.advised_width == 0) != (u.advised_height == 0))
     refuse(Fault::OutOfRange, "LightingUpdate", "advised_width",
            std::to_string(u.advised_width) + "x" + std::to_string(u.advised_height) +
@@ -629,7 +630,8 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          estimated == o.estimated && frame_exposure == o.frame_exposure &&
          sun_state == o.sun_state && sun_direction == o.sun_direction &&
          advised_width == o.advised_width && advised_height == o.advised_height &&
-         advised_fps == o.advised_fps && saved_sequence == o.saved_sequence;
+         advised_fps == o.advised_fps && saved_sequence == o.saved_sequence &&
+         advised_frame_bytes == o.advised_frame_bytes;
 }
 
 const char* message_name(const Message& m) {

@@ -9,6 +9,7 @@
 #include <future>
 #include <variant>
 
+#include "arrival_timer.hpp"
 #include "send_path.hpp"
 #include "socket_options.hpp"
 
@@ -31,6 +32,10 @@ class FramedTransport final : public Transport {
     const auto ep = stream_.lowest_layer().remote_endpoint(ec);
     peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
     configure_socket(stream_.lowest_layer());
+    if constexpr (kTls) time_tls_reads(stream_.native_handle(), &arrival_);
+  }
+  ~FramedTransport() override {
+    if constexpr (kTls) time_tls_reads(stream_.native_handle(), nullptr);
   }
 
   asio::any_io_executor executor() override { return strand_; }
@@ -48,6 +53,7 @@ class FramedTransport final : public Transport {
 
   void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
                   ReadDone done) override {
+    if constexpr (kTls) arrival_.start();  // the header's record is the first read beneath
     asio::async_read(
         stream_, asio::buffer(header_),
         asio::bind_executor(strand_, [this, &envelope, max_bytes, done = std::move(done)](
@@ -60,12 +66,12 @@ class FramedTransport final : public Transport {
             return done({}, &e);
           }
           envelope.resize(size);  // bounded by the limit checked in the header
-          asio::async_read(stream_, asio::buffer(envelope),
-                           asio::bind_executor(strand_, [done = std::move(done)](
-                                                            boost::system::error_code ec,
-                                                            std::size_t) { done(ec, nullptr); }));
+          if constexpr (!kTls) arrival_.start();
+          read_body(envelope, 0, std::move(done));
         }));
   }
+
+  Arrival last_arrival() const override { return arrival_.arrival(); }
 
   void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) override {
     out_header_ = frame_header(bytes.size());
@@ -85,11 +91,30 @@ class FramedTransport final : public Transport {
   }
 
  private:
+  static constexpr bool kTls = std::is_same_v<Stream, TlsSocket>;
+
+  // The Envelope after `have` of its bytes, a read at a time (each timed: ArrivalTimer; the
+  // header's read is not, as the bytes behind it had arrived with it; over TLS the reads
+  // beneath are timed instead).
+  void read_body(std::vector<std::uint8_t>& envelope, std::size_t have, ReadDone done) {
+    stream_.async_read_some(
+        asio::buffer(envelope.data() + have, envelope.size() - have),
+        asio::bind_executor(strand_, [this, &envelope, have, done = std::move(done)](
+                                         boost::system::error_code ec, std::size_t n) mutable {
+          if (ec) return done(ec, nullptr);
+          if constexpr (!kTls) arrival_.read(n);
+          if (have + n < envelope.size()) return read_body(envelope, have + n, std::move(done));
+          arrival_.stop();
+          done({}, nullptr);
+        }));
+  }
+
   Stream stream_;
   asio::strand<asio::any_io_executor> strand_;
   bool server_handshake_;
   std::string peer_;
   std::array<std::uint8_t, kHeaderBytes> header_{}, out_header_{};
+  ArrivalTimer arrival_;
 };
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <boost/beast/websocket/ssl.hpp>
 #include <optional>
 
+#include "arrival_timer.hpp"
 #include "socket_options.hpp"
 
 namespace arlight::wire {
@@ -57,7 +58,10 @@ class WebSocketTransport final : public Transport {
     const auto ep = socket.remote_endpoint(ec);
     peer_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
     configure_socket(socket);
+    if constexpr (kTls) time_tls_reads(ws_->next_layer().native_handle(), &arrival_);
   }
+  // The stream may outlive the transport (a closing handshake): its reads time nothing more.
+  ~WebSocketTransport() override { stop_timing(); }
 
   asio::any_io_executor executor() override { return ws_->get_executor(); }
   std::string peer() const override { return peer_; }
@@ -73,8 +77,11 @@ class WebSocketTransport final : public Transport {
   void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
                   ReadDone done) override {
     envelope.clear();
+    arrival_.start();
     read_more(envelope, max_bytes, std::move(done));
   }
+
+  Arrival last_arrival() const override { return arrival_.arrival(); }
 
   // Bytes as one binary message: the WebSocket frames carry the length, so `framed` (a length
   // header of our own) does not apply here.
@@ -90,6 +97,7 @@ class WebSocketTransport final : public Transport {
   void close() override {
     if (closing_) return;
     closing_ = true;
+    stop_timing();
     if (!ws_->is_open()) {
       boost::system::error_code ec;
       beast::get_lowest_layer(*ws_).socket().close(ec);
@@ -108,6 +116,11 @@ class WebSocketTransport final : public Transport {
   }
 
  private:
+  static constexpr bool kTls = std::is_same_v<Ws, SecureWebSocket>;
+  void stop_timing() {
+    if constexpr (kTls) time_tls_reads(ws_->next_layer().native_handle(), nullptr);
+  }
+
   // Reads the message's payload in chunks while it stays within max_bytes (one byte over it is
   // proof enough that it is too large): nothing bigger than the limit is ever allocated.
   void read_more(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes, ReadDone done) {
@@ -120,6 +133,7 @@ class WebSocketTransport final : public Transport {
                                                                    std::size_t n) mutable {
           envelope.resize(have + n);
           if (ec) return done(ec, nullptr);
+          if constexpr (!kTls) arrival_.read(n);  // over TLS the reads beneath are timed
           if (ws_->got_text())
             return refuse(done, DecodeError(Fault::Malformed, "", "",
                                             "a text WebSocket message: arlight messages are "
@@ -132,6 +146,7 @@ class WebSocketTransport final : public Transport {
           if (!ws_->is_message_done()) return read_more(envelope, max_bytes, std::move(done));
           if (envelope.empty())
             return refuse(done, DecodeError(Fault::Malformed, "", "", "empty message (length 0)"));
+          arrival_.stop();
           done({}, nullptr);
         });
   }
@@ -146,6 +161,7 @@ class WebSocketTransport final : public Transport {
   std::optional<DecodeError> refused_;
   std::string peer_;
   bool closing_ = false;
+  ArrivalTimer arrival_;
 };
 
 }  // namespace

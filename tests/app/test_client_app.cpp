@@ -24,7 +24,7 @@ class RecordingChannel final : public client_app::LightingChannel {
  public:
   explicit RecordingChannel(Lighting l) : lighting_(std::move(l)) {}
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                  std::span<const std::uint8_t> jpeg) override {
+                  std::span<const std::uint8_t> jpeg, int /*quality*/) override {
     sent.push_back({sequence, info, width, height, jpeg.size()});
   }
   Lighting lighting() const override { return lighting_; }

@@ -41,6 +41,28 @@ bool streaming(const test::DaemonProcess& d) {
   return false;
 }
 
+// The 640x480 venice sweep the phone streams (150 frames: 5 s at 30 fps, then again).
+void make_sweep(const fs::path& rec) {
+  const auto sim = test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                                       "/data/probes/venice.exr --out " +
+                                                       rec.string() +
+                                                       " --frames 150 --size 640x480 --seed 3");
+  ASSERT_EQ(sim.status, 0) << sim.output;
+}
+
+// arlight-load in the phone's namespace: one session streaming `rec` over wss at 30 fps for
+// `seconds`, asking for the thesis's 8 maps; its report in `report`.
+test::RunResult run_load(const test::ShapedLink& link, const test::DaemonProcess& d,
+                         const fs::path& rec, double seconds, const fs::path& report) {
+  return test::run_tool(
+      link.on_phone() + ARLIGHT_LOAD_EXE,
+      "--server " + link.server_address() + ":" + std::to_string(d.web()) +
+          " --websocket --tls-ca " + (d.data_dir() / "tls" / "self-signed-cert.pem").string() +
+          " --token " + test::kToken + " --recording " + rec.string() +
+          " --sessions 1 --rate 30 --maps --duration " + std::to_string(seconds) +
+          " --reconnect 10 --json " + report.string());
+}
+
 }  // namespace
 
 // 5 Mbit/s each way with 2 % of the packets lost each way, and a 3 s blackout in the middle:
@@ -56,11 +78,7 @@ TEST(ShapedLink, APhoneOnFiveMegabitsWithLossKeepsItsSessionMapSetsAndFrames) {
   const test::ShapedLink link(k, 5, 2);
   const std::string host = link.server_address();
   test::DaemonProcess d(dir / "daemon", {"--web", host + ":0"}, 0, {}, host);
-  const auto sim = test::run_tool(
-      ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
-                           "/data/probes/venice.exr --out " + (dir / "rec").string() +
-                           " --frames 150 --size 640x480 --seed 3");
-  ASSERT_EQ(sim.status, 0) << sim.output;
+  ASSERT_NO_FATAL_FAILURE(make_sweep(dir / "rec"));
 
   // Sanitized, a client waits longer for an answer before it calls the link lost
   // (Client::kStallSeconds, 4 s): a blackout as long as that would end unnoticed.
@@ -81,12 +99,7 @@ TEST(ShapedLink, APhoneOnFiveMegabitsWithLossKeepsItsSessionMapSetsAndFrames) {
     dark_until = unix_now();
   });
   const fs::path report = dir / "load.json";
-  const auto r = test::run_tool(
-      link.on_phone() + ARLIGHT_LOAD_EXE,
-      "--server " + host + ":" + std::to_string(d.web()) + " --websocket --tls-ca " +
-          (d.data_dir() / "tls" / "self-signed-cert.pem").string() + " --token " + test::kToken +
-          " --recording " + (dir / "rec").string() + " --sessions 1 --rate 30 --maps --duration " +
-          std::to_string(kSeconds) + " --reconnect 10 --json " + report.string());
+  const auto r = run_load(link, d, dir / "rec", kSeconds, report);
   blackout.join();
   ASSERT_EQ(r.status, 0) << r.output;
   const json j = json::parse(std::ifstream(report));
@@ -121,4 +134,37 @@ TEST(ShapedLink, APhoneOnFiveMegabitsWithLossKeepsItsSessionMapSetsAndFrames) {
   for (std::size_t i = 1; i < sets.size(); ++i) gaps.push_back(sets[i] - sets[i - 1]);
   std::sort(gaps.begin(), gaps.end());
   EXPECT_LE(gaps[gaps.size() / 2], 2000.0) << s.dump();
+}
+
+// Issue 36 §1, JPEG size follows the link: on 2 Mbit/s (no loss) arlightd measures the uplink
+// from the frames' arrival and advises what crosses it in 1/30 s (~8 kB of JPEG after TLS,
+// WebSocket and TCP/IP's overhead); the load lowers its JPEG quality until its frames fit.
+// Loopback gets no advice at all (ArlightLoad's tests: quality 90).
+TEST(ShapedLink, OnTwoMegabitsTheFramesJpegQualityFallsToWhatTheUplinkCarries) {
+  if (geteuid() != 0) GTEST_SKIP() << "needs root: network namespaces";
+  const fs::path dir = test::fresh_temp_dir("shaped_link_2mbit");
+  const int k = 200 + int((getpid() + 25) % 50);
+  const test::ShapedLink link(k, 2, 0);
+  test::DaemonProcess d(dir / "daemon", {"--web", link.server_address() + ":0"}, 0, {},
+                        link.server_address());
+  ASSERT_NO_FATAL_FAILURE(make_sweep(dir / "rec"));
+  const fs::path report = dir / "load.json";
+  const auto r = run_load(link, d, dir / "rec", 10, report);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("2 Mbit/s: %s\n", r.output.c_str());
+  const json j = json::parse(std::ifstream(report));
+  const json& s = j["per_session"][0];
+  EXPECT_EQ(j["failed"], 0) << j["errors"];
+  // 2 Mbit/s is 250 kB/s on the wire: 8.3 kB in 1/30 s, less the headers' share.
+  const double advised = s["advised_frame_bytes"].get<double>();
+  if (test::kSanitized) {
+    EXPECT_GT(advised, 0.0) << s.dump();
+    return;
+  }
+  EXPECT_GT(advised, 0.6 * 8333) << s.dump();
+  EXPECT_LT(advised, 1.05 * 8333) << s.dump();
+  // The sweep's 320x240 frames are ~11 kB at quality 90: lower, and within the advice on the
+  // whole (the first frames go before any advice, at 640x480).
+  EXPECT_LT(s["jpeg_quality_mean"].get<double>(), 85.0) << s.dump();
+  EXPECT_LT(s["bytes_per_frame"].get<double>(), 1.2 * advised) << s.dump();
 }

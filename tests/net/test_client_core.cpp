@@ -3,6 +3,7 @@
 // clients' receive paths call).
 #include <gtest/gtest.h>
 
+#include <map>
 #include <utility>
 #include <vector>
 
@@ -371,6 +372,54 @@ TEST(FramePacer, HoldsTheNewestFrameWhileTwoAreUnanswered) {
   const std::uint64_t held = pacer.held_in_flight();
   for (int k = 0; k < 10; ++k) EXPECT_TRUE(offer());
   EXPECT_EQ(pacer.held_in_flight(), held);
+}
+
+// Issue 36 §1: JPEG size follows the link. With the daemon's byte budget, frames go at the
+// highest quality whose frames are expected within it, learnt from the frames' real sizes (here
+// a camera whose bytes fall with quality faster than the pacer's table assumes), and it holds
+// there without swinging; a wider link takes the quality back up, a narrower one down to the
+// floor, no advice to the top.
+TEST(FramePacer, TheJpegQualityFollowsTheAdvisedFrameBytes) {
+  client::FramePacer pacer;
+  // This camera's 320x240 frames: 24 kB at quality 90, and relatively smaller below than
+  // FramePacer::kRelativeBytes says (a rendered room's JPEGs, measured).
+  const auto bytes_at = [](int quality) {
+    const std::map<int, double> relative{{90, 1.0}, {80, 0.594}, {70, 0.463}, {60, 0.39},
+                                         {50, 0.347}};
+    return std::size_t(24000 * relative.at(quality));
+  };
+  double t = 10.0;
+  std::vector<int> qualities;
+  std::vector<std::size_t> sizes;
+  const auto run = [&](std::uint32_t budget, int frames) {
+    wire::LightingUpdate u = advice(320, 240, 30);
+    u.advised_frame_bytes = budget;
+    pacer.advise(u);
+    qualities.clear(), sizes.clear();
+    for (int k = 0; k < frames; ++k) {
+      const client::FramePacer::Decision d = pacer.frame_due(t += 1.0 / 30, 640, 480, 30.0);
+      EXPECT_TRUE(d.send);
+      EXPECT_EQ(d.reduction, 2);
+      pacer.sent(t);
+      pacer.encoded(bytes_at(d.quality), 320, 240, d.quality);
+      qualities.push_back(d.quality), sizes.push_back(bytes_at(d.quality));
+    }
+  };
+  run(0, 5);  // no advice yet
+  EXPECT_EQ(qualities, std::vector<int>(5, 90));
+  run(12500, 20);  // 3 Mbit/s: q80's 14.3 kB is over, q70's 11.1 kB fits
+  EXPECT_EQ(qualities.back(), 70);
+  EXPECT_EQ(pacer.quality(), 70);
+  for (std::size_t k = 2; k < sizes.size(); ++k) {
+    EXPECT_LE(sizes[k], 12500u) << k;
+    EXPECT_EQ(qualities[k], 70) << "settled, not swinging: " << k;
+  }
+  run(100000, 3);  // a wider link
+  EXPECT_EQ(qualities.back(), 90);
+  run(2000, 3);  // narrower than the lowest quality's frames: the floor
+  EXPECT_EQ(qualities.back(), 50);
+  run(0, 1);  // the advice withdrawn
+  EXPECT_EQ(qualities.back(), 90);
 }
 
 // Issue 36 §5: the frames a fail-over would lose. Kept while no checkpoint holds them, sent again

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
@@ -84,6 +85,38 @@ TEST(MessageStream, CarriesMessagesInOrderBothWays) {
   client->close();
   ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
   EXPECT_FALSE(at_server.bad);
+}
+
+// Issue 36 §1 (the frame advice's byte budget): a message's arrival is the bytes after its first
+// read over the time to its last. A frame dribbled out 4 kB every 20 ms (a ~200 kB/s uplink)
+// reads as that; one written at once on loopback as far faster, or as nothing (there whole).
+TEST(MessageStream, AMessagesArrivalIsTheBytesAfterItsFirstReadOverTheirTime) {
+  Loopback net;
+  Seen at_server;
+  auto server = stream(net.server);
+  at_server.stream = server.get();
+  server->start(at_server.handlers());
+  const std::vector<std::uint8_t> envelope = test::encoded_frame(40000);
+  const auto header = wire::frame_header(envelope.size());
+  asio::write(net.client, asio::buffer(header));
+  constexpr std::size_t kPiece = 4000;
+  for (std::size_t at = 0; at < envelope.size(); at += kPiece) {
+    if (at > 0) std::this_thread::sleep_for(20ms);
+    asio::write(net.client,
+                asio::buffer(envelope.data() + at, std::min(kPiece, envelope.size() - at)));
+  }
+  asio::write(net.client, asio::buffer(header));
+  asio::write(net.client, asio::buffer(envelope));
+  ASSERT_TRUE(at_server.wait([&] { return at_server.messages.size() == 2; }));
+  const wire::Arrival slow = at_server.arrivals[0], fast = at_server.arrivals[1];
+  EXPECT_GE(slow.bytes_after_first, envelope.size() - 2 * kPiece);
+  EXPECT_LE(slow.bytes_after_first, envelope.size());
+  EXPECT_GT(slow.seconds, 9 * 0.020 * 0.9);
+  EXPECT_LT(slow.seconds, 1.0);  // generous: a busy machine's scheduling
+  // Whole at its first read (nothing to tell), or read in pieces that came far faster.
+  if (fast.bytes_after_first > 0)
+    EXPECT_GT(double(fast.bytes_after_first) / std::max(fast.seconds, 1e-3),
+              20 * double(slow.bytes_after_first) / slow.seconds);
 }
 
 TEST(MessageStream, RefusesAnOversizeHeaderAndGarbage) {

@@ -38,7 +38,8 @@ struct WebSocketPair {
   std::optional<wire::WebSocket> client;
   std::string extensions;  // what the server's 101 answer agreed to
 
-  explicit WebSocketPair(Seen& at_server, wire::WireLimits limits = {}) {
+  // `deflate`: the client offers permessage-deflate, as a browser does.
+  explicit WebSocketPair(Seen& at_server, wire::WireLimits limits = {}, bool deflate = true) {
     thread = std::thread([this] { io.run(); });
     tcp::acceptor acceptor(io, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0));
     const auto ep = acceptor.local_endpoint();
@@ -47,9 +48,9 @@ struct WebSocketPair {
       beast::get_lowest_layer(ws).connect(ep);
       wire::configure_websocket(ws, /*server=*/false);
       // As a browser does (a native client does not): offer permessage-deflate.
-      websocket::permessage_deflate deflate;
-      deflate.client_enable = true;
-      ws.set_option(deflate);
+      websocket::permessage_deflate offer;
+      offer.client_enable = deflate;
+      ws.set_option(offer);
       websocket::response_type response;
       ws.handshake(response, "127.0.0.1", "/ws");
       extensions = std::string(response[beast::http::field::sec_websocket_extensions]);
@@ -108,6 +109,27 @@ TEST(WebSocketTransport, CarriesMessagesInOrderBothWays) {
   client->close();
   ASSERT_TRUE(at_server.wait([&] { return at_server.closed.has_value(); }));
   EXPECT_FALSE(at_server.bad);
+}
+
+// Issue 36 §1: as MessageStream's own framing (test_message_stream.cpp), a message the browser
+// sends in pieces over a slow uplink arrives over their time: here fragments 20 ms apart
+// (uncompressed: Beast's deflate would hold every fragment back until the last).
+TEST(WebSocketTransport, AMessagesArrivalIsTheBytesAfterItsFirstReadOverTheirTime) {
+  Seen at_server;
+  WebSocketPair pair(at_server, {}, /*deflate=*/false);
+  at_server.stream = pair.server.get();
+  const std::vector<std::uint8_t> envelope = test::encoded_frame(40000);
+  constexpr std::size_t kPiece = 4000;
+  for (std::size_t at = 0; at < envelope.size(); at += kPiece) {
+    if (at > 0) std::this_thread::sleep_for(20ms);
+    const std::size_t n = std::min(kPiece, envelope.size() - at);
+    pair.client->write_some(at + n == envelope.size(), asio::buffer(envelope.data() + at, n));
+  }
+  ASSERT_TRUE(at_server.wait([&] { return at_server.messages.size() == 1; }));
+  const wire::Arrival a = at_server.arrivals[0];
+  EXPECT_GE(a.bytes_after_first, envelope.size() - 2 * kPiece);
+  EXPECT_GT(a.seconds, 9 * 0.020 * 0.9);
+  EXPECT_LT(a.seconds, 1.0);
 }
 
 // Each bad message is refused with its fault; the server can still send its Error, then closes

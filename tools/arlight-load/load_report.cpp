@@ -38,6 +38,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   std::uint64_t map_sets_from_changes = 0;
   std::uint64_t resent = 0, lost = 0;
   std::uint64_t held_in_flight = 0;
+  std::uint64_t quality_sum = 0, encoded = 0;  // frames' JPEG qualities and their count
   std::vector<double> watcher_latency;
   std::uint64_t watcher_updates = 0, watcher_map_sets = 0, watchers_failed = 0;
   std::vector<double> map_set_intervals;  // each session's median, of those with two or more
@@ -53,6 +54,7 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
     map_sets_from_changes += r.map_sets_from_changes;
     resent += r.resent, lost += r.lost;
     held_back += r.held_back, bytes += r.bytes_sent, held_in_flight += r.held_in_flight;
+    quality_sum += r.quality_sum, encoded += r.sent;
     all.insert(all.end(), r.latency_ms.begin(), r.latency_ms.end());
     watcher_latency.insert(watcher_latency.end(), r.watcher_latency_ms.begin(),
                            r.watcher_latency_ms.end());
@@ -69,6 +71,9 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
          {"frames_held_back", r.held_back},
          {"frames_held_in_flight", r.held_in_flight},
          {"bytes_sent", r.bytes_sent},
+         {"bytes_per_frame", r.sent ? double(r.bytes_sent) / double(r.sent) : 0.0},
+         {"jpeg_quality_mean", r.sent ? double(r.quality_sum) / double(r.sent) : 0.0},
+         {"advised_frame_bytes", r.advised_frame_bytes},
          {"frames_processed", r.processed},
          {"frames_dropped", r.dropped},
          {"frames_resent", r.resent},
@@ -102,6 +107,9 @@ nlohmann::json report_json(const std::vector<SessionReport>& reports, const std:
   // The frames' bytes a second per session: the uplink a phone would use.
   j["upload_bytes_per_s_per_session"] =
       reports.empty() ? 0.0 : double(bytes) / duration / double(reports.size());
+  // What a frame took, and the JPEG quality it was encoded at (the daemon's byte advice).
+  j["bytes_per_frame"] = encoded ? double(bytes) / double(encoded) : 0.0;
+  j["jpeg_quality_mean"] = encoded ? double(quality_sum) / double(encoded) : 0.0;
   // The daemon's bytes a second per session (its messages, before a WebSocket's compression):
   // while the recording's first pass captures the room, and after it, as the same frames come
   // again (the map settled).
@@ -165,9 +173,10 @@ void print_summary(const nlohmann::json& j) {
       latency["p95"].get<double>(), latency["p99"].get<double>(), count("map_sets_completed"));
   std::printf(
       "frames held back by the daemon's advice: %llu (%llu while --max-in-flight were "
-      "unanswered); upload %.0f kB/s a session; download %.0f kB/s capturing, %.0f kB/s "
-      "settled\n",
+      "unanswered); frames of %.1f kB at JPEG quality %.0f (mean); upload %.0f kB/s a session; "
+      "download %.0f kB/s capturing, %.0f kB/s settled\n",
       count("frames_held_back"), count("frames_held_in_flight"),
+      j["bytes_per_frame"].get<double>() / 1e3, j["jpeg_quality_mean"].get<double>(),
       j["upload_bytes_per_s_per_session"].get<double>() / 1e3,
       j["download_bytes_per_s_per_session"]["capturing"].get<double>() / 1e3,
       j["download_bytes_per_s_per_session"]["settled"].get<double>() / 1e3);

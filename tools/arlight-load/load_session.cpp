@@ -3,6 +3,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <condition_variable>
 #include <mutex>
@@ -31,6 +32,8 @@ FrameJpegs::FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, i
                        bool reduced)
     : width_(width), height_(height) {
   by_level_[0] = std::move(full);
+  for (auto& by_quality : lower_)
+    for (auto& frames : by_quality) frames = std::make_unique<Lower[]>(size());
   for (int level = 1; reduced && level < 4; ++level) {
     const int k = 1 << level;
     if (width % k || height % k) break;
@@ -45,11 +48,20 @@ FrameJpegs::FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, i
   }
 }
 
-const std::vector<std::vector<std::uint8_t>>& FrameJpegs::at(int reduction) const {
+const std::vector<std::uint8_t>& FrameJpegs::at(std::size_t i, int reduction, int quality) const {
   std::size_t level = 0;
   while (level < 3 && (1 << level) < reduction) ++level;
   while (level > 0 && by_level_[level].empty()) --level;
-  return by_level_[level];
+  const std::vector<std::uint8_t>& made = by_level_[level].at(i);
+  const auto& qualities = client::FramePacer::kQualities;
+  const auto q = std::find(std::begin(qualities), std::end(qualities), quality);
+  if (q == std::begin(qualities) || q == std::end(qualities) || made.empty()) return made;
+  Lower& lower = lower_[level][std::size_t(q - std::begin(qualities)) - 1][i];
+  std::call_once(lower.once, [&] {
+    const cv::Mat im = cv::imdecode(made, cv::IMREAD_COLOR);
+    if (!im.empty()) cv::imencode(".jpg", im, lower.jpeg, {cv::IMWRITE_JPEG_QUALITY, quality});
+  });
+  return lower.jpeg.empty() ? made : lower.jpeg;
 }
 
 void run_session(const SessionPlan& plan, const recording::Recording& rec, const FrameJpegs& jpegs,
@@ -167,6 +179,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
       }
     };
     int reduction = 1;  // the advice's, as of the last frame it allowed
+    int quality = client::FramePacer::kMaxQuality;  // likewise
     std::uint64_t received_before = 0;  // bytes of the connections before this one
     std::optional<std::uint64_t> received_at_first_pass;
     for (std::uint64_t k = 0;; ++k) {
@@ -235,14 +248,16 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
               pacer.frame_due(now_s(), jpegs.width(), jpegs.height(), plan.rate);
           report.held_back = pacer.held_back(), report.held_in_flight = pacer.held_in_flight();
           if (!d.send) continue;
-          reduction = d.reduction;
+          reduction = d.reduction, quality = d.quality;
         }
         sequence = ++report.sent;
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
-        const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
+        const std::vector<std::uint8_t>& jpeg = jpegs.at(i, reduction, quality);
         report.bytes_sent += jpeg.size();
+        pacer.encoded(jpeg.size(), jpegs.width() / reduction, jpegs.height() / reduction, quality);
+        report.quality_sum += quality;
         // Without a daemon a phone's newest frames wait, as many as it keeps in flight.
         const std::size_t max_unsent =
             plan.follow_advice ? std::size_t(std::max(plan.max_in_flight, 0)) : 0;
@@ -253,7 +268,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
       }
       if (send_now) {
         try {
-          const std::vector<std::uint8_t>& jpeg = jpegs.at(reduction)[i];
+          const std::vector<std::uint8_t>& jpeg = jpegs.at(i, reduction, quality);
           c->send_jpeg_frame(sequence, info, rec.camera.width / reduction,
                              rec.camera.height / reduction, jpeg);
         } catch (const client::ClientError&) {  // noticed before the next frame
@@ -274,6 +289,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
     {
       std::lock_guard lock(m);
       report.resent = unsaved.resent();
+      report.advised_frame_bytes = pacer.advised_frame_bytes();
       report.replaced = unsaved.replaced();
       report.lost = unsaved.given_up_unsent() + unsaved.waiting_unsent();
     }

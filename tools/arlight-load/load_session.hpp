@@ -5,10 +5,14 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <iterator>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
 #include "arlight/flags/connection_flags.hpp"
+#include "arlight/net/frame_pacer.hpp"
 #include "arlight/protocol/recording.hpp"
 
 namespace arlight::load {
@@ -39,6 +43,10 @@ struct SessionReport {
   std::uint64_t held_back = 0;   // frames not sent: the daemon's frame advice asked for fewer
   std::uint64_t held_in_flight = 0;  // of them: held while max_in_flight were unanswered
   std::uint64_t bytes_sent = 0;  // of the frames' JPEGs
+  // The frames' JPEG qualities summed (the advice's byte budget: a narrow uplink lowers them),
+  // and the newest budget (LightingUpdate.advised_frame_bytes; 0: none).
+  std::uint64_t quality_sum = 0;
+  std::uint32_t advised_frame_bytes = 0;
   // What the daemon sent (client::Client::bytes_received, every connection): during the
   // recording's first pass (the room being captured, `first_pass_s` long) and after it (the
   // same frames again: a settled map).
@@ -84,23 +92,36 @@ struct SessionPlan {
 
 // The recording's JPEGs at the camera's size and, with `reduced`, also reduced by 2, 4 and 8
 // where the size divides (area averaging, quality 90), as a phone following the frame advice
-// would send them; made before the sessions' clocks start and shared by them (read-only).
+// would send them; made before the sessions' clocks start and shared by them. A lower JPEG
+// quality (the advice's byte budget: a narrow uplink) is encoded from those the first time a
+// session asks for that frame at it, as a phone encodes each frame it sends (~1 ms at 320x240).
 class FrameJpegs {
  public:
   FrameJpegs(std::vector<std::vector<std::uint8_t>> full, int width, int height, bool reduced);
-  // The frames `reduction` times smaller each side (1: as recorded; a reduction not made: those).
-  const std::vector<std::vector<std::uint8_t>>& at(int reduction) const;
+  // Frame `i` `reduction` times smaller each side (1: as recorded; a reduction not made: the
+  // nearest larger one made) at `quality` (one of FramePacer::kQualities; kMaxQuality: the
+  // recording's at reduction 1). Any thread.
+  const std::vector<std::uint8_t>& at(std::size_t i, int reduction,
+                                      int quality = client::FramePacer::kMaxQuality) const;
   int width() const { return width_; }
   int height() const { return height_; }
+  std::size_t size() const { return by_level_[0].size(); }
 
  private:
+  static constexpr std::size_t kQualities = std::size(client::FramePacer::kQualities);
+  struct Lower {  // one frame at a lower quality, encoded once when first asked for
+    std::once_flag once;
+    std::vector<std::uint8_t> jpeg;
+  };
   int width_, height_;
   std::array<std::vector<std::vector<std::uint8_t>>, 4> by_level_;  // 1, 2, 4, 8 times smaller
+  // [level][quality index - 1][frame]
+  mutable std::array<std::array<std::unique_ptr<Lower[]>, kQualities - 1>, 4> lower_;
 };
 
 // Runs one session to its end (frames due at plan.rate for plan.duration, then the last
 // updates awaited); a failure is recorded in the report, not thrown. `usable` lists the
-// recording's frames with a JPEG (jpegs.at(1)[i]); `start` is the run's common clock origin.
+// recording's frames with a JPEG (jpegs.at(i, 1)); `start` is the run's common clock origin.
 void run_session(const SessionPlan& plan, const recording::Recording& rec, const FrameJpegs& jpegs,
                  const std::vector<std::size_t>& usable, Clock::time_point start,
                  SessionReport& report);

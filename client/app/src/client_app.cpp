@@ -93,8 +93,9 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
 
   // To arlightd: the frame with its orientation (none yet: a webcam before the marker).
   const double exposure = f.exposure > 0 ? f.exposure : kUnknownExposure;
-  // At the size and rate the daemon's frame advice asks for (PROTOCOL.md): reduced in one step
-  // by area averaging, then encoded.
+  // At the size, rate and JPEG quality the daemon's frame advice asks for (PROTOCOL.md): reduced
+  // in one step by area averaging, then encoded (a source's own JPEG goes as it is when neither
+  // is asked for: it is taken to be kMaxQuality's).
   const client::FramePacer::Decision due =
       world_from_camera ? channel.frame_due(f.timestamp, f.bgr.cols, f.bgr.rows)
                         : client::FramePacer::Decision{};
@@ -105,10 +106,11 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
       cv::resize(f.bgr, image, cv::Size(f.bgr.cols / due.reduction, f.bgr.rows / due.reduction),
                  0, 0, cv::INTER_AREA);
     std::vector<std::uint8_t> encoded;
-    const bool reencode = f.jpeg.empty() || due.reduction > 1;
-    if (reencode) cv::imencode(".jpg", image, encoded, {cv::IMWRITE_JPEG_QUALITY, 90});
+    const bool reencode =
+        f.jpeg.empty() || due.reduction > 1 || due.quality < client::FramePacer::kMaxQuality;
+    if (reencode) cv::imencode(".jpg", image, encoded, {cv::IMWRITE_JPEG_QUALITY, due.quality});
     channel.send_frame(f.index + 1, {f.timestamp, exposure, f.gain, *world_from_camera}, image.cols,
-                       image.rows, reencode ? encoded : f.jpeg);
+                       image.rows, reencode ? encoded : f.jpeg, due.quality);
     report.sent = true;
     report.sent_width = image.cols, report.sent_height = image.rows;
   }

@@ -211,7 +211,7 @@ client::FramePacer::Decision LightingLink::frame_due(double timestamp, int width
 }
 
 void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                              std::span<const std::uint8_t> jpeg) {
+                              std::span<const std::uint8_t> jpeg, int quality) {
   std::lock_guard sending(send_mutex_);
   std::shared_ptr<client::Client> c;
   bool behind;  // kept frames wait to go first
@@ -237,6 +237,7 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
     // recording's every frame.
     unsaved_.keep(sequence, info, width, height, jpeg, sent,
                   std::size_t(std::max(options_.max_in_flight, 0)));
+    pacer_.encoded(jpeg.size(), width, height, quality);
     if (sent) {
       ++stats_.frames_sent;
       pacer_.sent(info.timestamp, wire);

@@ -12,7 +12,6 @@ import { showError, state } from './status.js';
 
 // Sending: at most this much may wait in the WebSocket before a newer frame replaces the next.
 const kMaxBuffered = 256 * 1024;
-const kJpegQuality = 0.85;
 const kReconnectMs = 1000;
 // A link gone quiet (issue 36 §3, PROTOCOL.md item 5): a frame unanswered and nothing received
 // for this long, or a connection not open this long after it was asked for, is given up and a
@@ -113,22 +112,22 @@ export class Connection {
     if (this.client.framesWaiting()) return this.resendKept();
     // The daemon's frame advice (PROTOCOL.md): at most the rate it needs, at the size it needs.
     const due = this.client.frameDue(performance.now() / 1000);
-    if (due.send) this.sendFrame(q, take, mediaTime, due.reduction);
+    if (due.send) this.sendFrame(q, take, mediaTime, due.reduction, due.quality);
   }
 
   // `take` is called before the first await: the frame it copies is closed once the caller is done.
-  async sendFrame(q, take, mediaTime, reduction) {
+  async sendFrame(q, take, mediaTime, reduction, quality) {
     this.encoding = true;
     try {
       const t0 = performance.now();
       // The frame drawn for the composite, reduced and encoded off the main thread.
-      const jpeg = await this.encoder.encode(await take(), kJpegQuality, reduction);
+      const jpeg = await this.encoder.encode(await take(), quality / 100, reduction);
       state.jpegMs = performance.now() - t0;
       const { ws } = this;
       if (!ws || ws.readyState !== WebSocket.OPEN) return;  // reconnecting meanwhile
       const seq = ++this.sequence;
       ws.send(this.client.frame(seq, performance.now() / 1000, q[0], q[1], q[2], q[3], jpeg,
-                                reduction));
+                                reduction, quality));
       this.sentAt.set(seq, performance.now());
       if (this.unansweredSince === null) this.unansweredSince = performance.now();
       state.framesSent += 1;

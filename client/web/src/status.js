@@ -61,7 +61,7 @@ const kNoClient = {
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
   ggx_face: 0, maps_requested: 'phong', frames_held_back: 0, frames_held_in_flight: 0,
-  advised_width: 0, advised_height: 0, advised_fps: 0,
+  advised_width: 0, advised_height: 0, advised_fps: 0, advised_frame_bytes: 0, jpeg_quality: 0,
   last_sequence: 0, session_last_sequence: 0, session_resumed: false, saved_sequence: 0,
   frames_kept: 0, frames_resent: 0,
 };
@@ -84,6 +84,10 @@ export function report() {
     frames_held_in_flight: object.frames_held_in_flight,
     advised_size: [object.advised_width, object.advised_height],
     advised_fps: object.advised_fps,
+    // The bytes a frame may take to cross the uplink in 1/30 s, as arlightd measured it (0: no
+    // advice), and the JPEG quality the page encodes its frames at to stay within them.
+    advised_frame_bytes: object.advised_frame_bytes,
+    jpeg_quality: object.jpeg_quality,
     updates: object.updates,
     // Fail-over (issue 36 §5): the newest frame an update answered, the newest the (resumed)
     // session held when it welcomed the page, whether it was resumed, the newest every frame up

@@ -57,11 +57,12 @@ val WebClient::frame_due(double timestamp) {
   val out = val::object();
   out.set("send", d.send);
   out.set("reduction", d.reduction);
+  out.set("quality", d.quality);
   return out;
 }
 
 val WebClient::frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
-                     const val& jpeg, int reduction) {
+                     const val& jpeg, int reduction, int quality) {
   if (!(reduction == 1 || reduction == 2 || reduction == 4 || reduction == 8)) reduction = 1;
   // exposure:unknown: the daemon locks the exposure anyway.
   const FrameInfo info{timestamp, wire::kLockedExposureSeconds, 1.0,
@@ -70,6 +71,7 @@ val WebClient::frame(double sequence, double timestamp, double qw, double qx, do
       emscripten::convertJSArrayToNumberVector<std::uint8_t>(jpeg);
   ++frames_sent_;
   pacer_.sent(timestamp, std::uint64_t(sequence));
+  pacer_.encoded(bytes.size(), width_ / reduction, height_ / reduction, quality);
   unsaved_.keep(std::uint64_t(sequence), info, width_ / reduction, height_ / reduction, bytes,
                 /*sent=*/true);
   return bytes_to_js(wire::encode(client::jpeg_frame(std::uint64_t(sequence), info,

@@ -52,12 +52,13 @@ class WebClient {
   // ---- messages to send (encoded) ----
   val hello(const std::string& device, const std::string& token, const std::string& resume);
   val intrinsics();
-  // A camera frame, its JPEG `reduction` times smaller each side than the camera (1: its size;
-  // what frame_due() said).
+  // A camera frame, its JPEG `reduction` times smaller each side than the camera (1: its size)
+  // and encoded at `quality` (1-100): what frame_due() said.
   val frame(double sequence, double timestamp, double qw, double qx, double qy, double qz,
-            const val& jpeg, int reduction);
-  // Whether a frame due at `timestamp` (seconds, the clock frame() is given) should go, and how
-  // reduced: {send, reduction}, as the daemon's frame advice says (client::FramePacer).
+            const val& jpeg, int reduction, int quality);
+  // Whether a frame due at `timestamp` (seconds, the clock frame() is given) should go, how
+  // reduced and at which JPEG quality: {send, reduction, quality}, as the daemon's frame advice
+  // says (client::FramePacer).
   val frame_due(double timestamp);
   // No frame lost in a fail-over (issue 36 §5, PROTOCOL.md): the frames sent that no checkpoint
   // holds yet are kept (up to kUnsavedBytes); after a Welcome whose session lacks some of them,

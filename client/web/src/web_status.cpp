@@ -37,6 +37,8 @@ val WebClient::status() const {
   s.set("advised_width", pacer_.advised_width());
   s.set("advised_height", pacer_.advised_height());
   s.set("advised_fps", pacer_.advised_fps());
+  s.set("advised_frame_bytes", double(pacer_.advised_frame_bytes()));
+  s.set("jpeg_quality", pacer_.quality());
   s.set("frames_rendered", double(frames_rendered_));
   const auto source = renderer_.lighting_source();
   s.set("lighting", std::string(source == render::LightingSource::Maps ? "maps"

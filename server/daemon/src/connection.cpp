@@ -268,7 +268,7 @@ void ClientConnection::handle_frame(wire::CameraFrame&& m) {
     m.info.exposure = wire::kLockedExposureSeconds;
     m.info.gain = 1.0;
   }
-  session_->submit(FrameJob{std::move(m), Clock::now()});
+  session_->submit(FrameJob{std::move(m), Clock::now(), stream_->last_arrival()});
 }
 
 }  // namespace arlight::daemon

@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 
+#include "arlight/protocol/arrival.hpp"
 #include "arlight/protocol/wire.hpp"
 
 namespace arlight::daemon {
@@ -18,6 +19,7 @@ namespace arlight::daemon {
 struct FrameJob {
   wire::CameraFrame frame;
   std::chrono::steady_clock::time_point received;
+  wire::Arrival arrival;  // how its message's bytes came (UplinkRate)
 };
 
 class FrameQueue {

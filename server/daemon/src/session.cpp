@@ -125,6 +125,7 @@ std::uint64_t Session::attach(ClientLink client) {
   tile_coding_ = client.tile_coding;
   advisor_.reset();
   if (client.exposure_advice) advisor_.emplace();
+  uplink_.reset();
   // A connection's map request is its own (every client sends RequestMaps after its Hello when
   // it wants maps): a client resuming the session without one gets no more sets computed for
   // the previous connection's request. A set already running still streams (a client that
@@ -220,6 +221,7 @@ std::optional<std::uint32_t> Session::begin_client_set(std::uint32_t id, std::ui
 
 void Session::submit(FrameJob job) {
   std::lock_guard lock(mutex_);
+  uplink_.arrived(job.arrival, job.received);
   // A frame the session has already had: a client that resumed sends the frames its checkpoint
   // may lack again (issue 36 §5), and the ones it did have must not count twice.
   if (newest_sequence_ && job.frame.sequence <= *newest_sequence_) {
@@ -349,7 +351,8 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .advised_width = std::uint16_t(camera_->width / capture_->frame_reduction()),
           .advised_height = std::uint16_t(camera_->height / capture_->frame_reduction()),
           .advised_fps = unchanged_run_ >= kSettledFrames ? kSettledFps : kChangingFps,
-          .saved_sequence = saved_sequence_};
+          .saved_sequence = saved_sequence_,
+          .advised_frame_bytes = uplink_.frame_bytes(Clock::now())};
 }
 
 std::string Session::request_maps(MapRequest r) {

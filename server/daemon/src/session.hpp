@@ -29,6 +29,7 @@
 #include "map_set_scheduler.hpp"
 #include "frame_path_gate.hpp"
 #include "map_set_stream.hpp"
+#include "uplink_rate.hpp"
 #include "session_lease.hpp"
 #include "sun_tracker.hpp"
 #include "watchers.hpp"
@@ -209,6 +210,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
+  UplinkRate uplink_;  // the attached client's frames' arrival: advised_frame_bytes
   SunTracker sun_;      // the client's place and time, and the sun checked against the map
   FrameQueue frames_;   // at most env_.queue_depth frames wait; one a turn on the worker pool
   std::uint64_t received_ = 0, processed_ = 0, dropped_ = 0, skipped_ = 0, last_sequence_ = 0;

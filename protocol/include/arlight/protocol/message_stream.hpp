@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "arlight/protocol/arrival.hpp"
 #include "arlight/protocol/wire.hpp"
 
 namespace arlight::wire {
@@ -44,6 +45,8 @@ class Transport {
   virtual void async_start(Done done) = 0;
   virtual void async_read(std::vector<std::uint8_t>& envelope, std::uint32_t max_bytes,
                           ReadDone done) = 0;
+  // How the message the last async_read completed arrived.
+  virtual Arrival last_arrival() const = 0;
   // `bytes` stay alive until `done` runs. Unframed: written as they are, header and all (tests
   // of what a misbehaving peer can send).
   virtual void async_write(std::span<const std::uint8_t> bytes, bool framed, Done done) = 0;
@@ -108,6 +111,8 @@ class MessageStream : public std::enable_shared_from_this<MessageStream> {
   std::size_t queued_bytes() const { return queued_bytes_.load(); }
   // The messages read so far, in bytes (each Envelope and its 4-byte length).
   std::uint64_t bytes_received() const { return bytes_received_.load(); }
+  // In on_message (on the strand): how the message being handled arrived.
+  Arrival last_arrival() const { return transport_->last_arrival(); }
   // Any thread but the stream's own: the newest group of `lane` whose writing has begun, after
   // every message sent before this call was queued (so a group sent before it and not begun
   // yet will be replaced by the next group sent). 0 when none began; nullopt when the stream

@@ -180,6 +180,10 @@ struct LightingUpdate {
   // Frames up to this sequence are in the session's newest checkpoint: no longer worth keeping
   // for a fail-over (PROTOCOL.md, fail-over).
   std::uint64_t saved_sequence = 0;
+  // The most bytes a frame should take to cross the client's uplink in 1/30 s, at the rate the
+  // server measured its frames arriving at (PROTOCOL.md, frame advice). 0: no advice (no
+  // measurement, or a link so fast that no frame is limited).
+  std::uint32_t advised_frame_bytes = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

@@ -32,14 +32,16 @@ namespace arlight::client_app {
 class LightingChannel {
  public:
   virtual ~LightingChannel() = default;
-  // Whether a camera frame of width x height taken at `timestamp` should go, and how reduced
-  // (the daemon's frame advice, PROTOCOL.md); by default every frame, at its size.
+  // Whether a camera frame of width x height taken at `timestamp` should go, how reduced and at
+  // which JPEG quality (the daemon's frame advice, PROTOCOL.md); by default every frame, at its
+  // size and kMaxQuality.
   virtual client::FramePacer::Decision frame_due(double /*timestamp*/, int /*width*/,
                                                  int /*height*/) {
     return {};
   }
+  // `jpeg` was encoded at `quality` (what the next frames' quality is chosen by).
   virtual void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                          std::span<const std::uint8_t> jpeg) = 0;
+                          std::span<const std::uint8_t> jpeg, int quality) = 0;
   virtual Lighting lighting() const = 0;
 };
 
@@ -50,8 +52,8 @@ class LinkChannel final : public LightingChannel {
     return link_.frame_due(timestamp, width, height);
   }
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                  std::span<const std::uint8_t> jpeg) override {
-    link_.send_frame(sequence, info, width, height, jpeg);
+                  std::span<const std::uint8_t> jpeg, int quality) override {
+    link_.send_frame(sequence, info, width, height, jpeg, quality);
   }
   Lighting lighting() const override { return link_.lighting(); }
 
@@ -63,8 +65,8 @@ class LinkChannel final : public LightingChannel {
 class FixedLighting final : public LightingChannel {
  public:
   explicit FixedLighting(Lighting lighting) : lighting_(std::move(lighting)) {}
-  void send_frame(std::uint64_t, const FrameInfo&, int, int,
-                  std::span<const std::uint8_t>) override {}
+  void send_frame(std::uint64_t, const FrameInfo&, int, int, std::span<const std::uint8_t>,
+                  int) override {}
   Lighting lighting() const override { return lighting_; }
 
  private:

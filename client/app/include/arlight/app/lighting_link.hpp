@@ -87,15 +87,16 @@ class LightingLink {
   // server's reason (e.g. Unauthorized) when it was refused, or when nothing answered.
   void wait_connected(std::chrono::milliseconds timeout);
 
-  // Whether a camera frame of width x height taken at `timestamp` (seconds) should go, and how
-  // reduced: the daemon's newest frame advice (client::FramePacer). A frame send_frame() sent
-  // counts from its timestamp.
+  // Whether a camera frame of width x height taken at `timestamp` (seconds) should go, how
+  // reduced and at which JPEG quality: the daemon's newest frame advice (client::FramePacer). A
+  // frame send_frame() sent counts from its timestamp.
   client::FramePacer::Decision frame_due(double timestamp, int width, int height);
   // Forwards a frame (`sequence` increasing) when connected and kept until a checkpoint holds
   // it; otherwise kept waiting and sent after the next handshake (the renderer goes on). After a
   // resume the frames the session lacks go again first (client::UnsavedFrames, issue 36 §5).
+  // `jpeg` was encoded at `quality`.
   void send_frame(std::uint64_t sequence, const FrameInfo& info, int width, int height,
-                  std::span<const std::uint8_t> jpeg);
+                  std::span<const std::uint8_t> jpeg, int quality);
 
   // At the end of a capture: waits up to `timeout` for the kept frames still waiting (an outage
   // near the end) to go; whether none waits.
