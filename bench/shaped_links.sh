@@ -13,13 +13,16 @@
 #                                              OLD=DIR: also run DIR's arlightd and arlight-load,
 #                                              and its page where DIR/bin/web has one; WHOLE=1:
 #                                              also arlight-load --whole-sets, every map set
-#                                              whole as before issue 36 §2)
+#                                              whole as before issue 36 §2; MAPS=0: no maps
+#                                              asked for, the uplink's share of the latency alone)
 set -eu
 build=${1:-build}
 out=${2:-out/bench/shaped_links}
 seconds=${LINK_SECONDS:-20}  # whole seconds, 10 or more
 links=${LINKS:-"20:0 20:1 20:3 5:0 5:1 5:3 2:0 2:1 2:3 5:2:dark"}
 k=${LINK_K:-61}
+maps_flag=--maps
+[ "${MAPS:-1}" = 0 ] && maps_flag=
 if [ "$(id -u)" -ne 0 ]; then
   echo "shaped_links: needs root (network namespaces); skipped"
   exit 0
@@ -63,7 +66,7 @@ run_case() {
   fi
   $("$link" on-phone "$k") "$bin/arlight-load" --server "10.77.$k.1:$web" --websocket \
     --tls-ca "$out/data/tls/self-signed-cert.pem" --token shaped-link-token-0123456789 \
-    --recording "$out/rec" --sessions 1 --rate 30 --maps --duration "$seconds" --reconnect 10 \
+    --recording "$out/rec" --sessions 1 --rate 30 $maps_flag --duration "$seconds" --reconnect 10 \
     --json "$out/$name.json" $load_flag > "$out/$name.out" 2>&1 || true
   [ -z "$dark_pid" ] || wait "$dark_pid" || true
   kill -9 "$daemon_pid" 2>/dev/null || true

@@ -49,8 +49,10 @@ TEST(ArlightdBusyMachine, MapSetsKeepComingBesideCpuBoundProcesses) {
   const json& s = j["per_session"][0];
   EXPECT_GT(s["frames_processed"].get<int>(), 0);
   // A busy machine is not a narrow uplink (issue 36 §1): loopback delivers each frame at once,
-  // so arlightd advises no byte budget and the frames keep their best JPEG quality.
-  EXPECT_EQ(s["advised_frame_bytes"].get<int>(), 0) << s.dump();
+  // so arlightd advises no byte budget (or, should a descheduled writer split a frame, one far
+  // over the frames) and the frames keep their best JPEG quality.
+  const double advised = s["advised_frame_bytes"].get<double>();
+  EXPECT_TRUE(advised == 0 || advised > 2 * s["bytes_per_frame"].get<double>()) << s.dump();
   EXPECT_EQ(s["jpeg_quality_mean"].get<double>(), 90.0) << s.dump();
   std::vector<double> sets_ms;  // when each set completed, while the session sent frames
   for (const json& t : s["map_set_ms"])

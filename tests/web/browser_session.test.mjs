@@ -86,9 +86,11 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     // second none is held back (the advice asks for at most 30 or, once they agree, 10).
     assert.deepEqual(status.advised_size, [320, 240]);
     assert.equal(status.frames_held_back, 0);
-    // Loopback carries any frame at once: no byte advice, and the page encodes at its best
-    // quality (a busy page or daemon must not read as a narrow uplink, issue 36 §1).
-    assert.equal(status.advised_frame_bytes, 0);
+    // Loopback carries any frame at once: no byte advice (or one far over any frame), and the
+    // page encodes at its best quality (a busy page or daemon must not read as a narrow uplink,
+    // issue 36 §1).
+    assert.ok(status.advised_frame_bytes === 0 || status.advised_frame_bytes > 100000,
+      `advised ${status.advised_frame_bytes} bytes a frame on loopback`);
     assert.equal(status.jpeg_quality, 90);
     assert.ok(status.map_sets >= 1);
     assert.equal(status.lighting, 'maps');

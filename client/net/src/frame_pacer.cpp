@@ -62,7 +62,8 @@ double relative_bytes(int quality) {
   constexpr std::size_t n = std::size(q);
   if (quality >= q[0]) return r[0];
   for (std::size_t i = 1; i < n; ++i)
-    if (quality >= q[i]) return r[i] + (r[i - 1] - r[i]) * double(quality - q[i]) / (q[i - 1] - q[i]);
+    if (quality >= q[i])
+      return r[i] + (r[i - 1] - r[i]) * double(quality - q[i]) / (q[i - 1] - q[i]);
   return r[n - 1];
 }
 

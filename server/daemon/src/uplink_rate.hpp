@@ -51,7 +51,8 @@ class UplinkRate {
   std::uint32_t frame_bytes(Clock::time_point now);
 
  private:
-  std::deque<std::pair<Clock::time_point, double>> samples_;  // (when, bytes a second), oldest first
+  // (when, bytes a second), oldest first
+  std::deque<std::pair<Clock::time_point, double>> samples_;
 };
 
 }  // namespace arlight::daemon

@@ -1,9 +1,9 @@
 // What a client sends arlightd and how often, as its LightingUpdates advise (PROTOCOL.md, frame
 // advice; issue 37 §1): frames reduced to the size the server's map needs, at most the rate it
 // needs now, at a JPEG quality whose frames fit the bytes the server measured the uplink to
-// carry in 1/30 s (issue 36 §1); and, when limit_in_flight() says so, at most a few frames in flight,
-// so that a slow link or a busy daemon holds the newest frame back at the client instead of
-// queueing seconds of frames between them. Part of the client core both clients share (the
+// carry in 1/30 s (issue 36 §1); and, when limit_in_flight() says so, at most a few frames in
+// flight, so that a slow link or a busy daemon holds the newest frame back at the client instead
+// of queueing seconds of frames between them. Part of the client core both clients share (the
 // native pipeline, arlight-load and the page's WebAssembly); no clock or threads of its own: the
 // caller says when a frame is due.
 #pragma once
