@@ -76,6 +76,9 @@ TEST(ArlightClient, RendersTheBunnyOnTheMarkerLitByTheCapturedRoom) {
   EXPECT_EQ(j.at("lit_by_sh").get<int>(), 0) << j.dump();
   EXPECT_EQ(j.at("session").at("id"), session);
   EXPECT_EQ(j.at("session").at("frames_sent").get<int>(), 30);
+  // Loopback limits no frame's bytes (issue 36 §1): every frame at the best JPEG quality.
+  EXPECT_EQ(j.at("session").at("jpeg_quality_mean").get<double>(), 90.0) << j.dump();
+  EXPECT_GT(j.at("session").at("bytes_per_frame").get<double>(), 1000.0) << j.dump();
   EXPECT_LT(j.at("pose_error").at("median_cm").get<double>(), 1.0) << j.dump();
   EXPECT_LT(j.at("pose_error").at("median_deg").get<double>(), 1.0) << j.dump();
   // Issue 36 §4: each frame is tracked before it is drawn (registration first), so the object

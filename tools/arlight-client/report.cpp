@@ -67,11 +67,17 @@ static nlohmann::json summary_json(const RunStats& s, const LinkStats& ls) {
   j["lit_by_ggx"] = s.lit_by_ggx;
   j["exposure_advice"] = {{"received", ls.exposure_advice},
                           {"frames_taken", s.exposure_requested}};
+  const auto per_frame = [&](std::uint64_t sum) {  // a mean over the frames' JPEGs
+    return ls.frames_encoded ? double(sum) / double(ls.frames_encoded) : 0.0;
+  };
   j["session"] = {{"id", ls.session_id},           {"connects", ls.connects},
                   {"frames_sent", ls.frames_sent}, {"frames_not_sent", ls.frames_not_sent},
                   {"frames_resent", ls.frames_resent}, {"frames_delayed", ls.frames_delayed},
                   {"frames_held_back", ls.frames_held_back},
                   {"frames_held_in_flight", ls.frames_held_in_flight},
+                  {"bytes_per_frame", per_frame(ls.frame_bytes)},
+                  {"jpeg_quality_mean", per_frame(ls.jpeg_quality_sum)},
+                  {"advised_frame_bytes", ls.advised_frame_bytes},
                   {"updates", ls.updates},         {"map_sets", ls.map_sets},
                   {"refused", ls.refused},         {"last_error", ls.last_error},
                   {"resumes", nlohmann::json::array()}};

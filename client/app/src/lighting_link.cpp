@@ -238,6 +238,8 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
     unsaved_.keep(sequence, info, width, height, jpeg, sent,
                   std::size_t(std::max(options_.max_in_flight, 0)));
     pacer_.encoded(jpeg.size(), width, height, quality);
+    ++stats_.frames_encoded, stats_.frame_bytes += jpeg.size(), stats_.jpeg_quality_sum += quality;
+    stats_.advised_frame_bytes = pacer_.advised_frame_bytes();
     if (sent) {
       ++stats_.frames_sent;
       pacer_.sent(info.timestamp, wire);

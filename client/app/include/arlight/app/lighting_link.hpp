@@ -70,6 +70,10 @@ struct LinkStats {
   std::uint64_t exposure_advice = 0;  // ExposureAdvice messages asking for a darker frame
   std::uint64_t frames_held_back = 0;  // frames the frame advice asked not to send, or
   std::uint64_t frames_held_in_flight = 0;  // (of them) held while max_in_flight were unanswered
+  // The frames' JPEGs (issue 36 §1: a narrow uplink's byte advice lowers their quality): how
+  // many, their bytes and qualities summed, and the newest advice (0: none).
+  std::uint64_t frames_encoded = 0, frame_bytes = 0, jpeg_quality_sum = 0;
+  std::uint32_t advised_frame_bytes = 0;
   std::string last_error;
   bool refused = false;  // the server refused this client: no more attempts
 };
