@@ -3,32 +3,26 @@
 # merging frames in one run, on the simulated sweeps `make test` checks (240 frames, 320x240,
 # 0.5 deg/s gyro drift): `--merge changes` (arlightd's: frames that agree with the map are not
 # merged, a changed room replaces what was there) against `--merge all` (a plain weighted mean of
-# every frame, before issue 37). Each sweep is captured with arlightd's settings (cube face 192,
-# alignment every 4th frame at 160 px, in the background) over PASSES passes (default 2: a phone
-# that keeps looking round), and its irradiance and s = 80 maps compared with the truth's
-# (`arlight-maps diff`, auto method, 128). One table row per probe and way.
+# every frame, before issue 37). Each sweep is captured with arlightd's settings over PASSES
+# passes (default 2: a phone that keeps looking round), and its irradiance and s = 80 maps
+# compared with the truth's (bench/sweeps.sh). One table row per probe and way.
 #   bench/capture_merge.sh [BUILD_DIR] [OUT]
 set -eu
 build=${1:-build}
 out=${2:-out/bench/capture_merge}
 passes=${PASSES:-2}
+. "$(dirname "$0")/sweeps.sh"
 mkdir -p "$out"
 echo "| probe | merge | irradiance error | s = 80 error | orientation RMS | frames not merged (pass 1 / later) | median ms a frame (pass 1 / later) |"
 echo "|---|---|---|---|---|---|---|"
-for spec in venice:1: city:3: "lab:4:--hdr-stops 5"; do
-  name=${spec%%:*}
-  rest=${spec#*:}
-  seed=${rest%%:*}
-  extra=${rest#*:}
+# Two rows for probe $1 (seed $2, arlight-sim flags after them).
+merge_rows() {
+  name=$1 seed=$2
+  shift 2
   rec="$out/$name/rec"
-  [ -d "$rec" ] || "$build/bin/arlight-sim" --env "data/probes/$name.exr" --out "$rec" --frames 240 \
-    --size 320x240 --gyro-drift 0.5 --seed "$seed" $extra > /dev/null 2>&1
+  make_sweep "$rec" "$name" "$seed" "$@"
   for merge in changes all; do
-    "$build/bin/arlight-capture" --recording "$rec" --projection cube --size 192 --align-async \
-      --align-every 4 --align-width 160 --passes "$passes" --merge $merge \
-      --out "$out/$name/$merge.exr" --json "$out/$name/$merge.json" > /dev/null
-    "$build/bin/arlight-maps" diff --reference "$rec/truth/env.exr" --test "$out/$name/$merge.exr" \
-      --method auto --size 128 --json "$out/$name/$merge-diff.json" > /dev/null
+    capture_and_diff "$rec" "$out/$name/$merge" --passes "$passes" --merge $merge
     python3 - "$out/$name/$merge.json" "$out/$name/$merge-diff.json" "$name" "$merge" <<'PY'
 import json, statistics, sys
 c, d = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
@@ -42,4 +36,5 @@ print(f"| {sys.argv[3]} | {sys.argv[4]} | {100 * err[1]:.2f} % | {100 * err[80]:
       f"{later_unchanged} of {later_frames} | {p[0]['median_frame_ms']:.2f} / {later_ms:.2f} |")
 PY
   done
-done
+}
+for_each_sweep merge_rows

@@ -239,6 +239,7 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
       const FrameInfo info{double(k) / plan.rate, f.exposure, f.gain, f.orientation};
       std::uint64_t sequence;
       bool send_now;
+      const std::vector<std::uint8_t>* jpeg = nullptr;  // FrameJpegs keeps it
       {
         std::lock_guard lock(m);
         // Without a daemon, or behind kept frames still to go, the frame waits its turn.
@@ -254,23 +255,22 @@ void run_session(const SessionPlan& plan, const recording::Recording& rec, const
         report.sent_ms.push_back(
             std::chrono::duration<double, std::milli>(Clock::now() - start).count());
         report.frame_latency_ms.push_back(std::nan(""));
-        const std::vector<std::uint8_t>& jpeg = jpegs.at(i, reduction, quality);
-        report.bytes_sent += jpeg.size();
-        pacer.encoded(jpeg.size(), jpegs.width() / reduction, jpegs.height() / reduction, quality);
+        jpeg = &jpegs.at(i, reduction, quality);
+        report.bytes_sent += jpeg->size();
+        pacer.encoded(jpeg->size(), jpegs.width() / reduction, jpegs.height() / reduction, quality);
         report.quality_sum += quality;
         // Without a daemon a phone's newest frames wait, as many as it keeps in flight.
         const std::size_t max_unsent =
             plan.follow_advice ? std::size_t(std::max(plan.max_in_flight, 0)) : 0;
         unsaved.keep(sequence, info, rec.camera.width / reduction, rec.camera.height / reduction,
-                     jpeg, send_now, max_unsent);
+                     *jpeg, send_now, max_unsent);
         if (send_now) pacer.sent(now_s(), sequence);
         if (lost_since) ++outage.delayed;
       }
       if (send_now) {
         try {
-          const std::vector<std::uint8_t>& jpeg = jpegs.at(i, reduction, quality);
           c->send_jpeg_frame(sequence, info, rec.camera.width / reduction,
-                             rec.camera.height / reduction, jpeg);
+                             rec.camera.height / reduction, *jpeg);
         } catch (const client::ClientError&) {  // noticed before the next frame
         }
       }

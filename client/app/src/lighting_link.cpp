@@ -239,7 +239,6 @@ void LightingLink::send_frame(std::uint64_t sequence, const FrameInfo& info, int
                   std::size_t(std::max(options_.max_in_flight, 0)));
     pacer_.encoded(jpeg.size(), width, height, quality);
     ++stats_.frames_encoded, stats_.frame_bytes += jpeg.size(), stats_.jpeg_quality_sum += quality;
-    stats_.advised_frame_bytes = pacer_.advised_frame_bytes();
     if (sent) {
       ++stats_.frames_sent;
       pacer_.sent(info.timestamp, wire);
@@ -291,6 +290,7 @@ LinkStats LightingLink::stats() const {
   s.frames_resent = unsaved_.resent();
   s.frames_held_back += unsaved_.replaced();  // a newer frame went in their place
   s.frames_not_sent = unsaved_.given_up_unsent() + unsaved_.waiting_unsent();
+  s.advised_frame_bytes = pacer_.advised_frame_bytes();
   return s;
 }
 
