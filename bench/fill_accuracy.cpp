@@ -27,6 +27,7 @@
 #include "arlight/capture/capture.hpp"
 #include "arlight/capture/exposure_advice.hpp"
 #include "arlight/capture/fill.hpp"
+#include "arlight/capture/uncertainty.hpp"
 #include "arlight/common/atomic_file.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/hdr_io.hpp"
@@ -117,8 +118,53 @@ std::vector<double> elevation_profile(const EnvMap& env, int zones) {
 struct SphereSums {
   double diffuse = 0, silver = 0, mirror = 0, angle = 0, diffuse_rmse = 0;
 };
+// The stated uncertainty of the light (issue 48 §1) against the real error, per direction of
+// the irradiance map (each texel's luminance, weighted by its solid angle): the share of
+// directions whose real error the statement brackets, and the medians of both.
+struct UncertaintyCheck {
+  double bracketed = 0, stated_median = 0, real_median = 0, stated_mean = 0, real_mean = 0;
+};
+
+double weighted_median(std::vector<std::pair<double, double>> values) {  // (value, weight)
+  std::sort(values.begin(), values.end());
+  double total = 0.0;
+  for (const auto& [v, w] : values) total += w;
+  double below = 0.0;
+  for (const auto& [v, w] : values)
+    if ((below += w) >= 0.5 * total) return v;
+  return values.empty() ? 0.0 : values.back().first;
+}
+
+UncertaintyCheck check_uncertainty(const capture::LightUncertainty& stated, const EnvMap& truth,
+                                   const EnvMap& estimate) {
+  const TexelTable& table = *texel_table(truth.layout);
+  std::vector<std::pair<double, double>> real, bound;
+  UncertaintyCheck out;
+  double omega = 0.0;
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const std::size_t t = 3 * std::size_t(table.index[i]);
+    const double lt = luminance(truth.image.data()[t], truth.image.data()[t + 1],
+                                truth.image.data()[t + 2]);
+    const double le = luminance(estimate.image.data()[t], estimate.image.data()[t + 1],
+                                estimate.image.data()[t + 2]);
+    if (!(lt > 0.0)) continue;
+    const double e = std::abs(le - lt) / lt;
+    const double u = stated.at({table.x[i], table.y[i], table.z[i]});
+    const double w = table.solid_angle[i];
+    real.emplace_back(e, w), bound.emplace_back(u, w);
+    omega += w;
+    out.bracketed += e <= u ? w : 0.0;
+    out.real_mean += w * e, out.stated_mean += w * u;
+  }
+  if (omega > 0.0) out.bracketed /= omega, out.real_mean /= omega, out.stated_mean /= omega;
+  out.real_median = weighted_median(std::move(real));
+  out.stated_median = weighted_median(std::move(bound));
+  return out;
+}
+
 struct Row {
   std::array<double, 3> vs_truth{}, vs_capture{};
+  UncertaintyCheck uncertainty;  // sums
   std::array<SphereSums, 2> spheres{};  // the estimate-filled capture, SH-9 of it
   int reached = 0;
 };
@@ -129,6 +175,7 @@ struct Settings {
   sim::TrajectoryKind trajectory = sim::TrajectoryKind::Sweep;
   EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 512);  // set from --size
   capture::FillOptions fill;
+  capture::UncertaintyOptions uncertainty;
 };
 
 // One exposure mode over every probe: a line per probe and level, then the means.
@@ -191,6 +238,26 @@ void run_mode(const std::vector<std::string>& probes, const Settings& settings, 
         row.vs_truth[f] += t, row.vs_capture[f] += c;
         std::printf("  %6.1f%% [%5.1f%%]", 100 * t, 100 * c);
       }
+      // The stated uncertainty of the estimate against its real error.
+      {
+        capture::UnseenEstimator estimator(settings.layout, capture::Fill::Estimate,
+                                           settings.fill);
+        estimator.fit({snap.acc.weighted_radiance, snap.acc.weight});
+        const capture::LightUncertainty stated(estimator.cells(), settings.uncertainty);
+        const UncertaintyCheck u = check_uncertainty(
+            stated, truth_irradiance, irradiance(filled(snap, capture::Fill::Estimate)));
+        entry["uncertainty"] = {{"stated_mean", stated.mean()},
+                                {"bracketed", u.bracketed},
+                                {"stated_median", u.stated_median},
+                                {"real_median", u.real_median},
+                                {"real_mean", u.real_mean}};
+        row.uncertainty.bracketed += u.bracketed, row.uncertainty.stated_mean += stated.mean();
+        row.uncertainty.stated_median += u.stated_median;
+        row.uncertainty.real_median += u.real_median, row.uncertainty.real_mean += u.real_mean;
+        std::printf("  u %5.1f%% (bracketed %5.1f%%, median %5.1f%% vs %5.1f%%)",
+                    100 * stated.mean(), 100 * u.bracketed, 100 * u.stated_median,
+                    100 * u.real_median);
+      }
       // The sphere protocol: the estimate-filled capture, and SH-9 of it.
       const EnvMap estimate = filled(snap, capture::Fill::Estimate);
       const EnvMap sh9(settings.layout, sh_reconstruct(sh_project(estimate, 3), settings.layout));
@@ -225,7 +292,14 @@ void run_mode(const std::vector<std::string>& probes, const Settings& settings, 
       std::printf("  %s %5.1f%% [%5.1f%%]", std::string(capture::fill_name(kFills[f])).c_str(),
                   100 * rows[r].vs_truth[f] / rows[r].reached,
                   100 * rows[r].vs_capture[f] / rows[r].reached);
-    std::printf("\n");
+    const UncertaintyCheck& u = rows[r].uncertainty;
+    const double n = rows[r].reached;
+    std::printf(
+        "  %-7s stated uncertainty %5.1f%% (real %5.1f%%): brackets the real error in %5.1f%% "
+        "of directions; median %5.1f%% against %5.1f%% real (%.2fx)\n",
+        "", 100 * u.stated_mean / n, 100 * u.real_mean / n, 100 * u.bracketed / n,
+        100 * u.stated_median / n, 100 * u.real_median / n,
+        u.real_median > 0 ? u.stated_median / u.real_median : 0.0);
   }
   std::printf(
       "\n%s, the sphere protocol, mean over the probes (si-RMSE of the diffuse, matte silver "
@@ -289,6 +363,18 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--ground-albedo", fill_options.ground_albedo,
                  "the estimate's unseen ground albedo (0: continue the seen zones alone)")
+      ->capture_default_str();
+  capture::UncertaintyOptions& u = settings.uncertainty;
+  app.add_option("--bright-factor", u.bright_factor, "the uncertainty's bright completion")
+      ->capture_default_str();
+  app.add_option("--dark-factor", u.dark_factor, "the uncertainty's dark completion")
+      ->capture_default_str();
+  app.add_option("--reach", u.reach_deg, "the uncertainty's reach (degrees)")->capture_default_str();
+  app.add_option("--near-spread", u.near_spread, "the uncertainty's spread next to seen cells")
+      ->capture_default_str();
+  app.add_option("--measured-error", u.measured_error, "the uncertainty of the measured part")
+      ->capture_default_str();
+  app.add_option("--bright-floor", u.bright_floor, "the bright completion's floor")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {

@@ -122,13 +122,20 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
   const fb::Vec3 d(m.dominant_direction.x, m.dominant_direction.y, m.dominant_direction.z);
   const fb::Vec3 c(m.dominant_colour.x, m.dominant_colour.y, m.dominant_colour.z);
   const fb::Vec3 sun(m.sun_direction.x, m.sun_direction.y, m.sun_direction.z);
+  const glm::vec3 next = m.next_view.value_or(glm::vec3(0.0f));
+  const fb::Vec3 view(next.x, next.y, next.z);
   return fb::CreateLightingUpdate(b, m.frame_sequence, m.frame_used, text(b, m.reason),
                                   std::uint8_t(m.sh.order), b.CreateVector(flat), &d, &c,
                                   m.coverage, m.frames_processed, m.frames_dropped, m.estimated,
                                   m.frame_exposure, std::uint8_t(m.sun_state),
                                   m.sun_state == SunState::Unknown ? nullptr : &sun,
                                   m.advised_width, m.advised_height, m.advised_fps,
-                                  m.saved_sequence, m.advised_frame_bytes)
+                                  m.saved_sequence, m.advised_frame_bytes, m.light_error,
+                                  m.light_error_zones,
+                                  m.light_error_map.empty()
+                                      ? 0
+                                      : b.CreateVector(m.light_error_map),
+                                  m.next_view ? &view : nullptr, m.next_view_gain)
       .Union();
 }
 
@@ -392,6 +399,35 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
   u.advised_fps = m.advised_fps();
   u.saved_sequence = m.saved_sequence();
   u.advised_frame_bytes = m.advised_frame_bytes();
+  u.light_error = m.light_error();
+  if (!(u.light_error >= 0.0f && u.light_error <= kLightErrorUnknown))
+    refuse(Fault::OutOfRange, "LightingUpdate", "light_error",
+           std::to_string(u.light_error) + " is not in [0, " +
+               std::to_string(int(kLightErrorUnknown)) + "]");
+  u.light_error_zones = m.light_error_zones();
+  if (u.light_error_zones > kMaxLightErrorZones)
+    refuse(Fault::OutOfRange, "LightingUpdate", "light_error_zones",
+           std::to_string(u.light_error_zones) + " is more than " +
+               std::to_string(kMaxLightErrorZones));
+  if (const auto* map = m.light_error_map()) u.light_error_map.assign(map->begin(), map->end());
+  const std::size_t cells = 2 * std::size_t(u.light_error_zones) * u.light_error_zones;
+  if (u.light_error_map.size() != cells)
+    refuse(Fault::OutOfRange, "LightingUpdate", "light_error_map",
+           std::to_string(u.light_error_map.size()) + " cells for " +
+               std::to_string(u.light_error_zones) + " zones (" + std::to_string(cells) +
+               " expected)");
+  if (const fb::Vec3* view = m.next_view()) {
+    u.next_view = glm::vec3(view->x(), view->y(), view->z());
+    const float len = glm::length(*u.next_view);
+    if (!(std::abs(len - 1.0f) < 1e-3f))
+      refuse(Fault::OutOfRange, "LightingUpdate", "next_view",
+             "length " + std::to_string(len) + " is not a unit vector's");
+  }
+  u.next_view_gain = m.next_view_gain();
+  if (!(u.next_view_gain >= 0.0f && u.next_view_gain <= kLightErrorUnknown))
+    refuse(Fault::OutOfRange, "LightingUpdate", "next_view_gain",
+           std::to_string(u.next_view_gain) + " is not in [0, " +
+               std::to_string(int(kLightErrorUnknown)) + "]");
   if ((u.advised_width == 0) != (u.advised_height == 0))
     refuse(Fault::OutOfRange, "LightingUpdate", "advised_width",
            std::to_string(u.advised_width) + "x" + std::to_string(u.advised_height) +
@@ -631,7 +667,9 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          sun_state == o.sun_state && sun_direction == o.sun_direction &&
          advised_width == o.advised_width && advised_height == o.advised_height &&
          advised_fps == o.advised_fps && saved_sequence == o.saved_sequence &&
-         advised_frame_bytes == o.advised_frame_bytes;
+         advised_frame_bytes == o.advised_frame_bytes && light_error == o.light_error &&
+         light_error_zones == o.light_error_zones && light_error_map == o.light_error_map &&
+         next_view == o.next_view && next_view_gain == o.next_view_gain;
 }
 
 const char* message_name(const Message& m) {

@@ -9,18 +9,16 @@
 #include "arlight/capture/fill.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
+#include "measured_room.hpp"
 
 using namespace arlight;
 using namespace arlight::capture;
 
+using namespace arlight::capture::testing;
+
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-EnvMap probe(const char* name, const EnvLayout& layout) {
-  return resample(load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/" + name).env,
-                  layout);
-}
 
 // Adds a 160x120 frame of random colours, the camera turned `yaw_deg` about +Y; whether it
 // was used.
@@ -45,36 +43,6 @@ double max_difference(const ShCoeffs& a, const ShCoeffs& b) {
   for (std::size_t i = 0; i < a.c.size(); ++i)
     for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(a.c[i][c] - b.c[i][c]));
   return d;
-}
-
-// The accumulators of a map whose texels are measured where `seen(dir)` holds (weight 1).
-struct Measured {
-  std::vector<float> radiance, weight;
-  MeasuredTexels texels() const { return {radiance, weight}; }
-};
-template <class Seen>
-Measured measure(const EnvMap& env, Seen seen) {
-  Measured m;
-  m.radiance.assign(env.image.data(), env.image.data() + 3 * env.layout.texel_count());
-  m.weight.assign(env.layout.texel_count(), 0.0f);
-  for (int y = 0; y < env.layout.height(); ++y)
-    for (int x = 0; x < env.layout.width(); ++x) {
-      const std::size_t t = std::size_t(y) * env.layout.width() + x;
-      if (env.layout.texel_valid(x, y) && seen(env.layout.texel_dir(x, y)))
-        m.weight[t] = 1.0f;
-      else
-        std::fill_n(&m.radiance[3 * t], 3, 0.0f);
-    }
-  return m;
-}
-
-// The first part of a sweep: the horizon band (elevation within 25 degrees), from azimuth 0 to
-// `degrees` (171 degrees: 20 % of the sphere).
-auto horizon_band(double degrees) {
-  return [degrees](const glm::dvec3& d) {
-    const double az = std::atan2(d.x, -d.z) * 180.0 / kPi;
-    return std::abs(d.y) < std::sin(25.0 * kPi / 180.0) && az >= 0.0 && az < degrees;
-  };
 }
 
 // Mean relative error of the irradiance (luminance) over a grid of normals against `truth`,

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -288,6 +289,35 @@ TEST(ArlightClient, FollowsTheDaemonsExposureAdviceAndCapturesTheLampsOfLab) {
               advised, taken, 100 * irradiance_error);
   EXPECT_GE(irradiance_error, 0.0);
   EXPECT_LE(irradiance_error, 0.03);
+}
+
+// Issue 48 end to end: every update states how far the light may be off and the view to take
+// next, arlight-client prints both, and its guided sim: user (arlight-sim's GuidedMotion) turns
+// where arlightd asks. After 8 s of a guided capture of city.exr the light is stated within
+// 50 % (in-process, the same capture reaches ~7 %: arlight-bench-guided), on an 8 x 16 map.
+TEST(ArlightClient, AGuidedSimulatedPhoneFollowsTheDaemonsNextViewAndPrintsTheLightsError) {
+  const fs::path dir = test::fresh_temp_dir("client_guided");
+  test::DaemonProcess d(dir / "daemon");
+  const std::string city = std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/city.exr";
+  const auto r = test::run_tool(
+      ARLIGHT_CLIENT_EXE, "--server " + d.server() + " --token " + test::kToken + " --source sim:" +
+                              city + " --guided --size 320x240 --frames 240 --fps " + kSimFps +
+                              " --realtime --maps '' --json " + (dir / "c.json").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("a guided capture of"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(", light +-"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(", look "), std::string::npos) << r.output;
+  const json j = read_json(dir / "c.json");
+  const json& light = j.at("light");
+  EXPECT_GT(light.at("error").get<double>(), 0.0) << light.dump();
+  EXPECT_LT(light.at("error").get<double>(), 0.5) << light.dump();
+  EXPECT_EQ(light.at("zones").get<int>(), 8);
+  ASSERT_EQ(light.at("error_map_percent").size(), 128u);
+  for (const json& e : light.at("error_map_percent")) EXPECT_LE(e.get<int>(), 255);
+  if (!light.at("next_view").is_null()) {
+    const json& v = light.at("next_view");
+    EXPECT_NEAR(std::hypot(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()), 1.0, 1e-3);
+  }
 }
 
 // The sun (issue 17, dissertation §5.3.3): park.exr's sun stands 10.5 degrees up; at NREL in

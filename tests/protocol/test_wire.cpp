@@ -214,6 +214,44 @@ TEST(WireCodec, LightingUpdateFractionsAndExposureAreChecked) {
   EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
 }
 
+// The light's uncertainty and the next view (issue 48): a map whose size is not the zones', a
+// view that is not a direction or an error out of range is refused, naming the field; an
+// update from before them (the seed corpus) states none.
+TEST(WireCodec, LightUncertaintyAndNextViewAreChecked) {
+  const auto refused_field = [](const wire::LightingUpdate& u) {
+    const DecodeError e = refusal(wire::encode(u));
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+    EXPECT_EQ(e.message(), "LightingUpdate");
+    return e.field();
+  };
+  wire::LightingUpdate fine;
+  fine.light_error = 0.08f, fine.light_error_zones = 2;
+  fine.light_error_map = {1, 2, 3, 4, 5, 6, 7, 255};
+  fine.next_view = glm::vec3(0.0f, 1.0f, 0.0f), fine.next_view_gain = 0.03f;
+  EXPECT_EQ(std::get<wire::LightingUpdate>(wire::decode(wire::encode(fine))), fine);
+  wire::LightingUpdate u = fine;
+  u.light_error_map.pop_back();
+  EXPECT_EQ(refused_field(u), "light_error_map");
+  u = fine, u.light_error_zones = 33, u.light_error_map.assign(2 * 33 * 33, 1);
+  EXPECT_EQ(refused_field(u), "light_error_zones");
+  u = fine, u.light_error = -0.5f;
+  EXPECT_EQ(refused_field(u), "light_error");
+  u = fine, u.light_error = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(refused_field(u), "light_error");
+  u = fine, u.next_view = glm::vec3(0.0f, 2.0f, 0.0f);
+  EXPECT_EQ(refused_field(u), "next_view");
+  u = fine, u.next_view_gain = 11.0f;
+  EXPECT_EQ(refused_field(u), "next_view_gain");
+  std::ifstream in(fs::path(ARLIGHT_SOURCE_DIR) / "tests/protocol/corpus/valid/8-LightingUpdate",
+                   std::ios::binary);
+  ASSERT_TRUE(in);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  const auto old = std::get<wire::LightingUpdate>(wire::decode(bytes));
+  EXPECT_EQ(old.light_error, 0.0f);
+  EXPECT_TRUE(old.light_error_map.empty());
+  EXPECT_FALSE(old.next_view.has_value());
+}
+
 // ExposureAdvice (issue 16 §4): an exposure that is not one, or a fraction outside [0, 1].
 TEST(WireCodec, ExposureAdviceRangesAreChecked) {
   const auto refused_field = [](double exposure, float clipped) {

@@ -53,11 +53,13 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     const pageErrors = [];
     page.on('pageerror', (e) => pageErrors.push(e.message));
     const probes = [];
-    const guides = [];  // the capture guide's row at each poll
+    const guides = [];  // the capture guide's elevation at each poll
+    const views = [];   // arlightd's next view and the guide's elevation and words then
     let ticks = 0;
     await playRoom(page, d.url, room, {
       onTick: async (s) => {
         if (s.started) guides.push(s.guide_elevation_deg);
+        if (s.started && s.next_view) views.push({ view: s.next_view, elevation: s.guide_elevation_deg, text: s.guide });
         if (s.lighting === 'none' || probes.length >= 100 || ++ticks % 8) return;
         const p = await page.evaluate(() => window.arlight.probe());
         if (p) probes.push(p);
@@ -95,11 +97,20 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     assert.ok(status.map_sets >= 1);
     assert.equal(status.lighting, 'maps');
     assert.ok(status.coverage > 0.9, `coverage ${status.coverage}`);
-    // The capture guide asks for the ceiling first (this sweep starts at the horizon), and
-    // points below the horizon, if anywhere, once the upper hemisphere is seen.
+    // Before arlightd states a next view the guide asks for the ceiling first; once its updates
+    // propose one (issue 48 §2), the guide points there: the proposal's elevation, in words.
     assert.equal(guides[0], 85);
-    assert.ok(status.guide_elevation_deg === null || status.guide_elevation_deg < 0,
-      `the guide still points at ${status.guide_elevation_deg} degrees`);
+    assert.ok(views.length > 0, 'no update proposed a view');
+    for (const v of views) {
+      assert.ok(Math.abs(Math.hypot(...v.view) - 1) < 1e-3, JSON.stringify(v));
+      const elevation = (Math.asin(v.view[1]) * 180) / Math.PI;
+      assert.ok(Math.abs(v.elevation - elevation) < 1e-6, JSON.stringify(v));
+      assert.match(v.text, /^(turn (left|right|up|down)|look straight|hold here)/, JSON.stringify(v));
+    }
+    // ... and says how good the light is: swept all round, within a few per cent.
+    assert.ok(status.light_error > 0 && status.light_error < 0.25, `light_error ${status.light_error}`);
+    const lightingText = await page.$eval('#s-lighting', (e) => e.textContent);
+    assert.match(lightingText, /light good to ±\d+ %/);
     assert.equal(status.last_error, '');
     // "Watch this room": /three.html for this session, with this device's credentials.
     const watch = await page.$eval('#s-watch', (a) => a.getAttribute('href'));

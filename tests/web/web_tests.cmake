@@ -10,6 +10,8 @@ endif()
 set(ARLIGHT_WEB_TEST_DIR ${CMAKE_SOURCE_DIR}/tests/web)
 add_test(NAME web.orientation
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/orientation.test.mjs)
+add_test(NAME web.guide
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/guide.test.mjs)
 add_test(NAME web.harness
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/harness.test.mjs)
 add_test(NAME web.marker

@@ -107,6 +107,9 @@ void add_client_flags(CLI::App& app, ClientFlags& f) {
   app.add_option("--frames", f.frames_limit,
                  "stop after this many frames (0: all; a sim: source sweeps the room in this "
                  "many, 300 when 0)");
+  app.add_flag("--guided", f.guided,
+               "a sim: source's user turns to the views arlightd asks for (LightingUpdate."
+               "next_view) instead of sweeping the room");
   app.add_option("--size", f.size, "camera size WIDTHxHEIGHT of v4l2: (asked for) and sim: sources")
       ->capture_default_str();
   app.add_option("--pose", f.pose,
@@ -129,6 +132,7 @@ std::unique_ptr<source::FrameSource> open_client_source(const ClientFlags& f) {
   so.width = image.width, so.height = image.height;
   so.fps = f.fps;
   if (f.frames_limit > 0) so.frames = f.frames_limit;
+  so.guided = f.guided;
   std::unique_ptr<source::FrameSource> src = source::open_source(f.source_spec, so);
   spdlog::info("source: {}", src->describe());
   return src;

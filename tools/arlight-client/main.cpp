@@ -30,6 +30,16 @@ nlohmann::json sun_json(const Lighting& l) {
   return j;
 }
 
+// How far arlightd says the light may be off, and the view it asks for (PROTOCOL.md, uncertainty).
+nlohmann::json light_json(const Lighting& l) {
+  nlohmann::json j = {{"error", l.light_error}, {"zones", l.light_error_zones},
+                      {"error_map_percent", l.light_error_map},
+                      {"next_view_gain", l.next_view_gain}};
+  j["next_view"] = l.next_view ? nlohmann::json{l.next_view->x, l.next_view->y, l.next_view->z}
+                               : nlohmann::json(nullptr);
+  return j;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -72,13 +82,16 @@ int main(int argc, char** argv) {
       // arlightd asked for a darker frame (its exposure advice): the next one, where the
       // source can.
       if (const auto advice = link.take_exposure_advice()) src->request_exposure(*advice);
+      // And the view it asks for (a guided sim: source turns there).
+      const Lighting light = link.lighting();
+      if (light.next_view) src->propose_view(glm::dvec3(*light.next_view));
       std::optional<source::SourceFrame> frame = src->next();
       if (!frame) break;
       const double decode_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
       const FrameReport r = pipeline.process(*frame, channel, composited);
       stats.add(r, decode_ms);
       if (f.window) pipeline.renderer().present(), gl.swap_buffers();
-      output.add(r, composited);
+      output.add(r, composited, light);
     }
 
     // Frames an outage near the end kept waiting go before the report (and the Bye).
@@ -94,7 +107,8 @@ int main(int argc, char** argv) {
                    {"occlusion", {{"state", object.occlusion_state}, {"bake_ms", object.bake_ms}}},
                    {"colour", render::colour_correction_name(po.colour)},
                    {"ior", f.ior},
-                   {"sun", sun_json(channel.lighting())}});
+                   {"sun", sun_json(channel.lighting())},
+                   {"light", light_json(channel.lighting())}});
     // The room's light as engines read it, when arlightd sent its GGX chain (--ggx).
     if (const Lighting lighting = link.lighting(); !f.out.empty() && lighting.ggx && lighting.sh) {
       client::write_session_light_files(f.out, *lighting.ggx, *lighting.sh,

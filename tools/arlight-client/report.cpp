@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -100,19 +101,30 @@ RunOutput::RunOutput(fs::path out, fs::path json_path)
   if (!out_.empty()) fs::create_directories(out_ / "frames");
 }
 
-void RunOutput::add(const FrameReport& r, const cv::Mat& composited) {
+void RunOutput::add(const FrameReport& r, const cv::Mat& composited, const Lighting& light) {
   if (!out_.empty()) {
     char name[32];
     std::snprintf(name, sizeof name, "%06zu.png", written_++);
     cv::imwrite((out_ / "frames" / name).string(), composited);
     if (r.drawn && drawn_.size() < 64) drawn_.push_back(composited.clone());
   }
-  std::printf("frame %zu: %s, %s, track %.1f ms, render %.1f ms, tonemap %.1f ms\n", r.index,
+  // arlightd's statement of the light: "good to +-N %" and where it asks the camera to look.
+  char stated[96] = "";
+  if (light.light_error > 0 && light.light_error < wire::kLightErrorUnknown)
+    std::snprintf(stated, sizeof stated, ", light +-%.0f %%", 100 * light.light_error);
+  else if (light.light_error >= wire::kLightErrorUnknown)
+    std::snprintf(stated, sizeof stated, ", light unknown");
+  if (light.next_view) {
+    const std::size_t n = std::strlen(stated);
+    std::snprintf(stated + n, sizeof stated - n, ", look %.2f %.2f %.2f", light.next_view->x,
+                  light.next_view->y, light.next_view->z);
+  }
+  std::printf("frame %zu: %s, %s, track %.1f ms, render %.1f ms, tonemap %.1f ms%s\n", r.index,
               r.track_status.c_str(),
               !r.drawn                                   ? "not drawn"
               : r.lit_by == render::LightingSource::Maps ? "maps"
                                                          : "SH",
-              r.track_ms, r.render_ms, r.tonemap_ms);
+              r.track_ms, r.render_ms, r.tonemap_ms, stated);
 }
 
 void RunOutput::finish(const RunStats& stats, const LinkStats& link, const nlohmann::json& extra) {

@@ -23,7 +23,8 @@ std::function<std::optional<Pose>(std::size_t)> true_poses(std::optional<recordi
 class RunOutput {
  public:
   RunOutput(std::filesystem::path out, std::filesystem::path json_path);
-  void add(const FrameReport& report, const cv::Mat& composited);
+  // `light`: the newest lighting when the frame went (its stated error and next view).
+  void add(const FrameReport& report, const cv::Mat& composited, const Lighting& light);
   void finish(const RunStats& stats, const LinkStats& link, const nlohmann::json& extra);
 
  private:

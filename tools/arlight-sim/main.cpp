@@ -43,6 +43,12 @@ int main(int argc, char** argv) {
       limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     std::size_t(f.threads));
     const auto start = Clock::now();
+    if (f.guided) {
+      o.path = sim_tool::guided_path(o);
+      std::printf("arlight-sim: the guided path (%zu views, following arlightd's proposals) in "
+                  "%.1f s\n",
+                  o.path.size(), std::chrono::duration<double>(Clock::now() - start).count());
+    }
     const int frames = sim::simulate(o);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     std::printf("arlight-sim: wrote %d frames (%dx%d) to %s in %.1f s; ground truth in %s\n",

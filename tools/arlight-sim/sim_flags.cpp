@@ -10,6 +10,7 @@
 #include "arlight/common/error.hpp"
 #include "arlight/common/geo.hpp"
 #include "arlight/common/number_list.hpp"
+#include "arlight/guided/guided_capture.hpp"
 
 namespace arlight::sim_tool {
 
@@ -67,6 +68,9 @@ void add_sim_flags(CLI::App& app, sim::SimOptions& o, SimFlags& f) {
                  "sweep, poles-first (up and down first), top-down (ceiling first), orbit or "
                  "handheld")
       ->capture_default_str();
+  app.add_flag("--guided", f.guided,
+               "instead of --trajectory, a user who turns to the views arlightd's capture asks "
+               "for (run in process; 90 deg/s at most, 0.3 s to react, a hand's tremor)");
   app.add_option("--response", o.response, "camera response: srgb, filmic or a JSON file")
       ->capture_default_str();
   app.add_option("--auto-exposure", f.auto_exposure, "on or off")->capture_default_str();
@@ -163,6 +167,21 @@ std::optional<reference::ReferenceObject> finish_sim_options(const SimFlags& f,
   if (ec != std::errc() || end != f.seed.data() + f.seed.size())
     throw InputError("--seed '" + f.seed + "': expected a whole number 0..18446744073709551615");
   return reference_object;
+}
+
+std::vector<recording::Pose> guided_path(const sim::SimOptions& o) {
+  if (o.bracket > 0 || o.marker) throw InputError("--guided: not with --bracket or --marker");
+  guided::GuidedCaptureOptions g;
+  g.camera.width = o.width, g.camera.height = o.height, g.camera.hfov_deg = o.hfov_deg;
+  g.camera.fps = o.fps, g.camera.frames = o.frames;
+  g.camera.response = o.response, g.camera.noise = o.noise, g.camera.vignetting = o.vignetting;
+  g.camera.jpeg_quality = o.jpeg_quality, g.camera.seed = o.seed;
+  g.camera.guided = sim::GuidedMotionParams{};
+  g.capture.layout = capture::capture_layout_for(512);  // arlightd's default --size
+  guided::GuidedCapture capture(o.env, g);
+  std::vector<recording::Pose> path;
+  while (const auto step = capture.step()) path.push_back({.orientation = step->frame.orientation});
+  return path;
 }
 
 }  // namespace arlight::sim_tool

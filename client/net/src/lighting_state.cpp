@@ -14,6 +14,11 @@ void Lighting::apply(const wire::LightingUpdate& u) {
   frame_sequence = u.frame_sequence;
   frames_processed = u.frames_processed;
   if (u.frame_exposure > 0.0) frame_exposure = u.frame_exposure;  // 0: a frame not used
+  light_error = u.light_error;
+  light_error_zones = u.light_error_zones;
+  light_error_map = u.light_error_map;
+  next_view = u.next_view;
+  next_view_gain = u.next_view_gain;
 }
 
 void Lighting::apply(std::shared_ptr<const ReceivedMapSet> set) {

@@ -43,8 +43,9 @@ export class CoverageView {
     }
     return null;
   }
-  // `next`: the guide's row (nextElevation(), or null: none drawn).
-  draw(forward, next) {
+  // `next`: the guide's row (nextElevation(), or null: none drawn); `view`: arlightd's next view
+  // (unit, world frame), drawn as a box where the camera should point.
+  draw(forward, next, view = null) {
     const { ctx } = this;
     const w = ctx.canvas.width / this.cols;
     const h = ctx.canvas.height / this.rows;
@@ -58,6 +59,15 @@ export class CoverageView {
       ctx.strokeStyle = '#e3b341';
       ctx.lineWidth = 2;
       ctx.strokeRect(1, (0.5 - next / 180) * ctx.canvas.height - h / 2, ctx.canvas.width - 2, h);
+      ctx.lineWidth = 1;
+    }
+    if (view) {  // where arlightd asks the camera to look
+      const phi = Math.atan2(view[0], -view[2]);
+      const el = Math.asin(Math.max(-1, Math.min(1, view[1])));
+      ctx.strokeStyle = '#e3b341';
+      ctx.lineWidth = 2;
+      ctx.strokeRect((phi / (2 * Math.PI) + 0.5) * ctx.canvas.width - 3 * w,
+        (0.5 - el / Math.PI) * ctx.canvas.height - 3 * h, 6 * w, 6 * h);
       ctx.lineWidth = 1;
     }
     if (forward) {  // where the camera looks now

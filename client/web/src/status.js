@@ -37,7 +37,8 @@ export const state = {
   // controls.js (FieldOfView)
   focalPx: 0,
   // status_panel.js
-  guideElevation: 85,  // the capture guide's next row (CoverageView.nextElevation)
+  guideElevation: 85,  // the elevation the guide asks for: arlightd's next view's, or the next row
+  guideText: '',       // what the guide says (status_panel.js guideText)
   // sensors.js
   orientation: 'none',
   // geolocation.js
@@ -56,6 +57,7 @@ export function showError(message) {
 // before the page runs, nothing yet.
 const kNoClient = {
   updates: 0, frames_processed: 0, map_sets: 0, lighting: 'none', coverage: 0, estimated: 0,
+  light_error: 0, light_error_zones: 0, light_error_map: [], next_view: null, next_view_gain: 0,
   sh: [], model: 'sphere', model_vertices: 0, model_materials: 0, model_warnings: [],
   shadow_lights: 0, shadow_ms: 0,
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
@@ -133,7 +135,11 @@ export function report() {
     lighting: object.lighting,
     coverage: object.coverage,
     estimated: object.estimated,
+    light_error: object.light_error,
+    next_view: object.next_view,
+    next_view_gain: object.next_view_gain,
     guide_elevation_deg: state.guideElevation,
+    guide: state.guideText,
     render_ms: state.renderMs,
     grab_ms: state.grabMs,
     upload: state.upload ? state.upload.method : 'none',

@@ -5,12 +5,42 @@ import { clientStatus, report, state } from './status.js';
 
 const $ = (id) => document.getElementById(id);
 
-// What the guide's row asks of the user, in words.
-function guideText(elevation) {
+// What the fixed guide's row asks of the user, in words (a server that states no next view).
+function rowText(elevation) {
   if (elevation === null) return 'all round: done';
   if (elevation > 75) return 'look straight up';
   if (elevation < -75) return 'look straight down';
   return `sweep round at ${Math.abs(elevation).toFixed(0)}° ${elevation >= 0 ? 'up' : 'down'}`;
+}
+
+const kDeg = 180 / Math.PI;
+const elevationOf = (d) => Math.asin(Math.max(-1, Math.min(1, d[1]))) * kDeg;
+
+/**
+ * arlightd's next view (issue 48 §2) in words, from a camera looking along `forward` (both unit,
+ * world frame): "look straight up", "hold here" once within 12°, otherwise the turn — right is
+ * the azimuth atan2(x, -z) growing (common/CONVENTIONS.md), up the elevation.
+ */
+export function viewText(forward, target) {
+  const el = elevationOf(target);
+  const cos = forward[0] * target[0] + forward[1] * target[1] + forward[2] * target[2];
+  if (Math.acos(Math.max(-1, Math.min(1, cos))) * kDeg < 12) return 'hold here';
+  if (el > 75) return 'look straight up';
+  if (el < -75) return 'look straight down';
+  let turn = (Math.atan2(target[0], -target[2]) - Math.atan2(forward[0], -forward[2])) * kDeg;
+  turn = ((turn + 540) % 360) - 180;
+  const tilt = el - elevationOf(forward);
+  const parts = [];
+  if (Math.abs(turn) >= 10) parts.push(`${turn > 0 ? 'right' : 'left'} ${Math.abs(turn).toFixed(0)}°`);
+  if (Math.abs(tilt) >= 10) parts.push(`${tilt > 0 ? 'up' : 'down'} ${Math.abs(tilt).toFixed(0)}°`);
+  return parts.length ? `turn ${parts.join(' and ')}` : 'hold here';
+}
+
+/** arlightd's statement of the light in words: "good to ±N %", "not known yet" or '' (none). */
+export function lightErrorText(lightError) {
+  if (!(lightError > 0)) return '';
+  if (lightError >= 10) return 'not known yet';
+  return `good to ±${Math.max(1, Math.round(lightError * 100))} %`;
 }
 
 /**
@@ -29,14 +59,27 @@ export function watchUrl(sessionId, { device, token }) {
  */
 export function updatePanel(coverage, q, params) {
   const lighting = clientStatus();
-  // A session continued from another page (#session=ID) may be seen all round already.
-  state.guideElevation = lighting.coverage >= 0.99 ? null : coverage.nextElevation();
-  coverage.draw(quatRotateVector(q, [0, 0, -1]), state.guideElevation);
-  $('s-guide').textContent = guideText(state.guideElevation);
+  const forward = quatRotateVector(q, [0, 0, -1]);
+  if (lighting.next_view) {
+    // arlightd's next view: where the light is least known and a look would tell most.
+    state.guideElevation = elevationOf(lighting.next_view);
+    state.guideText = viewText(forward, lighting.next_view);
+    coverage.draw(forward, null, lighting.next_view);
+  } else {
+    // No proposal: a server that states none (the fixed ceiling-first rows), or nothing left to
+    // gain. A session continued from another page (#session=ID) may be seen all round already.
+    const done = lighting.coverage >= 0.99 || (lighting.light_error > 0 && lighting.light_error < 10);
+    state.guideElevation = done ? null : coverage.nextElevation();
+    state.guideText = rowText(state.guideElevation);
+    coverage.draw(forward, state.guideElevation);
+  }
+  $('s-guide').textContent = state.guideText;
   $('s-connection').textContent = state.connected ? `session ${state.sessionId.slice(0, 8)}` : 'connecting…';
   $('s-frames').textContent = `${state.framesSent} sent, ${lighting.frames_processed} in the map`;
+  const stated = lightErrorText(lighting.light_error);
   $('s-lighting').textContent = `${lighting.lighting}, ${lighting.map_sets} map sets, ${(lighting.coverage * 100).toFixed(0)} % seen` +
-    (lighting.estimated > 0 ? `, ${(lighting.estimated * 100).toFixed(0)} % estimated` : '');
+    (lighting.estimated > 0 ? `, ${(lighting.estimated * 100).toFixed(0)} % estimated` : '') +
+    (stated ? `; light ${stated}` : '');
   $('s-marker').textContent = `${state.trackStatus}, ${state.trackedFrames} frames`;
   const link = $('s-watch');
   const url = watchUrl(state.sessionId, params);

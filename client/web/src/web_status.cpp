@@ -26,6 +26,16 @@ val WebClient::status() const {
   s.set("maps_requested", std::string(requested_ggx_ ? "ggx" : "phong"));
   s.set("coverage", l.coverage);
   s.set("estimated", l.estimated);
+  // How far arlightd says the light may be off (0: not stated, 10: nothing seen yet), its map
+  // in percent (light_error_zones x 2 light_error_zones equal-area cells, PROTOCOL.md), and the
+  // view it asks for (world frame; null: none).
+  s.set("light_error", l.light_error);
+  s.set("light_error_zones", l.light_error_zones);
+  val error_map = val::array();
+  for (const std::uint8_t e : l.light_error_map) error_map.call<void>("push", int(e));
+  s.set("light_error_map", error_map);
+  s.set("next_view", l.next_view ? vector_to_js(*l.next_view) : val::null());
+  s.set("next_view_gain", l.next_view_gain);
   s.set("frame_exposure", frame_exposure());
   s.set("frames_encoded", double(frames_sent_));
   // Fail-over (issue 36 §5): frames sent again after a resume, and those kept for it now.

@@ -94,6 +94,10 @@ struct CaptureSession::Impl {
   mutable int frames_since_fit = 0;
   mutable double seen_since_fit = 0.0;
   mutable std::size_t fits = 0;
+  mutable LightUncertainty light_uncertainty;  // of the fit numbered uncertainty_fit
+  mutable std::size_t uncertainty_fit = 0;
+  mutable std::size_t uncertainty_clips = 0;  // and of clipped_frames
+  std::size_t clipped_frames = 0;  // frames with clipped blocks: a clip floor may have changed
   std::vector<std::uint32_t> newly_seen;  // a frame's first-measured texels (kept)
   double last_exposure_gain = 0.0;        // estimate_exposure: the last frame's exposure x gain
   std::vector<float> ratio_scratch;       // exposure_ratio()'s samples
@@ -138,6 +142,7 @@ struct CaptureSession::Impl {
     if (options.fill_refit_frames < 1 || !(options.fill_refit_coverage >= 0.0))
       throw std::invalid_argument(
           "capture: fill_refit_frames must be >= 1 and fill_refit_coverage >= 0");
+    light_uncertainty = LightUncertainty({}, options.uncertainty);  // checks its options
     if (options.sh_order < 3 || options.sh_order > 64)
       throw std::invalid_argument("capture: SH order must be in [3, 64], got " +
                                   std::to_string(options.sh_order));
@@ -458,12 +463,15 @@ struct CaptureSession::Impl {
   // by weight instead took the wall around a lamp for the lamp: 12 % error on lab, not 2.6.)
   // Reports the unmeasured share of the frame and the brightest floor among it. Runs only
   // over the frame's clipped blocks (none in most frames).
+  // A texel holding this share of its clip floor has its light measured.
+  static constexpr float kMeasuredShare = 0.9f;
   void check_clipped(const LinearFrame& frame, const glm::dquat& orientation, double exposure_gain,
                      FrameResult& result) {
     if (frame.clipped_blocks == 0) return;
+    ++clipped_frames;
     // A quarter clipped already hides most of a small lamp's power; 0.5 left lab's lamp edges
     // out (3.3 % irradiance error against 2.6 %, TheAdviceLoopCapturesLabsLampsWithinThreePercent).
-    constexpr float kMostlyClipped = 0.25f, kMeasured = 0.9f;
+    constexpr float kMostlyClipped = 0.25f;
     const float floor_here = clip_level(response) / float(exposure_gain);
     const EnvLayout& layout = options.layout;
     std::size_t unmeasured = 0;
@@ -478,7 +486,7 @@ struct CaptureSession::Impl {
         float& floor = clip_floor[texel];
         floor = std::max(floor, floor_here);
         const glm::vec3 l = texel_radiance(texel);
-        if (std::max({l.x, l.y, l.z}) >= kMeasured * floor) continue;
+        if (std::max({l.x, l.y, l.z}) >= kMeasuredShare * floor) continue;
         ++unmeasured;
         brightest = std::max(brightest, floor);
       }
@@ -692,6 +700,29 @@ const ShCoeffs& CaptureSession::sh() const {
 }
 
 const ShCoeffs& CaptureSession::measured_sh() const { return impl_->sh; }
+
+const LightUncertainty& CaptureSession::uncertainty() const {
+  Impl& m = *impl_;
+  if (m.options.fill == Fill::None) return m.light_uncertainty;
+  m.refit_unseen();
+  if (m.uncertainty_fit != m.fits || m.uncertainty_clips != m.clipped_frames) {
+    // The seen texels whose light is still hidden by clipping (check_clipped's test).
+    std::vector<ClippedTexel> clipped;
+    const TexelTable& table = *m.table;
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      const std::size_t t = table.index[i];
+      const float floor = m.clip_floor[t];
+      if (!(floor > 0.0f) || !(m.weight[t] > 0.0f)) continue;
+      const glm::vec3 l = m.texel_radiance(t);
+      if (std::max({l.x, l.y, l.z}) >= Impl::kMeasuredShare * floor) continue;
+      clipped.push_back({{table.x[i], table.y[i], table.z[i]}, table.solid_angle[i],
+                         luminance(l), double(floor)});
+    }
+    m.light_uncertainty = LightUncertainty(m.unseen.cells(), m.options.uncertainty, clipped);
+    m.uncertainty_fit = m.fits, m.uncertainty_clips = m.clipped_frames;
+  }
+  return m.light_uncertainty;
+}
 
 std::size_t CaptureSession::frames_added() const { return impl_->added; }
 std::size_t CaptureSession::fill_fits() const { return impl_->fits; }

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "arlight/common/error.hpp"
+#include "equal_area_grid.hpp"
 
 namespace arlight::capture {
 
@@ -55,19 +56,7 @@ namespace {
 // measured (its weight `measured`: solid angle x confidence).
 bool zone_seen(double measured, double total) { return measured > 1e-3 * total; }
 
-// The coarse grid: `zones` equal-area zones of elevation (uniform in y, Archimedes) times
-// 2 * zones sectors of azimuth, so every cell has the same solid angle.
-struct Grid {
-  int zones = 0, sectors = 0;
-  int cell(const glm::dvec3& d) const {
-    const int z = std::clamp(int(std::floor((d.y + 1.0) * 0.5 * zones)), 0, zones - 1);
-    const double phi = std::atan2(d.x, -d.z) + std::numbers::pi;  // [0, 2 pi]
-    const int a =
-        std::clamp(int(std::floor(phi / (2.0 * std::numbers::pi) * sectors)), 0, sectors - 1);
-    return z * sectors + a;
-  }
-  int size() const { return zones * sectors; }
-};
+using Grid = EqualAreaGrid;
 
 // Where each texel of a layout falls on the grid: the same for every estimator of a layout
 // (a pass over every texel, ~10 ms at arlightd's layout, that each session used to repeat when
@@ -138,6 +127,7 @@ struct UnseenEstimator::Impl {
   std::vector<glm::dvec3> zone_value;  // the profile Z at zone centres
   ShCoeffs residual;
   std::vector<glm::dvec3> cell_model;  // the model at each cell's direction (unseen_sh)
+  std::vector<glm::dvec3> cell_seen_radiance;  // mean measured radiance, lights unclipped
   std::vector<float> texel_luminance;  // fit()'s scratch, kept to spare the allocation
 
   Impl(const EnvLayout& l, Fill f, FillOptions o) : layout(l), fill(f), options(o) {
@@ -267,8 +257,11 @@ void UnseenEstimator::Impl::fit(const MeasuredTexels& m) {
     if (options.residual_order > 0) fit_residual(w, rw);
   }
   cell_model.resize(geometry->cell_dir.size());
-  for (std::size_t c = 0; c < geometry->cell_dir.size(); ++c)
+  cell_seen_radiance.resize(geometry->cell_dir.size());
+  for (std::size_t c = 0; c < geometry->cell_dir.size(); ++c) {
     cell_model[c] = geometry->cell_total[c] > 0.0 ? model(geometry->cell_dir[c]) : glm::dvec3(0.0);
+    cell_seen_radiance[c] = w[c] > 0.0 ? rw_lights[c] / w[c] : glm::dvec3(0.0);
+  }
 }
 
 // Z at every zone (the elevation profile; dissertation §5.4.1's sky and ground colours, one per
@@ -503,6 +496,13 @@ EnvMap UnseenEstimator::filled(const MeasuredTexels& m) const {
     }
   });
   return env;
+}
+
+UnseenEstimator::Cells UnseenEstimator::cells() const {
+  const Impl& m = *impl_;
+  if (m.fill == Fill::None) return {};
+  return {m.grid.zones,          m.grid.sectors,     m.geometry->cell_dir, m.geometry->cell_total,
+          m.cell_seen,           m.cell_seen_radiance, m.cell_model};
 }
 
 EnvMap fill_black_texels(const EnvMap& env, Fill fill, const FillOptions& options) {

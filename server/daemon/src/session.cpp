@@ -296,7 +296,8 @@ void Session::process() {
       env_.frames_skipped->inc();
     }
     last_sequence_ = std::max(last_sequence_, frame.sequence);
-    update = lighting_update(r, frame.sequence);
+    update = lighting_update(r, frame.sequence, r.used ? r.orientation : frame.info.orientation,
+                             frame.info.timestamp);
     coverage_ = update.coverage;
     // Frames of unknown exposure cannot be told one (the client cannot set it either).
     if (advisor_ && !capture_->options().estimate_exposure)
@@ -329,13 +330,14 @@ void Session::set_location(const wire::Location& location) {
   sun_.set_location(location, Clock::now());  // the next update checks at once
 }
 
-wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq) {
+wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq,
+                                              const glm::dquat& camera, double time) {
   const ShCoeffs& sh = capture_->sh();
   DominantLight light = sh_dominant_light(sh);
   sun_.check(Clock::now(),
              [&] { return capture::brightest_region(capture_->measured_environment()); });
   if (sun_.state() == SunState::Confirmed) light.direction = glm::vec3(sun_.direction());
-  return {.frame_sequence = seq,
+  wire::LightingUpdate update{.frame_sequence = seq,
           .frame_used = r.used,
           .reason = r.skipped_reason,
           .sh = sh,
@@ -352,7 +354,31 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .advised_height = std::uint16_t(camera_->height / capture_->frame_reduction()),
           .advised_fps = unchanged_run_ >= kSettledFrames ? kSettledFps : kChangingFps,
           .saved_sequence = saved_sequence_,
-          .advised_frame_bytes = uplink_.frame_bytes(Clock::now())};
+          .advised_frame_bytes = uplink_.frame_bytes(Clock::now()),
+          .light_error = 0,  // state_uncertainty's
+          .light_error_zones = 0,
+          .light_error_map = {},
+          .next_view = std::nullopt,
+          .next_view_gain = 0};
+  state_uncertainty(update, camera, time);
+  return update;
+}
+
+void Session::state_uncertainty(wire::LightingUpdate& update, const glm::dquat& camera,
+                                double time) {
+  if (capture_->options().fill == capture::Fill::None) return;  // not stated: nothing is filled
+  const capture::LightUncertainty& u = capture_->uncertainty();
+  update.light_error = float(std::min(u.mean(), double(wire::kLightErrorUnknown)));
+  update.light_error_zones = std::uint8_t(u.map_zones());
+  update.light_error_map.reserve(u.map().size());
+  for (const float e : u.map())
+    update.light_error_map.push_back(std::uint8_t(std::clamp(std::lround(100.0f * e), 0L, 255L)));
+  // Proposed from where the camera looks now (-Z of the frame's orientation).
+  const glm::dvec3 looking = glm::normalize(camera * glm::dvec3(0.0, 0.0, -1.0));
+  if (const auto view = view_guide_.next(u, looking, time)) {
+    update.next_view = glm::normalize(glm::vec3(view->direction));
+    update.next_view_gain = float(std::clamp(view->gain, 0.0, double(wire::kLightErrorUnknown)));
+  }
 }
 
 std::string Session::request_maps(MapRequest r) {

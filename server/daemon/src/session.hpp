@@ -172,7 +172,13 @@ class Session : public std::enable_shared_from_this<Session> {
   // Closes the client's connection, and with `watchers` the watchers' too.
   void disconnect_all(bool watchers);
   void end_frame_turn();  // with mutex_ held: the session's turn on the worker pool is over
-  wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq);
+  // `camera`: the frame's orientation (camera -> world), where the next view is turned from.
+  // `time`: the frame's timestamp (the view guide's clock).
+  wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq,
+                                       const glm::dquat& camera, double time);
+  // The update's light_error, its map and the next view (issue 48), from the capture's
+  // uncertainty and a camera looking along -Z of `camera`.
+  void state_uncertainty(wire::LightingUpdate& update, const glm::dquat& camera, double time);
   // With process_mutex_ and mutex_ held: asks the scheduler and starts the set it says (or arms
   // the timer for one the interval deferred). Every path to a map set comes through here.
   void maybe_start_maps();
@@ -210,6 +216,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
+  capture::ViewGuide view_guide_;  // the next views asked for (under mutex_)
   UplinkRate uplink_;  // the attached client's frames' arrival: advised_frame_bytes
   SunTracker sun_;      // the client's place and time, and the sun checked against the map
   FrameQueue frames_;   // at most env_.queue_depth frames wait; one a turn on the worker pool

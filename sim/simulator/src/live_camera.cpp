@@ -19,6 +19,7 @@ struct LiveCamera::Impl {
   PinholeCamera camera;
   EnvSampler sampler;
   Trajectory trajectory;
+  std::optional<GuidedMotion> guided;
   Sensor sensor;
   std::vector<glm::dvec3> pixel_dir;  // camera-space ray of every pixel
   std::size_t next_index = 0;
@@ -32,6 +33,11 @@ struct LiveCamera::Impl {
         sampler(probe),
         trajectory(trajectory_params(o)),
         sensor(intrinsics, SensorParams::with(o.noise, o.vignetting, o.seed), response) {
+    if (o.guided) {
+      GuidedMotionParams g = *o.guided;
+      g.seed = o.seed;
+      guided.emplace(g);
+    }
     pixel_dir.resize(std::size_t(o.width) * std::size_t(o.height));
     for (int y = 0; y < o.height; ++y)
       for (int x = 0; x < o.width; ++x)
@@ -72,6 +78,13 @@ void LiveCamera::request_exposure(double exposure_gain) {
   impl_->requested = exposure_gain > 0.0 && std::isfinite(exposure_gain) ? exposure_gain : 0.0;
 }
 
+void LiveCamera::propose_view(const glm::dvec3& direction) {
+  Impl& s = *impl_;
+  if (!s.guided) return;
+  const double now = s.next_index > 0 ? double(s.next_index - 1) / s.options.fps : 0.0;
+  s.guided->propose(direction, now);
+}
+
 std::optional<LiveFrame> LiveCamera::next() {
   Impl& s = *impl_;
   const LiveCameraOptions& o = s.options;
@@ -79,7 +92,7 @@ std::optional<LiveFrame> LiveCamera::next() {
   LiveFrame f;
   f.index = s.next_index++;
   f.time = double(f.index) / o.fps;
-  f.orientation = s.trajectory.at(f.time).orientation;
+  f.orientation = s.guided ? s.guided->at(f.time) : s.trajectory.at(f.time).orientation;
   // The auto-exposure as arlight-sim runs it; a requested frame leaves its state alone.
   const double metered = metered_mean(
       s.camera, [&](const glm::dvec3& ray) { return s.sampler.sample(f.orientation * ray, 0.0); });

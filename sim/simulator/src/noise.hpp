@@ -3,9 +3,11 @@
 // the same arguments whatever the thread count and whatever order the pixels are computed in.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <vector>
 
 namespace arlight::sim {
 
@@ -76,6 +78,22 @@ inline double normal(std::uint64_t h) {
   const double u1 = (double(h >> 11) + 0.5) * 0x1p-53;
   const double u2 = (double(mix64(h) >> 11) + 0.5) * 0x1p-53;
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+// The hand tremor of a handheld phone: knots every kTremorKnotSeconds (tremor < ~2 Hz) of yaw,
+// pitch and roll with these standard deviations (degrees), interpolated by smooth_knots.
+constexpr double kTremorKnotSeconds = 0.2;
+constexpr double kTremorDeg[3] = {1.5, 1.5, 0.7};
+
+// Catmull-Rom through the knots (knot k at x = k): smooth, passes through every knot.
+inline double smooth_knots(const std::vector<double>& knots, double x) {
+  const int last = int(knots.size()) - 1;
+  const int i = std::clamp(int(std::floor(x)), 0, last);
+  const double f = std::clamp(x - i, 0.0, 1.0);
+  auto k = [&](int j) { return knots[std::size_t(std::clamp(j, 0, last))]; };
+  const double p0 = k(i - 1), p1 = k(i), p2 = k(i + 1), p3 = k(i + 2);
+  return 0.5 * (2.0 * p1 + (p2 - p0) * f + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * f * f +
+                (3.0 * p1 - p0 - 3.0 * p2 + p3) * f * f * f);
 }
 
 }  // namespace arlight::sim

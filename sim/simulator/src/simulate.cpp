@@ -1,5 +1,7 @@
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -93,6 +95,14 @@ std::string describe(const SimOptions& o) {
     d << " place=" << o.place->where.latitude_deg << "," << o.place->where.longitude_deg << ","
       << o.place->where.altitude_m << "," << o.place->utc_seconds << ","
       << o.place->north_offset_deg.value_or(1000.0);
+  if (!o.path.empty()) {  // a given path: its poses, hashed
+    std::uint64_t h = 0;
+    for (const Pose& p : o.path)
+      for (const double v : {p.position.x, p.position.y, p.position.z, p.orientation.w,
+                             p.orientation.x, p.orientation.y, p.orientation.z})
+        h = mix64(h ^ std::bit_cast<std::uint64_t>(v));
+    d << " path=" << o.path.size() << ":" << h;
+  }
   d << " built=" << __DATE__ << " " << __TIME__;
   return d.str();
 }
@@ -121,11 +131,29 @@ int simulate(const SimOptions& o) {
   if (o.marker) tp.target = o.marker->centre;
   tp.seed = o.seed;
   const Trajectory trajectory(tp);
+  const bool given_path = !o.path.empty() && !bracket;
+  if (given_path && int(o.path.size()) != n)
+    throw InputError("a given path of " + std::to_string(o.path.size()) + " poses for " +
+                     std::to_string(n) + " frames");
+  // A given path: the frames' poses, slerped (and lerped) in between.
+  const auto path_at = [&](double t) -> Pose {
+    const double x = std::clamp(t * o.fps, 0.0, double(n - 1));
+    const auto i = std::size_t(std::min(std::floor(x), double(std::max(0, n - 2))));
+    const std::size_t j = std::min(i + 1, std::size_t(n - 1));
+    const double f = std::clamp(x - double(i), 0.0, 1.0);
+    Pose p;
+    p.position = glm::mix(o.path[i].position, o.path[j].position, f);
+    p.orientation = glm::normalize(glm::slerp(o.path[i].orientation, o.path[j].orientation, f));
+    return p;
+  };
   const std::function<Pose(double)> pose_at = [&](double t) {
-    return bracket ? Pose{} : trajectory.at(t);
+    return bracket ? Pose{} : given_path ? path_at(t) : trajectory.at(t);
   };
   const std::function<glm::dvec3(double)> omega_at = [&](double t) {
-    return bracket ? glm::dvec3(0.0) : trajectory.angular_velocity(t);
+    if (bracket) return glm::dvec3(0.0);
+    if (!given_path) return trajectory.angular_velocity(t);
+    return angular_velocity(
+        [&](double u) { return path_at(u).orientation; }, t, duration);
   };
   std::vector<Pose> poses;
   for (int i = 0; i < n; ++i) poses.push_back(pose_at(i / o.fps));

@@ -5,6 +5,7 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <numbers>
+#include <functional>
 #include <string>
 
 #include "arlight/common/error.hpp"
@@ -15,8 +16,6 @@ namespace arlight::sim {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr double kKnotSeconds = 0.2;  // hand jitter: knots every 0.2 s (tremor < ~2 Hz)
-constexpr double kJitterDeg[3] = {1.5, 1.5, 0.7};  // yaw, pitch, roll standard deviations
 constexpr double kWalkStep = 0.004;         // metres per knot and axis (a few cm over a capture)
 constexpr double kWanderKnotSeconds = 1.0;  // orbit: the look-at point drifts slowly
 constexpr double kWander = 0.05;            // metres
@@ -185,26 +184,15 @@ void Trajectory::build_sweep() {
 }
 
 void Trajectory::build_handheld() {
-  const int n = int(std::ceil(p_.duration / kKnotSeconds)) + 4;
+  const int n = int(std::ceil(p_.duration / kTremorKnotSeconds)) + 4;
   for (int a = 0; a < 3; ++a) {
     double walk = 0;
     for (int k = 0; k < n; ++k) {
-      jitter_[a].push_back(kJitterDeg[a] * normal(hash64(p_.seed, Stream::HandheldJitter, k, a)));
+      jitter_[a].push_back(kTremorDeg[a] * normal(hash64(p_.seed, Stream::HandheldJitter, k, a)));
       walk_[a].push_back(walk);
       walk += kWalkStep * normal(hash64(p_.seed, Stream::HandheldWalk, k, a));
     }
   }
-}
-
-double Trajectory::smooth_knots(const std::vector<double>& knots, double x) {
-  // Catmull-Rom through the knots (knot k at x = k): smooth, passes through every knot.
-  const int last = int(knots.size()) - 1;
-  const int i = std::clamp(int(std::floor(x)), 0, last);
-  const double f = std::clamp(x - i, 0.0, 1.0);
-  auto k = [&](int j) { return knots[std::size_t(std::clamp(j, 0, last))]; };
-  const double p0 = k(i - 1), p1 = k(i), p2 = k(i + 1), p3 = k(i + 2);
-  return 0.5 * (2.0 * p1 + (p2 - p0) * f + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * f * f +
-                (3.0 * p1 - p0 - 3.0 * p2 + p3) * f * f * f);
 }
 
 void Trajectory::sweep_angles(double t, double& yaw, double& pitch) const {
@@ -229,7 +217,7 @@ Pose Trajectory::at(double t) const {
     case TrajectoryKind::Handheld: {
       double yaw, pitch;
       sweep_angles(t, yaw, pitch);
-      const double x = t / kKnotSeconds;
+      const double x = t / kTremorKnotSeconds;
       yaw += smooth_knots(jitter_[0], x);
       pitch = std::clamp(pitch + smooth_knots(jitter_[1], x), -90.0, 90.0);
       const double roll = smooth_knots(jitter_[2], x);
@@ -256,11 +244,16 @@ Pose Trajectory::at(double t) const {
 }
 
 glm::dvec3 Trajectory::angular_velocity(double t) const {
+  return sim::angular_velocity([this](double u) { return at(u).orientation; }, t, p_.duration);
+}
+
+glm::dvec3 angular_velocity(const std::function<glm::dquat(double)>& orientation_at, double t,
+                            double duration) {
   const double h = 1e-4;
-  const double t0 = std::max(0.0, t - h), t1 = std::min(p_.duration, t + h);
+  const double t0 = std::max(0.0, t - h), t1 = std::min(duration, t + h);
   if (!(t1 > t0)) return glm::dvec3(0.0);
   // q(t1) = q(t0) * rel: rel is the rotation in the camera's own coordinates.
-  glm::dquat rel = glm::conjugate(at(t0).orientation) * at(t1).orientation;
+  glm::dquat rel = glm::conjugate(orientation_at(t0)) * orientation_at(t1);
   if (rel.w < 0) rel = -rel;
   const glm::dvec3 v(rel.x, rel.y, rel.z);
   const double s = glm::length(v);

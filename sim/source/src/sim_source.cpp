@@ -17,6 +17,7 @@ struct SimSource::Impl {
   static sim::LiveCameraOptions camera_options(const SourceOptions& o) {
     sim::LiveCameraOptions c;
     c.width = o.width, c.height = o.height, c.fps = o.fps, c.frames = o.frames;
+    if (o.guided) c.guided = sim::GuidedMotionParams{};
     return c;
   }
   Impl(const std::filesystem::path& p, const SourceOptions& o)
@@ -53,13 +54,20 @@ std::string SimSource::device_id() const { return "arlight-sim"; }
 
 std::string SimSource::describe() const {
   const sim::LiveCameraOptions& o = impl_->camera.options();
-  return "sim:" + impl_->probe.string() + " (a sweep of " + std::to_string(o.frames) +
+  return "sim:" + impl_->probe.string() + (o.guided ? " (a guided capture of " : " (a sweep of ") +
+         std::to_string(o.frames) +
          " frames, " + std::to_string(o.width) + "x" + std::to_string(o.height) + " at " +
          std::to_string(int(o.fps)) + " fps" + (impl_->options.realtime ? ", real time)" : ")");
 }
 
 bool SimSource::request_exposure(double exposure_gain) {
   impl_->camera.request_exposure(exposure_gain);
+  return true;
+}
+
+bool SimSource::propose_view(const glm::dvec3& direction) {
+  if (!impl_->options.guided) return false;
+  impl_->camera.propose_view(direction);
   return true;
 }
 

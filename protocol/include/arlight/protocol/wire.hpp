@@ -34,6 +34,10 @@ inline constexpr std::size_t kHeaderBytes = 4;
 // Longest text field (names, ids, tokens, reasons): anything longer is not from a real peer.
 inline constexpr std::size_t kMaxTextBytes = 4096;
 inline constexpr std::size_t kMaxCalibrationFrames = 16;
+// LightingUpdate.light_error when nothing is known yet (the capture's LightUncertainty::kMaxError),
+// and the largest light_error_zones.
+inline constexpr float kLightErrorUnknown = 10.0f;
+inline constexpr std::uint8_t kMaxLightErrorZones = 32;
 
 struct WireLimits {
   std::uint32_t max_message_bytes = 16u << 20;  // a 4K JPEG at top quality is ~5 MiB
@@ -184,6 +188,16 @@ struct LightingUpdate {
   // server measured its frames arriving at (PROTOCOL.md, frame advice). 0: no advice (no
   // measurement, or a link so fast that no frame is limited).
   std::uint32_t advised_frame_bytes = 0;
+  // How far the light may be off (PROTOCOL.md, uncertainty): the expected relative irradiance
+  // error (0.05: +-5 %; kLightErrorUnknown: nothing seen; 0: not stated), and per normal on
+  // light_error_zones x 2 light_error_zones equal-area cells, in percent (255: >= 255 %).
+  float light_error = 0;
+  std::uint8_t light_error_zones = 0;
+  std::vector<std::uint8_t> light_error_map;
+  // The view that would cut light_error most: where to point the camera (unit, world frame),
+  // and the expected cut; none when nothing is left to gain.
+  std::optional<glm::vec3> next_view;
+  float next_view_gain = 0;
   bool operator==(const LightingUpdate& o) const;
 };
 

@@ -37,6 +37,15 @@ struct Lighting {
   // an update for a used frame says).
   std::uint64_t frame_sequence = 0, frames_processed = 0;
   double frame_exposure = 0;
+  // How far the light may be off (PROTOCOL.md, uncertainty): the expected relative irradiance
+  // error (0: not stated; wire::kLightErrorUnknown: nothing seen yet), its map in percent on
+  // light_error_zones x 2 light_error_zones equal-area normals, and the view the daemon asks
+  // for (world frame) with the cut it expects.
+  double light_error = 0;
+  int light_error_zones = 0;
+  std::vector<std::uint8_t> light_error_map;
+  std::optional<glm::vec3> next_view;
+  double next_view_gain = 0;
 
   // What a LightingUpdate and a completed map set change.
   void apply(const wire::LightingUpdate& update);

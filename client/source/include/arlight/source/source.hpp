@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <glm/gtc/quaternion.hpp>
+#include <glm/vec3.hpp>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -53,8 +54,10 @@ struct SourceOptions {
   std::filesystem::path intrinsics_file;
   std::optional<double> exposure;
   double timeout_s = 2.0;
-  // Sim: how many frames the trajectory lasts (at `fps`, `width` x `height`).
+  // Sim: how many frames the trajectory lasts (at `fps`, `width` x `height`), and whether the
+  // simulated user turns to the views arlightd proposes (propose_view) instead of sweeping.
   int frames = 300;
+  bool guided = false;
 };
 
 class FrameSource {
@@ -73,6 +76,10 @@ class FrameSource {
   // not taken yet. Whether the source can (a recording cannot; a webcam whose exposure was
   // fixed with --exposure will not).
   virtual bool request_exposure(double /*exposure_gain*/) { return false; }
+  // arlightd's next view (LightingUpdate.next_view, world frame): a source whose camera can be
+  // turned there (a guided sim: source) does so; whether it can. A person holding a phone or
+  // webcam is told by the page's guide instead.
+  virtual bool propose_view(const glm::dvec3& /*direction*/) { return false; }
   // Frames come at the camera's pace, whether taken or not (a webcam, a replay in real time): a
   // frame not sent when due is gone, so a client keeps only a few in flight (issue 36 §1).
   // Otherwise the source waits for its reader and every frame may go.

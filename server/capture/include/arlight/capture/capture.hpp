@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "arlight/capture/fill.hpp"
+#include "arlight/capture/uncertainty.hpp"
 #include "arlight/common/camera.hpp"
 #include "arlight/common/frame.hpp"
 #include "arlight/common/image.hpp"
@@ -54,6 +55,8 @@ struct CaptureOptions {
   // measured_sh() those of what was seen, with black elsewhere.
   Fill fill = Fill::Estimate;
   FillOptions fill_options;
+  // The bounds of the light around the fill and the next view (issue 48).
+  UncertaintyOptions uncertainty;
   // The fill's model is refitted (a pass over the whole map, ~2 ms at 512) once
   // `fill_refit_frames` frames have changed the map or its coverage has grown by
   // `fill_refit_coverage` of the sphere since the last fit, whichever is first; in between,
@@ -190,6 +193,10 @@ class CaptureSession {
   // the first call after it: about 1-2 ms at 512x512).
   const ShCoeffs& sh() const;
   const ShCoeffs& measured_sh() const;
+  // How far the light may be off per normal given what is unseen, and the view that would cut
+  // that most (arlight/capture/uncertainty.hpp): from the fill's model, refitted as sh() is
+  // (after options.fill_refit_* frames or coverage). Everything unknown with Fill::None.
+  const LightUncertainty& uncertainty() const;
 
   std::size_t frames_added() const;  // frames offered
   std::size_t frames_used() const;

@@ -124,6 +124,19 @@ class UnseenEstimator {
   // outside an angle map's disk). All cores.
   EnvMap filled(const MeasuredTexels& measured) const;
 
+  // The last fit on the coarse grid (zones x 2 zones cells of equal solid angle, row-major from
+  // the bottom zone): what the uncertainty of the light (arlight/capture/uncertainty.hpp) is
+  // estimated from. Valid until the next fit(); empty spans for Fill::None.
+  struct Cells {
+    int zones = 0, sectors = 0;
+    std::span<const glm::dvec3> direction;      // the cell's mean direction (0 if it has none)
+    std::span<const double> solid_angle;        // of its texels
+    std::span<const double> seen;               // of that, measured
+    std::span<const glm::dvec3> seen_radiance;  // mean measured radiance there, lights unclipped
+    std::span<const glm::dvec3> model;          // the model at the cell's direction
+  };
+  Cells cells() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

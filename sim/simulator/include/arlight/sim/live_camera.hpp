@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "arlight/common/camera.hpp"
+#include "arlight/sim/guided_motion.hpp"
 #include "arlight/sim/trajectory.hpp"
 
 namespace arlight::sim {
@@ -25,6 +26,9 @@ struct LiveCameraOptions {
   double fps = 30;
   int frames = 300;  // the trajectory's length: frames / fps seconds
   TrajectoryKind trajectory = TrajectoryKind::Sweep;
+  // Set: a user who turns to the views the daemon asks for (propose_view) instead of following
+  // the trajectory; the start direction, rates and tremor are these (the seed is `seed`).
+  std::optional<GuidedMotionParams> guided;
   std::string response = "srgb";  // srgb, filmic or a response JSON file
   double noise = 0.002;           // read noise sigma; 0 = a noiseless sensor
   double vignetting = 0.05;
@@ -58,6 +62,10 @@ class LiveCamera {
   // gain for the rest, within the sensor's range); the auto-exposure resumes after it, where it
   // was. A value <= 0 cancels a request not taken yet.
   void request_exposure(double exposure_gain);
+  // The view the daemon asks for (unit, world frame), known from the last frame's time on; the
+  // guided user turns to it after their reaction time. Ignored without options.guided, and
+  // InputError for a direction that is not one.
+  void propose_view(const glm::dvec3& direction);
 
  private:
   struct Impl;

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "arlight/protocol/recording.hpp"
 #include "arlight/sim/marker.hpp"
@@ -21,6 +22,10 @@ struct SimOptions {
   int width = 640, height = 480;
   double hfov_deg = 60;
   TrajectoryKind trajectory = TrajectoryKind::Sweep;
+  // Not empty: the camera's pose at each frame (`frames` of them) instead of the trajectory's,
+  // slerped in between for the IMU: a path recorded elsewhere (arlight-sim --guided's, a user
+  // turning to arlightd's proposed views).
+  std::vector<Pose> path;
   std::string response = "srgb";  // srgb, filmic or a response JSON file
   bool auto_exposure = true;
   // > 0: every second frame is exposed this many stops below the auto-exposure (a capture

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
 #include <string_view>
@@ -72,17 +73,21 @@ class Trajectory {
   void sweep_angles(double t, double& yaw, double& pitch) const;
   void build_sweep();
   void build_handheld();
-  static double smooth_knots(const std::vector<double>& knots, double x);
 
   TrajectoryParams p_;
   std::vector<double> bands_;
   std::vector<Segment> segments_;
-  // Handheld: knots every kKnotSeconds of the angle jitter (yaw, pitch, roll; degrees) and
+  // Handheld: knots every kTremorKnotSeconds of the angle jitter (yaw, pitch, roll; degrees) and
   // the position random walk (x, y, z; metres), interpolated with Catmull-Rom splines.
   std::vector<double> jitter_[3], walk_[3];
   // Orbit: knots of the look-at point's wander around the target (x, z; metres).
   std::vector<double> wander_[2];
 };
+
+// The angular velocity (camera coordinates, rad/s) at time t of a path of orientations (camera ->
+// world) defined on [0, duration], by central differences.
+glm::dvec3 angular_velocity(const std::function<glm::dquat(double)>& orientation_at, double t,
+                            double duration);
 
 // The pitch bands (degrees, top to bottom) a sweep needs to cover the sphere with a camera of
 // these fields of view: adjacent bands overlap by >= 20% of the vertical field of view, the top

@@ -26,6 +26,8 @@ class SimSource : public FrameSource {
   std::string device_id() const override;
   std::string describe() const override;
   bool request_exposure(double exposure_gain) override;
+  // With SourceOptions::guided: the simulated user turns there (arlight_sim's GuidedMotion).
+  bool propose_view(const glm::dvec3& direction) override;
 
  private:
   struct Impl;
