@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,8 @@ struct Run {
   std::vector<glm::dvec3> view, proposal;  // where the camera looked, where it was asked to
   std::vector<eval::LightingScore> spheres;  // at kSphereAt and the end
   double light_error = 0;  // what the session stated at the end (LightUncertainty::mean)
+  double coverage = 0;     // of the sphere, at the end
+  std::optional<EnvMap> environment;  // the captured map at the end (filled)
   double peak_rate_deg_s = 0;
   std::size_t advised_frames = 0;
 };
@@ -102,6 +105,8 @@ Run capture_run(const fs::path& probe, const EnvMap& truth, const EnvMap& truth_
   }
   run.spheres.push_back(eval::score_lighting(truth, capture.session().environment()));
   run.light_error = capture.session().uncertainty().mean();
+  run.coverage = capture.session().coverage();
+  run.environment = capture.session().environment();
   run.advised_frames = capture.advised_frames();
   return run;
 }
@@ -123,7 +128,7 @@ nlohmann::json run_json(const Run& r) {
           {"time", r.time}, {"error", r.error}, {"stated", r.stated}, {"view", views},
           {"proposal", proposals}, {"spheres_at", {1.0, 3.0, 10.0, "end"}},
           {"spheres", spheres}, {"stated_light_error", r.light_error},
-          {"peak_rate_deg_s", r.peak_rate_deg_s}, {"advised_frames", r.advised_frames}};
+          {"coverage", r.coverage}, {"peak_rate_deg_s", r.peak_rate_deg_s}, {"advised_frames", r.advised_frames}};
 }
 
 void print_row(const char* probe, const char* path, const Run& r) {
@@ -136,8 +141,8 @@ void print_row(const char* probe, const char* path, const Run& r) {
   std::printf("%-9s %-8s %s %s ", probe, path, secs(seconds_to(r, 0.05)).c_str(),
               secs(seconds_to(r, 0.02)).c_str());
   for (double t : kErrorAt) std::printf(" %6.1f%%", 100 * error_at(r, t));
-  std::printf("   stated %5.1f%%  peak %3.0f deg/s  %zu advised frames\n", 100 * r.light_error,
-              r.peak_rate_deg_s, r.advised_frames);
+  std::printf("   stated %5.1f%%  seen %5.1f%%  peak %3.0f deg/s  %zu advised frames\n",
+              100 * r.light_error, 100 * r.coverage, r.peak_rate_deg_s, r.advised_frames);
 }
 
 capture::UncertaintyOptions& base_uncertainty() {
@@ -154,7 +159,7 @@ int main(int argc, char** argv) {
   int frames = 450, size = 512, width = 640, height = 480;
   double fps = 30, reaction = 0.3, accel = 360;
   std::string fixed = "top-down";
-  fs::path json;
+  fs::path json, work;
   app.add_option("probes", probes, "probes (HDR environment maps)")->required();
   app.add_option("--frames", frames, "frames of each capture (at --fps)")->capture_default_str();
   app.add_option("--fps", fps, "frames a second")->capture_default_str();
@@ -174,6 +179,8 @@ int main(int argc, char** argv) {
   app.add_option("--bright-factor", u.bright_factor, "the uncertainty's bright completion")
       ->capture_default_str();
   app.add_option("--json", json, "write the figures here");
+  app.add_option("--work", work, "write each capture's final map here (PROBE_fixed.exr, "
+                                  "PROBE_guided.exr: lat-long, filled)");
   CLI11_PARSE(app, argc, argv);
   try {
     guided::GuidedCaptureOptions base;
@@ -211,6 +218,12 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
       report.push_back({{"probe", name}, {"fixed_path", fixed}, {"fixed", run_json(f)},
                         {"guided", run_json(g)}});
+      if (!work.empty()) {
+        fs::create_directories(work);
+        const EnvLayout latlong = EnvLayout::for_size(Projection::LatLong, 512);
+        write_exr(work / (name + "_fixed.exr"), resample(*f.environment, latlong).image.view());
+        write_exr(work / (name + "_guided.exr"), resample(*g.environment, latlong).image.view());
+      }
       fixed_runs.push_back(f), guided_runs.push_back(g);
     }
     // The means, and the sphere protocol's.

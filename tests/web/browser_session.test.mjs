@@ -54,12 +54,13 @@ test('a phone-shaped session captures the room, gets lighting and renders the ob
     page.on('pageerror', (e) => pageErrors.push(e.message));
     const probes = [];
     const guides = [];  // the capture guide's elevation at each poll
-    const views = [];   // arlightd's next view and the guide's elevation and words then
+    const views = [];   // the next view the guide follows, its elevation and its words
     let ticks = 0;
     await playRoom(page, d.url, room, {
       onTick: async (s) => {
         if (s.started) guides.push(s.guide_elevation_deg);
-        if (s.started && s.next_view) views.push({ view: s.next_view, elevation: s.guide_elevation_deg, text: s.guide });
+        // The panel updates once a second: its words are for the view it last read (guide_view).
+        if (s.started && s.guide_view) views.push({ view: s.guide_view, elevation: s.guide_elevation_deg, text: s.guide });
         if (s.lighting === 'none' || probes.length >= 100 || ++ticks % 8) return;
         const p = await page.evaluate(() => window.arlight.probe());
         if (p) probes.push(p);

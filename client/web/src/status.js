@@ -39,6 +39,7 @@ export const state = {
   // status_panel.js
   guideElevation: 85,  // the elevation the guide asks for: arlightd's next view's, or the next row
   guideText: '',       // what the guide says (status_panel.js guideText)
+  guideView: null,     // arlightd's next view the guide's words are for; null: the fixed rows
   // sensors.js
   orientation: 'none',
   // geolocation.js
@@ -140,6 +141,7 @@ export function report() {
     next_view_gain: object.next_view_gain,
     guide_elevation_deg: state.guideElevation,
     guide: state.guideText,
+    guide_view: state.guideView,
     render_ms: state.renderMs,
     grab_ms: state.grabMs,
     upload: state.upload ? state.upload.method : 'none',

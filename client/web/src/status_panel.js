@@ -64,6 +64,7 @@ export function updatePanel(coverage, q, params) {
     // arlightd's next view: where the light is least known and a look would tell most.
     state.guideElevation = elevationOf(lighting.next_view);
     state.guideText = viewText(forward, lighting.next_view);
+    state.guideView = lighting.next_view;
     coverage.draw(forward, null, lighting.next_view);
   } else {
     // No proposal: a server that states none (the fixed ceiling-first rows), or nothing left to
@@ -71,6 +72,7 @@ export function updatePanel(coverage, q, params) {
     const done = lighting.coverage >= 0.99 || (lighting.light_error > 0 && lighting.light_error < 10);
     state.guideElevation = done ? null : coverage.nextElevation();
     state.guideText = rowText(state.guideElevation);
+    state.guideView = null;
     coverage.draw(forward, state.guideElevation);
   }
   $('s-guide').textContent = state.guideText;

@@ -13,7 +13,10 @@
 // the irradiance error relative to the truth (thesis eq. 6.1's per-texel term) is at most
 //   u(n) = max((U_hi - U) / (S + U_hi), (U - U_lo) / (S + U_lo)) + measured_error * S / (S + U)
 // when the truth lies between the two completions; measured_error covers what the measured part
-// itself is off (noise, exposure, alignment: the 2-3 % of a finished sweep).
+// itself is off (noise, exposure, alignment: the 2-3 % of a finished sweep). The defaults come
+// from arlight-bench-fill on twelve probes (bench/RESULTS.md "Issue 48"): 6x brighter bracketed
+// 92 / 81 / 74 % of the directions at 20 / 40 / 60 % coverage, 14x (with the spread full at 45
+// degrees) 95+ / 90 / 85 % at a median 2.6-3x the real error.
 //
 // The next view: seeing an unseen cell removes its part of every u(n); to first order the mean
 // of u over the normals falls by the sum, over the unseen cells inside the camera's view cone,
@@ -89,12 +92,15 @@ class LightUncertainty {
   // [2 pi a / A, 2 pi (a+1) / A].
   const std::vector<float>& map() const { return map_; }
   int map_zones() const { return map_zones_; }
+  // The expected cut of mean() from seeing the view cone around `view` (unit): a proposal's
+  // gain. The clipped lights of cells inside the cone of a `visited` view do not count: that
+  // view has been held and they still clip (only a darker frame tells them, the exposure
+  // advice's job); their open unseen parts still do.
+  double gain(const glm::dvec3& view, std::span<const glm::dvec3> visited = {}) const;
   // The view that cuts the mean most, from a camera looking along `current` (unit; none: no
   // preference); std::nullopt when no view would cut the mean by 0.1 % (everything seen, or
-  // a few texels left) or nothing was seen.
-  // The expected cut of mean() from seeing the view cone around `view` (unit): a proposal's gain.
-  double gain(const glm::dvec3& view) const;
-  // Views within the view's half angle of a `visited` direction are not proposed (ViewGuide).
+  // a few texels left) or nothing was seen. Views within half the view's half angle of a
+  // `visited` direction are not proposed (ViewGuide), and their clipped lights count for none.
   std::optional<ProposedView> next_view(std::optional<glm::dvec3> current,
                                         std::span<const glm::dvec3> visited = {}) const;
 
@@ -110,8 +116,10 @@ class LightUncertainty {
   // Per cell of the grid: mean direction, measured S_c, fill U_c, dark and bright (luminance x sr).
   std::vector<glm::dvec3> direction_;
   std::vector<double> seen_, fill_, dark_, bright_, unseen_omega_;
-  // Per cell: the first-order cut of mean() per steradian of it seen.
-  std::vector<double> importance_;
+  std::vector<double> open_omega_;  // the unseen solid angle less the clipped texels'
+  // Per cell: the first-order cut of mean() from seeing its open unseen part, and from
+  // measuring its clipped lights.
+  std::vector<double> cut_open_, cut_clipped_;
   std::vector<float> map_;
   int map_zones_ = 0;
   double mean_ = kMaxError;
