@@ -367,6 +367,9 @@ int main(int argc, char** argv) {
   capture::UncertaintyOptions& u = settings.uncertainty;
   app.add_option("--bright-factor", u.bright_factor, "the uncertainty's bright completion")
       ->capture_default_str();
+  app.add_option("--up-bright-factor", u.up_bright_factor,
+                 "the uncertainty's bright completion straight up")
+      ->capture_default_str();
   app.add_option("--dark-factor", u.dark_factor, "the uncertainty's dark completion")
       ->capture_default_str();
   app.add_option("--reach", u.reach_deg, "the uncertainty's reach (degrees)")->capture_default_str();

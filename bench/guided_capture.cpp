@@ -178,6 +178,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--bright-factor", u.bright_factor, "the uncertainty's bright completion")
       ->capture_default_str();
+  app.add_option("--up-bright-factor", u.up_bright_factor,
+                 "the uncertainty's bright completion straight up")
+      ->capture_default_str();
   app.add_option("--json", json, "write the figures here");
   app.add_option("--work", work, "write each capture's final map here (PROBE_fixed.exr, "
                                   "PROBE_guided.exr: lat-long, filled)");
@@ -266,7 +269,10 @@ int main(int argc, char** argv) {
           }
         if (n) std::printf("  %-4s %-7s %.3f / %.3f / %.3f\n", at[k], label, d / n, s / n, m / n);
       }
-    if (!json.empty()) write_file_atomically(json, report.dump(2) + "\n");
+    if (!json.empty()) {
+      if (json.has_parent_path()) fs::create_directories(json.parent_path());
+      write_file_atomically(json, report.dump(2) + "\n");
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "arlight-bench-guided: %s\n", e.what());

@@ -20,6 +20,8 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 void check(const UncertaintyOptions& o) {
   const auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
+  if (!(o.up_bright_factor >= o.bright_factor && std::isfinite(o.up_bright_factor)))
+    throw std::invalid_argument("uncertainty: up_bright_factor must be >= bright_factor");
   if (!(o.bright_factor >= 1.0 && std::isfinite(o.bright_factor)) ||
       !(o.dark_factor >= 1.0 && std::isfinite(o.dark_factor)))
     throw std::invalid_argument("uncertainty: the bright and dark factors must be >= 1");
@@ -103,6 +105,7 @@ LightUncertainty::LightUncertainty(const UnseenEstimator::Cells& cells,
   fill_.assign(m, 0.0), dark_.assign(m, 0.0), bright_.assign(m, 0.0), unseen_omega_.assign(m, 0.0);
   open_omega_.assign(m, 0.0);
   const double log_bright = std::log(options.bright_factor);
+  const double log_up = std::log(options.up_bright_factor) - log_bright;
   const double log_dark = std::log(options.dark_factor);
   for (std::size_t g = 0; g < m; ++g) {
     const double unseen = omega[g] - seen_omega[g];
@@ -122,7 +125,8 @@ LightUncertainty::LightUncertainty(const UnseenEstimator::Cells& cells,
     bright_[g] = clip_bright[g];
     if (open > 1e-12) {
       const double fill = fill_lum[g] / open;  // the fill's mean luminance there
-      bright_[g] += open * std::max(fill, floor) * std::exp(spread * log_bright);
+      const double up = std::max(0.0, direction_[g].y);
+      bright_[g] += open * std::max(fill, floor) * std::exp(spread * (log_bright + up * log_up));
     }
     bright_[g] = std::max(bright_[g], fill_[g]);
   }

@@ -6,8 +6,9 @@
 // it lie a dark and a bright completion: each unseen cell's radiance divided by, or multiplied
 // by, a factor that grows with its angular distance from the nearest well-seen cell (next to
 // what was seen the room is mostly like it; half the sphere away, an unseen lamp or sky may be
-// `bright_factor` times what the fill guessed, an unseen wall `dark_factor` times darker, the
-// spread of the rooms in bench/RESULTS.md "Issue 16"). For a normal n, with
+// `bright_factor` times what the fill guessed, straight up `up_bright_factor` times (a room's
+// light comes from above: the sky, the sun, the ceiling's lamps), an unseen wall `dark_factor`
+// times darker; the spread of the rooms in bench/RESULTS.md "Issue 16"). For a normal n, with
 //   S = the measured part of its cosine lobe, U = the fill's, U_lo and U_hi = the dark and
 //   bright completions' (the lobe's integrals on the coarse grid),
 // the irradiance error relative to the truth (thesis eq. 6.1's per-texel term) is at most
@@ -16,13 +17,16 @@
 // itself is off (noise, exposure, alignment: the 2-3 % of a finished sweep). The defaults come
 // from arlight-bench-fill on twelve probes (bench/RESULTS.md "Issue 48"): 6x brighter bracketed
 // 92 / 81 / 74 % of the directions at 20 / 40 / 60 % coverage, 14x (with the spread full at 45
-// degrees) 95+ / 90 / 85 % at a median 2.6-3x the real error.
+// degrees) 98 / 91 / 87 % at a median 2.7-2.9x the real error, 8x rising to 40x straight up
+// 99 / 93 / 90 % at 2.8-3.1x; the up prior also turns the guide to the lights first (the mean
+// error 5 s into a guided capture of four rooms: 40 % with 14x all round, 10 % with it).
 //
 // The next view: seeing an unseen cell removes its part of every u(n); to first order the mean
 // of u over the normals falls by the sum, over the unseen cells inside the camera's view cone,
 // of each cell's share of the bounds. The proposal is the cell direction whose cone cuts the
-// mean most, counted down by how far the camera has to turn to it (a user turns to a near view
-// sooner; views behind them cost a turn).
+// mean most, with the share of the sphere still unseen in it added (what no bound sees: a hole
+// between views may hide a lamp the fill cannot guess), counted down by how far the camera has
+// to turn to it (a user turns to a near view sooner; views behind them cost a turn).
 //
 // A LightUncertainty is a value computed from one fit (~0.3 ms); const members are thread-safe.
 #pragma once
@@ -38,7 +42,10 @@ namespace arlight::capture {
 
 struct UncertaintyOptions {
   double measured_error = 0.045;  // relative error of the measured part of a lobe
-  double bright_factor = 14.0;    // how much brighter than the fill an unseen cell far away may be
+  double bright_factor = 8.0;     // how much brighter than the fill an unseen cell far away may be
+  // ... straight up (the sky, the ceiling's lamps: where a room's light comes from); in between,
+  // geometric in the sine of the elevation from bright_factor at and below the horizon.
+  double up_bright_factor = 40.0;
   double dark_factor = 4.0;      // and how much darker
   double reach_deg = 45.0;       // the angular distance at which the spread is full
   double near_spread = 0.2;      // share of the full spread (in log) next to a well-seen cell
@@ -74,7 +81,7 @@ class LightUncertainty {
   // Nothing seen: every normal's error unknown (u = max_error), no view to propose.
   LightUncertainty();
   // From the fill's last fit. Throws std::invalid_argument for options out of range: factors
-  // >= 1, reach > 0, near_spread in [0, 1], zones in [2, 64], map_zones in [1, 32], the view's
+  // >= 1 (up_bright_factor >= bright_factor), reach > 0, near_spread in [0, 1], zones in [2, 64], map_zones in [1, 32], the view's
   // half angle in (0, 90], travel > 0, measured_error and bright_floor >= 0.
   explicit LightUncertainty(const UnseenEstimator::Cells& cells,
                             const UncertaintyOptions& options = {},
