@@ -128,7 +128,8 @@ nlohmann::json run_json(const Run& r) {
           {"time", r.time}, {"error", r.error}, {"stated", r.stated}, {"view", views},
           {"proposal", proposals}, {"spheres_at", {1.0, 3.0, 10.0, "end"}},
           {"spheres", spheres}, {"stated_light_error", r.light_error},
-          {"coverage", r.coverage}, {"peak_rate_deg_s", r.peak_rate_deg_s}, {"advised_frames", r.advised_frames}};
+          {"coverage", r.coverage}, {"peak_rate_deg_s", r.peak_rate_deg_s},
+          {"advised_frames", r.advised_frames}};
 }
 
 void print_row(const char* probe, const char* path, const Run& r) {

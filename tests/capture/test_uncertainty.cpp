@@ -210,7 +210,8 @@ TEST(LightUncertainty, AHoleLeftBetweenViewsIsAskedFor) {
   const EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 128);
   const EnvMap room = probe("venice.exr", layout);
   const glm::dvec3 hole = glm::normalize(glm::dvec3(0.6, 0.3, 0.5));
-  const UnseenEstimator e = fitted(room, [&](const glm::dvec3& d) { return angle_deg(d, hole) > 10.0; });
+  const UnseenEstimator e =
+      fitted(room, [&](const glm::dvec3& d) { return angle_deg(d, hole) > 10.0; });
   const UncertaintyOptions sure{
       .bright_factor = 1.0, .up_bright_factor = 1.0, .dark_factor = 1.0, .bright_floor = 0.0};
   const LightUncertainty u(e.cells(), sure);
@@ -242,6 +243,7 @@ TEST(LightUncertainty, AHeldViewsClippedLightsCountNoMore) {
   EXPECT_LT(without_lamp, 0.5 * with_lamp.gain(at_lamp));
   EXPECT_LE(without_lamp, plain.gain(at_lamp) + 1e-9);
   // Just below the band the open unseen part still counts, beside the held view or not.
-  const glm::dvec3 below = glm::normalize(glm::dvec3(std::sin(40 * kDeg), -0.6, -std::cos(40 * kDeg)));
+  const glm::dvec3 below =
+      glm::normalize(glm::dvec3(std::sin(40 * kDeg), -0.6, -std::cos(40 * kDeg)));
   EXPECT_GT(with_lamp.gain(below, held), 0.0);
 }

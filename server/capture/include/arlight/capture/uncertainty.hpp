@@ -81,8 +81,9 @@ class LightUncertainty {
   // Nothing seen: every normal's error unknown (u = max_error), no view to propose.
   LightUncertainty();
   // From the fill's last fit. Throws std::invalid_argument for options out of range: factors
-  // >= 1 (up_bright_factor >= bright_factor), reach > 0, near_spread in [0, 1], zones in [2, 64], map_zones in [1, 32], the view's
-  // half angle in (0, 90], travel > 0, measured_error and bright_floor >= 0.
+  // >= 1 (up_bright_factor >= bright_factor), reach > 0, near_spread in [0, 1], zones in
+  // [2, 64], map_zones in [1, 32], the view's half angle in (0, 90], travel > 0, measured_error
+  // and bright_floor >= 0.
   explicit LightUncertainty(const UnseenEstimator::Cells& cells,
                             const UncertaintyOptions& options = {},
                             std::span<const ClippedTexel> clipped = {});
@@ -104,10 +105,14 @@ class LightUncertainty {
   // view has been held and they still clip (only a darker frame tells them, the exposure
   // advice's job); their open unseen parts still do.
   double gain(const glm::dvec3& view, std::span<const glm::dvec3> visited = {}) const;
-  // The view that cuts the mean most, from a camera looking along `current` (unit; none: no
-  // preference); std::nullopt when no view would cut the mean by 0.1 % (everything seen, or
-  // a few texels left) or nothing was seen. Views within half the view's half angle of a
-  // `visited` direction are not proposed (ViewGuide), and their clipped lights count for none.
+  // What a view is worth asking for: its gain plus the share of the sphere still unseen (not
+  // clipped) in its cone.
+  double worth(const glm::dvec3& view, std::span<const glm::dvec3> visited = {}) const;
+  // The view worth most, counted down by the turn from a camera looking along `current` (unit;
+  // none: no preference); std::nullopt when none is worth 0.1 % (everything seen, or a few
+  // texels left) or nothing was seen. Views within half the view's half angle of a `visited`
+  // direction are not proposed (ViewGuide), and their clipped lights count for none. The
+  // proposal's gain is its gain().
   std::optional<ProposedView> next_view(std::optional<glm::dvec3> current,
                                         std::span<const glm::dvec3> visited = {}) const;
 
@@ -137,8 +142,9 @@ class LightUncertainty {
 // `dwell_s` — what that view can tell (a light the darkest frame still clips, a part the fill
 // keeps unsure of) it has told, so the guide moves on instead of asking for it again; such a
 // view may be asked for again `forget_s` later. A proposal stands until it is held, or a new
-// view would gain `switch_ratio` times as much: a user cannot follow a guide that changes its
-// mind every frame.
+// view would gain `switch_ratio` times as much (a proposal of a hole, which gains next to
+// nothing, gives way to any view that gains): a user cannot follow a guide that changes its mind
+// every frame.
 class ViewGuide {
  public:
   struct Options {
