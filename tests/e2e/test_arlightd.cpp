@@ -967,6 +967,7 @@ TEST(Arlightd, MapSetsFollowTheMapAtTheMapInterval) {
     std::uint64_t sets = 0;
     double set_seconds = 0;  // the last set's, as the daemon measured it
     double unchanged = 0;    // frames the daemon did not merge (/sessions)
+    double dropped = 0;      // frames it dropped for newer ones (a busy machine)
   };
   // Sets run below the frames' priority: a busy machine (the suite runs two tests at once)
   // makes each take longer. Under the sanitizers one takes 10-15 s: that run checks only the
@@ -990,7 +991,10 @@ TEST(Arlightd, MapSetsFollowTheMapAtTheMapInterval) {
     Run run{c.map_sets_completed(), 0.0};
     if (const auto m = c.last_complete_maps()) run.set_seconds = m->server_seconds;
     for (const json& s : json::parse(d.admin_get("/sessions").second))
-      if (s["id"] == session) run.unchanged = s["frames_unchanged"].get<double>();
+      if (s["id"] == session) {
+        run.unchanged = s["frames_unchanged"].get<double>();
+        run.dropped = s["frames_dropped"].get<double>() + s["frames_skipped"].get<double>();
+      }
     std::printf(
         "--map-interval %s, %s: %llu map sets in %.0f s of one view (the last took %.3f s), "
         "%.0f frames not merged\n",
@@ -1000,7 +1004,9 @@ TEST(Arlightd, MapSetsFollowTheMapAtTheMapInterval) {
   };
   const Run frequent = send_for("0.1", true), rare = send_for("2", true);
   const Run still = send_for("0.1", false);
-  EXPECT_EQ(frequent.unchanged, 0.0);
+  // Each frame differs from the one before; one agrees with the map only where the daemon
+  // dropped the frame before it, so two of the same kind met (seen once on a loaded machine).
+  EXPECT_LE(frequent.unchanged, frequent.dropped);
   EXPECT_GT(still.unchanged, 0.5 * seconds / std::chrono::duration<double>(period).count());
   EXPECT_LE(still.sets, 3u);  // the first frames', then none
   EXPECT_LE(double(frequent.sets), seconds / 0.1 + 1);
