@@ -488,7 +488,8 @@ void sh_stage(const Job& job, const BrightSplit& split, const std::vector<int>& 
           : kinked_grids.empty()
               ? std::string("evaluated at every texel")
               : "its SH part from a " + std::to_string(kinked_grids[0].side() - 4) +
-                    "^2 x 6 cube grid (bicubic, linear), bright lights at every texel")
+                    "^2 x 6 cube grid (bicubic, linear), bright lights (" +
+                    std::to_string(bright.size()) + " texels) at every texel")
       << "; " << seconds << " s for the group";
     result.plans[std::size_t(k)] = o.str();
   }
