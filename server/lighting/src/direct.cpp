@@ -87,7 +87,8 @@ BatchIntegrator::BatchIntegrator(const PointCells& pts, const PowerChain& chain,
     for (std::uint32_t i = pts.cells[c].begin; i < pts.cells[c].end; ++i) {
       const double v[4] = {pts.lr[i], pts.lg[i], pts.lb[i], pts.w[i]};
       for (int k = 0; k < 4; ++k)
-        m[3 * k] += v[k] * pts.x[i], m[3 * k + 1] += v[k] * pts.y[i], m[3 * k + 2] += v[k] * pts.z[i];
+        m[3 * k] += v[k] * pts.x[i], m[3 * k + 1] += v[k] * pts.y[i],
+            m[3 * k + 2] += v[k] * pts.z[i];
     }
   }
 }
@@ -116,6 +117,7 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
       const bool everything = group_reach >= std::numbers::pi;
       double sums[4 * kQueries] = {};
       double above[12] = {};  // cell_moments_ of the cells above every horizon of the group
+      const double sin_rho = std::sin(cone.radius), cos_rho = std::cos(cone.radius);
       std::uint32_t run_begin = 0, run_end = 0;
       for (const PointCells::Cell* cell : candidates_) {
         const double d = glm::dot(cone.centre, cell->centre);
@@ -123,7 +125,6 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
         if (!cell_moments_.empty()) {
           // Every point of the cell within 90 deg of every direction of the group: angle
           // between centres + the cell's radius + the group's < 90 deg, i.e. d > sin(r + rho).
-          const double sin_rho = std::sin(cone.radius), cos_rho = std::cos(cone.radius);
           const double sin_sum = cell->sin_r * cos_rho + cell->cos_r * sin_rho;
           if (cone.radius + std::acos(cell->cos_r) < 0.5 * std::numbers::pi &&
               d > sin_sum + 1e-9) {
