@@ -56,21 +56,6 @@ bool has_distortion(const CameraIntrinsics& k) {
 
 }  // namespace
 
-std::string check_frame_info(const FrameInfo& info) {
-  if (!std::isfinite(info.exposure) || !(info.exposure > 0.0))
-    return "exposure must be a positive number of seconds (got " + std::to_string(info.exposure) +
-           ")";
-  if (!std::isfinite(info.gain) || !(info.gain > 0.0))
-    return "gain must be positive (got " + std::to_string(info.gain) + ")";
-  const glm::dquat& q = info.orientation;
-  if (!std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
-    return "orientation is not a finite quaternion";
-  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  if (std::abs(norm - 1.0) > 1e-3)
-    return "orientation is not a unit quaternion (norm " + std::to_string(norm) + ")";
-  return {};
-}
-
 struct CaptureSession::Impl {
   CameraIntrinsics camera;
   PinholeCamera pinhole;
