@@ -331,6 +331,7 @@ BrightSplit split_bright(const EnvMap& input) {
   split.bright = points_from_texels(excess, 64, true);
   std::fill(split.bright.w.begin(), split.bright.w.end(), 0.0);
   split.bright.make_float_copy();
+  split.bright.make_cell_sums();  // the irradiance lobe's shortcut (BatchIntegrator)
   return split;
 }
 

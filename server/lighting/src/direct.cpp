@@ -76,23 +76,6 @@ Cone bounding_cone(std::span<const glm::dvec3> dirs) {
   return {centre, std::acos(std::clamp(min_cos, -1.0, 1.0)) + 1e-9};
 }
 
-BatchIntegrator::BatchIntegrator(const PointCells& pts, const PowerChain& chain, double min_cos)
-    : pts_(pts), chain_(chain), window_(std::acos(std::clamp(min_cos, -1.0, 1.0))) {
-  if (chain.size() != 1 || chain.exponent(0) != 1.0 || pts.has_moments() || !pts.has_float() ||
-      pts.x.size() != pts.size())
-    return;
-  cell_moments_.assign(12 * pts.cells.size(), 0.0);
-  for (std::size_t c = 0; c < pts.cells.size(); ++c) {
-    double* m = &cell_moments_[12 * c];
-    for (std::uint32_t i = pts.cells[c].begin; i < pts.cells[c].end; ++i) {
-      const double v[4] = {pts.lr[i], pts.lg[i], pts.lb[i], pts.w[i]};
-      for (int k = 0; k < 4; ++k)
-        m[3 * k] += v[k] * pts.x[i], m[3 * k + 1] += v[k] * pts.y[i],
-            m[3 * k + 2] += v[k] * pts.z[i];
-    }
-  }
-}
-
 void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
   if (dirs.empty()) return;
   const Cone batch = bounding_cone(dirs);
@@ -116,19 +99,19 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
       const double cos_reach = std::cos(group_reach), sin_reach = std::sin(group_reach);
       const bool everything = group_reach >= std::numbers::pi;
       double sums[4 * kQueries] = {};
-      double above[12] = {};  // cell_moments_ of the cells above every horizon of the group
+      double above[12] = {};  // cell_sums of the cells above every horizon of the group
       const double sin_rho = std::sin(cone.radius), cos_rho = std::cos(cone.radius);
       std::uint32_t run_begin = 0, run_end = 0;
       for (const PointCells::Cell* cell : candidates_) {
         const double d = glm::dot(cone.centre, cell->centre);
         if (!everything && d < cos_reach * cell->cos_r - sin_reach * cell->sin_r - 1e-9) continue;
-        if (!cell_moments_.empty()) {
+        if (linear_) {
           // Every point of the cell within 90 deg of every direction of the group: angle
           // between centres + the cell's radius + the group's < 90 deg, i.e. d > sin(r + rho).
           const double sin_sum = cell->sin_r * cos_rho + cell->cos_r * sin_rho;
           if (cone.radius + std::acos(cell->cos_r) < 0.5 * std::numbers::pi &&
               d > sin_sum + 1e-9) {
-            const double* m = &cell_moments_[12 * std::size_t(cell - pts_.cells.data())];
+            const double* m = &pts_.cell_sums[12 * std::size_t(cell - pts_.cells.data())];
             for (int k = 0; k < 12; ++k) above[k] += m[k];
             continue;
           }
@@ -141,7 +124,7 @@ void BatchIntegrator::run(std::span<const glm::dvec3> dirs, double* acc) {
         run_end = cell->end;
       }
       if (run_end > run_begin) accumulate_single_f32(pts_, run_begin, run_end, group, chain_, sums);
-      if (!cell_moments_.empty())
+      if (linear_)
         for (int q = 0; q < kQueries; ++q)
           for (int k = 0; k < 4; ++k)
             sums[4 * q + k] += group[q].x * above[3 * k] + group[q].y * above[3 * k + 1] +

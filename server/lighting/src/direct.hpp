@@ -38,17 +38,22 @@ void integrate_direct(const PointCells& pts, const glm::dvec3* dirs, const Power
 // those within its own reach. acc gets 4 x chain.size() values per direction.
 class BatchIntegrator {
  public:
-  BatchIntegrator(const PointCells& pts, const PowerChain& chain, double min_cos);
+  BatchIntegrator(const PointCells& pts, const PowerChain& chain, double min_cos)
+      : pts_(pts),
+        chain_(chain),
+        window_(std::acos(std::clamp(min_cos, -1.0, 1.0))),
+        linear_(chain.size() == 1 && chain.exponent(0) == 1.0 && !pts.has_moments() &&
+                pts.cell_sums.size() == 12 * pts.cells.size() && !pts.cells.empty()) {}
   void run(std::span<const glm::dvec3> dirs, double* acc);
 
  private:
   const PointCells& pts_;
   const PowerChain& chain_;
   double window_;                                    // lobe window radius (rad)
-  // The clamped cosine lobe (s = 1, no moments) is linear in the direction wherever it is not
-  // clamped: a cell wholly above a group's horizons adds dot(dir, sum l w) exactly. Per cell,
-  // sum over its points of (l_r, l_g, l_b, w) x direction: 12 values; empty for other lobes.
-  std::vector<double> cell_moments_;
+  // The clamped cosine lobe (s = 1, points without moments, pts.cell_sums made) is linear in
+  // the direction wherever it is not clamped: a cell wholly above every horizon of a group
+  // adds dot(dir, its cell_sums) exactly.
+  bool linear_;
   PointCells gathered_;                              // the chain path's candidates, copied
   std::vector<const PointCells::Cell*> candidates_;  // the single-lobe path's, in place
   std::vector<double> lanes_;

@@ -173,6 +173,18 @@ void PointCells::make_float_copy() {
   for (int m = 0; m < 9; ++m) conv(moment[m], fmoment[m]);
 }
 
+void PointCells::make_cell_sums() {
+  cell_sums.assign(12 * cells.size(), 0.0);
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    double* m = &cell_sums[12 * c];
+    for (std::uint32_t i = cells[c].begin; i < cells[c].end; ++i) {
+      const double v[4] = {lr[i], lg[i], lb[i], w[i]};
+      for (int k = 0; k < 4; ++k)
+        m[3 * k] += v[k] * x[i], m[3 * k + 1] += v[k] * y[i], m[3 * k + 2] += v[k] * z[i];
+    }
+  }
+}
+
 void gather_cells(const PointCells& src, glm::dvec3 centre, double min_cos, PointCells& out) {
   for (auto* v : {&out.x, &out.y, &out.z, &out.w, &out.lr, &out.lg, &out.lb}) v->clear();
   for (auto& m : out.moment) m.clear();

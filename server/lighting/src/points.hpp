@@ -34,6 +34,12 @@ struct PointCells {
   bool has_float() const { return !fx.empty(); }
   void make_float_copy();
 
+  // Per cell, the sums over its points of (lr, lg, lb, w) x direction (12 values): what the
+  // clamped cosine lobe (s = 1) adds from a cell wholly above a direction's horizon, where it
+  // is linear. Empty until make_cell_sums().
+  std::vector<double> cell_sums;
+  void make_cell_sums();
+
   struct Cell {
     std::uint32_t begin, end;
     glm::dvec3 centre;    // unit
