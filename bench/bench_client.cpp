@@ -19,6 +19,8 @@
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
 #include "arlight/common/sh.hpp"
+#include "arlight/common/specular_lights.hpp"
+#include "arlight/lighting/ggx.hpp"
 #include "arlight/lighting/lighting.hpp"
 #include "arlight/render/render.hpp"
 #include "arlight/sim/simulate.hpp"
@@ -36,6 +38,10 @@ struct ClientFixture {
   std::vector<double> shininess = {1, 10, 20, 40, 80, 160, 320, 1280};
   std::vector<EnvMap> maps;
   DominantLight light;
+  // The GGX chain (face 128 -> 8) of venice less its kMaxSpecularLights brightest lights
+  // (split_specular_lights at a low threshold, so the shader's loop runs its longest), and them.
+  lighting::GgxChain ggx;
+  std::vector<SpecularLight> ggx_lights;
 };
 
 // Simulates the recording once per process (a few seconds) and computes venice's map set.
@@ -61,6 +67,9 @@ const ClientFixture& fixture() {
                                       lighting::parse_method("auto"))
                    .maps;
     fx->light = sh_dominant_light(sh_project(env, 2));
+    const SpecularSplit split = split_specular_lights(env, {.threshold = 3.0, .max_radius = 1.5});
+    fx->ggx = lighting::compute_ggx_chain(split.residual, {.face = 128, .min_face = 8});
+    fx->ggx_lights = split.lights;
     return fx;
   }();
   return *f;
@@ -72,7 +81,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
                     render::Shading shading = render::Shading::ImageBased,
                     std::optional<render::Refraction> glass = std::nullopt,
                     render::ColourCorrection colour = render::ColourCorrection::None,
-                    int shadow_lights = 16, double target_fps = 0) {
+                    int shadow_lights = 16, double target_fps = 0, int gold_lights = -1) {
   const ClientFixture& fx = fixture();
   render::GlContext gl = render::GlContext::headless();
   client_app::PipelineOptions options;
@@ -86,6 +95,20 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   options.colour = colour;
   options.shadow_lights = shadow_lights, options.target_fps = target_fps;
   if (glass) options.material = render::glass(1.5f, 1280.0f), options.refraction = *glass;
+  // gold_lights >= 0: a gold bunny (glTF metallic-roughness) shaded with the GGX chain and that
+  // many of the lights taken out of it (issue 51 §1's frame-time bound).
+  auto ggx = std::make_shared<client::ReceivedMapSet>();
+  if (gold_lights >= 0) {
+    options.material = render::Material{};
+    options.material.pbr = render::MetallicRoughness{};
+    options.material.pbr->base_colour = glm::vec4(1.0f, 0.78f, 0.34f, 1.0f);
+    options.material.pbr->metallic = 1.0f, options.material.pbr->roughness = 0.3f;
+    ggx->kind = wire::MapKind::Ggx, ggx->complete = true;
+    ggx->maps = fx.ggx.maps(), ggx->roughness = fx.ggx.roughness();
+    ggx->lights.assign(fx.ggx_lights.begin(),
+                       fx.ggx_lights.begin() + std::min<std::ptrdiff_t>(gold_lights, std::ssize(fx.ggx_lights)));
+    state.counters["ggx_lights"] = double(ggx->lights.size());
+  }
   client_app::FramePipeline pipeline(
       options, render::load_gltf(std::string(ARLIGHT_SOURCE_DIR) + "/data/models/bunny.glb"));
   auto maps = std::make_shared<client::ReceivedMapSet>();
@@ -93,6 +116,7 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
   client_app::Lighting fixed;
   fixed.maps = maps, fixed.maps_version = 1;
   fixed.dominant_direction = fx.light.direction, fixed.dominant_colour = fx.light.colour;
+  if (gold_lights >= 0) fixed.ggx = ggx, fixed.ggx_version = 1;
   client_app::FixedLighting lighting(fixed);
   cv::Mat out;
   client_app::RunStats stats;
@@ -179,6 +203,18 @@ BENCHMARK(BM_SoftShadowLights)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_shadow_30fps, true, render::Shading::ImageBased,
                   std::nullopt, render::ColourCorrection::None, 32, 30.0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+// A gold bunny with the GGX chain: the whole room in the chain (as before issue 51), and the
+// chain's residual with the shader's most lights analytic.
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_gold, true, render::Shading::ImageBased, std::nullopt,
+                  render::ColourCorrection::None, 16, 0.0, 0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(96)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_ClientFrame, bunny_720p_gold_lights, true, render::Shading::ImageBased,
+                  std::nullopt, render::ColourCorrection::None, 16, 0.0, kMaxSpecularLights)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(96)
     ->UseRealTime();

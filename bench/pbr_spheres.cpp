@@ -25,6 +25,8 @@
 #include "arlight/common/camera.hpp"
 #include "arlight/common/error.hpp"
 #include "arlight/common/hdr_io.hpp"
+#include "arlight/common/image.hpp"
+#include "arlight/common/specular_lights.hpp"
 #include "arlight/lighting/ggx.hpp"
 #include "arlight/reference/reference.hpp"
 #include "arlight/render/render.hpp"
@@ -37,7 +39,6 @@ namespace {
 constexpr int kSize = 96, kStride = 2;
 constexpr double kDistance = 4.0;  // the unit sphere's centre from the camera
 const double kMetallic[] = {0.0, 0.5, 1.0};
-const double kRoughness[] = {0.05, 0.2, 0.4, 0.6, 0.8, 1.0};
 const glm::vec3 kBase(0.9f, 0.64f, 0.3f);  // a warm base colour: F0 and the diffuse both tinted
 
 // The renderer's sphere tone-mapped for the picture: x / (1 + x) at an exposure that puts the
@@ -61,6 +62,7 @@ void paint_tile(const render::HdrReadback& hdr, double exposure, std::vector<std
 struct SphereScore {
   double metallic = 0, roughness = 0, mean = 0, grazing = 0, head_on = 0, psnr = 0;
   double weighted = 0;  // mean |error| over the mean radiance: dark pixels count by their light
+  double bias = 0;      // sum (renderer - reference) over sum reference: too bright (> 0) or dark
   int values = 0;
 };
 
@@ -115,7 +117,7 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
     for (int c = 0; c < 3; ++c) mean_ref += p.want[c], peak = std::max(peak, double(p.want[c]));
   mean_ref /= 3.0 * double(std::max<std::size_t>(1, pixels.size()));
   const double eps = 1e-4 * mean_ref;
-  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0, 0};
+  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0, 0, 0};
   double se = 0;
   int n_grazing = 0, n_head_on = 0;
   for (const Pixel& p : pixels)
@@ -125,6 +127,7 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
       ++s.values;
       se += (double(p.got[c]) - p.want[c]) * (double(p.got[c]) - p.want[c]);
       s.weighted += std::abs(double(p.got[c]) - p.want[c]);
+      s.bias += double(p.got[c]) - p.want[c];
       if (p.nv < 0.5)
         s.grazing += err, ++n_grazing;
       else
@@ -132,6 +135,7 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
     }
   s.mean /= std::max(1, s.values);
   s.weighted /= std::max(1, s.values) * std::max(mean_ref, 1e-30);
+  s.bias /= std::max(1, s.values) * std::max(mean_ref, 1e-30);
   s.grazing /= std::max(1, n_grazing);
   s.head_on /= std::max(1, n_head_on);
   s.psnr = 10.0 * std::log10(peak * peak / std::max(se / std::max(1, s.values), 1e-30));
@@ -144,10 +148,22 @@ int main(int argc, char** argv) {
   CLI::App app{"arlight-bench-pbr: metallic-roughness spheres against the full BRDF"};
   std::vector<std::string> probes;
   std::string json_path, grid_path, reference_path;
-  int samples = 1024;
+  int samples = 1024, lights = kMaxSpecularLights;
+  std::vector<double> roughness_values = {0.05, 0.2, 0.4, 0.6, 0.8, 1.0};
+  double threshold = SpecularSplitOptions{}.threshold, floor = SpecularSplitOptions{}.floor;
   app.add_option("--probe", probes, "probe(s) (lat-long EXR)")->required();
   app.add_option("--samples", samples, "GGX samples per pixel of the reference's narrow lobes")
       ->capture_default_str();
+  app.add_option("--lights", lights,
+                 "small bright lights taken out of the chain's room and shaded analytically "
+                 "(split_specular_lights; 0: the chain holds the whole room)")
+      ->capture_default_str()->check(CLI::Range(0, kMaxSpecularLights));
+  app.add_option("--threshold", threshold, "split_specular_lights' threshold (x the mean luminance)")
+      ->capture_default_str();
+  app.add_option("--floor", floor, "split_specular_lights' floor (x the mean luminance)")
+      ->capture_default_str();
+  app.add_option("--roughness", roughness_values, "the spheres' roughness values (columns)")
+      ->delimiter(',')->capture_default_str()->check(CLI::Range(0.0, 1.0));
   app.add_option("--json", json_path, "write every sphere's figures here");
   app.add_option("--grid", grid_path, "write the first probe's spheres as a PNG (rows: metallic)");
   app.add_option("--reference", reference_path,
@@ -170,16 +186,28 @@ int main(int argc, char** argv) {
         {"sphere", {{"centre", {0, 0, 0}}, {"radius", 1.0}}},
         {"base_colour", {kBase.x, kBase.y, kBase.z}},
         {"spheres", nlohmann::json::array()}};
-    std::printf("| probe | metallic | roughness 0.05 | 0.2 | 0.4 | 0.6 | 0.8 | 1 |\n");
-    std::printf("|---|---|---|---|---|---|---|---|\n");
+    std::string header = "| probe | metallic |", rule = "|---|---|";
+    for (const double roughness : roughness_values) {
+      char cell[32];
+      std::snprintf(cell, sizeof cell, " roughness %g |", roughness);
+      header += cell, rule += "---|";
+    }
+    std::printf("%s\n%s\n", header.c_str(), rule.c_str());
     for (const std::string& probe : probes) {
       const EnvMap room = load_envmap(probe).env;  // its negative values set to 0
-      const lighting::GgxChain chain = lighting::compute_ggx_chain(room, {.face = 256, .min_face = 16});
-      r.set_ggx_chain(chain.maps(), chain.roughness());
+      const SpecularSplit split =
+          split_specular_lights(room, {.threshold = threshold, .floor = floor, .max_lights = lights});
+      for (const SpecularLight& l : split.lights)
+        std::fprintf(stderr, "%s: light (%.3f, %.3f, %.3f), power %.4g, radius %.2f deg\n",
+                     probe.c_str(), l.direction.x, l.direction.y, l.direction.z, luminance(l.power),
+                     l.radius * 180.0 / 3.14159265358979);
+      const lighting::GgxChain chain =
+          lighting::compute_ggx_chain(split.residual, {.face = 256, .min_face = 16});
+      r.set_ggx_chain(chain.maps(), chain.roughness(), split.lights);
       // The irradiance map a map set would carry (finer than the chain's face-16 last level).
       r.set_maps({1.0}, {lighting::ggx_prefilter(room, 1.0, EnvLayout::for_size(Projection::Cube, 32))});
       const std::string name = fs::path(probe).stem().string();
-      const int columns = int(std::size(kRoughness)), rows = int(std::size(kMetallic));
+      const int columns = int(roughness_values.size()), rows = int(std::size(kMetallic));
       std::vector<std::uint8_t> grid(std::size_t(columns * kSize) * std::size_t(rows * kSize) * 4, 0);
       double mean_radiance = 0.0;
       {
@@ -190,26 +218,27 @@ int main(int argc, char** argv) {
       }
       for (const double& metallic : kMetallic) {
         std::string row = "| " + name + " | " + std::to_string(metallic).substr(0, 3) + " |";
-        for (const double& roughness : kRoughness) {
+        for (const double& roughness : roughness_values) {
           render::HdrReadback picture;
           const bool keep = !reference_path.empty() && &probe == &probes.front();
           std::vector<TracedPixel> traced;
           const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples,
                                       &picture, keep ? &traced : nullptr);
+          std::fprintf(stderr, "%s metallic %.1f roughness %.3f: bias %+.1f %%\n", name.c_str(), metallic, roughness, 100 * s.bias);
           if (keep)
             reference["spheres"].push_back(
                 {{"metallic", metallic}, {"roughness", roughness},
                  {"renderer", {{"mean", s.mean}, {"weighted", s.weighted}, {"psnr_db", s.psnr}}},
                  {"pixels", traced}});
           paint_tile(picture, 0.5 / std::max(mean_radiance, 1e-9), grid, columns * kSize,
-                     int(&roughness - kRoughness), int(&metallic - kMetallic));
+                     int(&roughness - roughness_values.data()), int(&metallic - kMetallic));
           char cell[96];
           std::snprintf(cell, sizeof cell, " %.1f %% (%.1f / %.1f); %.1f %%; %.1f dB |",
                         100 * s.mean, 100 * s.head_on, 100 * s.grazing, 100 * s.weighted, s.psnr);
           row += cell;
           out.push_back({{"probe", name}, {"metallic", metallic}, {"roughness", roughness},
                          {"mean", s.mean}, {"mean_nv_above_0_5", s.head_on},
-                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted},
+                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted}, {"bias", s.bias},
                          {"psnr_db", s.psnr}, {"values", s.values}});
         }
         std::printf("%s\n", row.c_str());

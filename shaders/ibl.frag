@@ -7,7 +7,7 @@
 // multiple-scattering lobe and the Lambertian part lit by the irradiance. The renderer compiles
 // one variant per projection and feature set (USE_DIFFUSE, USE_ALBEDO, USE_NORMAL_MAP,
 // USE_LIGHT_MAP, USE_SPECULAR, MIX_REFLECTIONS, HEMISPHERE, GLASS, LIVE_REFRACTION, FRAME_RGB,
-// METALLIC_ROUGHNESS, GGX_CHAIN, GGX_DIFFUSE, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP,
+// METALLIC_ROUGHNESS, GGX_CHAIN, GGX_DIFFUSE, GGX_LIGHTS, USE_MR_MAP, USE_OCCLUSION_MAP, USE_EMISSIVE_MAP,
 // ALPHA_MASK), so no fragment pays for a feature its material lacks.
 precision highp float;
 precision highp sampler2D;
@@ -55,6 +55,13 @@ uniform sampler2D u_dfg;             // the split sum's (a, b, E_avg) at (n.v, 1
 uniform samplerCube u_ggx;           // mip level k: roughness 1 - sqrt(1 - k / max_lod)
 uniform float u_ggx_max_lod;         // levels - 1
 #endif
+#ifdef GGX_LIGHTS  // only with GGX_CHAIN: the chain is the room less these lights
+const int MAX_GGX_LIGHTS = 8;        // arlight/common/specular_lights.hpp kMaxSpecularLights
+uniform int u_ggx_light_count;
+uniform vec3 u_ggx_light_direction[MAX_GGX_LIGHTS];  // world frame, unit, towards the light
+uniform vec3 u_ggx_light_power[MAX_GGX_LIGHTS];      // its irradiance at normal incidence
+uniform float u_ggx_light_radius[MAX_GGX_LIGHTS];    // its disc's angular radius (rad)
+#endif
 #endif
 
 // The irradiance map's value (irradiance / pi) at a world-frame normal. GGX_DIFFUSE (a
@@ -63,11 +70,52 @@ uniform float u_ggx_max_lod;         // levels - 1
 // map itself, as fresh as the chain (though at its face, 16).
 vec3 irradiance(vec3 d) {
 #ifdef GGX_DIFFUSE  // only with METALLIC_ROUGHNESS and GGX_CHAIN
-  return textureLod(u_ggx, d, u_ggx_max_lod).rgb;
+  vec3 e = textureLod(u_ggx, d, u_ggx_max_lod).rgb;
+#ifdef GGX_LIGHTS  // the residual's: the lights taken out of it give theirs
+  vec3 n = normalize(d);
+  for (int i = 0; i < MAX_GGX_LIGHTS; ++i) {
+    if (i >= u_ggx_light_count) break;
+    e += u_ggx_light_power[i] * (max(dot(n, u_ggx_light_direction[i]), 0.0) / ENV_PI);
+  }
+#endif
+  return e;
 #else
   return env_sample(u_irradiance, d);
 #endif
 }
+
+#ifdef GGX_LIGHTS
+// glTF's GGX specular (arlight/common/brdf.hpp: D, the height-correlated Smith V, Schlick's F)
+// of the lights taken out of the chain's room, world frame (issue 51 §1). Each is a disc:
+// Karis 2013's representative point (the disc's direction nearest the mirror direction r) with
+// the lobe's normalisation for the disc's widening, (alpha / alpha')^2, alpha' = alpha +
+// radius / 2 (a mirror facing the viewer then shows the disc's own radiance).
+vec3 ggx_lights(vec3 n, vec3 v, float nv, float alpha, vec3 f0) {
+  vec3 r = reflect(-v, n);
+  float a2 = alpha * alpha;
+  vec3 sum = vec3(0.0);
+  for (int i = 0; i < MAX_GGX_LIGHTS; ++i) {
+    if (i >= u_ggx_light_count) break;
+    vec3 c = u_ggx_light_direction[i];
+    float radius = u_ggx_light_radius[i];
+    float rc = dot(r, c);
+    vec3 across = r - rc * c;
+    float len = length(across);
+    vec3 l = rc >= cos(radius) ? r : (len > 1e-6 ? cos(radius) * c + sin(radius) / len * across : c);
+    float nl = dot(n, l);
+    if (nl <= 0.0) continue;
+    vec3 h = normalize(v + l);
+    float nh = clamp(dot(n, h), 0.0, 1.0), vh = clamp(dot(v, h), 0.0, 1.0);
+    float dd = nh * nh * (a2 - 1.0) + 1.0;
+    float d = a2 / (ENV_PI * dd * dd);
+    float wide = alpha / min(1.0, alpha + 0.5 * radius);
+    float vis = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
+    vec3 f = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
+    sum += u_ggx_light_power[i] * f * (d * wide * wide * vis * nl);
+  }
+  return sum;
+}
+#endif
 
 #ifdef HEMISPHERE
 // Hemisphere shading (dissertation §5.4): the colour priors c_u, c_l and the occlusion
@@ -254,6 +302,10 @@ void main() {
     float e_dielectric = mix(dfg.x, dfg.y, 0.04);
     lo = base.rgb * (1.0 - metallic) * (1.0 - e_dielectric) * ld + e * ls +
          f_ms * (1.0 - dfg.y) * ld;
+#ifdef GGX_LIGHTS
+    lo += ggx_lights(u_world_from_scene * n, u_world_from_scene * v, nv,
+                     max(roughness * roughness, 1e-3), f0);
+#endif
 #ifdef USE_OCCLUSION_MAP
     lo *= 1.0 + u_occlusion_strength * (texture(u_occlusion_map, v_uv).r - 1.0);
 #endif

@@ -7,6 +7,7 @@
 #include "arlight/common/brdf.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
+#include "arlight/common/specular_lights.hpp"
 #include "arlight/lighting/ggx.hpp"
 #include "arlight/render/sample_models.hpp"
 #include "render_fixtures.hpp"
@@ -33,19 +34,31 @@ void set_chain(Renderer& r, const lighting::GgxChain& chain) {
 
 // The room the spheres stand in: venice as a face-64 cube (every texel one direction of the
 // reference's sum), and its GGX chain 64 -> 8 (4 levels: roughness 0, 0.18, 0.42, 1).
-const EnvMap& venice() {
+EnvMap probe_cube(const std::string& name) {
   // (load_envmap has set the probe's negative values, lossy compression's, to 0.)
-  static const EnvMap env =
-      resample(load_envmap(std::string(ARLIGHT_ASSETS_DIR) + "/probes/venice.exr").env,
-               EnvLayout::for_size(Projection::Cube, 64));
+  return resample(load_envmap(std::string(ARLIGHT_ASSETS_DIR) + "/probes/" + name + ".exr").env,
+                  EnvLayout::for_size(Projection::Cube, 64));
+}
+const EnvMap& venice() {
+  static const EnvMap env = probe_cube("venice");
+  return env;
+}
+// Park: a sun (a few texels at ~10^4 times the sky, 10 % of the room's light) low over trees.
+// Studio: a ring light holding 62 % of the room's light beside a softbox and black walls.
+const EnvMap& park() {
+  static const EnvMap env = probe_cube("park");
+  return env;
+}
+const EnvMap& studio() {
+  static const EnvMap env = probe_cube("studio");
   return env;
 }
 
 // The full BRDF over the room at a surface point, multiple scattering included (Kulla & Conty,
 // common/brdf.hpp): sum over texels L (f + f_ms)(l, v) (n.l) dw (world frame = the scene's).
-glm::dvec3 reference(const glm::dvec3& n, const glm::dvec3& v, const glm::dvec3& base,
-                     double metallic, double roughness, const GgxMultipleScattering& ms) {
-  const EnvMap& env = venice();
+glm::dvec3 reference(const EnvMap& env, const glm::dvec3& n, const glm::dvec3& v,
+                     const glm::dvec3& base, double metallic, double roughness,
+                     const GgxMultipleScattering& ms) {
   const TexelTable& t = *texel_table(env.layout);
   const glm::dvec3 f0 = glm::mix(glm::dvec3(0.04), base, metallic);
   glm::dvec3 sum(0.0);
@@ -59,6 +72,40 @@ glm::dvec3 reference(const glm::dvec3& n, const glm::dvec3& v, const glm::dvec3&
     sum += glm::dvec3(p[0], p[1], p[2]) * f * nl * t.solid_angle[e];
   }
   return sum;
+}
+
+struct SphereCase {
+  glm::vec3 base;
+  float metallic, roughness;
+};
+struct SphereError {
+  double overall = 0, head_on = 0;  // mean relative error, and where n.v >= 0.8
+  int head_on_values = 0;
+};
+
+// The renderer's sphere against the full BRDF over `room` at every third pixel.
+SphereError sphere_error(SphereScene& s, const EnvMap& room, const SphereCase& k) {
+  const HdrReadback hdr = s.render(pbr(k.base, k.metallic, k.roughness));
+  const GgxMultipleScattering ms(k.roughness);
+  SphereError e;
+  int n = 0;
+  for (int y = 0; y < H; y += 3)
+    for (int x = 0; x < W; x += 3) {
+      if (s.inside(x, y) != 1) continue;
+      const glm::dvec3 p = *s.hit(x, y);
+      const glm::dvec3 nrm = glm::normalize(p);
+      const glm::dvec3 view = glm::normalize(glm::dvec3(0, 0, SphereScene::kDist) - p);
+      const glm::dvec3 want = reference(room, nrm, view, glm::dvec3(k.base), k.metallic, k.roughness, ms);
+      const glm::vec3 got = hdr.radiance.at(x, y);
+      for (int ch = 0; ch < 3; ++ch) {
+        const double err = std::abs(got[ch] - want[ch]) / (want[ch] + 1e-4);
+        e.overall += err, ++n;
+        if (glm::dot(nrm, view) >= 0.8) e.head_on += err, ++e.head_on_values;
+      }
+    }
+  e.overall /= std::max(n, 1);
+  e.head_on /= std::max(e.head_on_values, 1);
+  return e;
 }
 
 }  // namespace
@@ -126,37 +173,74 @@ TEST(MetallicRoughness, SpheresUnderARealRoomMatchTheFullBrdf) {
   set_chain(s.r, chain);
   // No irradiance map: with a chain the diffuse light comes from its roughest level.
   struct Case {
-    glm::vec3 base;
-    float metallic, roughness;
+    SphereCase sphere;
     double head_on, overall;  // mean error bounds for n.v >= 0.8 and for the whole sphere
   };
-  for (const Case& k : {Case{{0.9f, 0.6f, 0.3f}, 1.0f, 0.4f, 0.04, 0.09},
-                        Case{{0.8f, 0.8f, 0.8f}, 0.0f, 0.6f, 0.015, 0.02},
-                        Case{{0.2f, 0.5f, 0.8f}, 0.5f, 0.25f, 0.03, 0.05}}) {
-    const HdrReadback hdr = s.render(pbr(k.base, k.metallic, k.roughness));
-    const GgxMultipleScattering ms(k.roughness);
-    double sum = 0.0, head_on = 0.0;
-    int n = 0, n_head_on = 0;
-    for (int y = 0; y < H; y += 3)
-      for (int x = 0; x < W; x += 3) {
-        if (s.inside(x, y) != 1) continue;
-        const glm::dvec3 p = *s.hit(x, y);
-        const glm::dvec3 nrm = glm::normalize(p);
-        const glm::dvec3 view = glm::normalize(glm::dvec3(0, 0, SphereScene::kDist) - p);
-        const glm::dvec3 want = reference(nrm, view, glm::dvec3(k.base), k.metallic, k.roughness, ms);
-        const glm::vec3 got = hdr.radiance.at(x, y);
-        for (int ch = 0; ch < 3; ++ch) {
-          const double err = std::abs(got[ch] - want[ch]) / (want[ch] + 1e-4);
-          sum += err, ++n;
-          if (glm::dot(nrm, view) >= 0.8) head_on += err, ++n_head_on;
-        }
-      }
-    ASSERT_GT(n_head_on, 500);
+  for (const Case& k : {Case{{{0.9f, 0.6f, 0.3f}, 1.0f, 0.4f}, 0.04, 0.09},
+                        Case{{{0.8f, 0.8f, 0.8f}, 0.0f, 0.6f}, 0.015, 0.02},
+                        Case{{{0.2f, 0.5f, 0.8f}, 0.5f, 0.25f}, 0.03, 0.05}}) {
+    const SphereError e = sphere_error(s, venice(), k.sphere);
+    ASSERT_GT(e.head_on_values, 500);
     std::printf("metallic %.2f roughness %.2f: mean error %.2f %% (n.v >= 0.8: %.2f %%)\n",
-                k.metallic, k.roughness, 100 * sum / n, 100 * head_on / n_head_on);
-    EXPECT_LT(head_on / n_head_on, k.head_on);
-    EXPECT_LT(sum / n, k.overall);
+                k.sphere.metallic, k.sphere.roughness, 100 * e.overall, 100 * e.head_on);
+    EXPECT_LT(e.head_on, k.head_on);
+    EXPECT_LT(e.overall, k.overall);
   }
+}
+
+// Park's sun and studio's ring light taken out of the chain (split_specular_lights, issue 51
+// §1) and shaded with the full GGX BRDF, the chain holding the residual: against the full BRDF
+// over the whole room, the spheres' error falls well below the chain of the whole room's. The
+// dielectric's diffuse light comes from the residual chain's roughest level plus the lights'
+// (no irradiance map here): studio's ring light lights the side the camera sees.
+TEST(MetallicRoughness, ALightTakenOutOfTheChainMeetsTheFullBrdf) {
+  SphereScene s;
+  const lighting::GgxChainSpec spec{.face = 64, .min_face = 8};
+  struct Case {
+    const EnvMap* room;
+    SphereCase sphere;
+    double bound;  // on the mean error with the light analytic
+    double ratio;  // ... and on its ratio to the error with the whole room's chain
+  };
+  // Measured: park 21.3 -> 10.4 %, 16.2 -> 7.5 %, 1.89 -> 1.23 %; studio 15.8 -> 5.6 %,
+  // 32.1 -> 23.8 % (its metal's error is the softbox's, still in the chain: bench/RESULTS.md).
+  const Case cases[] = {{&park(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.3f}, 0.125, 0.6},
+                        {&park(), {{0.9f, 0.9f, 0.9f}, 1.0f, 0.6f}, 0.09, 0.6},
+                        {&park(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.015, 0.75},
+                        {&studio(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.07, 0.45},
+                        {&studio(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.5f}, 0.27, 0.85}};
+  const EnvMap* split_of = nullptr;
+  std::vector<SpecularLight> lights;
+  lighting::GgxChain whole, residual;
+  for (const Case& k : cases) {
+    if (k.room != split_of) {
+      split_of = k.room;
+      const SpecularSplit split = split_specular_lights(*k.room);
+      ASSERT_EQ(split.lights.size(), 1u);
+      lights = split.lights;
+      whole = lighting::compute_ggx_chain(*k.room, spec);
+      residual = lighting::compute_ggx_chain(split.residual, spec);
+    }
+    set_chain(s.r, whole);
+    const SphereError before = sphere_error(s, *k.room, k.sphere);
+    s.r.set_ggx_chain(residual.maps(), residual.roughness(), lights);
+    const SphereError after = sphere_error(s, *k.room, k.sphere);
+    std::printf("%s metallic %.2f roughness %.2f: mean error %.2f %% with the whole room's chain, "
+                "%.2f %% with the light analytic (n.v >= 0.8: %.2f / %.2f %%)\n",
+                k.room == &park() ? "park" : "studio", k.sphere.metallic, k.sphere.roughness,
+                100 * before.overall, 100 * after.overall, 100 * before.head_on, 100 * after.head_on);
+    EXPECT_LT(after.overall, k.bound);
+    EXPECT_LT(after.overall, k.ratio * before.overall);
+  }
+  // Lights the shader cannot hold, or not lights at all, are refused.
+  std::vector<SpecularLight> many(kMaxSpecularLights + 1, lights[0]);
+  EXPECT_THROW(s.r.set_ggx_chain(residual.maps(), residual.roughness(), many), std::invalid_argument);
+  SpecularLight bad = lights[0];
+  bad.direction *= 2.0f;
+  EXPECT_THROW(s.r.set_ggx_chain(residual.maps(), residual.roughness(), {bad}), std::invalid_argument);
+  bad = lights[0];
+  bad.power.y = NAN;
+  EXPECT_THROW(s.r.set_ggx_chain(residual.maps(), residual.roughness(), {bad}), std::invalid_argument);
 }
 
 TEST(MetallicRoughness, AChainThatIsNotFilamentsMappingOrNotHalvingIsRefused) {

@@ -128,7 +128,7 @@ FrameReport FramePipeline::process(const source::SourceFrame& f, LightingChannel
   if (lighting.ggx && lighting.ggx_version != ggx_version_) {
     ggx_version_ = lighting.ggx_version;
     try {
-      renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness);
+      renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness, lighting.ggx->lights);
     } catch (const std::invalid_argument& e) {
       spdlog::warn("GGX chain not used: {}", e.what());
     }

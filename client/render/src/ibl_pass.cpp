@@ -43,6 +43,7 @@ enum Feature : unsigned {
   kAlphaMask = 65536,
   kGgxDiffuse = 131072,       // ... its diffuse light from the chain's roughest level (no map set)
   kAlphaBlend = 262144,       // ... drawn premultiplied by its coverage, blended (glTF BLEND)
+  kGgxLights = 524288,        // ... the lights taken out of the chain's room, analytic
 };
 
 // The split sum's DFG table the shader looks up: 64 x 64 (bilinear; the table is smooth) at
@@ -72,7 +73,8 @@ struct IblPass::Variant {
         occlusion = -1, ior = -1, transmission = -1, object_from_scene = -1, ellipsoid_centre = -1,
         ellipsoid_axes = -1, inv_exposure_gain = -1, light_sh = -1, base_colour = -1,
         metallic_roughness = -1, occlusion_strength = -1, emissive = -1, alpha_cutoff = -1,
-        ggx_max_lod = -1;
+        ggx_max_lod = -1, ggx_light_count = -1, ggx_light_direction = -1, ggx_light_power = -1,
+        ggx_light_radius = -1;
 };
 
 IblPass::IblPass(const std::filesystem::path& shader_dir) : shader_dir_(shader_dir) {
@@ -118,7 +120,8 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
                                                    {kEmissiveMap, "USE_EMISSIVE_MAP"},
                                                    {kAlphaMask, "ALPHA_MASK"},
                                                    {kAlphaBlend, "ALPHA_BLEND"},
-                                                   {kGgxDiffuse, "GGX_DIFFUSE"}};
+                                                   {kGgxDiffuse, "GGX_DIFFUSE"},
+                                                   {kGgxLights, "GGX_LIGHTS"}};
   for (auto [bit, name] : names)
     if (features & bit) defines.emplace_back(name, "1");
   if (features & kLiveRefraction)
@@ -145,6 +148,10 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
   v.occlusion_strength = pr.uniform("u_occlusion_strength");
   v.emissive = pr.uniform("u_emissive"), v.alpha_cutoff = pr.uniform("u_alpha_cutoff");
   v.ggx_max_lod = pr.uniform("u_ggx_max_lod");
+  v.ggx_light_count = pr.uniform("u_ggx_light_count");
+  v.ggx_light_direction = pr.uniform("u_ggx_light_direction");
+  v.ggx_light_power = pr.uniform("u_ggx_light_power");
+  v.ggx_light_radius = pr.uniform("u_ggx_light_radius");
   glUseProgram(pr.id());
   glUniform1i(pr.uniform("u_irradiance"), kIrr);
   glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -207,7 +214,9 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
     // The irradiance map of a map set is finer than the chain's last level (face 16); without
     // one (a client that asked for the chain) the chain's is fresher than the live SH's.
     const bool ggx_diffuse = ggx && lighting.source() != LightingSource::Maps;
+    const bool ggx_lights = ggx && !lighting.ggx_lights().empty();
     features |= kMetallicRoughness | (ggx ? kGgxChain : 0u) | (ggx_diffuse ? kGgxDiffuse : 0u) |
+                (ggx_lights ? kGgxLights : 0u) |
                 (pbr->metallic_roughness && uvs ? kMrMap : 0u) |
                 (pbr->occlusion && uvs ? kOcclusionMap : 0u) |
                 (pbr->emissive_map && uvs ? kEmissiveMap : 0u) | (pbr->alpha_mask ? kAlphaMask : 0u) |
@@ -267,6 +276,18 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
       glUniform1f(u.ggx_max_lod, float(lighting.ggx_levels() - 1));
       glActiveTexture(GL_TEXTURE0 + kGgxUnit);
       glBindTexture(GL_TEXTURE_CUBE_MAP, lighting.ggx_chain());
+      const std::vector<SpecularLight>& lights = lighting.ggx_lights();
+      if (!lights.empty()) {
+        std::array<glm::vec3, kMaxSpecularLights> direction{}, power{};
+        std::array<float, kMaxSpecularLights> radius{};
+        for (std::size_t i = 0; i < lights.size(); ++i)
+          direction[i] = lights[i].direction, power[i] = lights[i].power, radius[i] = lights[i].radius;
+        const GLsizei n = GLsizei(lights.size());
+        glUniform1i(u.ggx_light_count, n);
+        glUniform3fv(u.ggx_light_direction, n, glm::value_ptr(direction[0]));
+        glUniform3fv(u.ggx_light_power, n, glm::value_ptr(power[0]));
+        glUniform1fv(u.ggx_light_radius, n, radius.data());
+      }
     }
   }
   if (glass) {

@@ -171,9 +171,9 @@ void Renderer::set_maps(const std::vector<double>& shininess, const std::vector<
 
 void Renderer::clear_maps() { p_->lighting.clear_maps(); }
 
-void Renderer::set_ggx_chain(const std::vector<EnvMap>& levels,
-                             const std::vector<double>& roughness) {
-  p_->lighting.set_ggx_chain(levels, roughness);
+void Renderer::set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness,
+                             const std::vector<SpecularLight>& lights) {
+  p_->lighting.set_ggx_chain(levels, roughness, lights);
 }
 
 void Renderer::clear_ggx_chain() { p_->lighting.clear_ggx_chain(); }

@@ -1,6 +1,7 @@
 #include "scene_lighting.hpp"
 
 #include <algorithm>
+#include <glm/geometric.hpp>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -50,7 +51,17 @@ std::tuple<std::size_t, std::size_t, float> EnvSet::pick(double s, ReflectionLoo
 }
 
 void SceneLighting::set_ggx_chain(const std::vector<EnvMap>& levels,
-                                  const std::vector<double>& roughness) {
+                                  const std::vector<double>& roughness,
+                                  const std::vector<SpecularLight>& lights) {
+  if (lights.size() > std::size_t(kMaxSpecularLights))
+    throw std::invalid_argument("GGX chain: " + std::to_string(lights.size()) + " lights (at most " +
+                                std::to_string(kMaxSpecularLights) + ")");
+  for (const SpecularLight& l : lights)
+    if (!(std::abs(glm::length(l.direction) - 1.0f) < 1e-3f) || !(l.radius >= 0.0f && l.radius < 1.6f) ||
+        !(l.power.x >= 0.0f && l.power.y >= 0.0f && l.power.z >= 0.0f) ||
+        !std::isfinite(l.power.x + l.power.y + l.power.z))
+      throw std::invalid_argument("GGX chain: a light needs a unit direction, a radius in [0, pi/2) "
+                                  "and a finite power >= 0");
   if (levels.empty() || levels.size() != roughness.size())
     throw std::invalid_argument("GGX chain: " + std::to_string(levels.size()) + " levels and " +
                                 std::to_string(roughness.size()) + " roughness values");
@@ -70,6 +81,7 @@ void SceneLighting::set_ggx_chain(const std::vector<EnvMap>& levels,
   }
   ggx_ = upload_ggx_chain(levels);
   ggx_levels_ = n;
+  ggx_lights_ = lights;
 }
 
 SceneLighting::SceneLighting() {

@@ -44,12 +44,15 @@ class SceneLighting {
   LightingSource source() const;
 
   // Renderer::set_ggx_chain / clear_ggx_chain.
-  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness);
-  void clear_ggx_chain() { ggx_ = gl::Texture(), ggx_levels_ = 0; }
+  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness,
+                     const std::vector<SpecularLight>& lights);
+  void clear_ggx_chain() { ggx_ = gl::Texture(), ggx_levels_ = 0, ggx_lights_.clear(); }
   // The GGX chain's cube texture (mip level k = chain level k) and its level count; 0 levels:
   // none (metallic-roughness then takes its specular from the reflection maps).
   GLuint ggx_chain() const { return ggx_.id; }
   int ggx_levels() const { return ggx_levels_; }
+  // The lights taken out of the chain's room (world frame; empty: the chain is the whole room).
+  const std::vector<SpecularLight>& ggx_lights() const { return ggx_lights_; }
 
   // What the objects are shaded with now: the map set, the live SH's maps, or black.
   const EnvSet& maps() const;
@@ -74,6 +77,7 @@ class SceneLighting {
   EnvSet maps_, sh_maps_, black_;
   gl::Texture ggx_;
   int ggx_levels_ = 0;
+  std::vector<SpecularLight> ggx_lights_;
   ShCoeffs last_sh_, room_sh_;
   ShCoeffs irradiance_sh_;  // the live SH's irradiance / pi
   // The irradiance map's bands 0-2 (irradiance is smooth: they hold nearly all of it), so a

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "arlight/common/projection.hpp"
+#include "arlight/common/specular_lights.hpp"
 #include "arlight/protocol/wire.hpp"
 
 namespace arlight::client {
@@ -24,6 +25,9 @@ struct ReceivedMapSet {
   wire::MapKind kind = wire::MapKind::Phong;
   std::vector<double> shininess;  // Phong
   std::vector<double> roughness;  // Ggx
+  // Ggx: the small, bright lights taken out of the chain's room (split_specular_lights; the
+  // chain is then the residual). Empty: the chain holds the whole room.
+  std::vector<SpecularLight> lights;
   std::vector<EnvMap> maps;
   std::vector<std::size_t> texels_received;  // per map, level 0
   bool preview_received = false;             // the coarse tiles of every map

@@ -36,6 +36,7 @@
 #include "arlight/common/projection.hpp"
 #include "arlight/common/response.hpp"
 #include "arlight/common/sh.hpp"
+#include "arlight/common/specular_lights.hpp"
 #include "arlight/render/colour.hpp"
 #include "arlight/render/gl_context.hpp"
 #include "arlight/render/material.hpp"
@@ -275,8 +276,13 @@ class Renderer {
   // roughness 1 - sqrt(1 - k / (n - 1)) (Filament's mapping; std::invalid_argument otherwise).
   // Metallic-roughness materials take their specular from it; without one, from the reflection
   // map of the Phong shininess whose lobe is as wide (s = 1 / (2 alpha^2) - 1/2, at least 1).
-  // Uploaded once as one mipmapped RGBA16F cube texture.
-  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness);
+  // Uploaded once as one mipmapped RGBA16F cube texture. With `lights` (split_specular_lights,
+  // at most kMaxSpecularLights, world frame), the chain is the residual of the room without
+  // them and metallic-roughness adds each light with the full GGX BRDF (Karis 2013's
+  // representative point and widened lobe for its disc); their diffuse light is the irradiance
+  // map's (or, without a map set, added to the chain's roughest level).
+  void set_ggx_chain(const std::vector<EnvMap>& levels, const std::vector<double>& roughness,
+                     const std::vector<SpecularLight>& lights = {});
   void clear_ggx_chain();
   bool has_ggx_chain() const;
   LightingSource lighting_source() const;
