@@ -60,7 +60,7 @@ const int MAX_GGX_LIGHTS = 8;        // arlight/common/specular_lights.hpp kMaxS
 uniform int u_ggx_light_count;
 uniform vec3 u_ggx_light_direction[MAX_GGX_LIGHTS];  // world frame, unit, towards the light
 uniform vec3 u_ggx_light_power[MAX_GGX_LIGHTS];      // its irradiance at normal incidence
-uniform float u_ggx_light_radius[MAX_GGX_LIGHTS];    // its disc's angular radius (rad)
+uniform vec3 u_ggx_light_disc[MAX_GGX_LIGHTS];  // its disc's angular radius: (cos, sin, rad)
 #endif
 #endif
 
@@ -97,20 +97,21 @@ vec3 ggx_lights(vec3 n, vec3 v, float nv, float alpha, vec3 f0) {
   for (int i = 0; i < MAX_GGX_LIGHTS; ++i) {
     if (i >= u_ggx_light_count) break;
     vec3 c = u_ggx_light_direction[i];
-    float radius = u_ggx_light_radius[i];
+    vec3 disc = u_ggx_light_disc[i];
     float rc = dot(r, c);
     vec3 across = r - rc * c;
     float len = length(across);
-    vec3 l = rc >= cos(radius) ? r : (len > 1e-6 ? cos(radius) * c + sin(radius) / len * across : c);
+    vec3 l = rc >= disc.x ? r : (len > 1e-6 ? disc.x * c + disc.y / len * across : c);
     float nl = dot(n, l);
     if (nl <= 0.0) continue;
     vec3 h = normalize(v + l);
     float nh = clamp(dot(n, h), 0.0, 1.0), vh = clamp(dot(v, h), 0.0, 1.0);
     float dd = nh * nh * (a2 - 1.0) + 1.0;
     float d = a2 / (ENV_PI * dd * dd);
-    float wide = alpha / min(1.0, alpha + 0.5 * radius);
+    float wide = alpha / min(1.0, alpha + 0.5 * disc.z);
     float vis = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
-    vec3 f = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
+    float fc = 1.0 - vh, fc2 = fc * fc;
+    vec3 f = f0 + (1.0 - f0) * (fc2 * fc2 * fc);
     sum += u_ggx_light_power[i] * f * (d * wide * wide * vis * nl);
   }
   return sum;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <string>
@@ -74,7 +75,7 @@ struct IblPass::Variant {
         ellipsoid_axes = -1, inv_exposure_gain = -1, light_sh = -1, base_colour = -1,
         metallic_roughness = -1, occlusion_strength = -1, emissive = -1, alpha_cutoff = -1,
         ggx_max_lod = -1, ggx_light_count = -1, ggx_light_direction = -1, ggx_light_power = -1,
-        ggx_light_radius = -1;
+        ggx_light_disc = -1;
 };
 
 IblPass::IblPass(const std::filesystem::path& shader_dir) : shader_dir_(shader_dir) {
@@ -151,7 +152,7 @@ const IblPass::Variant& IblPass::variant(Projection projection, unsigned feature
   v.ggx_light_count = pr.uniform("u_ggx_light_count");
   v.ggx_light_direction = pr.uniform("u_ggx_light_direction");
   v.ggx_light_power = pr.uniform("u_ggx_light_power");
-  v.ggx_light_radius = pr.uniform("u_ggx_light_radius");
+  v.ggx_light_disc = pr.uniform("u_ggx_light_disc");
   glUseProgram(pr.id());
   glUniform1i(pr.uniform("u_irradiance"), kIrr);
   glUniform1i(pr.uniform("u_reflection0"), kRefl0);
@@ -278,15 +279,17 @@ void IblPass::draw(const GpuMesh& mesh, const Material& m, const glm::mat4& mode
       glBindTexture(GL_TEXTURE_CUBE_MAP, lighting.ggx_chain());
       const std::vector<SpecularLight>& lights = lighting.ggx_lights();
       if (!lights.empty()) {
-        std::array<glm::vec3, kMaxSpecularLights> direction{}, power{};
-        std::array<float, kMaxSpecularLights> radius{};
-        for (std::size_t i = 0; i < lights.size(); ++i)
-          direction[i] = lights[i].direction, power[i] = lights[i].power, radius[i] = lights[i].radius;
+        std::array<glm::vec3, kMaxSpecularLights> direction{}, power{}, disc{};
+        for (std::size_t i = 0; i < lights.size(); ++i) {
+          const float radius = lights[i].radius;
+          direction[i] = lights[i].direction, power[i] = lights[i].power;
+          disc[i] = {std::cos(radius), std::sin(radius), radius};
+        }
         const GLsizei n = GLsizei(lights.size());
         glUniform1i(u.ggx_light_count, n);
         glUniform3fv(u.ggx_light_direction, n, glm::value_ptr(direction[0]));
         glUniform3fv(u.ggx_light_power, n, glm::value_ptr(power[0]));
-        glUniform1fv(u.ggx_light_radius, n, radius.data());
+        glUniform3fv(u.ggx_light_disc, n, glm::value_ptr(disc[0]));
       }
     }
   }
