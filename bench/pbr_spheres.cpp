@@ -63,6 +63,7 @@ struct SphereScore {
   double metallic = 0, roughness = 0, mean = 0, grazing = 0, head_on = 0, psnr = 0;
   double weighted = 0;  // mean |error| over the mean radiance: dark pixels count by their light
   double bias = 0;      // sum (renderer - reference) over sum reference: too bright (> 0) or dark
+  double grazing_bias = 0;  // the same where n.v < 0.5
   int values = 0;
 };
 
@@ -117,7 +118,8 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
     for (int c = 0; c < 3; ++c) mean_ref += p.want[c], peak = std::max(peak, double(p.want[c]));
   mean_ref /= 3.0 * double(std::max<std::size_t>(1, pixels.size()));
   const double eps = 1e-4 * mean_ref;
-  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0, 0, 0};
+  SphereScore s{metallic, roughness, 0, 0, 0, 0, 0, 0, 0, 0};
+  double grazing_want = 0;
   double se = 0;
   int n_grazing = 0, n_head_on = 0;
   for (const Pixel& p : pixels)
@@ -129,13 +131,15 @@ SphereScore score(render::Renderer& r, const render::Mesh& sphere, const render:
       s.weighted += std::abs(double(p.got[c]) - p.want[c]);
       s.bias += double(p.got[c]) - p.want[c];
       if (p.nv < 0.5)
-        s.grazing += err, ++n_grazing;
+        s.grazing += err, ++n_grazing, s.grazing_bias += double(p.got[c]) - p.want[c],
+            grazing_want += p.want[c];
       else
         s.head_on += err, ++n_head_on;
     }
   s.mean /= std::max(1, s.values);
   s.weighted /= std::max(1, s.values) * std::max(mean_ref, 1e-30);
   s.bias /= std::max(1, s.values) * std::max(mean_ref, 1e-30);
+  s.grazing_bias /= std::max(grazing_want, 1e-30);
   s.grazing /= std::max(1, n_grazing);
   s.head_on /= std::max(1, n_head_on);
   s.psnr = 10.0 * std::log10(peak * peak / std::max(se / std::max(1, s.values), 1e-30));
@@ -224,7 +228,8 @@ int main(int argc, char** argv) {
           std::vector<TracedPixel> traced;
           const SphereScore s = score(r, sphere, gpu, room, k, metallic, roughness, samples,
                                       &picture, keep ? &traced : nullptr);
-          std::fprintf(stderr, "%s metallic %.1f roughness %.3f: bias %+.1f %%\n", name.c_str(), metallic, roughness, 100 * s.bias);
+          std::fprintf(stderr, "%s metallic %.1f roughness %.3f: bias %+.1f %% (n.v < 0.5: %+.1f %%)\n",
+                       name.c_str(), metallic, roughness, 100 * s.bias, 100 * s.grazing_bias);
           if (keep)
             reference["spheres"].push_back(
                 {{"metallic", metallic}, {"roughness", roughness},
@@ -238,7 +243,7 @@ int main(int argc, char** argv) {
           row += cell;
           out.push_back({{"probe", name}, {"metallic", metallic}, {"roughness", roughness},
                          {"mean", s.mean}, {"mean_nv_above_0_5", s.head_on},
-                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted}, {"bias", s.bias},
+                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted}, {"bias", s.bias}, {"bias_nv_below_0_5", s.grazing_bias},
                          {"psnr_db", s.psnr}, {"values", s.values}});
         }
         std::printf("%s\n", row.c_str());

@@ -84,6 +84,31 @@ vec3 irradiance(vec3 d) {
 #endif
 }
 
+#ifdef GGX_CHAIN
+// The chain's radiance for the lobe at r (world frame; n the normal) (issue 51 §1). The chain
+// holds the n = v = R lobe, isotropic about R; the BRDF's is as wide in the plane of incidence
+// but n.v times as narrow across it (the half vector's Jacobian: tilting h across the plane
+// moves l by 2 (v.h), in it by 2). So two taps of the narrower lobe, either side of r along the
+// plane of incidence by GRAZING_SPREAD x the widths' difference, stand for it; head-on (n.v = 1)
+// they are one tap of the chain's own lobe (three taps, 1/4 1/2 1/4, measured the same). Rough lobes are not that narrow (the Jacobian is a
+// small-angle one): the narrowing fades out as roughness goes to 1. GRAZING_SPREAD and the
+// fade were chosen against the full BRDF (arlight-bench-pbr: bench/RESULTS.md, issue 51).
+const float GRAZING_SPREAD = 1.4 * 0.70710678;
+vec3 chain_radiance(vec3 r, vec3 n, float roughness, float nv) {
+  float a = roughness * roughness;
+  float a_across = a * mix(1.0, max(nv, 0.05), 1.0 - roughness);
+  float r_across = sqrt(a_across);
+  float lod = u_ggx_max_lod * r_across * (2.0 - r_across);
+  vec3 t = n - dot(n, r) * r;
+  float tl = length(t);
+  t = tl > 1e-4 ? t / tl : vec3(0.0);
+  vec3 offset = GRAZING_SPREAD * sqrt(a * a - a_across * a_across) * t;
+  vec3 p = textureLod(u_ggx, normalize(r + offset), lod).rgb;
+  vec3 m = textureLod(u_ggx, normalize(r - offset), lod).rgb;
+  return 0.5 * (p + m);
+}
+#endif
+
 #ifdef GGX_LIGHTS
 // glTF's GGX specular (arlight/common/brdf.hpp: D, the height-correlated Smith V, Schlick's F)
 // of the lights taken out of the chain's room, world frame (issue 51 §1). Each is a disc:
@@ -296,7 +321,7 @@ void main() {
     // is not, most at grazing views.
     vec3 r = u_world_from_scene * normalize(mix(reflect(-v, n), n, roughness * roughness));
 #ifdef GGX_CHAIN
-    vec3 ls = textureLod(u_ggx, r, u_ggx_max_lod * roughness * (2.0 - roughness)).rgb;
+    vec3 ls = chain_radiance(r, u_world_from_scene * n, roughness, nv);
 #else
     vec3 ls = specular_environment(r);
 #endif

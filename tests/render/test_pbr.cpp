@@ -166,7 +166,9 @@ TEST(MetallicRoughness, ADielectricsDiffuseTakesTheBaseColour) {
 // sum against the full BRDF (multiple scattering included) summed over every room texel at each
 // pixel's surface point. The split sum assumes n = v = R; its known error grows at grazing views
 // (Karis 2013), so the error is held head-on (n.v >= 0.8) and over the whole sphere (measured:
-// metal r 0.4 2.7 % / 7.0 %, dielectric r 0.6 0.7 / 0.9 %, half metal r 0.25 1.3 / 3.2 %).
+// metal r 0.4 2.7 % / 4.6 %, dielectric r 0.6 0.7 / 0.9 %, half metal r 0.25 1.2 / 2.5 %; with
+// one tap of the chain instead of ibl.frag's three along the plane of incidence, the metal's and
+// half metal's whole-sphere errors were 7.0 and 3.2 %).
 TEST(MetallicRoughness, SpheresUnderARealRoomMatchTheFullBrdf) {
   SphereScene s;
   const lighting::GgxChain chain = lighting::compute_ggx_chain(venice(), {.face = 64, .min_face = 8});
@@ -176,9 +178,9 @@ TEST(MetallicRoughness, SpheresUnderARealRoomMatchTheFullBrdf) {
     SphereCase sphere;
     double head_on, overall;  // mean error bounds for n.v >= 0.8 and for the whole sphere
   };
-  for (const Case& k : {Case{{{0.9f, 0.6f, 0.3f}, 1.0f, 0.4f}, 0.04, 0.09},
+  for (const Case& k : {Case{{{0.9f, 0.6f, 0.3f}, 1.0f, 0.4f}, 0.04, 0.055},
                         Case{{{0.8f, 0.8f, 0.8f}, 0.0f, 0.6f}, 0.015, 0.02},
-                        Case{{{0.2f, 0.5f, 0.8f}, 0.5f, 0.25f}, 0.03, 0.05}}) {
+                        Case{{{0.2f, 0.5f, 0.8f}, 0.5f, 0.25f}, 0.03, 0.03}}) {
     const SphereError e = sphere_error(s, venice(), k.sphere);
     ASSERT_GT(e.head_on_values, 500);
     std::printf("metallic %.2f roughness %.2f: mean error %.2f %% (n.v >= 0.8: %.2f %%)\n",
@@ -202,13 +204,13 @@ TEST(MetallicRoughness, ALightTakenOutOfTheChainMeetsTheFullBrdf) {
     double bound;  // on the mean error with the light analytic
     double ratio;  // ... and on its ratio to the error with the whole room's chain
   };
-  // Measured: park 21.3 -> 10.4 %, 16.2 -> 7.5 %, 1.89 -> 1.23 %; studio 15.8 -> 5.6 %,
-  // 32.1 -> 23.8 % (its metal's error is the softbox's, still in the chain: bench/RESULTS.md).
-  const Case cases[] = {{&park(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.3f}, 0.125, 0.6},
-                        {&park(), {{0.9f, 0.9f, 0.9f}, 1.0f, 0.6f}, 0.09, 0.6},
-                        {&park(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.015, 0.75},
-                        {&studio(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.07, 0.45},
-                        {&studio(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.5f}, 0.27, 0.85}};
+  // Measured: park 10.0 -> 5.5 %, 13.0 -> 5.9 %, 1.64 -> 1.31 %; studio 15.5 -> 5.1 %,
+  // 24.0 -> 18.5 % (its metal's error is the softbox's, still in the chain: bench/RESULTS.md).
+  const Case cases[] = {{&park(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.3f}, 0.07, 0.65},
+                        {&park(), {{0.9f, 0.9f, 0.9f}, 1.0f, 0.6f}, 0.075, 0.6},
+                        {&park(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.016, 0.9},
+                        {&studio(), {{0.8f, 0.8f, 0.8f}, 0.0f, 0.5f}, 0.065, 0.45},
+                        {&studio(), {{0.9f, 0.6f, 0.3f}, 1.0f, 0.5f}, 0.22, 0.85}};
   const EnvMap* split_of = nullptr;
   std::vector<SpecularLight> lights;
   lighting::GgxChain whole, residual;
