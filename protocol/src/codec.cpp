@@ -91,7 +91,7 @@ Offset<void> build(FlatBufferBuilder& b, const CalibrationSet& m) {
 Offset<void> build(FlatBufferBuilder& b, const RequestMaps& m) {
   return fb::CreateRequestMaps(b, b.CreateVector(m.shininess), m.size,
                                fb::Projection(int(m.projection)), text(b, m.method),
-                               fb::MapKind(int(m.kind)), m.levels)
+                               fb::MapKind(int(m.kind)), m.levels, m.specular_lights)
       .Union();
 }
 
@@ -149,8 +149,13 @@ Offset<void> build(FlatBufferBuilder& b, const MapTile& m) {
 }
 
 Offset<void> build(FlatBufferBuilder& b, const MapSetComplete& m) {
+  std::vector<fb::LightDisc> lights;
+  for (const SpecularLight& l : m.lights)
+    lights.emplace_back(fb::Vec3(l.direction.x, l.direction.y, l.direction.z),
+                        fb::Vec3(l.power.x, l.power.y, l.power.z), l.radius);
   return fb::CreateMapSetComplete(b, m.map_set, m.maps, m.seconds, m.coverage, m.frames,
-                                   m.base_set, m.tiles)
+                                   m.base_set, m.tiles,
+                                   lights.empty() ? 0 : b.CreateVectorOfStructs(lights))
       .Union();
 }
 
@@ -326,6 +331,11 @@ RequestMaps read(const fb::RequestMaps& m, const WireLimits& limits) {
   r.method = text(m.method(), "RequestMaps", "method");
   r.kind = map_kind(m.kind(), "RequestMaps");
   r.levels = m.levels();
+  r.specular_lights = m.specular_lights();
+  if (r.specular_lights > kMaxSpecularLights)
+    refuse(Fault::OverLimit, "RequestMaps", "specular_lights",
+           std::to_string(r.specular_lights) + " lights, over the " +
+               std::to_string(kMaxSpecularLights) + " a shader takes");
   return r;
 }
 
@@ -489,8 +499,25 @@ MapTile read(const fb::MapTile& m, const WireLimits&) {
 }
 
 MapSetComplete read(const fb::MapSetComplete& m, const WireLimits&) {
-  return {m.map_set(), m.maps(),      m.seconds(), m.coverage(),
-          m.frames(),  m.base_set(), m.tiles()};
+  MapSetComplete c{m.map_set(), m.maps(),      m.seconds(), m.coverage(),
+                   m.frames(),  m.base_set(), m.tiles(),    {}};
+  if (const auto* lights = m.lights()) {
+    if (lights->size() > std::size_t(kMaxSpecularLights))
+      refuse(Fault::OverLimit, "MapSetComplete", "lights",
+             std::to_string(lights->size()) + " lights, over " + std::to_string(kMaxSpecularLights));
+    for (const fb::LightDisc* l : *lights) {
+      const glm::vec3 d(l->direction().x(), l->direction().y(), l->direction().z());
+      const glm::vec3 p(l->power().x(), l->power().y(), l->power().z());
+      if (!(std::abs(glm::length(d) - 1.0f) < 1e-3f))
+        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's direction is not a unit vector");
+      if (!(p.x >= 0 && p.y >= 0 && p.z >= 0) || !std::isfinite(p.x + p.y + p.z))
+        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's power is not finite and >= 0");
+      if (!(l->radius() >= 0.0f && l->radius() < 1.5708f))
+        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's radius is not in [0, pi/2)");
+      c.lights.push_back({d, p, l->radius()});
+    }
+  }
+  return c;
 }
 
 Progress read(const fb::Progress& m, const WireLimits&) {

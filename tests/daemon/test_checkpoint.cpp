@@ -116,12 +116,14 @@ TEST(Checkpoint, NewFrameCountsAloneRewriteOnlyTheManifest) {
 TEST(Checkpoint, KeepsAGgxChainRequest) {
   const fs::path dir = fresh_dir("ggx");
   SessionCheckpoint c = sample();
-  c.request = MapRequest{.shininess = {}, .size = 256, .kind = wire::MapKind::Ggx, .levels = 5};
+  c.request = MapRequest{.shininess = {}, .size = 256, .kind = wire::MapKind::Ggx, .levels = 5,
+                         .specular_lights = 6};
   write_checkpoint(dir, c, 1);
   const auto back = read_checkpoint(dir);
   ASSERT_TRUE(back);
   expect_same(c, *back);
   EXPECT_EQ(back->request->ggx_min_face(), 16);
+  EXPECT_EQ(back->request->specular_lights, 6);  // the lights still taken out of the chain
 }
 
 // A version 1 checkpoint exactly as arlightd wrote it before this format (FNV-1a checksum).

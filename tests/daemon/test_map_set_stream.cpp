@@ -15,6 +15,7 @@
 
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
+#include "arlight/common/specular_lights.hpp"
 #include "arlight/lighting/lighting.hpp"
 #include "map_set_stream.hpp"
 #include "priority.hpp"
@@ -194,4 +195,43 @@ TEST(MapSetStream, AGgxChainsPreviewAndTilesSayWhatTheyAre) {
   EXPECT_EQ(tiles, 3u + 2u + 1u);  // 32x192, 16x96, 8x48 in 64x64 tiles
   for (std::size_t k = 0; k < 3; ++k)
     EXPECT_LT(lighting::map_error(chain.levels[k].map, got[k]).max, 1e-3) << "level " << k;
+}
+
+// A chain asked for with specular_lights (issue 51 §1): the tiles are the chain of the room
+// less its small, bright lights, and MapSetComplete carries those lights.
+TEST(MapSetStream, AGgxChainWithLightsSendsTheResidualAndTheLights) {
+  const EnvMap park = resample(load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/park.exr").env,
+                               EnvLayout::for_size(Projection::Cube, 32));
+  const MapRequest request{.shininess = {}, .size = 32, .kind = wire::MapKind::Ggx, .levels = 3,
+                           .specular_lights = 4};
+  const SpecularSplit split = split_specular_lights(park, {.max_lights = 4});
+  ASSERT_EQ(split.lights.size(), 1u);  // the sun
+  const lighting::GgxChain residual = lighting::compute_ggx_chain(split.residual, ggx_spec(request));
+  const lighting::GgxChain whole = lighting::compute_ggx_chain(park, ggx_spec(request));
+  std::vector<SpecularLight> lights;
+  double worst_residual = 0, worst_whole = 0;
+  MapSetJob job{.request = request, .input = park, .id = 2, .tile_coding = [] {
+                  return wire::TileCoding::Half;
+                }};
+  stream_map_set(job, {}, [&](const wire::Message& m) {
+    if (const auto* done = std::get_if<wire::MapSetComplete>(&m)) lights = done->lights;
+    const auto* t = std::get_if<wire::MapTile>(&m);
+    if (!t || t->map_index != 1) return;
+    std::string why;
+    const auto px = wire::decode_half_rgb(t->data, std::size_t(t->width) * t->height, t->coding, why);
+    ASSERT_TRUE(px) << why;
+    const EnvMap& r = residual.levels[1].map;
+    const EnvMap& w = whole.levels[1].map;
+    for (std::uint32_t y = 0; y < t->height; ++y)
+      for (std::uint32_t x = 0; x < t->width; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const std::size_t at = 3 * ((t->y + y) * std::size_t(r.layout.width()) + t->x + x) + std::size_t(c);
+          const double got = (*px)[3 * (std::size_t(y) * t->width + x) + std::size_t(c)];
+          worst_residual = std::max(worst_residual, std::abs(got - r.image.data()[at]) / (r.image.data()[at] + 1e-3));
+          worst_whole = std::max(worst_whole, std::abs(got - w.image.data()[at]) / (w.image.data()[at] + 1e-3));
+        }
+  });
+  EXPECT_EQ(lights, split.lights);
+  EXPECT_LT(worst_residual, 2e-3);  // half floats
+  EXPECT_GT(worst_whole, 0.1);      // the sun is not in it
 }

@@ -1070,6 +1070,82 @@ TEST(Arlightd, GgxChainsFollowTheMapWhileCapturingAndTheFullOneFollows) {
   EXPECT_EQ(c.last_complete_ggx()->frames, c.last_update()->frames_processed);
 }
 
+// Issue 51 §1: a chain asked for with specular_lights comes with the lights taken out of it
+// (at most as many as asked, each a unit direction, a power and a disc), and its level 0 (the
+// mirror: the room itself) is the room less them; lights asked for beside the Phong maps are
+// refused, closing only that connection.
+TEST(Arlightd, AGgxChainComesWithTheLightsTakenOutOfIt) {
+  const fs::path dir = test::fresh_temp_dir("daemon_ggx_lights");
+  // Studio: its ring light is in view, unclipped in every second frame (10 stops
+  // darker; a clipped lamp is no brighter than the walls beside it).
+  const auto sim = test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
+                                                       "/data/probes/studio.exr --out " +
+                                                       (dir / "rec").string() +
+                                                       " --frames 40 --hdr-stops 10 --size 320x240 --seed 4");
+  ASSERT_EQ(sim.status, 0) << sim.output;
+  const recording::Recording rec = recording::read_recording(dir / "rec");
+  DaemonProcess d(dir / "daemon");
+  const auto first_chain = [&](int lights) {
+    client::Client c;
+    c.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+    c.send_intrinsics(rec.camera);
+    c.request_maps(client::ggx_request(32, 0, lights));
+    // Paced, as a camera sends them: frames that arrive faster than they are merged are dropped.
+    for (std::uint64_t seq = 1; seq <= rec.frames.size(); ++seq) {
+      c.send_jpeg_frame(seq, rec.frames[seq - 1], rec.camera.width, rec.camera.height,
+                        recording::read_frame_bytes(rec, seq - 1));
+      EXPECT_TRUE(c.wait_for([&] {
+        const auto u = c.last_update();
+        return u && u->frame_sequence == seq;
+      }, 30s));
+    }
+    EXPECT_TRUE(c.wait_for(
+        [&] {
+          const auto chain = c.last_complete_ggx();
+          const auto update = c.last_update();
+          return chain && update && update->frame_sequence == rec.frames.size() &&
+                 chain->frames == update->frames_processed && chain->maps[0].layout.width() == 32;
+        },
+        60s));
+    return c.last_complete_ggx();
+  };
+  const auto with = first_chain(kMaxSpecularLights), without = first_chain(0);
+  ASSERT_TRUE(with && without);
+  EXPECT_TRUE(without->lights.empty());
+  ASSERT_FALSE(with->lights.empty()) << "studio's ring light";
+  EXPECT_LE(with->lights.size(), std::size_t(kMaxSpecularLights));
+  double light = 0;
+  for (const SpecularLight& l : with->lights) {
+    EXPECT_NEAR(glm::length(l.direction), 1.0f, 1e-3f);
+    EXPECT_GT(luminance(l.power), 0.0f);
+    EXPECT_LE(l.radius, 0.25f);
+    light += luminance(l.power);
+  }
+  // Both sessions merged the same frames: the mirror level's light plus the lights' is the
+  // whole room's.
+  const auto power = [](const EnvMap& m) {
+    const TexelTable& t = *texel_table(m.layout);
+    double sum = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const float* p = m.image.data() + 3 * std::size_t(t.index[i]);
+      sum += luminance(p[0], p[1], p[2]) * t.solid_angle[i];
+    }
+    return sum;
+  };
+  EXPECT_NEAR(power(with->maps[0]) + light, power(without->maps[0]), 0.01 * power(without->maps[0]));
+
+  client::Client phong;
+  phong.connect("127.0.0.1", d.port(), "arlight-sim", kToken);
+  wire::RequestMaps lit_phong = client::map_request({1, 10}, 32, Projection::AngleMap);
+  lit_phong.specular_lights = 2;
+  phong.request_maps(lit_phong);
+  EXPECT_TRUE(phong.wait_for([&] { return !phong.connected(); }, 10s));
+  ASSERT_TRUE(phong.server_error().has_value());
+  EXPECT_EQ(phong.server_error()->first, "BadMessage");
+  EXPECT_NE(phong.server_error()->second.find("specular_lights is for a GGX chain"), std::string::npos)
+      << phong.server_error()->second;
+}
+
 // A connection's map request is its own: a client that resumes a session without asking for
 // maps gets no map set computed for the previous connection's request however its frames change
 // the map (the eval's SH-only run was once drawn with one); one that asks gets them.

@@ -244,6 +244,33 @@ TEST(MapSetAssembler, AGgxChainCompletesOnlyAsAsked) {
   EXPECT_EQ(state.lighting().ggx_version, 1u);
 }
 
+// A chain asked for with specular_lights (issue 51 §1) comes with its lights; lights beside a
+// chain asked for without them (it would hold them twice), or more than asked, are not used.
+TEST(MapSetAssembler, AChainsLightsComeWithItOnlyAsAsked) {
+  const SpecularLight sun{{0.0f, 0.6f, -0.8f}, {40.0f, 36.0f, 28.0f}, 0.0125f};
+  MapSetAssembler a;
+  a.expect(ggx_request(16, 2, 1));
+  for (const auto& t : chain_of(1, {0.0f, 1.0f})) a.add_tile(t);
+  wire::MapSetComplete with_sun = done(1, 2);
+  with_sun.lights = {sun};
+  const auto set = a.complete(with_sun);
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->lights, std::vector<SpecularLight>{sun});
+  for (const auto& t : chain_of(2, {0.0f, 1.0f})) a.add_tile(t);
+  with_sun.map_set = 2;
+  with_sun.lights = {sun, sun};
+  EXPECT_FALSE(a.complete(with_sun));
+  a.expect(ggx_request(16, 2));
+  for (const auto& t : chain_of(3, {0.0f, 1.0f})) a.add_tile(t);
+  with_sun.map_set = 3;
+  with_sun.lights = {sun};
+  EXPECT_FALSE(a.complete(with_sun));
+  for (const auto& t : chain_of(4, {0.0f, 1.0f})) a.add_tile(t);
+  const auto whole = a.complete(done(4, 2));
+  ASSERT_TRUE(whole);
+  EXPECT_TRUE(whole->lights.empty());
+}
+
 TEST(LightingState, EachMessageChangesWhatItSaysAndNothingElse) {
   using Change = LightingState::Change;
   LightingState state;

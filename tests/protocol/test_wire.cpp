@@ -529,5 +529,35 @@ TEST(WireCodec, SeedCorpusDecodesAsItsFolderSays) {
   EXPECT_GE(broken, 6);
 }
 
+
+// The lights taken out of a GGX chain (issue 51 §1): more than a shader takes, a direction that
+// is not one, a power below 0 or not finite, a radius out of [0, pi/2) are refused, naming the
+// field; a request for more lights than a shader takes too.
+TEST(WireCodec, TheChainsLightsAreChecked) {
+  const auto refusal_of = [](const wire::Message& m) {
+    const DecodeError e = refusal(wire::encode(m));
+    return std::string(e.message()) + "." + std::string(e.field()) + " " + fault_name(e.fault());
+  };
+  const SpecularLight sun{{0.0f, 0.6f, -0.8f}, {40.0f, 36.0f, 28.0f}, 0.0125f};
+  wire::MapSetComplete fine{3, 5, 0.25f, 0.5f, 120, 0, 17, {sun}};
+  EXPECT_EQ(std::get<wire::MapSetComplete>(wire::decode(wire::encode(fine))), fine);
+  for (const auto& [light, count] :
+       std::vector<std::pair<SpecularLight, std::size_t>>{
+           {sun, std::size_t(kMaxSpecularLights) + 1},
+           {{{0.0f, 1.2f, 0.0f}, sun.power, sun.radius}, 1},
+           {{sun.direction, {1.0f, -0.5f, 1.0f}, sun.radius}, 1},
+           {{sun.direction, {1.0f, std::numeric_limits<float>::infinity(), 1.0f}, sun.radius}, 1},
+           {{sun.direction, sun.power, -0.1f}, 1},
+           {{sun.direction, sun.power, 2.0f}, 1}}) {
+    wire::MapSetComplete bad = fine;
+    bad.lights.assign(count, light);
+    EXPECT_EQ(refusal_of(bad), count > 1 ? "MapSetComplete.lights OverLimit"
+                                         : "MapSetComplete.lights OutOfRange");
+  }
+  wire::RequestMaps many;
+  many.kind = wire::MapKind::Ggx, many.size = 256, many.specular_lights = kMaxSpecularLights + 1;
+  EXPECT_EQ(refusal_of(many), "RequestMaps.specular_lights OverLimit");
+}
+
 }  // namespace
 }  // namespace arlight

@@ -32,6 +32,10 @@ void add_client_flags(CLI::App& app, ClientFlags& f) {
   app.add_option("--ggx", f.ggx_face,
                  "request the room's GGX chain from this face instead of --maps (default: 256 "
                  "with a pbr: material, else none; 0: none)");
+  app.add_option("--ggx-lights", f.ggx_lights,
+                 "with --ggx: up to this many small, bright lights taken out of the chain and "
+                 "shaded with the full BRDF (0: the chain holds the whole room; not with --out)")
+      ->capture_default_str()->check(CLI::Range(0, kMaxSpecularLights));
   app.add_option("--marker", f.marker_text, "ArUco DICT_4X4_50 marker ID,SIZE_M")
       ->capture_default_str();
   app.add_option("--object-height", f.object_height,
@@ -204,6 +208,12 @@ LinkOptions link_options(const ClientFlags& f, source::FrameSource& src,
   lo.camera = camera, lo.shininess = shininess, lo.map_size = f.map_size;
   const bool pbr = f.material_text.rfind("pbr:", 0) == 0 || f.material_text == "model";
   lo.ggx_face = f.ggx_face >= 0 ? f.ggx_face : pbr ? 256 : 0;
+  lo.ggx_lights = f.ggx_lights;
+  // The light files --out writes are engines' whole room: a chain without its lights is not.
+  if (lo.ggx_face > 0 && lo.ggx_lights > 0 && !f.out.empty())
+    throw InputError("--ggx-lights " + std::to_string(lo.ggx_lights) +
+                     ": the light files --out writes need the chain of the whole room; ask for "
+                     "--ggx-lights 0 to write them");
   lo.exposure_advice = src.request_exposure(0.0);  // (0 asks nothing: can it at all?)
   lo.max_in_flight = src.live() ? 2 : 0;  // a replay as fast as possible sends every frame
   if (!f.location.empty()) {

@@ -21,7 +21,7 @@ struct ClientFlags {
       location, time_text, glass = "off", pose = "track", occlusion = "baked";
   std::optional<double> north_offset;
   bool window = false, realtime = false, guided = false;
-  int frames_limit = 0, map_size = 128, shadow_lights = 16, ggx_face = -1;
+  int frames_limit = 0, map_size = 128, shadow_lights = 16, ggx_face = -1, ggx_lights = 0;
   double object_height = 0, wait_maps_s = 0, ior = 1.5, fps = 30, target_fps = 30;
   client::TlsOptions tls;
 };

@@ -98,7 +98,7 @@ bool LightingLink::connect_once() {
       c->send_location(l);
     }
     if (options_.ggx_face > 0)
-      c->request_maps(client::ggx_request(options_.ggx_face));
+      c->request_maps(client::ggx_request(options_.ggx_face, 0, options_.ggx_lights));
     else if (!options_.shininess.empty())
       c->request_maps(options_.shininess, options_.map_size, options_.projection);
     std::lock_guard lock(mutex_);

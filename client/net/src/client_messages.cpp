@@ -1,5 +1,6 @@
 #include "arlight/net/client_messages.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,8 +23,9 @@ wire::RequestMaps map_request(const std::vector<double>& shininess, int size, Pr
                            std::uint32_t(size), projection, method};
 }
 
-wire::RequestMaps ggx_request(int face, int levels) {
+wire::RequestMaps ggx_request(int face, int levels, int specular_lights) {
   wire::RequestMaps r;
+  r.specular_lights = std::uint8_t(std::clamp(specular_lights, 0, 255));
   r.size = std::uint32_t(face);
   r.projection = Projection::Cube;
   r.kind = wire::MapKind::Ggx;

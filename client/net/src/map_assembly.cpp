@@ -10,6 +10,7 @@ void MapSetAssembler::expect(const wire::RequestMaps& request) {
   kind_ = request.kind;
   expected_ = request.shininess;
   levels_ = std::size_t(wire::ggx_level_count(request.size, request.levels));
+  lights_ = request.kind == wire::MapKind::Ggx ? request.specular_lights : 0;
   any_ = false;
   bases_.clear();  // sets of another request (the server starts the new one whole)
 }
@@ -139,10 +140,13 @@ std::shared_ptr<const ReceivedMapSet> MapSetAssembler::complete(const wire::MapS
     if (whole) set = std::move(b.set);
   }
   if (!set || !as_expected(*set)) return nullptr;
+  // Lights beside a chain that was to hold the whole room would count them twice.
+  if (!any_ && c.lights.size() > lights_) return nullptr;
   set->complete = true;
   set->server_seconds = c.seconds;
   set->coverage = c.coverage;
   set->frames = c.frames;
+  set->lights = c.lights;
   auto done = std::make_shared<const ReceivedMapSet>(std::move(*set));
   bases_.push_back(done);
   while (bases_.size() > kBases) bases_.pop_front();

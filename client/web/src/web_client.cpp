@@ -92,7 +92,9 @@ val WebClient::resend_frame(double timestamp) {
 val WebClient::request_maps() {
   requested_ggx_ = render::needs_ggx_chain(draw_materials(), material_);
   const wire::RequestMaps request =
-      requested_ggx_ ? client::ggx_request(kGgxFace)
+      // The page shades with the lights taken out of the chain (issue 51 §1): its renderer is
+      // the native one.
+      requested_ggx_ ? client::ggx_request(kGgxFace, 0, kMaxSpecularLights)
                      : client::map_request(kShininess, kMapSize, Projection::LatLong, "auto");
   state_.expect_maps(request);
   return bytes_to_js(wire::encode(request));
@@ -139,7 +141,7 @@ std::string WebClient::receive(const val& bytes) {
         renderer_.set_maps(lighting.maps->shininess, lighting.maps->maps);
       } else {
         try {
-          renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness);
+          renderer_.set_ggx_chain(lighting.ggx->maps, lighting.ggx->roughness, lighting.ggx->lights);
         } catch (const std::invalid_argument& e) {
           last_error_ = std::string("GGX chain not used: ") + e.what();
         }

@@ -127,7 +127,8 @@ AccumulatorFile write_checkpoint(const fs::path& dir, const SessionCheckpoint& c
                        {"projection", std::string(projection_name(c.request->projection))},
                        {"method", c.request->method},
                        {"kind", c.request->kind == wire::MapKind::Ggx ? "ggx" : "phong"},
-                       {"levels", c.request->levels}};
+                       {"levels", c.request->levels},
+                       {"specular_lights", c.request->specular_lights}};
   fs::create_directories(dir);
   AccumulatorFile file;
   if (same_accumulators) {
@@ -194,6 +195,12 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
         throw InputError(where + ": unknown map kind '" + kind + "'");
       req.kind = kind == "ggx" ? wire::MapKind::Ggx : wire::MapKind::Phong;
       req.levels = whole_or<int>(r, "levels", 0, where);
+      // Checkpoints from before issue 51 take no lights out of the chain.
+      req.specular_lights = whole_or<int>(r, "specular_lights", 0, where);
+      if (req.specular_lights < 0 || req.specular_lights > kMaxSpecularLights ||
+          (req.specular_lights != 0 && req.kind != wire::MapKind::Ggx))
+        throw InputError(where + ": specular_lights " + std::to_string(req.specular_lights) +
+                         " is not a GGX request's 0 to " + std::to_string(kMaxSpecularLights));
       c.request = req;
     }
     const std::string file = meta.at("accumulators").get<std::string>();

@@ -132,6 +132,7 @@ void ClientConnection::handle(wire::Message&& message) {
     MapRequest req;
     req.kind = r->kind;
     req.levels = r->levels;
+    req.specular_lights = r->specular_lights;
     req.shininess.assign(r->shininess.begin(), r->shininess.end());
     req.size = int(std::min<std::uint32_t>(r->size, 1u << 16));
     req.projection = r->projection;

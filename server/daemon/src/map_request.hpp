@@ -19,6 +19,9 @@ struct MapRequest {
   std::string method = "auto";                   // Phong
   wire::MapKind kind = wire::MapKind::Phong;
   int levels = 0;                 // Ggx: levels of the chain, each half the face before
+  // Ggx: up to this many small, bright lights taken out of the chain's room and sent beside it
+  // (split_specular_lights; wire::RequestMaps::specular_lights). 0: the chain is the whole room.
+  int specular_lights = 0;
 
   // Ggx: the last level's face (the request checked: wire::ggx_level_count() > 0).
   int ggx_min_face() const {

@@ -4,6 +4,7 @@
 #include <tbb/task_scheduler_observer.h>
 
 #include <algorithm>
+#include <optional>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -67,6 +68,7 @@ struct SetMaps {
   wire::MapKind kind = wire::MapKind::Phong;
   std::vector<EnvMap> maps;
   std::vector<float> shininess, roughness;
+  std::vector<SpecularLight> lights;  // Ggx: taken out of the chain's room
 };
 
 SetMaps compute_set(const MapSetJob& job, const lighting::Hooks& hooks) {
@@ -74,9 +76,16 @@ SetMaps compute_set(const MapSetJob& job, const lighting::Hooks& hooks) {
   SetMaps set;
   set.kind = request.kind;
   if (request.kind == wire::MapKind::Ggx) {
+    // With specular_lights the chain is of the room less its small, bright lights (issue 51 §1).
+    std::optional<SpecularSplit> split;
+    if (request.specular_lights > 0) {
+      split = split_specular_lights(job.input, {.max_lights = request.specular_lights});
+      set.lights = split->lights;
+    }
+    const EnvMap& input = split ? split->residual : job.input;
     lighting::GgxChain chain =
-        job.ggx_previews ? job.ggx_previews->update(job.input, hooks, job.measured)
-                         : lighting::compute_ggx_chain(job.input, ggx_spec(request), hooks);
+        job.ggx_previews ? job.ggx_previews->update(input, hooks, job.measured)
+                         : lighting::compute_ggx_chain(input, ggx_spec(request), hooks);
     for (lighting::GgxLevel& l : chain.levels) {
       set.maps.push_back(std::move(l.map));
       set.shininess.push_back(0.0f);
@@ -199,8 +208,8 @@ double stream_map_set(const MapSetJob& job, std::stop_token stop, const MapSetSi
     }
     if (stop.stop_requested()) return -1.0;
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    const wire::MapSetComplete whole{id, std::uint16_t(set.maps.size()), float(seconds),
-                                     float(job.coverage), job.frames, 0, tiles};
+    const wire::MapSetComplete whole{id,         std::uint16_t(set.maps.size()), float(seconds),
+                                     float(job.coverage), job.frames, 0, tiles, set.lights};
     if (base != 0) {
       wire::MapSetComplete change = whole;
       change.base_set = base;

@@ -390,7 +390,12 @@ std::string Session::request_maps(MapRequest r) {
     if (wire::ggx_level_count(std::uint32_t(r.size), r.levels) == 0)
       return "RequestMaps: " + std::to_string(r.levels) + " levels from face " +
              std::to_string(r.size) + " go below one texel a face";
+    if (r.specular_lights < 0 || r.specular_lights > kMaxSpecularLights)
+      return "RequestMaps: specular_lights must be in [0, " + std::to_string(kMaxSpecularLights) +
+             "], not " + std::to_string(r.specular_lights);
   } else {
+    if (r.specular_lights != 0)
+      return "RequestMaps: specular_lights is for a GGX chain (kind Ggx), not the Phong maps";
     if (r.shininess.empty() || r.shininess.size() > env_.limits.max_maps)
       return "RequestMaps: between 1 and " + std::to_string(env_.limits.max_maps) +
              " shininess values";

@@ -29,6 +29,7 @@ struct SpecularLight {
   // Angular radius (rad) of the uniform disc with its texels' second moment about `direction`
   // (each texel counted as a disc of its own solid angle): a single texel's is sqrt(w / pi).
   float radius = 0.0f;
+  bool operator==(const SpecularLight&) const = default;
 };
 
 struct SpecularSplitOptions {

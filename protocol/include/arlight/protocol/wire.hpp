@@ -26,6 +26,7 @@
 #include "arlight/common/geo.hpp"
 #include "arlight/common/projection.hpp"
 #include "arlight/common/sh.hpp"
+#include "arlight/common/specular_lights.hpp"
 
 namespace arlight::wire {
 
@@ -119,6 +120,9 @@ struct RequestMaps {
   // `size` (0: down to face 16).
   MapKind kind = MapKind::Phong;
   std::uint8_t levels = 0;
+  // Ggx: up to this many small, bright lights taken out of the chain's room (split_specular_
+  // lights; at most kMaxSpecularLights), sent in MapSetComplete::lights. 0: the whole room.
+  std::uint8_t specular_lights = 0;
   bool operator==(const RequestMaps&) const = default;
 };
 
@@ -255,6 +259,8 @@ struct MapSetComplete {
   // takes every other tile from that set; `tiles` is how many level-0 tiles this one sent, so a
   // client that missed one (a set resumed on a new connection mid-way) drops it. 0: whole.
   std::uint32_t base_set = 0, tiles = 0;
+  // The lights taken out of a GGX chain asked for with specular_lights (the chain holds the rest).
+  std::vector<SpecularLight> lights = {};
   bool operator==(const MapSetComplete&) const = default;
 };
 

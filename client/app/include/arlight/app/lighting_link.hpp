@@ -29,6 +29,9 @@ struct LinkOptions {
   std::vector<double> shininess;  // the map set to request
   int map_size = 256;
   int ggx_face = 0;  // > 0: request the room's GGX chain from this face instead (issue 34)
+  // ... with up to this many small, bright lights taken out of it and shaded analytically
+  // (issue 51 §1; RequestMaps::specular_lights).
+  int ggx_lights = 0;
   Projection projection = Projection::AngleMap;
   // After a loss the link retries at once, then backs off (doubling from 0.1 s) to this.
   double reconnect_interval_s = 1.0;

@@ -20,8 +20,10 @@ wire::CameraFrame jpeg_frame(std::uint64_t sequence, const FrameInfo& info, int 
                              std::span<const std::uint8_t> jpeg);
 wire::RequestMaps map_request(const std::vector<double>& shininess, int size, Projection projection,
                               const std::string& method = "auto");
-// A GGX chain from face `face` (a power of two), `levels` levels (0: down to face 16).
-wire::RequestMaps ggx_request(int face, int levels = 0);
+// A GGX chain from face `face` (a power of two), `levels` levels (0: down to face 16), with up
+// to `specular_lights` small, bright lights taken out of it and sent beside it (issue 51 §1; 0:
+// the chain holds the whole room).
+wire::RequestMaps ggx_request(int face, int levels = 0, int specular_lights = 0);
 // The Location message for a place and a UTC time (seconds since 1970), north-referenced when
 // the frames' heading is known against a compass (`north_offset_deg`, eastward from true
 // north); std::invalid_argument for an offset outside [-180, 180].

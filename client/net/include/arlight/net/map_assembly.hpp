@@ -80,6 +80,7 @@ class MapSetAssembler {
   wire::MapKind kind_ = wire::MapKind::Phong;
   std::vector<float> expected_;  // Phong: as the wire carries them
   std::size_t levels_ = 0;       // Ggx
+  std::size_t lights_ = 0;       // Ggx: the most lights the request took out of the chain
 };
 
 }  // namespace arlight::client
