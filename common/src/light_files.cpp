@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
+#include <glm/geometric.hpp>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -96,8 +98,27 @@ std::string light_json(const LightFilesInput& light) {
         {"face_order", "+X -X +Y -Y +Z -Z (Vulkan/OpenGL cube table, row 0 at the top)"},
         {"level_mapping", kGgxLevelMapping},
         {"levels", levels}}},
-      {"gltf", {{"file", "lighting.gltf"}, {"extension", "EXT_lights_image_based"}}},
+      {"gltf", {{"file", "lighting.gltf"},
+                {"extension", light.lights.empty() ? json("EXT_lights_image_based")
+                                                   : json({"EXT_lights_image_based", "KHR_lights_punctual"})}}},
   };
+  if (!light.lights.empty()) {
+    json lights = json::array();
+    for (const SpecularLight& l : light.lights)
+      lights.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
+                        {"intensity", {l.power.x, l.power.y, l.power.z}},
+                        {"angular_radius", l.radius}});
+    j["lights"] = {
+        {"holds", "the room's small, bright lights, taken out of sh9 and specular (which hold "
+                  "the rest): add each as a directional light, for diffuse and specular alike"},
+        {"from", "every texel above 128 x the room's mean luminance gives its excess over the "
+                 "mean; compact clusters of those texels (arlight split_specular_lights)"},
+        {"intensity", "illuminance at normal incidence (RGB): sum of excess radiance x solid angle"},
+        {"angular_radius", "radians: the disc a renderer may widen a highlight to"},
+        {"directional", lights}};
+    j["sh9"]["holds"] = "the room less lights.directional";
+    j["specular"]["holds"] = "the room less lights.directional";
+  }
   return j.dump(2) + "\n";
 }
 
@@ -163,7 +184,7 @@ void write_light_files(const std::filesystem::path& dir, const LightFilesInput& 
     for (int c = 0; c < 3; ++c) rgb.push_back(sign * kCosineLobe[kBand[i]] * webxr[std::size_t(3 * i + c)]);
     irradiance.push_back(rgb);
   }
-  const json gltf = {
+  json gltf = {
       {"asset", {{"version", "2.0"}, {"generator", "arlight"}}},
       {"extensionsUsed", {"EXT_lights_image_based"}},
       {"extensions",
@@ -179,6 +200,39 @@ void write_light_files(const std::filesystem::path& dir, const LightFilesInput& 
       {"scene", 0},
       {"scenes", {{{"name", "arlight light"}, {"extensions", {{"EXT_lights_image_based", {{"light", 0}}}}}}}},
   };
+  if (!light.lights.empty()) {
+    // KHR_lights_punctual: a directional light shines along its node's -Z, so the node's +Z is
+    // the direction towards the light. Colour the normalised RGB, intensity its largest channel.
+    json lights = json::array(), nodes = json::array(), scene_nodes = json::array();
+    for (std::size_t i = 0; i < light.lights.size(); ++i) {
+      const SpecularLight& l = light.lights[i];
+      const float peak = std::max({l.power.x, l.power.y, l.power.z, 1e-30f});
+      lights.push_back({{"name", "arlight light " + std::to_string(i)},
+                        {"type", "directional"},
+                        {"color", {l.power.x / peak, l.power.y / peak, l.power.z / peak}},
+                        {"intensity", peak}});
+      // The rotation taking +Z to the light's direction (x, y, z, w).
+      const glm::dvec3 z(0, 0, 1), d = glm::normalize(glm::dvec3(l.direction));
+      const glm::dvec3 axis = glm::cross(z, d);
+      const double s = glm::length(axis), c = glm::dot(z, d);
+      std::array<double, 4> q = {0.0, 1.0, 0.0, 0.0};  // d = -Z: half a turn about Y
+      if (s > 1e-9) {
+        const double half = 0.5 * std::atan2(s, c);
+        const glm::dvec3 a = axis / s * std::sin(half);
+        q = {a.x, a.y, a.z, std::cos(half)};
+      } else if (c > 0) {
+        q = {0.0, 0.0, 0.0, 1.0};
+      }
+      scene_nodes.push_back(nodes.size());
+      nodes.push_back({{"name", "arlight light " + std::to_string(i)},
+                       {"rotation", q},
+                       {"extensions", {{"KHR_lights_punctual", {{"light", i}}}}}});
+    }
+    gltf["extensionsUsed"].push_back("KHR_lights_punctual");
+    gltf["extensions"]["KHR_lights_punctual"] = {{"lights", lights}};
+    gltf["nodes"] = nodes;
+    gltf["scenes"][0]["nodes"] = scene_nodes;
+  }
   write_file_atomically(dir / "lighting.gltf", gltf.dump(2) + "\n");
 }
 

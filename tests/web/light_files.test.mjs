@@ -83,6 +83,52 @@ test('export writes a KTX2 chain, light.json and a glTF the field\'s tools accep
   }
 });
 
+// issue 51 §1: export --lights takes studio's ring light out of the SH and the chain and writes
+// it as a directional light (light.json lights, lighting.gltf KHR_lights_punctual, which the
+// validator accepts): the residual's SH plus the light's is the whole room's, and the light's node
+// turns +Z (its -Z shines) towards the light.
+test('export --lights writes the lights apart, the SH and chain of the rest', async () => {
+  const out = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-light-'));
+  try {
+    const exportRoom = (dir, extra) => execFileSync(path.join(BIN, 'arlight-maps'), ['export', '--input',
+      path.join(SOURCE, 'data/probes/studio.exr'), '--face', '32', '--min-face', '8', '--out', dir, ...extra],
+    { stdio: 'pipe' });
+    exportRoom(path.join(out, 'whole'), []);
+    exportRoom(path.join(out, 'apart'), ['--lights', '8']);
+    const whole = JSON.parse(fs.readFileSync(path.join(out, 'whole', 'light.json'), 'utf8'));
+    const apart = JSON.parse(fs.readFileSync(path.join(out, 'apart', 'light.json'), 'utf8'));
+    assert.equal(whole.lights, undefined);
+    const lights = apart.lights.directional;
+    assert.equal(lights.length, 1, JSON.stringify(lights));
+    assert.match(apart.sh9.holds, /less lights/);
+    // SH of a light of power P at d: P Y_lm(d); the constant band Y00 = 0.282095.
+    for (let c = 0; c < 3; ++c) {
+      const sum = apart.sh9.webxr[c] + lights.reduce((s, l) => s + 0.2820948 * l.intensity[c], 0);
+      assert.ok(Math.abs(sum - whole.sh9.webxr[c]) < 1e-3 * whole.sh9.webxr[c], `channel ${c}: ${sum} vs ${whole.sh9.webxr[c]}`);
+    }
+    assert.deepEqual(apart.primary_light, whole.primary_light);
+
+    const validator = require('gltf-validator');
+    const dir = path.join(out, 'apart');
+    const gltf = fs.readFileSync(path.join(dir, 'lighting.gltf'));
+    const report = await validator.validateBytes(new Uint8Array(gltf), {
+      uri: 'lighting.gltf',
+      externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(dir, decodeURIComponent(uri))))),
+    });
+    assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+    const doc = JSON.parse(gltf);
+    const light = doc.extensions.KHR_lights_punctual.lights[0];
+    assert.equal(light.type, 'directional');
+    const [x, y, z, w] = doc.nodes[0].rotation;
+    // +Z rotated by (x, y, z, w): the third column of its rotation matrix.
+    const turned = [2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)];
+    turned.forEach((v, i) => assert.ok(Math.abs(v - lights[0].direction[i]) < 1e-5, `${turned} vs ${lights[0].direction}`));
+    assert.ok(Math.abs(light.intensity * light.color[0] - lights[0].intensity[0]) < 1e-4 * lights[0].intensity[0]);
+  } finally {
+    fs.rmSync(out, { recursive: true, force: true });
+  }
+});
+
 test('export refuses a face that is not a power of two, naming it', () => {
   const out = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-light-'));
   try {

@@ -27,6 +27,7 @@ struct GgxOptions {
   std::string out = "out/ggx";
   bool latlong = false;
   std::string json;
+  int lights = 0;  // export: small, bright lights taken out of the SH and the chain
 };
 
 void add_chain_options(CLI::App* sub, GgxOptions& o) {
@@ -100,17 +101,24 @@ int run_ggx(const GgxOptions& o) {
 
 int run_export(const GgxOptions& o) {
   const LoadedEnvMap probe = load_probe(o.input);
-  const lighting::GgxChain chain = chain_of(probe.env, o);
+  // With --lights the SH and the chain are of the room less its lights (issue 51 §1); the
+  // primary light stays the whole room's.
+  const SpecularSplit split = split_specular_lights(probe.env, {.max_lights = o.lights});
+  const lighting::GgxChain chain = chain_of(split.residual, o);
   const auto maps = chain.maps();
   LightFilesInput light;
-  light.sh = sh_project(probe.env, 3);
-  light.primary = primary_light(probe.env, light.sh);
+  light.sh = sh_project(split.residual, 3);
+  light.primary = primary_light(probe.env, sh_project(probe.env, 3));
+  light.lights = split.lights;
   light.specular = maps;
   light.roughness = chain.roughness();
   light.source = o.input;
   write_light_files(o.out, light);
-  std::printf("light of %s -> %s/{specular.ktx2, light.json, lighting.gltf}\n", o.input.c_str(),
-              o.out.c_str());
+  std::printf("light of %s -> %s/{specular.ktx2, light.json, lighting.gltf}%s\n", o.input.c_str(),
+              o.out.c_str(),
+              light.lights.empty() ? ""
+                                   : (", " + std::to_string(light.lights.size()) +
+                                      " lights apart").c_str());
   return 0;
 }
 
@@ -131,6 +139,10 @@ Runner add_export_command(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "export", "the light files engines read: specular.ktx2, light.json (SH-9, primary light), lighting.gltf");
   add_chain_options(sub, *o);
+  sub->add_option("--lights", o->lights,
+                  "take up to N small, bright lights out of the SH and the chain and write them "
+                  "as directional lights (light.json lights, lighting.gltf KHR_lights_punctual)")
+      ->capture_default_str()->check(CLI::Range(0, kMaxSpecularLights));
   return [o] { return run_export(*o); };
 }
 

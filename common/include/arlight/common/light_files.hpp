@@ -14,6 +14,7 @@
 
 #include "arlight/common/projection.hpp"
 #include "arlight/common/sh.hpp"
+#include "arlight/common/specular_lights.hpp"
 
 namespace arlight {
 
@@ -41,6 +42,11 @@ struct LightFilesInput {
   std::span<const EnvMap> specular;  // the GGX chain (cube maps, level 0 the mirror)
   std::vector<double> roughness;    // per level
   std::string source;               // what the light was measured from, for the record
+  // The room's small, bright lights taken out of it (split_specular_lights, issue 51 §1): `sh`
+  // and `specular` then hold the rest (the residual), and light.json and lighting.gltf carry
+  // these as directional lights (KHR_lights_punctual) that an engine adds for diffuse and
+  // specular. Empty: `sh` and `specular` are the whole room.
+  std::vector<SpecularLight> lights;
 };
 
 // SH-9 as 27 floats, 9 RGB triples in the order (l, m) = (0,0), (1,-1), (1,0), (1,1), (2,-2),
