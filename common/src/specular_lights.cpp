@@ -5,6 +5,7 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 #include "arlight/common/image.hpp"
 
@@ -113,17 +114,18 @@ SpecularSplit split_specular_lights(const EnvMap& map, const SpecularSplitOption
   // Top-down: split the brightest cluster that is not compact until max_lights clusters.
   std::vector<Cluster> leaves{cluster_of(texels, 0, texels.size())};
   while (int(leaves.size()) < options.max_lights) {
-    auto widest = leaves.end();
+    auto brightest = leaves.end();
     for (auto c = leaves.begin(); c != leaves.end(); ++c)
-      if (!c->compact && c->end - c->begin > 1 && (widest == leaves.end() || c->energy > widest->energy))
-        widest = c;
-    if (widest == leaves.end()) break;
-    auto [a, b] = split(texels, *widest);
-    *widest = a;
+      if (!c->compact && c->end - c->begin > 1 &&
+          (brightest == leaves.end() || c->energy > brightest->energy))
+        brightest = c;
+    if (brightest == leaves.end()) break;
+    auto [a, b] = split(texels, *brightest);
+    *brightest = a;
     leaves.push_back(b);
   }
 
-  // Compact clusters no wider than max_radius are the lights; the residual keeps limit's
+  // Compact clusters no wider than max_radius are the lights; the residual keeps the floor's
   // luminance (the texel's colour) where they were.
   float* res = out.residual.image.data();
   for (const Cluster& c : leaves) {
