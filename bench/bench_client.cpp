@@ -110,8 +110,8 @@ void BM_ClientFrame(benchmark::State& state, bool shadow,
     options.material.pbr->metallic = 1.0f, options.material.pbr->roughness = 0.3f;
     ggx->kind = wire::MapKind::Ggx, ggx->complete = true;
     ggx->maps = fx.ggx.maps(), ggx->roughness = fx.ggx.roughness();
-    ggx->lights.assign(fx.ggx_lights.begin(),
-                       fx.ggx_lights.begin() + std::min<std::ptrdiff_t>(gold_lights, std::ssize(fx.ggx_lights)));
+    const std::ptrdiff_t lights = std::min<std::ptrdiff_t>(gold_lights, std::ssize(fx.ggx_lights));
+    ggx->lights.assign(fx.ggx_lights.begin(), fx.ggx_lights.begin() + lights);
     state.counters["ggx_lights"] = double(ggx->lights.size());
   }
   client_app::FramePipeline pipeline(

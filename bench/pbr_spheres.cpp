@@ -243,7 +243,8 @@ int main(int argc, char** argv) {
           row += cell;
           out.push_back({{"probe", name}, {"metallic", metallic}, {"roughness", roughness},
                          {"mean", s.mean}, {"mean_nv_above_0_5", s.head_on},
-                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted}, {"bias", s.bias}, {"bias_nv_below_0_5", s.grazing_bias},
+                         {"mean_nv_below_0_5", s.grazing}, {"weighted", s.weighted},
+                         {"bias", s.bias}, {"bias_nv_below_0_5", s.grazing_bias},
                          {"psnr_db", s.psnr}, {"values", s.values}});
         }
         std::printf("%s\n", row.c_str());

@@ -90,8 +90,9 @@ vec3 irradiance(vec3 d) {
 // but n.v times as narrow across it (the half vector's Jacobian: tilting h across the plane
 // moves l by 2 (v.h), in it by 2). So two taps of the narrower lobe, either side of r along the
 // plane of incidence by GRAZING_SPREAD x the widths' difference, stand for it; head-on (n.v = 1)
-// they are one tap of the chain's own lobe (three taps, 1/4 1/2 1/4, measured the same). Rough lobes are not that narrow (the Jacobian is a
-// small-angle one): the narrowing fades out as roughness goes to 1. GRAZING_SPREAD and the
+// they are one tap of the chain's own lobe (three taps, 1/4 1/2 1/4, measured the same). Rough
+// lobes are not that narrow (the Jacobian is a small-angle one): the narrowing fades out as
+// roughness goes to 1. GRAZING_SPREAD and the
 // fade were chosen against the full BRDF (arlight-bench-pbr: bench/RESULTS.md, issue 51).
 const float GRAZING_SPREAD = 1.4 * 0.70710678;
 vec3 chain_radiance(vec3 r, vec3 n, float roughness, float nv) {
@@ -321,7 +322,8 @@ void main() {
     // is not, most at grazing views.
     vec3 r = u_world_from_scene * normalize(mix(reflect(-v, n), n, roughness * roughness));
 #ifdef GGX_CHAIN
-    vec3 ls = chain_radiance(r, u_world_from_scene * n, roughness, nv);
+    vec3 n_world = u_world_from_scene * n;
+    vec3 ls = chain_radiance(r, n_world, roughness, nv);
 #else
     vec3 ls = specular_environment(r);
 #endif
@@ -329,8 +331,7 @@ void main() {
     lo = base.rgb * (1.0 - metallic) * (1.0 - e_dielectric) * ld + e * ls +
          f_ms * (1.0 - dfg.y) * ld;
 #ifdef GGX_LIGHTS
-    lo += ggx_lights(u_world_from_scene * n, u_world_from_scene * v, nv,
-                     max(roughness * roughness, 1e-3), f0);
+    lo += ggx_lights(n_world, u_world_from_scene * v, nv, max(roughness * roughness, 1e-3), f0);
 #endif
 #ifdef USE_OCCLUSION_MAP
     lo *= 1.0 + u_occlusion_strength * (texture(u_occlusion_map, v_uv).r - 1.0);

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <array>
 #include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -211,21 +211,11 @@ void write_light_files(const std::filesystem::path& dir, const LightFilesInput& 
                         {"type", "directional"},
                         {"color", {l.power.x / peak, l.power.y / peak, l.power.z / peak}},
                         {"intensity", peak}});
-      // The rotation taking +Z to the light's direction (x, y, z, w).
-      const glm::dvec3 z(0, 0, 1), d = glm::normalize(glm::dvec3(l.direction));
-      const glm::dvec3 axis = glm::cross(z, d);
-      const double s = glm::length(axis), c = glm::dot(z, d);
-      std::array<double, 4> q = {0.0, 1.0, 0.0, 0.0};  // d = -Z: half a turn about Y
-      if (s > 1e-9) {
-        const double half = 0.5 * std::atan2(s, c);
-        const glm::dvec3 a = axis / s * std::sin(half);
-        q = {a.x, a.y, a.z, std::cos(half)};
-      } else if (c > 0) {
-        q = {0.0, 0.0, 0.0, 1.0};
-      }
+      // The rotation taking +Z to the light's direction, as glTF writes it: (x, y, z, w).
+      const glm::dquat q(glm::dvec3(0, 0, 1), glm::normalize(glm::dvec3(l.direction)));
       scene_nodes.push_back(nodes.size());
       nodes.push_back({{"name", "arlight light " + std::to_string(i)},
-                       {"rotation", q},
+                       {"rotation", {q.x, q.y, q.z, q.w}},
                        {"extensions", {{"KHR_lights_punctual", {{"light", i}}}}}});
     }
     gltf["extensionsUsed"].push_back("KHR_lights_punctual");

@@ -506,15 +506,12 @@ MapSetComplete read(const fb::MapSetComplete& m, const WireLimits&) {
       refuse(Fault::OverLimit, "MapSetComplete", "lights",
              std::to_string(lights->size()) + " lights, over " + std::to_string(kMaxSpecularLights));
     for (const fb::LightDisc* l : *lights) {
-      const glm::vec3 d(l->direction().x(), l->direction().y(), l->direction().z());
-      const glm::vec3 p(l->power().x(), l->power().y(), l->power().z());
-      if (!(std::abs(glm::length(d) - 1.0f) < 1e-3f))
-        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's direction is not a unit vector");
-      if (!(p.x >= 0 && p.y >= 0 && p.z >= 0) || !std::isfinite(p.x + p.y + p.z))
-        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's power is not finite and >= 0");
-      if (!(l->radius() >= 0.0f && l->radius() < 1.5708f))
-        refuse(Fault::OutOfRange, "MapSetComplete", "lights", "a light's radius is not in [0, pi/2)");
-      c.lights.push_back({d, p, l->radius()});
+      const SpecularLight light{{l->direction().x(), l->direction().y(), l->direction().z()},
+                                {l->power().x(), l->power().y(), l->power().z()},
+                                l->radius()};
+      if (const char* problem = specular_light_problem(light))
+        refuse(Fault::OutOfRange, "MapSetComplete", "lights", std::string("a light: ") + problem);
+      c.lights.push_back(light);
     }
   }
   return c;

@@ -58,6 +58,14 @@ namespace {
 
 const fs::path& sample_recording() { return test::daemon_sample_recording(); }
 
+// The daemon closes `c`'s connection with an Error of `code` whose message holds `text`.
+void expect_closed_with(client::Client& c, const std::string& code, const std::string& text) {
+  EXPECT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
+  ASSERT_TRUE(c.server_error().has_value());
+  EXPECT_EQ(c.server_error()->first, code);
+  EXPECT_NE(c.server_error()->second.find(text), std::string::npos) << c.server_error()->second;
+}
+
 json read_json(const fs::path& p) { return json::parse(std::ifstream(p)); }
 
 Ktx2Cube read_ktx2(const fs::path& p) {
@@ -262,11 +270,7 @@ TEST(Arlightd, RefinedIntrinsicsKeepTheMapAndAnotherSizeIsRefused) {
   CameraIntrinsics other = rec.camera;
   other.width /= 2, other.height /= 2;
   c.send_intrinsics(other);
-  EXPECT_TRUE(c.wait_for([&] { return !c.connected(); }, 10s));
-  ASSERT_TRUE(c.server_error().has_value());
-  EXPECT_EQ(c.server_error()->first, "BadMessage");
-  EXPECT_NE(c.server_error()->second.find("another size"), std::string::npos)
-      << c.server_error()->second;
+  expect_closed_with(c, "BadMessage", "another size");
 }
 
 namespace {
@@ -1139,11 +1143,7 @@ TEST(Arlightd, AGgxChainComesWithTheLightsTakenOutOfIt) {
   wire::RequestMaps lit_phong = client::map_request({1, 10}, 32, Projection::AngleMap);
   lit_phong.specular_lights = 2;
   phong.request_maps(lit_phong);
-  EXPECT_TRUE(phong.wait_for([&] { return !phong.connected(); }, 10s));
-  ASSERT_TRUE(phong.server_error().has_value());
-  EXPECT_EQ(phong.server_error()->first, "BadMessage");
-  EXPECT_NE(phong.server_error()->second.find("specular_lights is for a GGX chain"), std::string::npos)
-      << phong.server_error()->second;
+  expect_closed_with(phong, "BadMessage", "specular_lights is for a GGX chain");
 }
 
 // A connection's map request is its own: a client that resumes a session without asking for

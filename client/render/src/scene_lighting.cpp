@@ -1,7 +1,6 @@
 #include "scene_lighting.hpp"
 
 #include <algorithm>
-#include <glm/geometric.hpp>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -57,11 +56,8 @@ void SceneLighting::set_ggx_chain(const std::vector<EnvMap>& levels,
     throw std::invalid_argument("GGX chain: " + std::to_string(lights.size()) + " lights (at most " +
                                 std::to_string(kMaxSpecularLights) + ")");
   for (const SpecularLight& l : lights)
-    if (!(std::abs(glm::length(l.direction) - 1.0f) < 1e-3f) || !(l.radius >= 0.0f && l.radius < 1.6f) ||
-        !(l.power.x >= 0.0f && l.power.y >= 0.0f && l.power.z >= 0.0f) ||
-        !std::isfinite(l.power.x + l.power.y + l.power.z))
-      throw std::invalid_argument("GGX chain: a light needs a unit direction, a radius in [0, pi/2) "
-                                  "and a finite power >= 0");
+    if (const char* problem = specular_light_problem(l))
+      throw std::invalid_argument(std::string("GGX chain: a light cannot be shaded: ") + problem);
   if (levels.empty() || levels.size() != roughness.size())
     throw std::invalid_argument("GGX chain: " + std::to_string(levels.size()) + " levels and " +
                                 std::to_string(roughness.size()) + " roughness values");

@@ -13,7 +13,10 @@
 // is the map's.
 #pragma once
 
+#include <cmath>
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
+#include <numbers>
 #include <vector>
 
 #include "arlight/common/projection.hpp"
@@ -46,6 +49,19 @@ struct SpecularSplit {
   std::vector<SpecularLight> lights;  // brightest (luminance of power) first
   EnvMap residual;                    // the map less the lights' excess, same layout
 };
+
+// Why `light` cannot be shaded (its direction not unit, its radius outside [0, pi/2), its
+// power below 0 or not finite), or null: what the renderer and the wire both check (inline: the
+// page's light module decodes lights without the split).
+inline const char* specular_light_problem(const SpecularLight& light) {
+  if (!(std::abs(glm::length(light.direction) - 1.0f) < 1e-3f)) return "its direction is not a unit vector";
+  if (!(light.radius >= 0.0f && light.radius < 0.5f * std::numbers::pi_v<float>))
+    return "its radius is not in [0, pi/2)";
+  const glm::vec3 p = light.power;
+  if (!(p.x >= 0.0f && p.y >= 0.0f && p.z >= 0.0f) || !std::isfinite(p.x + p.y + p.z))
+    return "its power is not finite and >= 0";
+  return nullptr;
+}
 
 // Throws std::invalid_argument for options out of range. A map with no texel above the
 // threshold (or max_lights 0) gives no lights and the map itself as the residual.
