@@ -20,6 +20,7 @@
 #include "jpeg_decode.hpp"
 #include "linearize.hpp"
 #include "map_view.hpp"
+#include "registration.hpp"
 #include "tile_index.hpp"
 
 namespace arlight::capture {
@@ -56,14 +57,93 @@ bool has_distortion(const CameraIntrinsics& k) {
 
 }  // namespace
 
-struct CaptureSession::Impl {
+// One alignment: what it was measured against, and the fit.
+struct AlignmentMeasurement {
+  glm::dquat predicted{1, 0, 0, 0}, sensor{1, 0, 0, 0};
+  double timestamp = 0;
+  cv::Mat frame, rendered, mask;
+  RotationFit fit;
+};
+
+// A frame of a device that is not registered yet, kept to be merged once it is.
+struct WaitingFrame {
+  LinearFrame frame;
+  glm::dquat sensor{1, 0, 0, 0};
+  double exposure_gain = 0.0;  // it was linearised at
+};
+
+// One camera frames come from (issue 49 §1): the session's own, device 0, or a contributor's,
+// each with its optics, response, exposure and the heading drift of its own sensor.
+struct Device {
   CameraIntrinsics camera;
   PinholeCamera pinhole;
   CameraResponse response;
+  bool estimate_exposure = false;  // CaptureOptions::estimate_exposure, per device
+  double field_radius = 0.0;       // half field of view plus a margin
+  int factor = 1;     // linearised frames are reduced by this
+  int reduction = 1;  // frames may come this much smaller (frame_reduction())
+  CameraIntrinsics reduced_camera;
+  double cos_field = -1.0;  // texels with d . forward below this are outside the view
+  PinholeCamera align_camera{CameraIntrinsics{}};
+  std::optional<MapView> align_view;  // the map as the alignment camera sees it
+  DriftModel drift;  // the sensor's heading drift: used orientation = drift.offset() * sensor
+  int frames_since_align = 0;
+  std::future<AlignmentMeasurement> pending_alignment;  // align_async: measured on another thread
+  std::optional<Glancer> glancer;  // CaptureOptions::glance (a cube map's only)
+  double last_exposure_gain = 0.0;  // estimate_exposure: the last frame's exposure x gain
+  // Registration (issue 49 §1; device 0 is the map's own frame). A contributor's sensor
+  // orientation is turned by `base` (its heading against the map, found by fit_heading()) before
+  // anything else sees it; its radiance is multiplied by `radiance_scale` (its camera's
+  // sensitivity against the map's units). Until registered its frames wait in `waiting`.
+  bool registered = true;
+  glm::dquat base{1, 0, 0, 0};
+  double radiance_scale = 1.0;
+  std::optional<double> last_heading;  // the previous frame's fit, when it fitted
+  int agreeing = 0;                    // frames in a row whose fits agree
+  std::deque<WaitingFrame> waiting;
+
+  Device(const CameraIntrinsics& k, CameraResponse r, bool estimate, const CaptureOptions& options,
+         const TexelTable& table)
+      : camera(k),
+        pinhole(k),
+        response(std::move(r)),
+        estimate_exposure(estimate),
+        drift(options.align_smoothing, options.align_max_drift_deg_per_s) {
+    if (k.width < 1 || k.height < 1 || !(k.fx > 0) || !(k.fy > 0) || !std::isfinite(k.cx) ||
+        !std::isfinite(k.cy))
+      throw std::invalid_argument("capture: camera intrinsics are not usable (size " +
+                                  size_text(k.width, k.height) + ", fx " + std::to_string(k.fx) +
+                                  ", fy " + std::to_string(k.fy) + ")");
+    // Reduce frames until a pixel spans about one texel (finer only aliases), and align at
+    // twice that resolution, where features are still sharp but cheap to find.
+    const double pixel_angle = 1.0 / std::max(k.fx, k.fy);
+    factor = std::max(1, int(std::floor(texel_angle(table) / pixel_angle)));
+    reduced_camera = reduced_intrinsics(k, factor);
+    field_radius = half_field_of_view(pinhole) + 0.02;
+    cos_field = std::cos(std::min(std::numbers::pi, field_radius));
+    int align_factor = std::max(1, factor / 2);
+    while ((k.width + align_factor - 1) / align_factor > options.align_max_width) ++align_factor;
+    align_camera = PinholeCamera(reduced_intrinsics(k, align_factor));
+    // The largest power-of-two reduction (up to 8, libjpeg's) that divides the image, that the
+    // alignment still resolves, and that leaves linearize() at least 2x2 pixels a block to
+    // average in linear radiance: an average of codes is biased where a lamp's edge mixes
+    // clipped and dark pixels (lab's irradiance error 0.8 % -> 2.6 % with none left, measured
+    // with bench/capture_merge.sh on 320x240 frames).
+    for (int r = 2; r <= 8 && factor % r == 0 && 2 * r <= factor && r <= align_factor &&
+                    k.width % r == 0 && k.height % r == 0;
+         r *= 2)
+      reduction = r;
+    align_view.emplace(align_camera, response);
+    if (options.glance && options.layout.projection() == Projection::Cube)
+      glancer.emplace(k, reduction, factor, options.layout, table.solid_angle);
+  }
+};
+
+struct CaptureSession::Impl {
   CaptureOptions options;
   std::shared_ptr<const TexelTable> table;
   std::shared_ptr<const TileIndex> tile_index;  // shared by every session of this layout
-  double field_radius = 0.0;                    // half field of view plus a margin
+  std::vector<std::unique_ptr<Device>> devices;  // [0] the session's own camera
 
   std::vector<float> weighted_radiance;        // sum(w * L) per layout texel, RGB
   std::vector<float> weight;                   // sum(w) per layout texel
@@ -84,7 +164,6 @@ struct CaptureSession::Impl {
   mutable std::size_t uncertainty_clips = 0;  // and of clipped_frames
   std::size_t clipped_frames = 0;  // frames with clipped blocks: a clip floor may have changed
   std::vector<std::uint32_t> newly_seen;  // a frame's first-measured texels (kept)
-  double last_exposure_gain = 0.0;        // estimate_exposure: the last frame's exposure x gain
   std::vector<float> ratio_scratch;       // exposure_ratio()'s samples
   // Per texel, the largest radiance its clipped pixels have proved it to have (a clipped pixel
   // of a frame taken at exposure x gain E is at least linear(250) / E): what the exposure
@@ -93,36 +172,8 @@ struct CaptureSession::Impl {
   std::vector<float> clip_floor;
   std::size_t added = 0, used = 0;
 
-  int factor = 1;     // linearised frames are reduced by this
-  int reduction = 1;  // frames may come this much smaller (frame_reduction())
-  CameraIntrinsics reduced_camera;
-  double cos_field = -1.0;  // texels with d . forward below this are outside the view
-  PinholeCamera align_camera{CameraIntrinsics{}};
-  std::optional<MapView> align_view;  // the map as the alignment camera sees it
-  DriftModel drift;  // the sensor's heading drift: used orientation = drift.offset() * sensor
-  int frames_since_align = 0;
-  // One alignment: what it was measured against, and the fit.
-  struct Measurement {
-    glm::dquat predicted{1, 0, 0, 0}, sensor{1, 0, 0, 0};
-    double timestamp = 0;
-    cv::Mat frame, rendered, mask;
-    RotationFit fit;
-  };
-  std::future<Measurement> pending_alignment;  // align_async: measured on another thread
-  std::optional<Glancer> glancer;              // CaptureOptions::glance (a cube map's only)
-
   Impl(const CameraIntrinsics& k, CameraResponse r, CaptureOptions o)
-      : camera(k),
-        pinhole(k),
-        response(std::move(r)),
-        options(std::move(o)),
-        unseen(options.layout, options.fill, options.fill_options),
-        drift(options.align_smoothing, options.align_max_drift_deg_per_s) {
-    if (k.width < 1 || k.height < 1 || !(k.fx > 0) || !(k.fy > 0) || !std::isfinite(k.cx) ||
-        !std::isfinite(k.cy))
-      throw std::invalid_argument("capture: camera intrinsics are not usable (size " +
-                                  size_text(k.width, k.height) + ", fx " + std::to_string(k.fx) +
-                                  ", fy " + std::to_string(k.fy) + ")");
+      : options(std::move(o)), unseen(options.layout, options.fill, options.fill_options) {
     if (options.align_every < 1) throw std::invalid_argument("capture: align_every must be >= 1");
     if (options.fill_refit_frames < 1 || !(options.fill_refit_coverage >= 0.0))
       throw std::invalid_argument(
@@ -133,33 +184,19 @@ struct CaptureSession::Impl {
                                   std::to_string(options.sh_order));
     table = texel_table(options.layout);
     tile_index = tile_index_for(options.layout);
+    devices.push_back(
+        std::make_unique<Device>(k, std::move(r), options.estimate_exposure, options, *table));
     weighted_radiance.assign(options.layout.texel_count() * 3, 0.0f);
     weight.assign(options.layout.texel_count(), 0.0f);
     clip_floor.assign(options.layout.texel_count(), 0.0f);
     sh = ShCoeffs(options.sh_order);
+  }
 
-    // Reduce frames until a pixel spans about one texel (finer only aliases), and align at
-    // twice that resolution, where features are still sharp but cheap to find.
-    const double pixel_angle = 1.0 / std::max(k.fx, k.fy);
-    factor = std::max(1, int(std::floor(texel_angle(*table) / pixel_angle)));
-    reduced_camera = reduced_intrinsics(k, factor);
-    field_radius = half_field_of_view(pinhole) + 0.02;
-    cos_field = std::cos(std::min(std::numbers::pi, field_radius));
-    int align_factor = std::max(1, factor / 2);
-    while ((k.width + align_factor - 1) / align_factor > options.align_max_width) ++align_factor;
-    align_camera = PinholeCamera(reduced_intrinsics(k, align_factor));
-    // The largest power-of-two reduction (up to 8, libjpeg's) that divides the image, that the
-    // alignment still resolves, and that leaves linearize() at least 2x2 pixels a block to
-    // average in linear radiance: an average of codes is biased where a lamp's edge mixes
-    // clipped and dark pixels (lab's irradiance error 0.8 % -> 2.6 % with none left, measured
-    // with bench/capture_merge.sh on 320x240 frames).
-    for (int r = 2; r <= 8 && factor % r == 0 && 2 * r <= factor && r <= align_factor &&
-                    k.width % r == 0 && k.height % r == 0;
-         r *= 2)
-      reduction = r;
-    align_view.emplace(align_camera, response);
-    if (options.glance && options.layout.projection() == Projection::Cube)
-      glancer.emplace(k, reduction, factor, options.layout, table->solid_angle);
+  Device& device(int d) const {
+    if (d < 0 || std::size_t(d) >= devices.size())
+      throw std::invalid_argument("capture: no device " + std::to_string(d) + " (the session has " +
+                                  std::to_string(devices.size()) + ")");
+    return *devices[std::size_t(d)];
   }
 
   void refit_unseen() const {
@@ -209,26 +246,26 @@ struct CaptureSession::Impl {
 
   // Kán's alignment: a corrected orientation for the frame, or the sensor's with the predicted
   // offset when the features do not allow one.
-  glm::dquat align(const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
+  glm::dquat align(Device& d, const cv::Mat& bgr8, const FrameInfo& info, const glm::dquat& sensor,
                    FrameResult& result) {
     // An alignment measured in the background from an earlier frame is applied first, at this
     // frame whatever the timing, so results do not depend on thread scheduling.
-    if (pending_alignment.valid()) apply_alignment(pending_alignment.get(), result);
-    const glm::dquat predicted = glm::normalize(drift.predict(info.timestamp) * sensor);
+    if (d.pending_alignment.valid()) apply_alignment(d, d.pending_alignment.get(), result);
+    const glm::dquat predicted = glm::normalize(d.drift.predict(info.timestamp) * sensor);
     if (!(covered_solid_angle > 0.0)) return predicted;  // nothing captured yet to align with
-    if (++frames_since_align < options.align_every) return predicted;
-    frames_since_align = 0;
-    Measurement m;
+    if (++d.frames_since_align < options.align_every) return predicted;
+    d.frames_since_align = 0;
+    AlignmentMeasurement m;
     m.predicted = predicted, m.sensor = sensor, m.timestamp = info.timestamp;
-    align_view->render({options.layout, weighted_radiance, weight}, predicted,
-                       info.exposure * info.gain, m.rendered, m.mask);
+    d.align_view->render({options.layout, weighted_radiance, weight}, predicted,
+                         info.exposure * info.gain, m.rendered, m.mask);
     if (cv::countNonZero(m.mask) < int(m.mask.total() / 5)) {
       result.align_note = "less than 20 % of the view captured before";
       return predicted;
     }
     // The frame at the alignment resolution, blurred about as much as the map's two
     // resamplings (frame -> texels -> view) blur the rendering, so corners sit alike in both.
-    const CameraIntrinsics& ak = align_camera.intrinsics();
+    const CameraIntrinsics& ak = d.align_camera.intrinsics();
     cv::Mat gray;
     cv::cvtColor(bgr8, gray, cv::COLOR_BGR2GRAY);
     if (gray.cols == ak.width && gray.rows == ak.height)
@@ -239,23 +276,23 @@ struct CaptureSession::Impl {
     cv::GaussianBlur(m.frame, m.frame, cv::Size(0, 0), std::max(0.5, blur));
     const double radius = glm::radians(options.align_max_step_deg) * ak.fx;
     // The features and the fit need nothing of the session but these copies.
-    auto measure = [m = std::move(m), camera = align_camera, radius,
+    auto measure = [m = std::move(m), camera = d.align_camera, radius,
                     min_inliers = options.align_min_inliers]() mutable {
       m.fit = align_to_rendered(m.frame, m.rendered, m.mask, camera, min_inliers, radius);
       m.rendered.release(), m.mask.release(), m.frame.release();
       return std::move(m);
     };
     if (options.align_async) {
-      pending_alignment = std::async(std::launch::async, std::move(measure));
+      d.pending_alignment = std::async(std::launch::async, std::move(measure));
       result.align_note = "measured in the background, applied at the next frame";
       return predicted;
     }
-    apply_alignment(measure(), result);
-    return glm::normalize(drift.offset() * sensor);
+    apply_alignment(d, measure(), result);
+    return glm::normalize(d.drift.offset() * sensor);
   }
 
   // Turns a measured correction into the drift offset (or says why not).
-  void apply_alignment(const Measurement& m, FrameResult& result) {
+  void apply_alignment(Device& d, const AlignmentMeasurement& m, FrameResult& result) {
     result.align_inliers = m.fit.inliers;
     if (!m.fit.ok) {
       result.align_note = m.fit.why;
@@ -268,7 +305,7 @@ struct CaptureSession::Impl {
       return;
     }
     const glm::dquat measured = glm::normalize(m.predicted * correction);
-    drift.update(glm::normalize(measured * glm::conjugate(m.sensor)), m.timestamp);
+    d.drift.update(glm::normalize(measured * glm::conjugate(m.sensor)), m.timestamp);
     result.aligned = true;
   }
 
@@ -276,20 +313,20 @@ struct CaptureSession::Impl {
   // at `orientation`: the frame sampled bilinearly where the texel's direction meets the image
   // plane (thesis ch. 3), sw the sampled weight (> 1e-6), r, g, b the sampled w * L.
   template <class Visit>
-  void for_each_sample(const LinearFrame& frame, const glm::dquat& orientation,
+  void for_each_sample(const Device& d, const LinearFrame& frame, const glm::dquat& orientation,
                        Visit&& visit) const {
     const glm::mat3 to_camera = glm::transpose(glm::mat3(glm::mat3_cast(orientation)));
     const glm::vec3 forward = glm::vec3(glm::mat3_cast(orientation) * glm::dvec3(0, 0, -1));
-    const float cos_limit = float(cos_field);
-    const bool distorted = has_distortion(camera);
-    const CameraIntrinsics& rk = reduced_camera;
+    const float cos_limit = float(d.cos_field);
+    const bool distorted = has_distortion(d.camera);
+    const CameraIntrinsics& rk = d.reduced_camera;
     const float fx = float(rk.fx), fy = float(rk.fy), cx = float(rk.cx), cy = float(rk.cy);
     const float max_x = float(frame.width - 1), max_y = float(frame.height - 1);
     const TileIndex& ti = *tile_index;
     const std::vector<float>&dir_x = ti.dir_x, &dir_y = ti.dir_y, &dir_z = ti.dir_z;
     for (const TileIndex::Tile& tile : ti.tiles) {
       const float off_axis = std::acos(std::clamp(glm::dot(tile.centre, forward), -1.0f, 1.0f));
-      if (off_axis - tile.radius > float(field_radius)) continue;
+      if (off_axis - tile.radius > float(d.field_radius)) continue;
       for (std::size_t k = tile.begin; k < tile.end; ++k) {
         if (dir_x[k] * forward.x + dir_y[k] * forward.y + dir_z[k] * forward.z < cos_limit)
           continue;
@@ -300,10 +337,10 @@ struct CaptureSession::Impl {
           px = fx * (c.x / -c.z) + cx;
           py = fy * (-c.y / -c.z) + cy;
         } else {
-          const auto p = pinhole.project(glm::dvec3(c));
+          const auto p = d.pinhole.project(glm::dvec3(c));
           if (!p) continue;
-          px = float((p->x - 0.5 * (factor - 1)) / factor);
-          py = float((p->y - 0.5 * (factor - 1)) / factor);
+          px = float((p->x - 0.5 * (d.factor - 1)) / d.factor);
+          py = float((p->y - 0.5 * (d.factor - 1)) / d.factor);
         }
         if (!(px >= 0.0f && py >= 0.0f && px <= max_x && py <= max_y)) continue;
         const int x0 = std::min(int(px), frame.width - 2 < 0 ? 0 : frame.width - 2);
@@ -332,12 +369,12 @@ struct CaptureSession::Impl {
   // luminance. The gain compensation of panorama stitchers, with a median instead of least
   // squares so that what moved or was misaligned does not bias it. std::nullopt when fewer
   // than `kMinSamples` samples overlap.
-  std::optional<double> exposure_ratio(const LinearFrame& frame, const glm::dquat& orientation,
-                                       int& samples) {
+  std::optional<double> exposure_ratio(const Device& d, const LinearFrame& frame,
+                                       const glm::dquat& orientation, int& samples) {
     constexpr int kMinSamples = 64;
     ratio_scratch.clear();
     const TileIndex& ti = *tile_index;
-    for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
+    for_each_sample(d, frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
       const std::size_t texel = ti.texel[k];
       if (sw < 0.5f || weight[texel] < 1.0f) return;
       const float* acc = &weighted_radiance[3 * texel];
@@ -384,7 +421,8 @@ struct CaptureSession::Impl {
 
   // Projects the linearised frame into the map (thesis ch. 3) and updates the live SH; a frame
   // that would change nothing (CaptureOptions::unchanged_share) is only sampled.
-  void project(const LinearFrame& frame, const glm::dquat& orientation, FrameResult& result) {
+  void project(const Device& d, const LinearFrame& frame, const glm::dquat& orientation,
+               FrameResult& result) {
     const auto t0 = Clock::now();
     const TileIndex& ti = *tile_index;
     std::vector<Sample>& samples = samples_scratch;
@@ -393,7 +431,7 @@ struct CaptureSession::Impl {
     // angle: sum |seen - held|, sum (seen - held), sum held.
     double differ = 0.0, bias = 0.0, held_sum = 0.0;
     bool sees_new = false;
-    for_each_sample(frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
+    for_each_sample(d, frame, orientation, [&](std::size_t k, float sw, float r, float g, float b) {
       const std::size_t texel = ti.texel[k];
       samples.push_back({std::uint32_t(k), sw, r, g, b});
       const float w = weight[texel];
@@ -423,7 +461,8 @@ struct CaptureSession::Impl {
         newly_seen.push_back(std::uint32_t(texel));
       }
       merge(m, texel);
-      if (glancer) glancer->touch(texel);
+      for (const auto& device : devices)
+        if (device->glancer) device->glancer->touch(texel);
       const glm::vec3 delta = texel_radiance(texel) - before;
       if (delta != glm::vec3(0.0f)) {
         changed_dirs.emplace_back(ti.dir_x[m.k], ti.dir_y[m.k], ti.dir_z[m.k]);
@@ -450,14 +489,14 @@ struct CaptureSession::Impl {
   // over the frame's clipped blocks (none in most frames).
   // A texel holding this share of its clip floor has its light measured.
   static constexpr float kMeasuredShare = 0.9f;
-  void check_clipped(const LinearFrame& frame, const glm::dquat& orientation, double exposure_gain,
+  void check_clipped(const Device& d, const LinearFrame& frame, const glm::dquat& orientation, double exposure_gain,
                      FrameResult& result) {
     if (frame.clipped_blocks == 0) return;
     ++clipped_frames;
     // A quarter clipped already hides most of a small lamp's power; 0.5 left lab's lamp edges
     // out (3.3 % irradiance error against 2.6 %, TheAdviceLoopCapturesLabsLampsWithinThreePercent).
     constexpr float kMostlyClipped = 0.25f;
-    const float floor_here = clip_level(response) / float(exposure_gain);
+    const float floor_here = clip_level(d.response) / float(exposure_gain);
     const EnvLayout& layout = options.layout;
     std::size_t unmeasured = 0;
     float brightest = 0.0f;
@@ -465,8 +504,8 @@ struct CaptureSession::Impl {
       for (int bx = 0; bx < frame.width; ++bx) {
         if (frame.clipped[std::size_t(by) * frame.width + bx] < kMostlyClipped) continue;
         // The block's centre in full-resolution pixels.
-        const glm::dvec2 px(bx * factor + 0.5 * (factor - 1), by * factor + 0.5 * (factor - 1));
-        const glm::ivec2 t = layout.dir_to_texel(orientation * pinhole.unproject(px));
+        const glm::dvec2 px(bx * d.factor + 0.5 * (d.factor - 1), by * d.factor + 0.5 * (d.factor - 1));
+        const glm::ivec2 t = layout.dir_to_texel(orientation * d.pinhole.unproject(px));
         const std::size_t texel = std::size_t(t.y) * layout.width() + std::size_t(t.x);
         float& floor = clip_floor[texel];
         floor = std::max(floor, floor_here);
@@ -479,20 +518,29 @@ struct CaptureSession::Impl {
     result.clipped_floor = brightest;
   }
 
+  // The exposure x gain a frame is taken at in the map's units: an unknown exposure's last
+  // estimate (auto-exposure moves slowly), or the reported one over the device's sensitivity
+  // against the map (a contributor's radiance_scale; 1 for the session's own camera).
+  double map_exposure_gain(const Device& d, const FrameInfo& info) const {
+    if (d.estimate_exposure && d.last_exposure_gain > 0.0) return d.last_exposure_gain;
+    return info.exposure * info.gain / d.radiance_scale;
+  }
+
   // CaptureOptions::glance: `bytes` decoded at 1/8 of its size and compared with the map's
   // blocks at the predicted orientation. The frame's result when it is unchanged; nothing when
   // it has to be processed (its skip reasons are then the full path's).
-  std::optional<FrameResult> glance(std::span<const std::uint8_t> bytes, const FrameInfo& info) {
-    if (!glancer || !(covered_solid_angle > 0.0) || !check_frame_info(info).empty())
+  std::optional<FrameResult> glance(Device& d, std::span<const std::uint8_t> bytes,
+                                    const FrameInfo& info) {
+    if (!d.glancer || !d.registered || !(covered_solid_angle > 0.0) ||
+        !check_frame_info(info).empty())
       return std::nullopt;
     const auto t0 = Clock::now();
-    double exposure_gain = info.exposure * info.gain;
-    if (options.estimate_exposure && last_exposure_gain > 0.0) exposure_gain = last_exposure_gain;
-    const glm::dquat sensor = glm::normalize(info.orientation);
+    const double exposure_gain = map_exposure_gain(d, info);
+    const glm::dquat sensor = glm::normalize(d.base * glm::normalize(info.orientation));
     const glm::dquat predicted =
-        options.align ? glm::normalize(drift.predict(info.timestamp) * sensor) : sensor;
+        options.align ? glm::normalize(d.drift.predict(info.timestamp) * sensor) : sensor;
     const auto v =
-        glancer->look(bytes, response, exposure_gain, predicted, weighted_radiance, weight);
+        d.glancer->look(bytes, d.response, exposure_gain, predicted, weighted_radiance, weight);
     // At least a quarter of the glance image compared (the rest: border, clipped, black).
     if (!v || v->sees_new || v->clipped_unmeasured || v->pixels < v->image_pixels / 4 ||
         !(v->change < options.glance_share) || !(std::abs(v->bias) < options.unchanged_bias))
@@ -508,8 +556,98 @@ struct CaptureSession::Impl {
     return result;
   }
 
+  // Brings a frame to the map's exposure where it overlaps what the map holds (issue 16 §4's
+  // median ratio): returns the exposure x gain it then has. A contributor's sensitivity
+  // follows each measurement by kScaleFollow of it (in log), so a frame that overlaps too
+  // little still comes close.
+  static constexpr double kScaleFollow = 0.25;
+  double match_exposure(Device& d, LinearFrame& frame, const glm::dquat& orientation,
+                        double exposure_gain, double follow, FrameResult& result) {
+    const bool contributor = &d != devices.front().get();
+    if (!d.estimate_exposure && !contributor) return exposure_gain;
+    const auto t0 = Clock::now();
+    if (const auto ratio = exposure_ratio(d, frame, orientation, result.exposure_samples)) {
+      // The frame is `ratio` times brighter than the map where they overlap: its exposure was
+      // that much longer than assumed (or its camera that much more sensitive).
+      const auto inverse = float(1.0 / *ratio);
+      for (float& v : frame.weighted_radiance) v *= inverse;
+      exposure_gain *= *ratio;
+      result.exposure_estimated = true;
+      if (contributor && !d.estimate_exposure) d.radiance_scale /= std::pow(*ratio, follow);
+    }
+    if (d.estimate_exposure) d.last_exposure_gain = exposure_gain;
+    result.exposure_ms += ms_since(t0);
+    return exposure_gain;
+  }
+
+  // Issue 49 §1: a frame of a device not registered yet. It is laid on the map at every heading
+  // (fit_heading()); the device registers when kAgreeingFrames frames in a row fit within
+  // kAgreeDeg of each other, and then the frames that waited are merged with it. Until then
+  // the frame waits (the newest kMaxWaiting do) and is not merged: a heading that is not sure
+  // never puts another room, or the wrong wall, into the map.
+  static constexpr int kAgreeingFrames = 2;
+  static constexpr double kAgreeDeg = 2.0;
+  static constexpr std::size_t kMaxWaiting = 8;
+  FrameResult register_or_wait(Device& d, LinearFrame frame, const glm::dquat& sensor,
+                               double exposure_gain, FrameResult result) {
+    result.registered = false;
+    const auto t0 = Clock::now();
+    HeadingFit fit;
+    if (covered_solid_angle > 0.0)
+      fit = fit_heading(frame, PinholeCamera(d.reduced_camera), sensor,
+                        {options.layout, weighted_radiance, weight}, options.registration);
+    else
+      fit.why = "the map is empty";
+    result.align_ms = ms_since(t0);
+    const bool agrees = fit.ok && d.last_heading &&
+                        std::abs(std::remainder(fit.heading - *d.last_heading,
+                                                2.0 * std::numbers::pi)) <=
+                            glm::radians(kAgreeDeg);
+    d.agreeing = agrees ? d.agreeing + 1 : fit.ok ? 1 : 0;
+    d.last_heading = fit.ok ? std::optional<double>(fit.heading) : std::nullopt;
+    if (d.agreeing < kAgreeingFrames) {
+      d.waiting.push_back({std::move(frame), sensor, exposure_gain});
+      if (d.waiting.size() > kMaxWaiting) d.waiting.pop_front();
+      result.skipped_reason =
+          fit.ok ? "registering with the map: this view fits it turned by " +
+                       std::to_string(int(std::lround(glm::degrees(fit.heading)))) +
+                       " degrees; waiting for the next view to agree"
+                 : "not registered with the map yet (point the camera at what the session has "
+                   "captured): " + fit.why;
+      return result;
+    }
+    const glm::dquat turn = heading_rotation(fit.heading);
+    d.registered = true;
+    d.base = glm::normalize(turn * d.base);
+    d.drift = DriftModel(options.align_smoothing, options.align_max_drift_deg_per_s);
+    const glm::dquat orientation = glm::normalize(turn * sensor);
+    // This frame first: its overlap measures the camera's sensitivity against the map.
+    exposure_gain = match_exposure(d, frame, orientation, exposure_gain, 1.0, result);
+    for (WaitingFrame& w : d.waiting) {
+      FrameResult merged;
+      const glm::dquat o = glm::normalize(turn * w.sensor);
+      const double e = match_exposure(d, w.frame, o, w.exposure_gain, kScaleFollow, merged);
+      project(d, w.frame, o, merged);
+      check_clipped(d, w.frame, o, e, merged);
+      result.texels_changed += merged.texels_changed;
+      ++result.waiting_merged;
+    }
+    d.waiting.clear();
+    result.registered = true;
+    result.orientation = orientation;
+    result.exposure_gain = exposure_gain;
+    const std::size_t waited_texels = result.texels_changed;
+    project(d, frame, orientation, result);
+    result.texels_changed += waited_texels;
+    check_clipped(d, frame, orientation, exposure_gain, result);
+    result.used = true;
+    ++used;
+    return result;
+  }
+
   // `scale` > 1: the image was decoded already reduced by that factor (JPEG DCT scaling).
-  FrameResult add(const cv::Mat& bgr8, const FrameInfo& info, FrameResult result, int scale = 1) {
+  FrameResult add(Device& d, const cv::Mat& bgr8, const FrameInfo& info, FrameResult result,
+                  int scale = 1) {
     if (std::string why = check_frame_info(info); !why.empty()) {
       result.skipped_reason = why;
       return result;
@@ -518,45 +656,33 @@ struct CaptureSession::Impl {
       result.skipped_reason = "image is not 8-bit, 3-channel";
       return result;
     }
-    const int want_w = (camera.width + scale - 1) / scale,
-              want_h = (camera.height + scale - 1) / scale;
+    const int want_w = (d.camera.width + scale - 1) / scale,
+              want_h = (d.camera.height + scale - 1) / scale;
     if (bgr8.cols != want_w || bgr8.rows != want_h) {
       result.skipped_reason = "image is " + size_text(bgr8.cols * scale, bgr8.rows * scale) +
                               ", the camera's intrinsics say " +
-                              size_text(camera.width, camera.height);
+                              size_text(d.camera.width, d.camera.height);
       return result;
     }
-    // Unknown exposure: linearised at the last frame's estimate (auto-exposure moves slowly),
-    // corrected below from the overlap with the map; the first frame's reported value sets the
-    // map's scale.
+    // Unknown exposure: linearised at the last frame's estimate, corrected below from the
+    // overlap with the map; the first frame's reported value sets the map's scale.
     FrameInfo used_info = info;
-    if (options.estimate_exposure && last_exposure_gain > 0.0)
-      used_info.exposure = last_exposure_gain, used_info.gain = 1.0;
-    double exposure_gain = used_info.exposure * used_info.gain;
+    used_info.exposure = map_exposure_gain(d, info), used_info.gain = 1.0;
+    double exposure_gain = used_info.exposure;
     auto t0 = Clock::now();
-    LinearFrame frame = linearize(bgr8, response, exposure_gain, factor / scale);
+    LinearFrame frame = linearize(bgr8, d.response, exposure_gain, d.factor / scale);
     result.linearize_ms = ms_since(t0);
-    const glm::dquat sensor = glm::normalize(info.orientation);
+    const glm::dquat sensor = glm::normalize(d.base * glm::normalize(info.orientation));
+    if (!d.registered) return register_or_wait(d, std::move(frame), sensor, exposure_gain, result);
     t0 = Clock::now();
-    result.orientation = options.align ? align(bgr8, used_info, sensor, result) : sensor;
+    result.orientation = options.align ? align(d, bgr8, used_info, sensor, result) : sensor;
     result.align_ms = ms_since(t0);
     result.correction_deg = angle_deg(result.orientation, sensor);
-    if (options.estimate_exposure) {
-      t0 = Clock::now();
-      if (const auto ratio = exposure_ratio(frame, result.orientation, result.exposure_samples)) {
-        // The frame is `ratio` times brighter than the map where they overlap: its exposure
-        // was that much longer than assumed.
-        const auto inverse = float(1.0 / *ratio);
-        for (float& v : frame.weighted_radiance) v *= inverse;
-        exposure_gain *= *ratio;
-        result.exposure_estimated = true;
-      }
-      last_exposure_gain = exposure_gain;
-      result.exposure_ms = ms_since(t0);
-    }
+    exposure_gain =
+        match_exposure(d, frame, result.orientation, exposure_gain, kScaleFollow, result);
     result.exposure_gain = exposure_gain;
-    project(frame, result.orientation, result);
-    check_clipped(frame, result.orientation, exposure_gain, result);
+    project(d, frame, result.orientation, result);
+    check_clipped(d, frame, result.orientation, exposure_gain, result);
     result.used = true;
     ++used;
     return result;
@@ -571,19 +697,20 @@ CaptureSession::CaptureSession(CaptureSession&&) noexcept = default;
 CaptureSession& CaptureSession::operator=(CaptureSession&&) noexcept = default;
 
 FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
-                                        const FrameInfo& info) {
+                                        const FrameInfo& info, int device) {
+  Device& d = impl_->device(device);
   ++impl_->added;
-  if (auto glanced = impl_->glance(bytes, info)) return std::move(*glanced);
+  if (auto glanced = impl_->glance(d, bytes, info)) return std::move(*glanced);
   FrameResult result;
   const auto t0 = Clock::now();
   // A frame of the camera's size, or reduced by a power of two up to frame_reduction(); the
   // JPEG decoder reduces it the rest of the way in the DCT domain (fast_decode), since the map
   // and the alignment need no more.
-  const int most = impl_->reduction;
+  const int most = d.reduction;
   std::vector<JpegSize> sizes;
   for (int k = 1; k <= most; k *= 2)
-    sizes.push_back({.width = impl_->camera.width / k,
-                     .height = impl_->camera.height / k,
+    sizes.push_back({.width = d.camera.width / k,
+                     .height = d.camera.height / k,
                      .scale = impl_->options.fast_decode ? most / k : 1});
   std::string why;
   std::size_t which = 0;
@@ -595,22 +722,78 @@ FrameResult CaptureSession::add_encoded(std::span<const std::uint8_t> bytes,
     return result;
   }
   const int sent_reduced = 1 << which;  // sizes[k] is the camera's size / 2^k
-  return impl_->add(image, info, result, sent_reduced * sizes[which].scale);
+  return impl_->add(d, image, info, result, sent_reduced * sizes[which].scale);
 }
 
-int CaptureSession::frame_reduction() const { return impl_->reduction; }
+int CaptureSession::frame_reduction(int device) const { return impl_->device(device).reduction; }
 
-FrameResult CaptureSession::add_image(const cv::Mat& bgr8, const FrameInfo& info) {
+FrameResult CaptureSession::add_image(const cv::Mat& bgr8, const FrameInfo& info, int device) {
+  Device& d = impl_->device(device);
   ++impl_->added;
-  for (int k = 2; k <= impl_->reduction; k *= 2)  // a reduced frame
-    if (bgr8.cols == impl_->camera.width / k && bgr8.rows == impl_->camera.height / k)
-      return impl_->add(bgr8, info, FrameResult{}, k);
-  return impl_->add(bgr8, info, FrameResult{});
+  for (int k = 2; k <= d.reduction; k *= 2)  // a reduced frame
+    if (bgr8.cols == d.camera.width / k && bgr8.rows == d.camera.height / k)
+      return impl_->add(d, bgr8, info, FrameResult{}, k);
+  return impl_->add(d, bgr8, info, FrameResult{});
+}
+
+int CaptureSession::add_device(const CameraIntrinsics& camera, CameraResponse response,
+                               bool estimate_exposure) {
+  Impl& m = *impl_;
+  auto d = std::make_unique<Device>(camera, std::move(response), estimate_exposure, m.options,
+                                    *m.table);
+  d->registered = false;
+  m.devices.push_back(std::move(d));
+  return int(m.devices.size()) - 1;
+}
+
+void CaptureSession::set_device_camera(int device, const CameraIntrinsics& camera,
+                                       bool estimate_exposure) {
+  Impl& m = *impl_;
+  Device& old = m.device(device);
+  auto d = std::make_unique<Device>(camera, old.response, estimate_exposure, m.options, *m.table);
+  if (old.pending_alignment.valid()) old.pending_alignment.wait();  // measured with the old optics
+  d->drift = old.drift;
+  d->registered = old.registered, d->base = old.base, d->radiance_scale = old.radiance_scale;
+  if (estimate_exposure == old.estimate_exposure) d->last_exposure_gain = old.last_exposure_gain;
+  m.devices[std::size_t(device)] = std::move(d);
+  if (device == 0) m.options.estimate_exposure = estimate_exposure;
+}
+
+int CaptureSession::device_count() const { return int(impl_->devices.size()); }
+
+DeviceRegistration CaptureSession::registration(int device) const {
+  const Device& d = impl_->device(device);
+  DeviceRegistration r;
+  r.registered = d.registered;
+  r.offset = glm::normalize(d.drift.offset() * d.base);
+  r.radiance_scale = d.radiance_scale;
+  r.waiting = d.waiting.size();
+  return r;
+}
+
+void CaptureSession::restore_registration(int device, const glm::dquat& offset,
+                                          double radiance_scale) {
+  Device& d = impl_->device(device);
+  if (device == 0) throw std::invalid_argument("capture: device 0 is the map's own frame");
+  if (!(std::abs(glm::length(offset) - 1.0) < 1e-3) || !std::isfinite(radiance_scale) ||
+      !(radiance_scale > 0.0))
+    throw std::invalid_argument("capture: a registration needs a unit rotation and a positive "
+                                "radiance scale");
+  d.registered = true;
+  d.base = glm::normalize(offset);
+  d.drift = DriftModel(impl_->options.align_smoothing, impl_->options.align_max_drift_deg_per_s);
+  d.radiance_scale = radiance_scale;
+  d.waiting.clear();
+  d.agreeing = 0, d.last_heading.reset();
 }
 
 const EnvLayout& CaptureSession::layout() const { return impl_->options.layout; }
-const CameraIntrinsics& CaptureSession::camera() const { return impl_->camera; }
-const CameraResponse& CaptureSession::response() const { return impl_->response; }
+const CameraIntrinsics& CaptureSession::camera(int device) const {
+  return impl_->device(device).camera;
+}
+const CameraResponse& CaptureSession::response(int device) const {
+  return impl_->device(device).response;
+}
 const CaptureOptions& CaptureSession::options() const { return impl_->options; }
 
 EnvMap CaptureSession::environment() const {
@@ -740,7 +923,8 @@ void CaptureSession::restore(const Accumulators& acc) {
     if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
   s.sh = sh_project(measured_environment(), s.options.sh_order);
   s.unseen_stale = true;
-  if (s.glancer) s.glancer->touch_all();
+  for (const auto& d : s.devices)
+    if (d->glancer) d->glancer->touch_all();
 }
 
 EnvLayout capture_layout_for(int n) {

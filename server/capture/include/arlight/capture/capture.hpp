@@ -28,6 +28,30 @@ class Mat;
 
 namespace arlight::capture {
 
+// How a contributor's frames are registered with the session's map (issue 49 §1,
+// fit_heading() in src/registration.hpp): its heading found by comparing its view with the map
+// at every heading.
+struct RegistrationOptions {
+  // The coarse search: the map averaged onto a cube map of this face (2.8-degree texels at 32)
+  // and the frame into blocks of about that size, every `coarse_step_deg` of heading.
+  int coarse_face = 32;
+  double coarse_step_deg = 1.0;
+  // The fine search: every `fine_step_deg` within `fine_span_deg` of the coarse best, on the
+  // map's own texels and the frame's pixels.
+  double fine_span_deg = 2.0;
+  double fine_step_deg = 0.25;
+  // A heading is taken when its correlation is at least `min_score` and exceeds that of every
+  // heading more than `distinct_deg` away by `min_margin`, with at least `min_overlap` of the
+  // frame's well-exposed blocks (and `min_blocks` of them) on measured map texels whose log
+  // luminance varies by at least `min_contrast` (standard deviation: a blank wall fits anywhere).
+  double min_score = 0.85;
+  double min_margin = 0.1;
+  double distinct_deg = 15.0;
+  double min_overlap = 0.3;
+  int min_blocks = 24;
+  double min_contrast = 0.1;
+};
+
 struct CaptureOptions {
   EnvLayout layout = EnvLayout::for_size(Projection::AngleMap, 512);
   int sh_order = 8;   // live SH: bands 0..sh_order-1 (>= 3)
@@ -100,6 +124,8 @@ struct CaptureOptions {
   // face the block size divides (the capture's layout).
   bool glance = true;
   double glance_share = 0.08;
+  // Other devices' frames (add_device(), issue 49 §1).
+  RegistrationOptions registration;
 };
 
 // What one frame carries besides its pixels (common/, shared with the client and the wire).
@@ -129,10 +155,25 @@ struct FrameResult {
   // proved there (at this frame's exposure or an earlier one). 0 when nothing is clipped.
   double clipped_unmeasured = 0;
   double clipped_floor = 0;
+  // Issue 49 §1: frames of a device not registered with the map yet are not merged (used =
+  // false, skipped_reason says why) but wait; `registered` says whether the frame's device is
+  // as of this frame, and `waiting_merged` how many waiting frames were merged with this one,
+  // the frame that registered it (texels_changed counts theirs too).
+  bool registered = true;
+  int waiting_merged = 0;
   double decode_ms = 0, linearize_ms = 0, align_ms = 0, exposure_ms = 0, project_ms = 0, sh_ms = 0;
   double total_ms() const {
     return decode_ms + linearize_ms + align_ms + exposure_ms + project_ms + sh_ms;
   }
+};
+
+// Where another device's frames sit on the map (issue 49 §1): its sensor orientation turned by
+// `offset` (world = offset * sensor), its radiance times `radiance_scale` in the map's units.
+struct DeviceRegistration {
+  bool registered = false;
+  glm::dquat offset{1, 0, 0, 0};
+  double radiance_scale = 1.0;
+  std::size_t waiting = 0;  // frames kept until it registers
 };
 
 // The accumulators of a session (what a checkpoint has to keep), in `layout`'s texel order.
@@ -153,17 +194,37 @@ class CaptureSession {
   // Decodes a JPEG and adds it. Never throws for bad input: a frame that cannot be used comes
   // back with used = false and the reason. The JPEG is of the camera's size, or of that size
   // divided by a power of two up to frame_reduction() (the same camera's frame, reduced).
-  FrameResult add_encoded(std::span<const std::uint8_t> bytes, const FrameInfo& info);
+  // `device`: whose camera took it (0, the session's own, or one add_device() returned);
+  // std::invalid_argument for another number.
+  FrameResult add_encoded(std::span<const std::uint8_t> bytes, const FrameInfo& info,
+                          int device = 0);
   // Adds an 8-bit BGR image (OpenCV's channel order) of the camera's size, or reduced as above.
-  FrameResult add_image(const cv::Mat& bgr8, const FrameInfo& info);
+  FrameResult add_image(const cv::Mat& bgr8, const FrameInfo& info, int device = 0);
   // How much smaller than the camera's size (each side, a power of two, 1..8) frames may come
   // and lose nothing: the map's texels and the alignment's resolution need no more pixels.
   // (issue 37 §1: what arlightd advises clients to send; 640x480 into arlightd's map: 4.)
-  int frame_reduction() const;
+  int frame_reduction(int device = 0) const;
+
+  // Two phones, one room (issue 49 §1): another device capturing into this map, with its own
+  // camera, response and exposure (`estimate_exposure`: it cannot report it). Its orientation
+  // sensor shares gravity with the map's but not heading, and its camera's sensitivity is its
+  // own: its first frames are registered against the map (RegistrationOptions) and wait until
+  // they are; from then its heading drift is followed like the session camera's and its
+  // sensitivity from every frame's overlap. Returns its device number (1, 2, ...). Throws
+  // std::invalid_argument for unusable intrinsics.
+  int add_device(const CameraIntrinsics& camera, CameraResponse response, bool estimate_exposure);
+  // A device's camera with refined optics (a browser's focal length) or exposure reporting;
+  // the map, its registration and its drift stay.
+  void set_device_camera(int device, const CameraIntrinsics& camera, bool estimate_exposure);
+  int device_count() const;
+  DeviceRegistration registration(int device) const;
+  // A registration as a checkpoint kept it: the device is registered at `offset`.
+  // std::invalid_argument for device 0, a rotation that is not a unit one or a scale <= 0.
+  void restore_registration(int device, const glm::dquat& offset, double radiance_scale);
 
   const EnvLayout& layout() const;
-  const CameraIntrinsics& camera() const;
-  const CameraResponse& response() const;
+  const CameraIntrinsics& camera(int device = 0) const;
+  const CameraResponse& response(int device = 0) const;
   const CaptureOptions& options() const;
 
   // The captured environment: sum(w * L) / sum(w) where seen, the options' fill elsewhere.
