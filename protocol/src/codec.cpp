@@ -70,7 +70,7 @@ Offset<void> build(FlatBufferBuilder& b, const Hello& m) {
   if (!m.capabilities.empty()) caps = b.CreateVectorOfStrings(m.capabilities);
   return fb::CreateHello(b, m.protocol_version, text(b, m.client_name), text(b, m.device_id),
                          text(b, m.auth_token), caps, text(b, m.resume_session),
-                         text(b, m.watch_session))
+                         text(b, m.watch_session), text(b, m.join_session))
       .Union();
 }
 
@@ -135,7 +135,8 @@ Offset<void> build(FlatBufferBuilder& b, const LightingUpdate& m) {
                                   m.light_error_map.empty()
                                       ? 0
                                       : b.CreateVector(m.light_error_map),
-                                  m.next_view ? &view : nullptr, m.next_view_gain)
+                                  m.next_view ? &view : nullptr, m.next_view_gain,
+                                  std::uint8_t(m.registration))
       .Union();
 }
 
@@ -226,9 +227,11 @@ Hello read(const fb::Hello& m, const WireLimits&) {
   h.auth_token = text(m.auth_token(), "Hello", "auth_token");
   h.resume_session = text(m.resume_session(), "Hello", "resume_session");
   h.watch_session = text(m.watch_session(), "Hello", "watch_session");
-  if (!h.resume_session.empty() && !h.watch_session.empty())
-    refuse(Fault::OutOfRange, "Hello", "watch_session",
-           "a Hello resumes a session or watches one, not both");
+  h.join_session = text(m.join_session(), "Hello", "join_session");
+  if (int(!h.resume_session.empty()) + int(!h.watch_session.empty()) +
+          int(!h.join_session.empty()) > 1)
+    refuse(Fault::OutOfRange, "Hello", h.join_session.empty() ? "watch_session" : "join_session",
+           "a Hello resumes a session, watches one or joins one, only one of them");
   if (const auto* caps = m.capabilities()) {
     if (caps->size() > kMaxCapabilities)
       refuse(Fault::OverLimit, "Hello", "capabilities",
@@ -433,6 +436,10 @@ LightingUpdate read(const fb::LightingUpdate& m, const WireLimits&) {
       refuse(Fault::OutOfRange, "LightingUpdate", "next_view",
              "length " + std::to_string(len) + " is not a unit vector's");
   }
+  if (m.registration() > std::uint8_t(Registration::Registered))
+    refuse(Fault::OutOfRange, "LightingUpdate", "registration",
+           std::to_string(m.registration()) + " is not a registration state (0-2)");
+  u.registration = Registration(m.registration());
   u.next_view_gain = m.next_view_gain();
   if (!(u.next_view_gain >= 0.0f && u.next_view_gain <= kLightErrorUnknown))
     refuse(Fault::OutOfRange, "LightingUpdate", "next_view_gain",
@@ -693,7 +700,8 @@ bool LightingUpdate::operator==(const LightingUpdate& o) const {
          advised_fps == o.advised_fps && saved_sequence == o.saved_sequence &&
          advised_frame_bytes == o.advised_frame_bytes && light_error == o.light_error &&
          light_error_zones == o.light_error_zones && light_error_map == o.light_error_map &&
-         next_view == o.next_view && next_view_gain == o.next_view_gain;
+         next_view == o.next_view && next_view_gain == o.next_view_gain &&
+         registration == o.registration;
 }
 
 const char* message_name(const Message& m) {

@@ -126,6 +126,34 @@ TEST(Checkpoint, KeepsAGgxChainRequest) {
   EXPECT_EQ(back->request->specular_lights, 6);  // the lights still taken out of the chain
 }
 
+// Two phones, one room (issue 49 §1): where each contributor's frames sit on the map is kept; a
+// registration that is not a rotation, or a scale that is not positive, is damage.
+TEST(Checkpoint, KeepsTheContributorsRegistrations) {
+  const fs::path dir = fresh_dir("contributors");
+  SessionCheckpoint c = sample();
+  c.contributors = {{"phone-b", glm::normalize(glm::dquat(0.5, 0.0, 0.8660254, 0.0)), 0.625},
+                    {"phone-c", glm::dquat(1, 0, 0, 0), 1.5}};
+  write_checkpoint(dir, c, 1);
+  const auto back = read_checkpoint(dir);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->contributors, c.contributors);
+  c.contributors[1].radiance_scale = 0.0;
+  write_checkpoint(dir, c, 2);
+  EXPECT_THROW(
+      {
+        try {
+          read_checkpoint(dir);
+        } catch (const InputError& e) {
+          EXPECT_NE(std::string(e.what()).find("phone-c"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      InputError);
+  c.contributors = {};  // a checkpoint before issue 49 names none
+  write_checkpoint(dir, c, 3);
+  EXPECT_TRUE(read_checkpoint(dir)->contributors.empty());
+}
+
 // A version 1 checkpoint exactly as arlightd wrote it before this format (FNV-1a checksum).
 TEST(Checkpoint, ReadsVersion1AsEarlierDaemonsWroteIt) {
   const fs::path dir = fresh_dir("v1");

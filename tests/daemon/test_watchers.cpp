@@ -215,3 +215,21 @@ TEST(WatcherSet, TheLimitRefusesAndTheEndDisconnectsEveryone) {
   EXPECT_TRUE(a.disconnected && b.disconnected && !c.disconnected);
   EXPECT_EQ(set.size(), 0u);
 }
+
+// A contributor (issue 49 §1) takes the sets through the watchers but not the session's updates:
+// their frame sequences are the session's device's, not its own.
+TEST(WatcherSet, AContributorGetsTheSetsButNotTheSessionsUpdates) {
+  WatcherSet set(4);
+  publish(set, update(1));
+  publish_set(set, 1, 2.0f);
+  FakeWatcher a;
+  WatcherSet::Watcher w = a.watcher();
+  w.updates = false;
+  ASSERT_NE(set.add(std::move(w), encoded(kWelcome)), 0u);
+  EXPECT_TRUE(a.all<wire::LightingUpdate>().empty());  // not the newest update at once
+  EXPECT_EQ(a.all<wire::MapSetComplete>().size(), 1u);  // the newest set, at once
+  publish(set, update(2));
+  publish_set(set, 2, 3.0f);
+  EXPECT_TRUE(a.all<wire::LightingUpdate>().empty());
+  EXPECT_EQ(a.all<wire::MapSetComplete>().size(), 2u);
+}

@@ -10,11 +10,12 @@ add_executable(e2e_tests
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_client.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_arlight_model.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_failover.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/test_watchers.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/test_watchers.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/test_contributors.cpp)
 target_include_directories(e2e_tests PRIVATE ${CMAKE_CURRENT_LIST_DIR}/..
   ${CMAKE_SOURCE_DIR}/server/daemon/src)
 target_link_libraries(e2e_tests PRIVATE arlight_daemon arlight_lighting arlight_client_net arlight_message_stream arlight_wire arlight_capture
-  arlight_truth arlight_recording arlight_common arlight_warnings GTest::gtest_main nlohmann_json::nlohmann_json
+  arlight_sim arlight_truth arlight_recording arlight_common arlight_warnings GTest::gtest_main nlohmann_json::nlohmann_json
   Boost::system OpenSSL::SSL OpenSSL::Crypto opencv_core opencv_imgcodecs opencv_imgproc opencv_aruco
   Threads::Threads)
 target_compile_definitions(e2e_tests PRIVATE

@@ -51,6 +51,17 @@ TEST(WireCodec, AHelloWatchesOrResumesNotBoth) {
   const DecodeError e = refusal(wire::encode(watch));
   EXPECT_EQ(e.field(), "watch_session");
   EXPECT_EQ(e.fault(), Fault::OutOfRange);
+  // Joining (issue 49 §1) is a third kind: alone it goes, with another it is refused.
+  wire::Hello join{1, "phone b", "phone-2", "secret", {}, "", ""};
+  join.join_session = "0123456789abcdef0123456789abcdef";
+  EXPECT_TRUE(wire::decode(wire::encode(join)) == wire::Message(join));
+  for (const bool resume : {true, false}) {
+    wire::Hello both = join;
+    (resume ? both.resume_session : both.watch_session) = join.join_session;
+    const DecodeError j = refusal(wire::encode(both));
+    EXPECT_EQ(j.field(), "join_session");
+    EXPECT_EQ(j.fault(), Fault::OutOfRange);
+  }
 }
 
 TEST(WireCodec, EveryMessageRoundTripsWithNoOptionalField) {
@@ -242,6 +253,8 @@ TEST(WireCodec, LightUncertaintyAndNextViewAreChecked) {
   EXPECT_EQ(refused_field(u), "next_view");
   u = fine, u.next_view_gain = 11.0f;
   EXPECT_EQ(refused_field(u), "next_view_gain");
+  u = fine, u.registration = wire::Registration(3);
+  EXPECT_EQ(refused_field(u), "registration");
   std::ifstream in(fs::path(ARLIGHT_SOURCE_DIR) / "tests/protocol/corpus/valid/8-LightingUpdate",
                    std::ios::binary);
   ASSERT_TRUE(in);

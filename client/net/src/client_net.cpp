@@ -43,6 +43,7 @@ struct Client::Impl {
                                            wire::kCapabilityTilesHalf,
                                            wire::kCapabilityMapDeltas};
   std::string watch_session;  // Hello.watch_session: a watcher
+  std::string join_session;   // Hello.join_session: a contributor
   std::unique_ptr<asio::ssl::context> tls_context;
   std::shared_ptr<wire::MessageStream> stream;
   std::thread io_thread;
@@ -185,6 +186,7 @@ void Client::add_capability(std::string capability) {
 }
 
 void Client::watch(std::string session_id) { impl_->watch_session = std::move(session_id); }
+void Client::join(std::string session_id) { impl_->join_session = std::move(session_id); }
 
 namespace {
 
@@ -293,15 +295,15 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
     std::lock_guard lock(d.mutex);
     d.open = true;
   }
-  if (!d.watch_session.empty()) {
+  if (!d.watch_session.empty() || !d.join_session.empty()) {
     std::lock_guard lock(d.mutex);
-    d.state.expect_any_maps();  // a watcher takes the sets the session streams
+    d.state.expect_any_maps();  // a watcher (or contributor) takes the sets the session streams
   }
   d.stream->start(d.handlers());
   d.io.restart();  // the handshakes above may have left it stopped
   d.io_thread = std::thread([&d] { d.io.run(); });
   d.send(wire::Hello{wire::kProtocolVersion, client_name, device_id, token, d.capabilities,
-                     resume_session, d.watch_session});
+                     resume_session, d.watch_session, d.join_session});
   std::unique_lock lock(d.mutex);
   d.changed.wait_until(lock, std::max(deadline, Clock::now() + std::chrono::milliseconds(100)),
                        [&] { return d.state.welcome() || d.error || !d.open; });

@@ -3,6 +3,8 @@
 #include <xxhash.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -129,6 +131,11 @@ AccumulatorFile write_checkpoint(const fs::path& dir, const SessionCheckpoint& c
                        {"kind", c.request->kind == wire::MapKind::Ggx ? "ggx" : "phong"},
                        {"levels", c.request->levels},
                        {"specular_lights", c.request->specular_lights}};
+  for (const ContributorCheckpoint& k : c.contributors)
+    meta["contributors"].push_back(
+        {{"device_id", k.device_id},
+         {"offset", {k.offset.w, k.offset.x, k.offset.y, k.offset.z}},
+         {"radiance_scale", k.radiance_scale}});
   fs::create_directories(dir);
   AccumulatorFile file;
   if (same_accumulators) {
@@ -202,6 +209,23 @@ std::optional<SessionCheckpoint> read_checkpoint(const fs::path& dir) {
         throw InputError(where + ": specular_lights " + std::to_string(req.specular_lights) +
                          " is not a GGX request's 0 to " + std::to_string(kMaxSpecularLights));
       c.request = req;
+    }
+    if (meta.contains("contributors")) {
+      if (!meta["contributors"].is_array() || meta["contributors"].size() > kMaxContributorCheckpoints)
+        throw InputError(where + ": contributors must be a list of at most " +
+                         std::to_string(kMaxContributorCheckpoints));
+      for (const json& k : meta["contributors"]) {
+        ContributorCheckpoint cc;
+        cc.device_id = k.at("device_id").get<std::string>();
+        const auto q = k.at("offset").get<std::array<double, 4>>();
+        cc.offset = glm::dquat(q[0], q[1], q[2], q[3]);
+        cc.radiance_scale = k.at("radiance_scale").get<double>();
+        if (!(std::abs(glm::length(cc.offset) - 1.0) < 1e-3) ||
+            !std::isfinite(cc.radiance_scale) || !(cc.radiance_scale > 0.0))
+          throw InputError(where + ": contributor " + cc.device_id +
+                           ": offset must be a unit quaternion and radiance_scale > 0");
+        c.contributors.push_back(cc);
+      }
     }
     const std::string file = meta.at("accumulators").get<std::string>();
     if (file.find('/') != std::string::npos || file.find("..") != std::string::npos)

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <glm/gtc/quaternion.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,11 +24,21 @@
 namespace arlight::daemon {
 
 inline constexpr int kCheckpointVersion = 2;
+inline constexpr std::size_t kMaxContributorCheckpoints = 64;  // devices a checkpoint may name
 
 // The accumulator file a manifest names, with its checksum.
 struct AccumulatorFile {
   std::string name;
   std::uint64_t checksum_xxh3 = 0;
+};
+
+// Another device that captured into the session (issue 49 §1): where its frames sit on the map.
+// A contributor joining again with that device id continues from it without registering anew.
+struct ContributorCheckpoint {
+  std::string device_id;
+  glm::dquat offset{1, 0, 0, 0};  // world = offset * its sensor's orientation
+  double radiance_scale = 1.0;    // its radiance in the map's units
+  bool operator==(const ContributorCheckpoint&) const = default;
 };
 
 struct SessionCheckpoint {
@@ -53,6 +64,8 @@ struct SessionCheckpoint {
   // manifest still names.
   int generation = 0;
   std::optional<MapRequest> request;
+  std::vector<ContributorCheckpoint> contributors;  // the registered ones (checkpoints before
+                                                    // issue 49 have none)
   capture::Accumulators accumulators;
   // Read: the file they came from (a version 2 checkpoint's), so that a checkpoint of new
   // frame counts alone can name it again.

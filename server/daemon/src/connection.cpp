@@ -95,6 +95,11 @@ void ClientConnection::close() {
 
 void ClientConnection::detach() {
   if (!session_) return;
+  if (contributing_) {
+    if (contributor_) session_->leave(contributor_);
+    contributor_ = 0;
+    return;
+  }
   if (!watching_) return session_->detach(attachment_);  // the session stays for a resume
   if (watcher_) session_->unwatch(watcher_);
   watcher_ = 0;
@@ -125,6 +130,12 @@ void ClientConnection::handle(wire::Message&& message) {
     return fail(wire::ErrorCode::Unauthorized,
                 std::string(name) + ": this connection watches session " + session_->id() +
                     "; a watcher sends no frames, camera, location or map requests");
+  const bool frames = std::holds_alternative<wire::CameraIntrinsicsMessage>(message) ||
+                      std::holds_alternative<wire::CameraFrame>(message);
+  if (contributing_ && !frames && !bye && !std::holds_alternative<wire::Ping>(message))
+    return fail(wire::ErrorCode::Unauthorized,
+                std::string(name) + ": this connection contributes to session " +
+                    session_->id() + "; a contributor sends its camera and frames only");
   if (auto* k = std::get_if<wire::CameraIntrinsicsMessage>(&message))
     return handle_intrinsics(k->camera);
   if (auto* f = std::get_if<wire::CameraFrame>(&message)) return handle_frame(std::move(*f));
@@ -146,7 +157,7 @@ void ClientConnection::handle(wire::Message&& message) {
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
   if (bye) {
-    if (!watching_) env_.checkpoint_soon(session_);  // a failure is logged; the next retries
+    if (!watching_ && !contributing_) env_.checkpoint_soon(session_);  // a failure is logged; the next retries
     closing_ = true;
     detach();
     stream_->close_after_sending();
@@ -166,6 +177,8 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
   session_ = env_.open_session(m, code, why);
   if (!session_) return fail(code, why);
   if (!m.watch_session.empty()) return watch(m);
+  exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
+  if (!m.join_session.empty()) return join(m);
   std::weak_ptr<wire::MessageStream> weak = stream_;
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   Session::ClientLink client;
@@ -228,6 +241,34 @@ void ClientConnection::watch(const wire::Hello& m) {
   arm_deadline(to_clock(env_.idle_timeout));
 }
 
+void ClientConnection::join(const wire::Hello& m) {
+  contributing_ = true;
+  std::weak_ptr<wire::MessageStream> weak = stream_;
+  std::weak_ptr<ClientConnection> weak_self = shared_from_this();
+  Session::ContributorLink link;
+  link.device_id = m.device_id;
+  link.send = [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
+    if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
+  };
+  link.watcher.send = link.send;
+  link.watcher.backlog = [weak] {
+    const auto stream = weak.lock();
+    return stream ? stream->queued_bytes() : std::size_t(0);
+  };
+  link.watcher.coding = wire::choose_tile_coding(m.capabilities);
+  link.watcher.disconnect = [weak_self] {
+    if (auto self = weak_self.lock()) self->close();  // the session ended or moved
+  };
+  contributor_ = session_->join(
+      std::move(link), std::make_shared<const std::vector<std::uint8_t>>(wire::encode(welcome(false))));
+  if (!contributor_)
+    return fail(wire::ErrorCode::Busy, "session " + session_->id() +
+                                           " has its maximum of contributors; try again later");
+  watcher_ = 0;
+  authenticated_ = true;
+  arm_deadline(to_clock(env_.idle_timeout));
+}
+
 void ClientConnection::handle_intrinsics(const CameraIntrinsics& c) {
   // The codec bounded the size by the pixel limit; the optics are checked here.
   const bool finite =
@@ -235,7 +276,9 @@ void ClientConnection::handle_intrinsics(const CameraIntrinsics& c) {
   if (c.width < 1 || c.height < 1 || !finite || !(c.fx > 0) || !(c.fy > 0))
     return fail(wire::ErrorCode::BadMessage,
                 "CameraIntrinsics: size or focal lengths out of range");
-  const std::string why = session_->set_camera(c, exposure_unknown_);
+  const std::string why = contributing_
+                              ? session_->set_contributor_camera(contributor_, c, exposure_unknown_)
+                              : session_->set_camera(c, exposure_unknown_);
   if (!why.empty()) return fail(wire::ErrorCode::BadMessage, "CameraIntrinsics: " + why);
 }
 
@@ -259,7 +302,7 @@ void ClientConnection::handle_calibration(wire::CalibrationSet&& set) {
 }
 
 void ClientConnection::handle_frame(wire::CameraFrame&& m) {
-  if (!session_->has_camera())
+  if (contributing_ ? !session_->contributor_has_camera(contributor_) : !session_->has_camera())
     return fail(wire::ErrorCode::OutOfOrder, "CameraFrame before CameraIntrinsics");
   // The codec checked the size against the limits and RGB8 data against the size.
   if (exposure_unknown_) {
@@ -269,7 +312,9 @@ void ClientConnection::handle_frame(wire::CameraFrame&& m) {
     m.info.exposure = wire::kLockedExposureSeconds;
     m.info.gain = 1.0;
   }
-  session_->submit(FrameJob{std::move(m), Clock::now(), stream_->last_arrival()});
+  FrameJob job{std::move(m), Clock::now(), stream_->last_arrival()};
+  if (contributing_) return session_->submit_contributed(contributor_, std::move(job));
+  session_->submit(std::move(job));
 }
 
 }  // namespace arlight::daemon

@@ -57,6 +57,7 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
   void handle(wire::Message&& m);
   void handle_hello(const wire::Hello& m);
   void watch(const wire::Hello& m);  // after handle_hello found the session
+  void join(const wire::Hello& m);   // the same for a contributor (Hello's join_session)
   wire::Welcome welcome(bool resumed) const;  // the session's, to this connection
   void handle_intrinsics(const CameraIntrinsics& k);
   void handle_calibration(wire::CalibrationSet&& set);
@@ -74,6 +75,9 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
   // A watcher (Hello's watch_session): Session::watch's number, 0 until it is admitted.
   bool watching_ = false;
   std::uint64_t watcher_ = 0;
+  // A contributor (Hello's join_session): Session::join's number, 0 until it is admitted.
+  bool contributing_ = false;
+  std::uint64_t contributor_ = 0;
   std::string address_;
   std::atomic<bool> authenticated_{false};
   boost::asio::steady_timer deadline_;

@@ -157,6 +157,7 @@ struct Daemon::Impl {
     session_env.queue_depth = config.queue_depth;
     session_env.map_interval_s = config.map_interval_s;
     session_env.max_watchers = std::size_t(config.max_watchers);
+    session_env.max_contributors = std::size_t(config.max_contributors);
     session_env.watchers = &metrics.gauge("arlight_watchers", "devices watching a session");
     session_env.limits = config.limits;
     session_env.workers = &workers;
@@ -419,9 +420,43 @@ struct Daemon::Impl {
     return s;
   }
 
+  // A live session of this daemon for a Hello that joins it as a contributor (issue 49 §1):
+  // with the session's own token (the session's device's, whatever device id the contributor
+  // names for itself: its camera response is that id's).
+  std::shared_ptr<Session> joined_session(const wire::Hello& h, wire::ErrorCode& code,
+                                          std::string& why) {
+    if (!valid_session_id(h.join_session)) {
+      code = wire::ErrorCode::BadMessage;
+      why = "join_session: not a session id";
+      return nullptr;
+    }
+    if (h.device_id.empty()) {
+      code = wire::ErrorCode::BadMessage;
+      why = "join_session: the contributor names its own device_id";
+      return nullptr;
+    }
+    std::shared_ptr<Session> s;
+    {
+      std::lock_guard lock(sessions_mutex);
+      if (const auto it = sessions.find(h.join_session); it != sessions.end()) s = it->second;
+    }
+    if (!s || !s->holds_lease()) {
+      code = wire::ErrorCode::SessionNotFound;
+      why = "no live session " + h.join_session + " on this server";
+      return nullptr;
+    }
+    if (!tokens.check(s->device_id(), h.auth_token)) {
+      code = wire::ErrorCode::Unauthorized;
+      why = "unauthorized: joining session " + h.join_session + " takes its own token";
+      return nullptr;
+    }
+    return s;
+  }
+
   std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
                                         std::string& why) {
     if (!h.watch_session.empty()) return watched_session(h, code, why);
+    if (!h.join_session.empty()) return joined_session(h, code, why);
     const std::string& device = h.device_id;
     const std::string& token = h.auth_token;
     if (!tokens.check(device, token)) {

@@ -50,6 +50,9 @@ const DaemonOption kOptions[] = {
     {"--max-watchers", "max_watchers", Value::Integer,
      "devices watching one session at once (Hello's watch_session; default 32)",
      [](DaemonConfig& c, const json& v) { c.max_watchers = v.get<int>(); }},
+    {"--max-contributors", "max_contributors", Value::Integer,
+     "other devices capturing into one session at once (Hello's join_session; default 4)",
+     [](DaemonConfig& c, const json& v) { c.max_contributors = v.get<int>(); }},
     {"--idle-timeout", "idle_timeout_s", Value::Number,
      "seconds before a session with no connection, or no traffic, closes (kept on disk for a "
      "resume)",
@@ -185,6 +188,9 @@ void check_config(const DaemonConfig& c) {
     throw InputError("the Hello and idle timeouts must be positive seconds");
   if (c.max_watchers < 0 || c.max_watchers > 4096)
     throw InputError("--max-watchers " + std::to_string(c.max_watchers) + " is not in [0, 4096]");
+  if (c.max_contributors < 0 || c.max_contributors > 64)
+    throw InputError("--max-contributors " + std::to_string(c.max_contributors) +
+                     " is not in [0, 64]");
   if (c.max_connections < 1 || c.max_unauthenticated < 1 || c.max_connections_per_address < 1)
     throw InputError(
         "the connection limits (--max-connections, --max-unauthenticated, --max-per-address) "

@@ -78,11 +78,8 @@ std::string Session::set_camera(const CameraIntrinsics& camera, bool exposure_un
         return "the session's intrinsics changed " + std::to_string(kMaxCameraChanges) +
                " times already; start a new session";
     }
-    o.estimate_exposure = exposure_unknown;
-    try {
-      auto next = std::make_unique<capture::CaptureSession>(camera, capture_->response(), o);
-      next->restore(capture_->accumulators());
-      capture_ = std::move(next);
+    try {  // the map, the contributors and the drift stay
+      capture_->set_device_camera(0, camera, exposure_unknown);
     } catch (const std::invalid_argument& e) {
       return e.what();
     }
@@ -251,16 +248,32 @@ void Session::submit(FrameJob job) {
 // used to keep a worker for both while the others' frames waited: the load test's tail).
 void Session::process() {
   std::lock_guard serial(process_mutex_);
-  FrameJob job;
+  std::optional<std::pair<std::uint64_t, FrameJob>> next;
   {
     std::lock_guard lock(mutex_);
-    std::optional<FrameJob> next = capture_ ? frames_.take() : std::nullopt;
+    if (capture_) next = take_frame();
     if (!next) {
       end_frame_turn();
       return;
     }
-    job = std::move(*next);
   }
+  if (next->first == 0)
+    process_own(std::move(next->second));
+  else
+    process_contributed(next->first, std::move(next->second));
+  {
+    std::lock_guard lock(mutex_);
+    // After the update went: a map set's input (a copy of the map) is not on the frame's path.
+    maybe_start_maps();
+    if (!frames_waiting() || !capture_) {
+      end_frame_turn();
+      return;
+    }
+  }
+  boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
+}
+
+void Session::process_own(FrameJob job) {
   const auto t0 = Clock::now();
   capture::FrameResult r;
   wire::CameraFrame& frame = job.frame;
@@ -308,16 +321,6 @@ void Session::process() {
   send(update);
   env_.update_latency_seconds->observe(
       std::chrono::duration<double>(Clock::now() - job.received).count());
-  {
-    std::lock_guard lock(mutex_);
-    // After the update went: a map set's input (a copy of the map) is not on the frame's path.
-    maybe_start_maps();
-    if (frames_.empty() || !capture_) {
-      end_frame_turn();
-      return;
-    }
-  }
-  boost::asio::post(*env_.workers, [self = shared_from_this()] { self->process(); });
 }
 
 void Session::end_frame_turn() {
@@ -331,7 +334,8 @@ void Session::set_location(const wire::Location& location) {
 }
 
 wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std::uint64_t seq,
-                                              const glm::dquat& camera, double time) {
+                                              const glm::dquat& camera, double time,
+                                              bool guide) {
   const ShCoeffs& sh = capture_->sh();
   DominantLight light = sh_dominant_light(sh);
   sun_.check(Clock::now(),
@@ -360,12 +364,12 @@ wire::LightingUpdate Session::lighting_update(const capture::FrameResult& r, std
           .light_error_map = {},
           .next_view = std::nullopt,
           .next_view_gain = 0};
-  state_uncertainty(update, camera, time);
+  state_uncertainty(update, camera, time, guide);
   return update;
 }
 
 void Session::state_uncertainty(wire::LightingUpdate& update, const glm::dquat& camera,
-                                double time) {
+                                double time, bool guide) {
   if (capture_->options().fill == capture::Fill::None) return;  // not stated: nothing is filled
   const capture::LightUncertainty& u = capture_->uncertainty();
   update.light_error = float(std::min(u.mean(), double(wire::kLightErrorUnknown)));
@@ -373,6 +377,7 @@ void Session::state_uncertainty(wire::LightingUpdate& update, const glm::dquat& 
   update.light_error_map.reserve(u.map().size());
   for (const float e : u.map())
     update.light_error_map.push_back(std::uint8_t(std::clamp(std::lround(100.0f * e), 0L, 255L)));
+  if (!guide) return;
   // Proposed from where the camera looks now (-Z of the frame's orientation).
   const glm::dvec3 looking = glm::normalize(camera * glm::dvec3(0.0, 0.0, -1.0));
   if (const auto view = view_guide_.next(u, looking, time)) {
@@ -581,7 +586,7 @@ void Session::calibrate(std::vector<std::vector<std::uint8_t>> jpegs, std::vecto
       // A session that has not merged a frame yet starts over with the new curve.
       std::lock_guard serial(self->process_mutex_);
       std::lock_guard lock(self->mutex_);
-      if (self->capture_ && self->processed_ == 0) {
+      if (self->capture_ && self->processed_ == 0 && self->capture_->device_count() == 1) {
         capture::CaptureOptions o = self->capture_->options();
         self->capture_ = std::make_unique<capture::CaptureSession>(*self->camera_, r, o);
         self->response_name_ = r.name();
@@ -629,7 +634,8 @@ json Session::summary() const {
             {"frames_glanced", glanced_},
             {"last_sequence", last_sequence_},
             {"map_sets", map_set_},
-            {"watchers", watchers},
+            {"watchers", watchers >= contributors_.size() ? watchers - contributors_.size() : 0},
+            {"contributors", contributors_.size()},
             {"exposure_advice", advisor_ ? advisor_->advised() : 0},
             {"exposure_advice_followed", advisor_ ? advisor_->followed() : 0},
             {"coverage", coverage_},

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -48,6 +49,7 @@ struct SessionEnv {
   int queue_depth = 2;  // frames of a session waiting to be processed; a newer one drops the oldest
   double map_interval_s = 0.09;  // the least time between the starts of a session's map sets
   std::size_t max_watchers = 32;  // watchers a session may have (Hello's watch_session)
+  std::size_t max_contributors = 4;  // other devices capturing into it (Hello's join_session)
   wire::WireLimits limits;
   boost::asio::thread_pool* workers = nullptr;
   FramePathGate* frame_path = nullptr;  // told when a session's frames come and go; map sets step aside
@@ -120,6 +122,27 @@ class Session : public std::enable_shared_from_this<Session> {
   void unwatch(std::uint64_t watcher);
   void watcher_drained(std::uint64_t watcher) { watchers_.drained(watcher); }
 
+  // Two phones, one room (issue 49 §1, PROTOCOL.md "Contributors"): another device capturing
+  // into this session. It gets the session's map sets as a watcher does (`watcher`, after
+  // `welcome`) and the LightingUpdates of its own frames through `send`; its frames are
+  // registered with the map before they are merged (capture::CaptureSession::add_device). Its
+  // number, or 0 when the session has env.max_contributors or its watchers are full. A device
+  // that joined before (its device id) continues with the registration it had.
+  struct ContributorLink {
+    std::string device_id;
+    Sink send;
+    WatcherSet::Watcher watcher;
+  };
+  std::uint64_t join(ContributorLink link, const EncodedMessage& welcome);
+  void leave(std::uint64_t contributor);
+  // A contributor's camera (as set_camera for the session's own; its response is its device
+  // id's). Returns why not, or empty.
+  std::string set_contributor_camera(std::uint64_t contributor, const CameraIntrinsics& camera,
+                                     bool exposure_unknown);
+  bool contributor_has_camera(std::uint64_t contributor) const;
+  void submit_contributed(std::uint64_t contributor, FrameJob job);
+  std::size_t contributors() const;
+
   void submit(FrameJob job);               // newest wins
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
   // Where and when the client is (a Location message): from now on every LightingUpdate says
@@ -174,11 +197,15 @@ class Session : public std::enable_shared_from_this<Session> {
   void end_frame_turn();  // with mutex_ held: the session's turn on the worker pool is over
   // `camera`: the frame's orientation (camera -> world), where the next view is turned from.
   // `time`: the frame's timestamp (the view guide's clock).
+  // `guide`: propose the next view (the session's own device; a contributor's frames do not
+  // move the view guide).
   wire::LightingUpdate lighting_update(const capture::FrameResult& r, std::uint64_t seq,
-                                       const glm::dquat& camera, double time);
+                                       const glm::dquat& camera, double time, bool guide = true);
   // The update's light_error, its map and the next view (issue 48), from the capture's
   // uncertainty and a camera looking along -Z of `camera`.
-  void state_uncertainty(wire::LightingUpdate& update, const glm::dquat& camera, double time);
+  void state_uncertainty(wire::LightingUpdate& update, const glm::dquat& camera, double time,
+                         bool guide);
+  void process_own(FrameJob job);  // with process_mutex_ held: a frame of the session's device
   // With process_mutex_ and mutex_ held: asks the scheduler and starts the set it says (or arms
   // the timer for one the interval deferred). Every path to a map set comes through here.
   void maybe_start_maps();
@@ -199,6 +226,28 @@ class Session : public std::enable_shared_from_this<Session> {
   // set it is sent against (0: whole), or nullopt when the client takes only whole sets.
   std::optional<std::uint32_t> begin_client_set(std::uint32_t id, std::uint32_t lane);
 
+  // A device capturing into the session beside its own (join()); under mutex_.
+  struct Contributor {
+    std::string device_id;
+    Sink send;
+    std::uint64_t watcher = 0;  // its place among the watchers: the map sets
+    int device = -1;            // in capture_, from its first CameraIntrinsics
+    std::optional<CameraIntrinsics> camera;
+    bool exposure_unknown = false;
+    FrameQueue frames;
+    std::optional<std::uint64_t> newest_sequence;
+    std::uint64_t received = 0, processed = 0, dropped = 0, skipped = 0, merged = 0;
+    bool registered = false;
+    explicit Contributor(int depth) : frames(depth) {}
+  };
+  // With mutex_ held: the next frame of this turn, round robin over the session's own queue
+  // (contributor 0) and the contributors', or nullopt when none waits.
+  std::optional<std::pair<std::uint64_t, FrameJob>> take_frame();
+  bool frames_waiting() const;  // with mutex_ held
+  // With process_mutex_ held: a contributor's frame, processed; its update goes to it and the
+  // watchers.
+  void process_contributed(std::uint64_t contributor, FrameJob job);
+
   std::string id_, device_id_;
   SessionEnv env_;
   mutable std::mutex mutex_;  // everything below
@@ -216,6 +265,13 @@ class Session : public std::enable_shared_from_this<Session> {
   std::uint64_t attachment_ = 0;  // counts attach() calls
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
+  std::map<std::uint64_t, Contributor> contributors_;
+  std::uint64_t contributors_joined_ = 0;  // numbers them
+  std::uint64_t take_turn_ = 0;            // take_frame()'s round robin: the last one taken
+  // Contributors' devices in capture_ by device id, and the registrations a checkpoint kept for
+  // devices that have not joined again yet.
+  std::map<std::string, int> contributor_devices_;
+  std::map<std::string, ContributorCheckpoint> saved_contributors_;
   capture::ViewGuide view_guide_;  // the next views asked for (under mutex_)
   UplinkRate uplink_;  // the attached client's frames' arrival: advised_frame_bytes
   SunTracker sun_;      // the client's place and time, and the sun checked against the map

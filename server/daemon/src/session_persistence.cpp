@@ -37,6 +37,14 @@ void Session::checkpoint() {
     c.frames_received = received_ - frames_.size(), c.frames_processed = processed_;
     c.frames_dropped = dropped_, c.frames_skipped = skipped_;
     c.request = request_;
+    // Every device that ever registered here, and those a checkpoint kept that have not joined
+    // again since.
+    std::map<std::string, ContributorCheckpoint> contributors = saved_contributors_;
+    for (const auto& [device_id, device] : contributor_devices_) {
+      const capture::DeviceRegistration r = capture_->registration(device);
+      if (r.registered) contributors[device_id] = {device_id, r.offset, r.radiance_scale};
+    }
+    for (auto& [device_id, k] : contributors) c.contributors.push_back(k);
     c.coverage = capture_->coverage();
     dirty_ = false;
   }
@@ -130,6 +138,7 @@ std::shared_ptr<Session> Session::load(const std::string& id, const SessionEnv& 
   s->saved_sequence_ = c->last_sequence;
   s->accumulators_written_ = c->accumulator_file;
   s->request_ = c->request;
+  for (const ContributorCheckpoint& k : c->contributors) s->saved_contributors_[k.device_id] = k;
   s->checkpoint_generation_ = c->generation;
   // A checkpoint of another layout is rewritten in this daemon's at the next checkpoint.
   s->dirty_ = c->capture_layout() != s->capture_->layout();

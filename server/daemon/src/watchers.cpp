@@ -29,7 +29,7 @@ std::uint64_t WatcherSet::add(Watcher watcher, const EncodedMessage& first) {
   const std::uint64_t id = ++next_id_;
   Entry& e = watchers_.emplace(id, Entry{std::move(watcher)}).first->second;
   e.watcher.send(first, std::nullopt);
-  e.owes_update = bool(latest_update_);
+  e.owes_update = bool(latest_update_) && e.watcher.updates;
   for (std::size_t k = 0; k < latest_sets_.size(); ++k) e.owes_set[k] = !latest_sets_[k].empty();
   catch_up(e);
   return id;
@@ -83,6 +83,7 @@ void WatcherSet::publish(const wire::Message& message, const EncodedMessage& byt
   if (update) {
     latest_update_ = bytes;
     for (auto& [id, e] : watchers_) {
+      if (!e.watcher.updates) continue;
       e.owes_update = true;
       catch_up(e);
     }

@@ -38,6 +38,9 @@ class WatcherSet {
     std::function<std::size_t()> backlog;      // bytes waiting on its connection
     wire::TileCoding coding = wire::TileCoding::ZstdHalf;  // the tiles its Hello accepts
     std::function<void()> disconnect;          // closes its connection
+    // A contributor (Hello's join_session, issue 49 §1) takes the map sets only: its updates
+    // are its own frames' (the session's numbering is not its).
+    bool updates = true;
   };
   // More than this waiting on a watcher's connection (a 256-a-face GGX chain is ~3 MiB of half
   // floats): it is behind, and skips what comes until it has caught up.

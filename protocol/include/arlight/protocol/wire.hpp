@@ -83,6 +83,9 @@ struct Hello {
   std::string resume_session;             // a session id from an earlier Welcome
   // A live session to watch (PROTOCOL.md item 1): its LightingUpdates and map sets, no frames.
   std::string watch_session;
+  // A live session to capture into from another device (PROTOCOL.md, contributors): its frames
+  // are registered with the session's map, then merged into it.
+  std::string join_session;
   bool operator==(const Hello&) const = default;
 };
 
@@ -158,6 +161,9 @@ struct Welcome {
   bool operator==(const Welcome& o) const;
 };
 
+// A device's frames against the session's map (LightingUpdate.registration, issue 49 §1).
+enum class Registration : std::uint8_t { Own = 0, Waiting = 1, Registered = 2 };
+
 struct LightingUpdate {
   std::uint64_t frame_sequence = 0;  // the newest frame this reflects
   bool frame_used = false;           // false: that frame was skipped (see reason)
@@ -202,6 +208,9 @@ struct LightingUpdate {
   // and the expected cut; none when nothing is left to gain.
   std::optional<glm::vec3> next_view;
   float next_view_gain = 0;
+  // A contributor's frames (Hello.join_session): whether its device is registered with the
+  // session's map yet. Own: the session's own device.
+  Registration registration = Registration::Own;
   bool operator==(const LightingUpdate& o) const;
 };
 

@@ -84,6 +84,12 @@ class Client {
   // watch_session, PROTOCOL.md item 1): its updates and map sets arrive as they would for the
   // capturing client; frames, intrinsics and requests are refused.
   void watch(std::string session_id);
+  // Before connect(): capture into the live session `session_id` from this device beside the
+  // session's own (Hello's join_session, PROTOCOL.md "Contributors"; connect with the session's
+  // token and this device's own id). Send intrinsics and frames as for a session of one's own;
+  // each LightingUpdate says whether this device is registered with the session's map yet, and
+  // the session's map sets arrive as a watcher's do.
+  void join(std::string session_id);
 
   // Connects and handshakes (TCP, TLS, WebSocket, Hello and Welcome) within `timeout`; throws
   // ClientError (e.g. code "Unauthorized", "TLS", "Network" when nothing answered in time).

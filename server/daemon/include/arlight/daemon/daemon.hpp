@@ -43,6 +43,7 @@ struct DaemonConfig {
   int workers = 0;                    // frame-processing threads; 0: hardware concurrency
   int max_sessions = 32;              // live sessions at once
   int max_watchers = 32;              // devices watching one session at once
+  int max_contributors = 4;           // other devices capturing into one session (issue 49)
   // A session without a connection, or a connected one that sent nothing, for this long is
   // closed (kept on disk for a resume).
   double idle_timeout_s = 300;

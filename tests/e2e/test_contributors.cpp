@@ -1,0 +1,235 @@
+// Two phones, one room (issue 49 §1, PROTOCOL.md "Contributors"): the real arlightd on a loopback
+// port, a session's own phone and a second phone that joins it, each through the client library
+// with frames of the simulated room. The second phone's heading origin and sensitivity are its
+// own; it is registered with the session's map before its frames are merged, and a phone in
+// another room never is.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <glm/gtc/quaternion.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include "arlight/common/hdr_io.hpp"
+#include "arlight/common/resample.hpp"
+#include "arlight/net/client_messages.hpp"
+#include "arlight/net/client_net.hpp"
+#include "arlight/sim/view.hpp"
+#include "support/daemon_process.hpp"
+
+namespace fs = std::filesystem;
+using namespace arlight;
+using namespace std::chrono_literals;
+using test::DaemonProcess;
+
+namespace {
+
+const CameraIntrinsics kCamera = CameraIntrinsics::from_fov(320, 240, 60);
+
+const EnvSampler& room(const std::string& name) {
+  static std::map<std::string, std::pair<std::unique_ptr<EnvMap>, std::unique_ptr<EnvSampler>>>
+      rooms;
+  auto& r = rooms[name];
+  if (!r.first) {
+    r.first = std::make_unique<EnvMap>(
+        resample(load_envmap(std::string(ARLIGHT_SOURCE_DIR) + "/data/probes/" + name + ".exr").env,
+                 EnvLayout::for_size(Projection::LatLong, 512)));
+    r.second = std::make_unique<EnvSampler>(*r.first);
+  }
+  return *r.second;
+}
+
+glm::dquat view(double yaw, double pitch) {
+  return glm::normalize(glm::angleAxis(glm::radians(yaw), glm::dvec3(0, 1, 0)) *
+                        glm::angleAxis(glm::radians(pitch), glm::dvec3(1, 0, 0)));
+}
+
+// A phone of the test: its client, its frames' sequence, its sensor's heading origin (degrees
+// off the room's) and how much more sensitive its camera is than it says.
+struct Phone {
+  client::Client client;
+  std::uint64_t sequence = 0;
+  double heading = 0.0, sensitivity = 1.0;
+
+  // Its view of `name` at world yaw and pitch, answered: the update.
+  client::LightingUpdate look(const std::string& name, double yaw, double pitch) {
+    const double exposure = 0.02;
+    const cv::Mat image =
+        sim::ideal_view(room(name), kCamera, view(yaw, pitch), exposure * sensitivity);
+    std::vector<std::uint8_t> jpeg;
+    cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 92});
+    const glm::dquat sensor = glm::normalize(
+        glm::angleAxis(glm::radians(-heading), glm::dvec3(0, 1, 0)) * view(yaw, pitch));
+    const std::uint64_t seq = ++sequence;
+    client.send_jpeg_frame(seq, {0.05 * double(seq), exposure, 1.0, sensor}, kCamera.width,
+                           kCamera.height, jpeg);
+    EXPECT_TRUE(client.wait_for(
+        [&] {
+          const auto u = client.last_update();
+          return u && u->frame_sequence >= seq;
+        },
+        20s))
+        << "no update for frame " << seq;
+    return client.last_update().value_or(client::LightingUpdate{});
+  }
+};
+
+// Sweeps yaw [from, to) in two bands; the last update.
+client::LightingUpdate sweep(Phone& p, const std::string& name, double from, double to) {
+  client::LightingUpdate last;
+  for (double pitch : {-15.0, 25.0})
+    for (double yaw = from; yaw < to; yaw += 15.0) last = p.look(name, yaw, pitch);
+  return last;
+}
+
+// Relative difference of the irradiance (SH bands 0-2) of two updates.
+double irradiance_difference(const client::LightingUpdate& a, const client::LightingUpdate& b) {
+  double diff = 0.0, norm = 0.0;
+  for (std::size_t k = 0; k < 9; ++k) diff += glm::length(a.sh.c[k] - b.sh.c[k]),
+                                         norm += glm::length(a.sh.c[k]);
+  return diff / norm;
+}
+
+// The code of the ClientError joining `session` as `device` with `token` throws, or "".
+std::string join_refusal(const DaemonProcess& d, const std::string& session,
+                         const std::string& device, const std::string& token) {
+  client::Client c;
+  c.join(session);
+  try {
+    c.connect("127.0.0.1", d.port(), device, token, "phone b");
+  } catch (const client::ClientError& e) {
+    return e.code();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Contributors, TwoPhonesCaptureOneRoomAndAThirdInAnotherIsNeverMerged) {
+  const fs::path dir = test::fresh_temp_dir("contributors");
+  DaemonProcess d(dir / "daemon", {"--max-contributors", "2", "--fill", "none"});
+  // One phone's whole sweep, for comparison.
+  Phone alone;
+  alone.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a");
+  alone.client.send_intrinsics(kCamera);
+  const client::LightingUpdate whole = sweep(alone, "venice", 0.0, 360.0);
+  alone.client.bye();
+
+  // Two: the session's own phone sweeps the first half and a bit.
+  Phone a;
+  const std::string id =
+      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
+  a.client.send_intrinsics(kCamera);
+  a.client.request_maps(client::ggx_request(32, 3));
+  const client::LightingUpdate half = sweep(a, "venice", 0.0, 200.0);
+  EXPECT_EQ(half.registration, wire::Registration::Own);
+  EXPECT_LT(half.coverage, whole.coverage - 0.05);
+
+  // The second joins with the session's token under its own name: 123 degrees off in heading,
+  // 1.5x as sensitive as it says.
+  Phone b;
+  b.heading = 123.0, b.sensitivity = 1.5;
+  b.client.join(id);
+  EXPECT_EQ(b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b").session_id,
+            id);
+  b.client.send_intrinsics(kCamera);
+  // Its first view, of what the map has, waits for a second to agree; then it is registered.
+  const client::LightingUpdate first = b.look("venice", 170.0, -15.0);
+  EXPECT_EQ(first.registration, wire::Registration::Waiting);
+  EXPECT_FALSE(first.frame_used);
+  EXPECT_NE(first.reason.find("registering"), std::string::npos) << first.reason;
+  const client::LightingUpdate second = b.look("venice", 180.0, -15.0);
+  EXPECT_EQ(second.registration, wire::Registration::Registered) << second.reason;
+  EXPECT_TRUE(second.frame_used);
+  const client::LightingUpdate both = sweep(b, "venice", 180.0, 360.0);
+  EXPECT_EQ(both.registration, wire::Registration::Registered);
+  // Together they cover what one phone did, and the map lights as one phone's.
+  EXPECT_NEAR(both.coverage, whole.coverage, 0.01);
+  EXPECT_LT(irradiance_difference(both, whole), 0.005);
+  // The contributor gets the session's map sets.
+  EXPECT_TRUE(b.client.wait_for([&] { return b.client.last_complete_ggx().has_value(); }, 30s));
+
+  // A third phone in another room joins: never registered, the session's map unharmed.
+  Phone c;
+  c.heading = 40.0;
+  c.client.join(id);
+  c.client.connect("127.0.0.1", d.port(), "phone-c", test::kToken, "phone c");
+  c.client.send_intrinsics(kCamera);
+  for (int k = 0; k < 12; ++k) {
+    const client::LightingUpdate u = c.look("park", 30.0 * k, k % 2 ? 25.0 : -15.0);
+    EXPECT_EQ(u.registration, wire::Registration::Waiting) << "frame " << k;
+    EXPECT_FALSE(u.frame_used);
+  }
+  const client::LightingUpdate after = a.look("venice", 100.0, -15.0);
+  EXPECT_LT(irradiance_difference(after, both), 1e-3);
+  EXPECT_NEAR(after.coverage, both.coverage, 1e-4);
+
+  // A fourth is one over --max-contributors; a wrong token, an unknown session and a Hello
+  // that both joins and resumes are refused; a contributor asking for maps is closed, and the
+  // session carries on.
+  EXPECT_EQ(join_refusal(d, id, "phone-d", test::kToken), "Busy");
+  EXPECT_EQ(join_refusal(d, id, "phone-d", "wrong"), "Unauthorized");
+  EXPECT_EQ(join_refusal(d, std::string(32, 'f'), "phone-d", test::kToken), "SessionNotFound");
+  c.client.request_maps(client::ggx_request(32, 3));
+  EXPECT_TRUE(c.client.wait_for([&] { return c.client.server_error().has_value(); }, 10s));
+  EXPECT_EQ(c.client.server_error()->first, "Unauthorized");
+  EXPECT_TRUE(a.look("venice", 110.0, -15.0).frame_used);
+
+  // /sessions counts them; the contributor leaving does not end the session.
+  b.client.bye();
+  const auto [status, text] = d.admin_get("/sessions");
+  ASSERT_EQ(status, 200);
+  EXPECT_NE(text.find("\"contributors\""), std::string::npos) << text;
+  EXPECT_TRUE(a.look("venice", 120.0, -15.0).frame_used);
+}
+
+TEST(Contributors, TheCheckpointKeepsTheContributorsRegistration) {
+  const fs::path dir = test::fresh_temp_dir("contributors_resume");
+  std::string id;
+  {
+    DaemonProcess d(dir / "daemon");
+    Phone a;
+    id = a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
+    a.client.send_intrinsics(kCamera);
+    sweep(a, "venice", 0.0, 200.0);
+    Phone b;
+    b.heading = -70.0;
+    b.client.join(id);
+    b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b");
+    b.client.send_intrinsics(kCamera);
+    b.look("venice", 150.0, -15.0);
+    ASSERT_EQ(b.look("venice", 160.0, -15.0).registration, wire::Registration::Registered);
+    b.client.bye();
+    a.client.bye();  // checkpointed on the daemon's disk thread
+    const fs::path manifest = dir / "daemon" / "data" / "sessions" / id / "session.json";
+    bool kept = false;
+    for (int k = 0; k < 100 && !kept; ++k) {
+      std::this_thread::sleep_for(100ms);
+      std::ifstream in(manifest);
+      const std::string text((std::istreambuf_iterator<char>(in)), {});
+      kept = text.find("\"phone-b\"") != std::string::npos;
+    }
+    ASSERT_TRUE(kept) << manifest << " names no contributor";
+  }
+  // Another daemon on the data folder: the session resumes, and the phone that joined before
+  // is registered at its first frame, without a search.
+  DaemonProcess d(dir / "daemon");
+  Phone a;
+  a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a", id);
+  a.client.send_intrinsics(kCamera);
+  a.sequence = 100;
+  a.look("venice", 10.0, -15.0);
+  Phone b;
+  b.heading = -70.0;
+  b.client.join(id);
+  b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b");
+  b.client.send_intrinsics(kCamera);
+  const client::LightingUpdate u = b.look("venice", 250.0, 25.0);  // where the map has nothing
+  EXPECT_EQ(u.registration, wire::Registration::Registered) << u.reason;
+  EXPECT_TRUE(u.frame_used);
+}
