@@ -172,6 +172,14 @@ Offset<void> build(FlatBufferBuilder& b, const ExposureAdvice& m) {
   return fb::CreateExposureAdvice(b, m.frame_sequence, m.exposure, m.clipped).Union();
 }
 
+Offset<void> build(FlatBufferBuilder& b, const RequestJoinToken&) {
+  return fb::CreateRequestJoinToken(b).Union();
+}
+
+Offset<void> build(FlatBufferBuilder& b, const JoinToken& m) {
+  return fb::CreateJoinToken(b, text(b, m.session_id), text(b, m.token), m.expires_in_s).Union();
+}
+
 Offset<void> build(FlatBufferBuilder& b, const Location& m) {
   return fb::CreateLocation(b, m.where.latitude_deg, m.where.longitude_deg, m.where.altitude_m,
                             m.utc_seconds, m.north_referenced, m.north_offset_deg)
@@ -551,6 +559,22 @@ ExposureAdvice read(const fb::ExposureAdvice& m, const WireLimits&) {
   return a;
 }
 
+RequestJoinToken read(const fb::RequestJoinToken&, const WireLimits&) { return {}; }
+
+JoinToken read(const fb::JoinToken& m, const WireLimits&) {
+  JoinToken t;
+  t.session_id = text(m.session_id(), "JoinToken", "session_id");
+  t.token = text(m.token(), "JoinToken", "token");
+  if (t.token.empty() || t.token.size() > 64)
+    refuse(Fault::OutOfRange, "JoinToken", "token",
+           std::to_string(t.token.size()) + " characters (1 to 64)");
+  t.expires_in_s = m.expires_in();
+  if (!(t.expires_in_s > 0.0f && t.expires_in_s <= 86400.0f))
+    refuse(Fault::OutOfRange, "JoinToken", "expires_in",
+           std::to_string(t.expires_in_s) + " s is not in (0, 86400]");
+  return t;
+}
+
 Location read(const fb::Location& m, const WireLimits&) {
   Location l;
   l.where = {m.latitude(), m.longitude(), m.altitude()};
@@ -639,6 +663,14 @@ struct Table<ExposureAdvice> {
 template <>
 struct Table<Location> {
   using type = fb::Location;
+};
+template <>
+struct Table<RequestJoinToken> {
+  using type = fb::RequestJoinToken;
+};
+template <>
+struct Table<JoinToken> {
+  using type = fb::JoinToken;
 };
 
 // Each alternative's table must carry the union tag its position in Message implies.

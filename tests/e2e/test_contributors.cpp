@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -212,6 +213,47 @@ TEST(Contributors, TwoPhonesCaptureOneRoomAndAThirdInAnotherIsNeverMerged) {
   ASSERT_EQ(status, 200);
   EXPECT_NE(text.find("\"contributors\""), std::string::npos) << text;
   EXPECT_TRUE(a.look("venice", 120.0, -15.0).frame_used);
+}
+
+// A join link's token (RequestJoinToken): another device joins with it and its own id; the token
+// ends when the session's device leaves, and a contributor does not end the session.
+TEST(Contributors, AJoinTokenLetsAnotherDeviceJoinUntilTheSessionsDeviceLeaves) {
+  const fs::path dir = test::fresh_temp_dir("contributors_token");
+  DaemonProcess d(dir / "daemon");
+  Phone a;
+  const client::Welcome w =
+      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a");
+  const std::string id = w.session_id;
+  EXPECT_NE(std::find(w.capabilities.begin(), w.capabilities.end(), "join"), w.capabilities.end());
+  a.client.send_intrinsics(kCamera);
+  sweep(a, "venice", 0.0, 120.0);
+  a.client.request_join_token();
+  ASSERT_TRUE(a.client.wait_for([&] { return a.client.join_token().has_value(); }, 10s));
+  const wire::JoinToken token = *a.client.join_token();
+  EXPECT_EQ(token.session_id, id);
+  EXPECT_EQ(token.token.size(), 32u);
+  EXPECT_NEAR(token.expires_in_s, 600.0f, 1.0f);
+  // Another device, unknown to the tokens file, joins with it.
+  Phone b;
+  b.heading = 45.0;
+  b.client.join(id);
+  b.client.connect("127.0.0.1", d.port(), "someone-elses-phone", token.token, "phone b");
+  b.client.send_intrinsics(kCamera);
+  b.look("venice", 60.0, -15.0);
+  EXPECT_EQ(b.look("venice", 70.0, -15.0).registration, wire::Registration::Registered);
+  // A watcher or contributor cannot ask for one; a made-up token joins nothing.
+  b.client.request_join_token();
+  EXPECT_TRUE(b.client.wait_for([&] { return b.client.server_error().has_value(); }, 10s));
+  EXPECT_EQ(b.client.server_error()->first, "Unauthorized");
+  EXPECT_EQ(join_refusal(d, id, "phone-c", std::string(32, '0')), "Unauthorized");
+  // The session's device leaves: its token ends (the session stays for a resume).
+  a.client.bye();
+  std::string code;
+  for (int k = 0; k < 50 && code != "Unauthorized"; ++k) {
+    std::this_thread::sleep_for(100ms);
+    code = join_refusal(d, id, "phone-c", token.token);
+  }
+  EXPECT_EQ(code, "Unauthorized");
 }
 
 TEST(Contributors, TheCheckpointKeepsTheContributorsRegistration) {

@@ -64,6 +64,24 @@ TEST(WireCodec, AHelloWatchesOrResumesNotBoth) {
   }
 }
 
+// A join token (issue 49 §1): none, one too long, or a lifetime that is not a time is refused.
+TEST(WireCodec, AJoinTokenIsChecked) {
+  const wire::JoinToken fine{"0123456789abcdef0123456789abcdef", "00ff00ff00ff00ff00ff00ff00ff00ff",
+                             600.0f};
+  EXPECT_EQ(std::get<wire::JoinToken>(wire::decode(wire::encode(fine))), fine);
+  for (const auto& [bad, field] :
+       {std::pair{wire::JoinToken{fine.session_id, "", 600.0f}, "token"},
+        std::pair{wire::JoinToken{fine.session_id, std::string(65, 'a'), 600.0f}, "token"},
+        std::pair{wire::JoinToken{fine.session_id, fine.token, 0.0f}, "expires_in"},
+        std::pair{wire::JoinToken{fine.session_id, fine.token,
+                                  std::numeric_limits<float>::quiet_NaN()},
+                  "expires_in"}}) {
+    const DecodeError e = refusal(wire::encode(bad));
+    EXPECT_EQ(e.field(), field);
+    EXPECT_EQ(e.fault(), Fault::OutOfRange);
+  }
+}
+
 TEST(WireCodec, EveryMessageRoundTripsWithNoOptionalField) {
   for (const wire::Message& m : test::messages_with_no_optional_field()) {
     const wire::Message back = wire::decode(wire::encode(m));
@@ -111,7 +129,8 @@ TEST(WireCodec, UnknownUnionTagIsRefused) {
   for (std::size_t i = 0; i < ping.size(); ++i)
     if (ping[i] != pong[i]) differ.push_back(i);
   ASSERT_EQ(differ.size(), 1u);
-  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(18), std::uint8_t(200)}) {
+  for (std::uint8_t tag : {std::uint8_t(0), std::uint8_t(std::variant_size_v<wire::Message> + 1),
+                           std::uint8_t(200)}) {
     auto bytes = ping;
     bytes[differ[0]] = tag;
     const DecodeError e = refusal(bytes);

@@ -78,6 +78,8 @@ inline std::vector<wire::Message> messages_with_every_field() {
       wire::CalibrationResult{true, "robertson", 7, "stored for device phone-1"},
       wire::ExposureAdvice{41, 0.000625, 0.0125f},
       wire::Location{{51.4545, -2.5879, 11.0}, 1.7e9, true, 1.5},
+      wire::RequestJoinToken{},
+      wire::JoinToken{"0123456789abcdef", "fedcba9876543210fedcba9876543210", 600.0f},
   };
 }
 
@@ -100,6 +102,8 @@ inline std::vector<wire::Message> messages_with_no_optional_field() {
       wire::CalibrationResult{},
       wire::ExposureAdvice{},
       wire::Location{},
+      wire::RequestJoinToken{},
+      wire::JoinToken{"", "t", 1.0f},  // its token and lifetime are required
   };
 }
 

@@ -350,6 +350,13 @@ void Client::send_calibration_set(const std::string& method, int width, int heig
 }
 
 void Client::send_location(const wire::Location& location) { impl_->send(location); }
+
+void Client::request_join_token() { impl_->send(wire::RequestJoinToken{}); }
+
+std::optional<wire::JoinToken> Client::join_token() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->state.join_token();
+}
 void Client::ping(std::uint64_t nonce) { impl_->send(wire::Ping{nonce}); }
 void Client::bye() { impl_->send(wire::Bye{}); }
 void Client::send_raw(std::span<const std::uint8_t> bytes) {

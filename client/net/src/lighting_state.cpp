@@ -66,6 +66,10 @@ LightingState::Change LightingState::receive(wire::Message&& message) {
     advice_ = *a;
     return Change::ExposureAdvice;
   }
+  if (auto* j = std::get_if<wire::JoinToken>(&message)) {
+    join_token_ = std::move(*j);
+    return Change::JoinToken;
+  }
   return Change::Nothing;  // Progress, Pong; client-to-server messages are ignored
 }
 

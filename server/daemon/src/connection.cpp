@@ -153,6 +153,9 @@ void ClientConnection::handle(wire::Message&& message) {
     return;
   }
   if (auto* l = std::get_if<wire::Location>(&message)) return session_->set_location(*l);
+  if (std::holds_alternative<wire::RequestJoinToken>(message))
+    return stream_->send(wire::JoinToken{session_->id(), session_->new_join_token(),
+                                         float(Session::kJoinTokenSeconds)});
   if (auto* c = std::get_if<wire::CalibrationSet>(&message))
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
@@ -209,7 +212,7 @@ wire::Welcome ClientConnection::welcome(bool resumed) const {
           resumed,
           session_->frames_processed(),
           env_.limits,
-          {wire::kServerCapabilityLocation},
+          {wire::kServerCapabilityLocation, wire::kServerCapabilityJoin},
           session_->newest_sequence()};
 }
 

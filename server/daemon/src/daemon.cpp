@@ -422,7 +422,7 @@ struct Daemon::Impl {
 
   // A live session of this daemon for a Hello that joins it as a contributor (issue 49 §1):
   // with the session's own token (the session's device's, whatever device id the contributor
-  // names for itself: its camera response is that id's).
+  // names for itself: its camera response is that id's), or a join token its device asked for.
   std::shared_ptr<Session> joined_session(const wire::Hello& h, wire::ErrorCode& code,
                                           std::string& why) {
     if (!valid_session_id(h.join_session)) {
@@ -446,9 +446,18 @@ struct Daemon::Impl {
       return nullptr;
     }
     if (!tokens.check(s->device_id(), h.auth_token)) {
-      code = wire::ErrorCode::Unauthorized;
-      why = "unauthorized: joining session " + h.join_session + " takes its own token";
-      return nullptr;
+      const Session::JoinTokenState t = s->join_token_state(h.auth_token);
+      if (t == Session::JoinTokenState::Expired) {
+        code = wire::ErrorCode::Unauthorized;
+        why = "the join token has expired: ask the session's device for a new link";
+        return nullptr;
+      }
+      if (t != Session::JoinTokenState::Valid) {
+        code = wire::ErrorCode::Unauthorized;
+        why = "unauthorized: joining session " + h.join_session +
+              " takes its token or a join token its device asked for (and still holds)";
+        return nullptr;
+      }
     }
     return s;
   }

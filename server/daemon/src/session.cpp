@@ -138,6 +138,7 @@ std::uint64_t Session::attach(ClientLink client) {
 void Session::detach(std::uint64_t attachment) {
   std::lock_guard lock(mutex_);
   if (attachment != attachment_) return;  // a newer connection has the session
+  join_tokens_.clear();  // the session's device left: its join links end
   sink_ = nullptr;
   disconnect_ = nullptr;
   bulk_begun_ = nullptr;

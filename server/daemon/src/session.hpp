@@ -142,6 +142,14 @@ class Session : public std::enable_shared_from_this<Session> {
   bool contributor_has_camera(std::uint64_t contributor) const;
   void submit_contributed(std::uint64_t contributor, FrameJob job);
   std::size_t contributors() const;
+  // Join tokens (the session's device's RequestJoinToken): what another device may join with
+  // beside the session's own token. Each lasts kJoinTokenSeconds and ends when the session's
+  // device leaves (its connection closes).
+  static constexpr double kJoinTokenSeconds = 600.0;
+  static constexpr std::size_t kMaxJoinTokens = 8;  // the newest; an older one ends
+  std::string new_join_token();
+  enum class JoinTokenState { Unknown, Valid, Expired };
+  JoinTokenState join_token_state(const std::string& token) const;
 
   void submit(FrameJob job);               // newest wins
   std::string request_maps(MapRequest r);  // empty, or why the request is refused
@@ -266,6 +274,7 @@ class Session : public std::enable_shared_from_this<Session> {
   wire::TileCoding tile_coding_ = wire::TileCoding::ZstdHalf;
   std::optional<capture::ExposureAdvisor> advisor_;  // when the client follows advice
   std::map<std::uint64_t, Contributor> contributors_;
+  std::map<std::string, Clock::time_point> join_tokens_;  // token -> when it expires
   std::uint64_t contributors_joined_ = 0;  // numbers them
   std::uint64_t take_turn_ = 0;            // take_frame()'s round robin: the last one taken
   // Contributors' devices in capture_ by device id, and the registrations a checkpoint kept for

@@ -4,7 +4,10 @@
 // each gets the session's map sets as a watcher does and the LightingUpdates of its own frames.
 // Their frames wait in queues of their own and take turns with the session's on the worker pool,
 // so a contributor never pushes out the owner's frames, nor the owner a contributor's.
+#include <algorithm>
 #include <boost/asio/post.hpp>
+#include <cstdio>
+#include <random>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -43,6 +46,32 @@ void Session::leave(std::uint64_t contributor) {
   if (watchers_.remove(it->second.watcher) && env_.watchers) env_.watchers->add(-1);
   contributors_.erase(it);  // its waiting frames go; its device and registration stay
   last_activity_ = Clock::now();
+}
+
+std::string Session::new_join_token() {
+  std::random_device random;
+  std::string token;
+  for (int i = 0; i < 4; ++i) {
+    char hex[9];
+    std::snprintf(hex, sizeof hex, "%08x", unsigned(random()));
+    token += hex;
+  }
+  std::lock_guard lock(mutex_);
+  const Clock::time_point now = Clock::now();
+  std::erase_if(join_tokens_, [&](const auto& t) { return t.second <= now; });
+  while (join_tokens_.size() >= kMaxJoinTokens)  // the one that ends soonest goes
+    join_tokens_.erase(std::min_element(join_tokens_.begin(), join_tokens_.end(),
+                                        [](const auto& a, const auto& b) { return a.second < b.second; }));
+  join_tokens_[token] = now + std::chrono::duration_cast<Clock::duration>(
+                                  std::chrono::duration<double>(kJoinTokenSeconds));
+  return token;
+}
+
+Session::JoinTokenState Session::join_token_state(const std::string& token) const {
+  std::lock_guard lock(mutex_);
+  const auto it = join_tokens_.find(token);
+  if (it == join_tokens_.end()) return JoinTokenState::Unknown;
+  return it->second > Clock::now() ? JoinTokenState::Valid : JoinTokenState::Expired;
 }
 
 std::size_t Session::contributors() const {

@@ -320,12 +320,28 @@ struct Location {
 
 // What a server's Welcome may name: it takes Location messages.
 inline constexpr const char* kServerCapabilityLocation = "location";
+// ... and RequestJoinToken (client -> server; PROTOCOL.md "Contributors").
+inline constexpr const char* kServerCapabilityJoin = "join";
+
+// The session's own device asks for a join token (issue 49 §1).
+struct RequestJoinToken {
+  bool operator==(const RequestJoinToken&) const = default;
+};
+// The answer (server -> client): another device joins `session_id` with Hello.join_session and
+// `token` as its auth_token, within `expires_in_s` seconds and while the session's device is
+// connected.
+struct JoinToken {
+  std::string session_id;
+  std::string token;  // 32 hex characters
+  float expires_in_s = 0;
+  bool operator==(const JoinToken&) const = default;
+};
 
 // In the schema's union order.
 using Message =
     std::variant<Hello, CameraIntrinsicsMessage, CameraFrame, CalibrationSet, RequestMaps, Ping,
                  Bye, Welcome, LightingUpdate, MapTile, MapSetComplete, Progress, Error, Pong,
-                 CalibrationResult, ExposureAdvice, Location>;
+                 CalibrationResult, ExposureAdvice, Location, RequestJoinToken, JoinToken>;
 
 const char* message_name(const Message& m);  // "Hello", "CameraFrame", ...
 

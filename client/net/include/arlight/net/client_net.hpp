@@ -111,6 +111,9 @@ class Client {
                             const std::vector<CalibrationFrame>& frames);
   // Where and when the client is; only to a server whose Welcome names "location".
   void send_location(const wire::Location& location);
+  // The session's own device: asks for a token another device may join this session with
+  // (join_token() once it came; only to a server whose Welcome names "join").
+  void request_join_token();
   void ping(std::uint64_t nonce);
   void bye();
   void send_raw(std::span<const std::uint8_t> bytes);  // tests: anything at all
@@ -132,6 +135,7 @@ class Client {
   std::optional<ReceivedMapSet> last_complete_ggx() const;   // the GGX chain
   std::optional<std::pair<std::string, std::string>> server_error() const;  // code, message
   std::optional<CalibrationResult> calibration_result() const;
+  std::optional<wire::JoinToken> join_token() const;
   bool connected() const;
   std::uint64_t updates_received() const;
   std::uint64_t map_sets_completed() const;

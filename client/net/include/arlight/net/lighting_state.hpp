@@ -55,7 +55,9 @@ struct Lighting {
 class LightingState {
  public:
   // What a message changed (Nothing: a Progress, a Pong, a tile, a set that did not complete).
-  enum class Change { Nothing, Welcome, Error, Update, MapSet, Calibration, ExposureAdvice };
+  enum class Change {
+    Nothing, Welcome, Error, Update, MapSet, Calibration, ExposureAdvice, JoinToken
+  };
 
   // The maps this connection asked for (RequestMaps): only a set of exactly these is used.
   void expect_maps(const wire::RequestMaps& request) { assembler_.expect(request); }
@@ -69,6 +71,8 @@ class LightingState {
   const std::optional<wire::LightingUpdate>& last_update() const { return last_update_; }
   const std::optional<wire::CalibrationResult>& calibration() const { return calibration_; }
   const std::optional<wire::ExposureAdvice>& exposure_advice() const { return advice_; }
+  // The newest token another device may join this session with (RequestJoinToken's answer).
+  const std::optional<wire::JoinToken>& join_token() const { return join_token_; }
   // The set the last Change::MapSet completed (of either kind).
   const std::shared_ptr<const ReceivedMapSet>& newest_set() const { return newest_set_; }
   std::uint64_t updates() const { return updates_; }
@@ -83,6 +87,7 @@ class LightingState {
   std::optional<wire::LightingUpdate> last_update_;
   std::optional<wire::CalibrationResult> calibration_;
   std::optional<wire::ExposureAdvice> advice_;
+  std::optional<wire::JoinToken> join_token_;
   std::uint64_t updates_ = 0, map_sets_ = 0;
 };
 
