@@ -149,6 +149,7 @@ bench: deps
 	$(BUILD)/bin/arlight-bench --benchmark_min_time=1 $(BENCH_ARGS)
 	$(BUILD)/bin/arlight-bench-fill data/probes/heldout/*.exr --json out/bench/fill/heldout.json
 	$(BUILD)/bin/arlight-bench-guided data/probes/heldout/*.exr --json out/bench/guided/heldout.json
+	$(BUILD)/bin/arlight-bench-two-phones data/probes/heldout/*.exr --json out/bench/two_phones.json
 	$(BUILD)/bin/arlight-bench-colour data/probes/heldout/*.exr --model data/models/bunny.glb \
 	  --json out/bench/colour.json
 	bench/eval_rooms.sh $(BUILD) out/bench/eval data/probes/venice.exr data/probes/lab.exr \

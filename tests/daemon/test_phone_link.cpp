@@ -101,6 +101,12 @@ TEST(PhoneLink, TheWatchLinksQrCodeIsAnSvgThatDecodesToTheLink) {
   EXPECT_EQ(watch_link("host", "three=" + std::string(513, 'a')), "");
   EXPECT_EQ(watch_link("evil.example/x?", "three=a"), "");
   EXPECT_EQ(watch_link("", "three=a"), "");
+  // The join link (issue 49): the phone page itself, capturing into the session.
+  const std::string join = watch_link("192.168.1.20:8443", "join=device=phone-b&token=00ff&join=abc");
+  EXPECT_EQ(join, "https://192.168.1.20:8443/#device=phone-b&token=00ff&join=abc");
+  EXPECT_EQ(decode_qr(render_svg_qr(qr_svg(qr_modules(join)))), join);
+  EXPECT_EQ(watch_link("host", "join=<script>"), "");
+  EXPECT_EQ(watch_link("host", "joined=a"), "");
 }
 
 TEST(PhoneLink, UrlCarriesDeviceAndTokenInTheFragmentEncoded) {

@@ -28,8 +28,11 @@ add_test(NAME web.shadow_control
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/shadow_control.test.mjs)
 add_test(NAME web.failover
   COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/failover.test.mjs)
+# Two phones, one room (issue 49 §1): a second page joins the first one's session by its link.
+add_test(NAME web.two_phones
+  COMMAND ${NODE_EXECUTABLE} --test ${ARLIGHT_WEB_TEST_DIR}/two_phones.test.mjs)
 set_tests_properties(web.harness web.browser_session web.marker_session web.marker_motion
-  web.shadow_control web.failover PROPERTIES
+  web.shadow_control web.failover web.two_phones PROPERTIES
   TIMEOUT 400
   # Chromium and SwiftShader want both cores, and the session's sensor pacing wants the page
   # not starved: these run alone (1 of 3 full `ctest -j2` runs failed the session test when it

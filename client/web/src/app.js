@@ -47,8 +47,8 @@ async function open(params) {
     return null;
   }
   await askMotionPermission();
-  if (params.markerError || params.placementError) {
-    showError(params.markerError || params.placementError);
+  if (params.markerError || params.placementError || params.joinError) {
+    showError(params.markerError || params.placementError || params.joinError);
     return null;
   }
   const tracking = new MarkerTracking(params.marker);

@@ -24,12 +24,14 @@ const kSentKept = 1000;  // state.sent
 export class Connection {
   /**
    * @param {object} client the WebClient (the protocol's codec)
-   * @param {{device: string, token: string}} credentials the URL's (params.js)
+   * @param {{device: string, token: string, join: string}} credentials the URL's (params.js):
+   *   with `join`, the page captures into that session beside its own phone (issue 49)
    */
-  constructor(client, { device, token }) {
+  constructor(client, { device, token, join }) {
     this.client = client;
     this.device = device;
     this.token = token;
+    this.join = join || '';
     this.ws = null;
     this.refused = false;     // for good: no reconnecting
     this.sequence = 0;        // the last frame's
@@ -52,9 +54,10 @@ export class Connection {
     }, kOpenTimeoutMs);
     ws.onopen = () => {
       clearTimeout(opening);
-      ws.send(this.client.hello(this.device, this.token, state.sessionId));
+      ws.send(this.client.hello(this.device, this.token, state.sessionId, this.join));
       ws.send(this.client.intrinsics());
-      ws.send(this.client.requestMaps());
+      const maps = this.client.requestMaps();  // a contributor asks for none: it gets the session's
+      if (maps) ws.send(maps);
     };
     ws.onmessage = (event) => this.receive(new Uint8Array(event.data));
     ws.onclose = () => {
@@ -165,6 +168,9 @@ export class Connection {
       // below it would be taken as one sent again, and not counted (PROTOCOL.md, fail-over).
       this.sequence = Math.max(this.sequence, status.session_last_sequence);
       this.onWelcome();
+      // The session's own page: a token for its "capture with another phone" link.
+      const join = this.client.requestJoinToken();
+      if (join) this.ws.send(join);
       this.resendKept();
     } else if (name === 'LightingUpdate') {
       this.reflected(this.client.lastSequence());

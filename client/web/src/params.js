@@ -2,6 +2,8 @@
 //   #device=D&token=T[&autostart=1][&fov=DEG][&size=WxH][&material=plastic|matte|metal|glass|gold|porcelain|model]
 //   [&marker=ID,SIZE_M]  (DICT_4X4_50, as the native client's --marker; default 0,0.2)
 //   [&model=sphere|bunny|suzanne|tiles][&session=ID]  (continue that session: its map so far)
+//   [&join=ID]  (capture into that live session beside its own phone: the "capture with another
+//   phone" link, whose token is a join token)
 //   [&shading=maps|hemisphere|hemisphere-occlusion]  (as arlight-client's --shading)
 //   [&refraction=live|maps]  (what glass shows through it, as arlight-client's --glass)
 //   [&colour=none|match|brightness|contrast]  (as arlight-client's --tone camera,CORRECTION)
@@ -60,6 +62,9 @@ export function parseParams(hash) {
     device: p.get('device'),
     token: p.get('token'),
     session: p.get('session') || '',  // sent as the Hello's resume_session
+    join: p.get('join') || '',        // sent as the Hello's join_session
+    joinError: !p.get('join') || /^[0-9a-f]{32}$/.test(p.get('join')) ? null
+      : `join '${p.get('join')}': a session id (32 hex characters)`,
     autostart: p.get('autostart') === '1',
     size: (p.get('size') || '640x480').split('x').map(Number),  // [width, height] asked of the camera
     fov: p.get('fov'),  // degrees, as written

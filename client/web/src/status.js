@@ -3,6 +3,17 @@
 // independent checks read its fields by name) and the status panel shows (status_panel.js).
 // showError puts a message on the page; the last one stays (status().last_error).
 
+/**
+ * The page capturing into this session from another phone (issue 49): a new device name, the
+ * join token and the session, in the fragment; '' before a token came.
+ */
+export function joinUrl(sessionId, joinToken) {
+  if (!sessionId || !joinToken) return '';
+  const name = `phone-${joinToken.slice(0, 6)}`;
+  const fragment = new URLSearchParams({ device: name, token: joinToken, join: sessionId });
+  return `index.html#${fragment}`;
+}
+
 export const state = {
   // app.js: the page's start and what it opened
   started: false,
@@ -60,7 +71,7 @@ const kNoClient = {
   updates: 0, frames_processed: 0, map_sets: 0, lighting: 'none', coverage: 0, estimated: 0,
   light_error: 0, light_error_zones: 0, light_error_map: [], next_view: null, next_view_gain: 0,
   sh: [], model: 'sphere', model_vertices: 0, model_materials: 0, model_warnings: [],
-  shadow_lights: 0, shadow_ms: 0,
+  shadow_lights: 0, shadow_ms: 0, joining: false, registration: 0, join_token: '',
   shadow_light_budget: 0, max_shadow_lights: 0, target_fps: 0, shading: 'maps',
   material: 'plastic', refraction: 'live', colour: 'none', sun: 'unknown', sun_direction: [0, 0, 0],
   ggx_face: 0, maps_requested: 'phong', frames_held_back: 0, frames_held_in_flight: 0,
@@ -99,6 +110,12 @@ export function report() {
     session_last_sequence: object.session_last_sequence,
     session_resumed: object.session_resumed,
     saved_sequence: object.saved_sequence,
+    // Two phones, one room (issue 49): whether this page contributes to another phone's session,
+    // its frames' registration there (0 its own session, 1 waiting, 2 registered), and this
+    // page's join link for another phone ('' before its token came; none while contributing).
+    joining: object.joining,
+    registration: object.registration,
+    join_url: object.joining ? '' : joinUrl(state.sessionId, object.join_token),
     frames_kept: object.frames_kept,
     frames_resent: object.frames_resent,
     frames_processed: object.frames_processed,

@@ -1,7 +1,7 @@
 // The status panel beside the view (#status, #coverage): the connection, the frames, the
 // lighting, the capture guide, the marker and the speed, in words, once a second.
 import { quatRotateVector } from './orientation.js';
-import { clientStatus, report, state } from './status.js';
+import { clientStatus, joinUrl, report, state } from './status.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -53,6 +53,13 @@ export function watchUrl(sessionId, { device, token }) {
   return `three.html#${fragment}`;
 }
 
+/** What a contributor's page says of its registration (status().registration). */
+export function registrationText(registration) {
+  if (registration === 2) return 'registered: capturing into the shared map';
+  if (registration === 1) return 'registering: point the camera at what the other phone has captured';
+  return '';
+}
+
 /**
  * The panel now; `coverage` the CoverageView, `q` the orientation of the frame shown, `params`
  * the page's (for the "watch this room" link).
@@ -92,6 +99,21 @@ export function updatePanel(coverage, q, params) {
     const qr = $('s-watch-qr');
     qr.src = `qr.svg?three=${url.slice(url.indexOf('#') + 1)}`;
     qr.hidden = false;
+  }
+  const status = lighting;
+  const joinLink = $('s-join');
+  if (joinLink && status.joining) {
+    joinLink.textContent = registrationText(status.registration) || 'joining…';
+    joinLink.removeAttribute('href');
+  } else if (joinLink) {
+    const join = joinUrl(state.sessionId, status.join_token);
+    if (join && joinLink.getAttribute('href') !== join) {
+      joinLink.setAttribute('href', join);
+      joinLink.textContent = 'open on another phone';
+      const qr = $('s-join-qr');
+      qr.src = `qr.svg?join=${join.slice(join.indexOf('#') + 1)}`;
+      qr.hidden = false;
+    }
   }
   const p = report();
   $('s-speed').textContent =

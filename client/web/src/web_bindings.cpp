@@ -9,6 +9,7 @@ EMSCRIPTEN_BINDINGS(arlight_web) {
   emscripten::class_<WebClient>("WebClient")
       .constructor<std::string, int, int>()
       .function("hello", &WebClient::hello)
+      .function("requestJoinToken", &WebClient::request_join_token)
       .function("setFov", &WebClient::set_fov)
       .function("setFocal", &WebClient::set_focal)
       .function("camera", &WebClient::camera)

@@ -34,8 +34,10 @@ val pose_to_js(const Pose& p) {
 }
 
 val WebClient::hello(const std::string& device, const std::string& token,
-                     const std::string& resume) {
+                     const std::string& resume, const std::string& join) {
   pacer_.forget_in_flight();  // a new connection: nothing sent before will be answered on it
+  join_ = join;
+  if (!join_.empty()) state_.expect_any_maps();  // a contributor takes the session's sets
   return bytes_to_js(wire::encode(
       wire::Hello{wire::kProtocolVersion,
                   "arlight-web 0.1",
@@ -43,8 +45,17 @@ val WebClient::hello(const std::string& device, const std::string& token,
                   token,
                   {"maps", "jpeg", wire::kCapabilityTilesPlanar, wire::kCapabilityTilesHalf,
                    wire::kCapabilityExposureUnknown, wire::kCapabilityMapDeltas},
-                  resume,
-                  ""}));
+                  join_.empty() ? resume : std::string(),
+                  "",
+                  join_}));
+}
+
+val WebClient::request_join_token() const {
+  const auto& welcome = state_.welcome();
+  if (!join_.empty() || !welcome ||
+      !wire::has_capability(welcome->capabilities, wire::kServerCapabilityJoin))
+    return val::null();
+  return bytes_to_js(wire::encode(wire::RequestJoinToken{}));
 }
 
 val WebClient::intrinsics() {
@@ -90,6 +101,7 @@ val WebClient::resend_frame(double timestamp) {
 }
 
 val WebClient::request_maps() {
+  if (!join_.empty()) return val::null();  // a contributor takes whatever sets the session has
   requested_ggx_ = render::needs_ggx_chain(draw_materials(), material_);
   const wire::RequestMaps request =
       // The page shades with the lights taken out of the chain (issue 51 §1): its renderer is
@@ -101,15 +113,17 @@ val WebClient::request_maps() {
 }
 
 val WebClient::request_maps_if_changed() {
-  if (render::needs_ggx_chain(draw_materials(), material_) == requested_ggx_) return val::null();
+  if (!join_.empty() || render::needs_ggx_chain(draw_materials(), material_) == requested_ggx_)
+    return val::null();
   return request_maps();
 }
 
 val WebClient::location(double latitude, double longitude, double altitude, double utc_seconds,
                         bool north_referenced) {
   const auto& welcome = state_.welcome();
-  if (!welcome || !wire::has_capability(welcome->capabilities, wire::kServerCapabilityLocation))
-    return val::null();
+  if (!join_.empty() || !welcome ||
+      !wire::has_capability(welcome->capabilities, wire::kServerCapabilityLocation))
+    return val::null();  // a contributor's place is the session's
   const GeoLocation where{latitude, longitude, std::isfinite(altitude) ? altitude : 0.0};
   if (const std::string e = geo_location_error(where); !e.empty())
     throw std::invalid_argument("location: " + e);

@@ -50,7 +50,13 @@ class WebClient {
   WebClient(const std::string& canvas, int width, int height);
 
   // ---- messages to send (encoded) ----
-  val hello(const std::string& device, const std::string& token, const std::string& resume);
+  // `join`: a session id to capture into as a contributor (issue 49 §1, the page's #join=ID:
+  // its token is a join token or the session's), else empty; `resume` is then ignored.
+  val hello(const std::string& device, const std::string& token, const std::string& resume,
+            const std::string& join);
+  // The session's own page: a RequestJoinToken for its "capture with another phone" link, or
+  // null (a contributor's page, or a server whose Welcome does not name "join").
+  val request_join_token() const;
   val intrinsics();
   // A camera frame, its JPEG `reduction` times smaller each side than the camera (1: its size)
   // and encoded at `quality` (1-100): what frame_due() said.
@@ -174,6 +180,7 @@ class WebClient {
   std::vector<render::Material> model_materials_;
   std::vector<std::string> model_warnings_;
   bool requested_ggx_ = false;  // the last RequestMaps asked for the GGX chain
+  std::string join_;            // the session this page contributes to (hello's join)
   render::ColourCorrection colour_ = render::ColourCorrection::None;
   glm::mat4 model_{1.0f};
   double object_height_ = 0;

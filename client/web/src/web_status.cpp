@@ -65,6 +65,12 @@ val WebClient::status() const {
   s.set("sun", std::string(sun_state_name(l.sun_state)));
   s.set("sun_direction", vector_to_js(l.sun_direction));
   s.set("last_error", last_error_);
+  // Two phones, one room (issue 49 §1): this page's frames against the session's map (0 its own
+  // session, 1 waiting to be registered, 2 registered), and the token another phone joins with.
+  s.set("joining", !join_.empty());
+  s.set("registration", update ? int(update->registration) : 0);
+  const auto& join = state_.join_token();
+  s.set("join_token", join ? join->token : std::string());
   // Bands 0-2 of the live SH (RGB triples, index l(l+1)+m): the room's irradiance.
   val sh = val::array();
   for (int k = 0; k < 9 && l.sh && k < int(l.sh->c.size()); ++k)

@@ -248,12 +248,13 @@ std::string watch_link(std::string_view host, std::string_view query) {
              extra.find(c) != std::string_view::npos;
     });
   };
-  constexpr std::string_view kKey = "three=";
+  constexpr std::string_view kWatch = "three=", kJoin = "join=";
   if (host.empty() || host.size() > 255 || !allowed(host, ".-:[]")) return "";
-  if (query.substr(0, kKey.size()) != kKey) return "";
-  const std::string_view fragment = query.substr(kKey.size());
+  const bool watch = query.substr(0, kWatch.size()) == kWatch;
+  if (!watch && query.substr(0, kJoin.size()) != kJoin) return "";
+  const std::string_view fragment = query.substr((watch ? kWatch : kJoin).size());
   if (fragment.empty() || fragment.size() > 512 || !allowed(fragment, "=&%._-~")) return "";
-  return "https://" + std::string(host) + "/three.html#" + std::string(fragment);
+  return "https://" + std::string(host) + (watch ? "/three.html#" : "/#") + std::string(fragment);
 }
 
 }  // namespace arlight::daemon

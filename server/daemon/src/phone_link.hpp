@@ -47,10 +47,11 @@ std::string qr_terminal(const std::vector<std::vector<bool>>& modules, bool colo
 // dark modules), for a page to show.
 std::string qr_svg(const std::vector<std::vector<bool>>& modules);
 
-// The watch link a phone page shows as a QR code (issue 35): https://HOST/three.html#FRAGMENT
-// for the `three` parameter of a /qr.svg?three=FRAGMENT request reaching `host` (its Host
-// header), or "" when either is not what such a link holds (a host of letters, digits, '.',
-// '-', ':' and brackets; a fragment of at most 512 URL-safe characters).
+// The links a phone page shows as QR codes: its watch link (issue 35), https://HOST/three.html#F
+// for /qr.svg?three=F, and its join link (issue 49: another phone capturing into the session),
+// https://HOST/#F for /qr.svg?join=F, reaching `host` (the request's Host header); "" when
+// either is not what such a link holds (a host of letters, digits, '.', '-', ':' and brackets;
+// a fragment of at most 512 URL-safe characters).
 std::string watch_link(std::string_view host, std::string_view query);
 
 }  // namespace arlight::daemon

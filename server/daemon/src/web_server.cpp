@@ -251,7 +251,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   }
 
   // The phone page's "watch this room" QR code (issue 35): /qr.svg?three=FRAGMENT, the link to
-  // /three.html#FRAGMENT on the host the page reached (phone_link.hpp, watch_link).
+  // /three.html#FRAGMENT on the host the page reached, and its "capture with another phone"
+  // code (issue 49): /qr.svg?join=FRAGMENT, the link to /#FRAGMENT (phone_link.hpp, watch_link).
   void respond_qr(const http::request<http::string_body>& req, std::string_view target,
                   bool keep_alive) {
     const std::size_t question = target.find('?');
@@ -262,8 +263,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
                          target.substr(question + 1));
     if (link.empty())
       return respond_text(http::status::bad_request,
-                          "qr.svg: ?three=FRAGMENT of a /three.html link (at most 512 URL-safe "
-                          "characters) and a plain Host\n",
+                          "qr.svg: ?three=FRAGMENT of a /three.html link or ?join=FRAGMENT of the "
+                          "page's join link (at most 512 URL-safe characters) and a plain Host\n",
                           keep_alive);
     http::response<http::string_body> res{http::status::ok, 11};
     set_common_headers(res);

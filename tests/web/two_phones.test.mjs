@@ -1,0 +1,101 @@
+// Two phones, one room (issue 49 §1) in real headless Chromium (SwiftShader's WebGL2), against a
+// real arlightd over wss on loopback. The first phone's page sees the first half of a room sweep
+// (its fake camera plays that half, over and over) and shows its "capture with another phone"
+// link and QR code; a second phone — another Chromium, its fake camera playing the whole sweep,
+// its orientation sensor 130 degrees off in heading as a second phone's own yaw origin is — opens
+// that link, is registered with the first phone's map and captures into it: the shared map grows
+// past what the first phone can see, on both pages. Each page's sensor reports the true pose of
+// the very frame it shows (phone_session.mjs, frameSyncedSensor).
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+
+import { launchChromium } from './harness.mjs';
+import { frameSyncedSensor, simulateRoom, stampFrameIndices, startDaemon } from './phone_session.mjs';
+
+const BIN = process.env.ARLIGHT_BIN;
+const SOURCE = process.env.ARLIGHT_SOURCE_DIR;
+const TOKEN = 'web-two-phones-token-0123456789';
+const kHeadingDeg = 130;
+
+// The first `count` frames of a stamped room: its Y4M cut there, its poses with it.
+function firstFrames(room, count, dir) {
+  const bytes = fs.readFileSync(room.y4m);
+  const headerEnd = bytes.indexOf(0x0a) + 1;
+  const frameBytes = 6 + (room.width * room.height * 3) / 2;
+  const y4m = path.join(dir, 'first.y4m');
+  fs.writeFileSync(y4m, bytes.subarray(0, headerEnd + count * frameBytes));
+  return { ...room, y4m, frames: count, poses: room.poses.slice(0, count) };
+}
+
+// The room as a phone whose heading origin is `deg` off sees it: each pose turned about +Y.
+function turnedHeading(room, deg) {
+  const h = (-deg * Math.PI) / 360;  // half of -deg, in radians
+  const [tw, ty] = [Math.cos(h), Math.sin(h)];
+  const turn = ([w, x, y, z]) => [tw * w - ty * y, tw * x + ty * z, tw * y + ty * w, tw * z - ty * x];
+  return { ...room, poses: room.poses.map((p) => ({ ...p, orientation: turn(p.orientation) })) };
+}
+
+const status = (page) => page.evaluate(() => window.arlight.status());
+
+test('a second phone joins by the first one\'s link, is registered and captures into its session', { timeout: 300000 }, async () => {
+  assert.ok(BIN && SOURCE, 'ARLIGHT_BIN and ARLIGHT_SOURCE_DIR must be set (ctest does)');
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'arlight-web-two-phones-'));
+  const room = simulateRoom({ bin: BIN, probe: path.join(SOURCE, 'data/probes/venice.exr'), dir, frames: 48, fps: 4 });
+  stampFrameIndices(room);
+  const half = firstFrames(room, 20, dir);
+  const d = await startDaemon({ bin: BIN, dir: path.join(dir, 'daemon'), webRoot: path.join(BIN, 'web'), token: TOKEN });
+  const first = await launchChromium({ y4m: half.y4m });
+  let second = null;
+  try {
+    const errors = [];
+    first.page.on('pageerror', (e) => errors.push(`first: ${e.message}`));
+    await frameSyncedSensor(first.page, half);
+    await first.page.goto(`${d.url}&autostart=1&fov=${room.vfovDeg}`);
+    // Its half of the room captured, and a join link from arlightd.
+    await first.page.waitForFunction(() => {
+      const s = window.arlight.status();
+      return s.frames_processed >= 30 && s.join_url !== '';
+    }, null, { timeout: 90000 });
+    const a = await status(first.page);
+    assert.equal(a.joining, false);
+    assert.equal(a.registration, 0);
+    assert.ok(a.coverage < 0.8, `the first half alone covers ${a.coverage}`);
+    const href = await first.page.$eval('#s-join', (e) => e.getAttribute('href'));
+    assert.equal(href, a.join_url);
+    assert.match(href, /^index\.html#device=phone-[0-9a-f]{6}&token=[0-9a-f]{32}&join=[0-9a-f]{32}$/);
+    assert.ok(href.endsWith(`join=${a.session_id}`), href);
+    const qr = await first.page.$eval('#s-join-qr', (img) => ({ src: img.getAttribute('src'), width: img.naturalWidth, hidden: img.hidden }));
+    assert.equal(qr.src, `qr.svg?join=${href.slice(href.indexOf('#') + 1)}`);
+    assert.ok(qr.width > 0 && !qr.hidden, JSON.stringify(qr));
+
+    // The second phone opens the link.
+    second = await launchChromium({ y4m: room.y4m });
+    second.page.on('pageerror', (e) => errors.push(`second: ${e.message}`));
+    await frameSyncedSensor(second.page, turnedHeading(room, kHeadingDeg));
+    await second.page.goto(`${new URL(d.url).origin}/${href.slice(href.indexOf('#'))}&autostart=1&fov=${room.vfovDeg}`);
+    await second.page.waitForFunction(() => window.arlight.status().registration === 2, null, { timeout: 90000 });
+    await second.page.waitForFunction((c) => window.arlight.status().coverage > c + 0.15, a.coverage, { timeout: 90000 });
+    const b = await status(second.page);
+    assert.equal(b.joining, true);
+    assert.equal(b.session_id, a.session_id);
+    assert.equal(b.last_error, '');
+    assert.match(await second.page.$eval('#s-join', (e) => e.textContent), /^registered/);
+    // The first phone sees the shared map grow too (its own frames' updates carry it), and the
+    // second gets the session's map sets.
+    await first.page.waitForFunction((c) => window.arlight.status().coverage > c + 0.15, a.coverage, { timeout: 60000 });
+    await second.page.waitForFunction(() => window.arlight.status().map_sets >= 1, null, { timeout: 60000 });
+    const sessions = await d.adminGet('/sessions');
+    const listed = (sessions.sessions || sessions).find((s) => s.id === a.session_id);
+    assert.ok(listed, JSON.stringify(sessions));
+    assert.equal(listed.contributors, 1);
+    console.log(`two phones: the first alone ${(a.coverage * 100).toFixed(0)} %, together ${(b.coverage * 100).toFixed(0)} %`);
+    assert.deepEqual(errors, []);
+  } finally {
+    if (second) await second.browser.close();
+    await first.browser.close();
+    await d.stop();
+  }
+});
