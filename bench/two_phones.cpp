@@ -1,12 +1,13 @@
 // arlight-bench-two-phones: how much sooner a room is captured by two phones than by one (issue
 // 49 §3). One simulated phone (30 fps, 640x480) follows the whole sweep; two share it: the first
 // sweeps from the start, the second — its sensor's heading origin `--heading` degrees off, its
-// heading drifting at `--drift` deg/s, its camera `--sensitivity` times as sensitive as its
-// exposure says — first looks where the first phone starts (for `--meet` seconds, to be
+// camera `--sensitivity` times as sensitive as its exposure says — first looks where the first phone starts (for `--meet` seconds, to be
 // registered), then sweeps the second half. Both phones' frames go into one capture session as
-// arlightd's (CaptureSession::add_device), in turn. Every half second the filled map is scored
+// arlightd's (CaptureSession::add_device), in turn. Every phone's heading drifts at `--drift`
+// deg/s (the one phone's too: the same gyro). Every half second the filled map is scored
 // against the truth (thesis eq. 6.1, mean irradiance error) and its coverage taken: reported are
 // the seconds to 95 % coverage and to an error within 5 % (and staying), one phone against two.
+// Each phone follows arlightd's exposure advice (so the lights are measured unclipped).
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "arlight/capture/capture.hpp"
+#include "arlight/capture/exposure_advice.hpp"
 #include "arlight/common/atomic_file.hpp"
 #include "arlight/common/hdr_io.hpp"
 #include "arlight/common/resample.hpp"
@@ -33,6 +35,7 @@ constexpr double kScoreEvery = 0.5;  // seconds
 struct Run {
   std::vector<double> time, error, coverage;
   double registered_at = -1;  // when the second phone was registered (two phones only)
+  double heading_deg = 0, radiance_scale = 1;  // its registration at the end
 };
 
 // The first time from which `v` stays within (below) `target`, or above it with `above`.
@@ -85,16 +88,23 @@ capture::CaptureOptions daemon_like(int size) {
   return o;
 }
 
-FrameInfo info_of(const sim::LiveFrame& f) { return {f.time, f.exposure, f.gain, f.orientation}; }
+// The first phone's frame info: the exact orientation, its heading drifting at `drift_deg_s`.
+FrameInfo info_of(const sim::LiveFrame& f, double drift_deg_s) {
+  const double yaw = glm::radians(drift_deg_s * f.time);
+  return {f.time, f.exposure, f.gain,
+          glm::normalize(glm::angleAxis(yaw, glm::dvec3(0, 1, 0)) * f.orientation)};
+}
 
 Run one_phone(const fs::path& probe, const sim::LiveCameraOptions& camera, int size,
-              const Scorer& scorer) {
+              double drift_deg_s, const Scorer& scorer) {
   sim::LiveCamera phone(probe, camera);
   capture::CaptureSession s(phone.intrinsics(), CameraResponse::srgb(), daemon_like(size));
+  capture::ExposureAdvisor advisor;
   Run run;
   double next = kScoreEvery;
   while (auto f = phone.next()) {
-    s.add_encoded(f->jpeg, info_of(*f));
+    if (const auto e = advisor.after_frame(s.add_encoded(f->jpeg, info_of(*f, drift_deg_s))))
+      phone.request_exposure(*e);
     if (f->time + 1e-9 >= next) scorer.score(s, f->time, run), next += kScoreEvery;
   }
   return run;
@@ -112,20 +122,33 @@ Run two_phones(const fs::path& probe, const sim::LiveCameraOptions& camera, int 
   for (int k = 0; k < frames / 2; ++k) half.next();
   capture::CaptureSession s(first.intrinsics(), CameraResponse::srgb(), daemon_like(size));
   const int device = s.add_device(half.intrinsics(), CameraResponse::srgb(), false);
+  capture::ExposureAdvisor advisor, second_advisor;  // each phone its own, as arlightd gives
   Run run;
   double next = kScoreEvery;
   // Until both are done: the first over the first half, the second meeting it, then its half.
   for (int k = 0; k < meet + frames - frames / 2; ++k) {
     const double t = k / camera.fps;
     if (k < frames / 2 + 1)
-      if (auto f = first.next()) s.add_encoded(f->jpeg, info_of(*f));
+      if (auto f = first.next())
+        if (const auto e =
+                advisor.after_frame(s.add_encoded(f->jpeg, info_of(*f, second.drift_deg_s))))
+          first.request_exposure(*e);
     std::optional<sim::LiveFrame> g = k < meet ? meeting.next() : half.next();
     if (g) {
       const capture::FrameResult r = s.add_encoded(g->jpeg, second.info(*g, t), device);
       if (r.registered && run.registered_at < 0) run.registered_at = t;
+      // The advice is in the map's units; the phone takes it in its own (arlightd's
+      // ExposureAdvice to a contributor), which its camera reaches at 1 / sensitivity of that.
+      if (const auto e = second_advisor.after_frame(r); e && r.registered)
+        (k < meet ? meeting : half)
+            .request_exposure(*e * s.registration(device).radiance_scale / second.sensitivity);
     }
     if (t + 1e-9 >= next) scorer.score(s, t, run), next += kScoreEvery;
   }
+  const capture::DeviceRegistration r = s.registration(device);
+  const glm::dvec3 f = r.offset * glm::dvec3(0, 0, -1);
+  run.heading_deg = glm::degrees(std::atan2(-f.x, -f.z));
+  run.radiance_scale = r.radiance_scale;
   return run;
 }
 
@@ -154,7 +177,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--heading", second.heading_deg, "the second phone's heading origin (degrees)")
       ->capture_default_str();
-  app.add_option("--drift", second.drift_deg_s, "its heading drift (deg/s)")->capture_default_str();
+  app.add_option("--drift", second.drift_deg_s,
+                 "each phone's heading drift (deg/s; the second's the other way)")
+      ->capture_default_str();
   app.add_option("--sensitivity", second.sensitivity,
                  "its camera's sensitivity against what its exposure says")
       ->capture_default_str();
@@ -171,13 +196,17 @@ int main(int argc, char** argv) {
     for (const std::string& probe : probes) {
       const std::string name = fs::path(probe).stem().string();
       const Scorer scorer(load_envmap(probe).env);
-      const Run one = one_phone(probe, camera, size, scorer);
+      const Run one = one_phone(probe, camera, size, second.drift_deg_s, scorer);
       const Run two = two_phones(probe, camera, size, meet, second, scorer);
       for (const auto& [label, r] : {std::pair<const char*, const Run*>{"one", &one}, {"two", &two}})
         std::printf("%-9s %-11s %8s %8s %10s %7.1f%%\n", name.c_str(), label,
                     secs(seconds_to(*r, r->coverage, 0.95, true)).c_str(),
                     secs(seconds_to(*r, r->error, 0.05, false)).c_str(),
                     r == &two ? secs(r->registered_at).c_str() : "", 100 * r->error.back());
+      std::printf("%-9s the second phone at the end: heading %.1f deg (drifted %.1f from %.0f), "
+                  "radiance scale %.3f (truth %.3f)\n",
+                  name.c_str(), two.heading_deg, two.time.back() * second.drift_deg_s,
+                  second.heading_deg, two.radiance_scale, second.sensitivity);
       std::fflush(stdout);
       const auto run_json = [](const Run& r) {
         return nlohmann::json{{"seconds_to_95_coverage", seconds_to(r, r.coverage, 0.95, true)},

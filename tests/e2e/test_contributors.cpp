@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <fstream>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -254,6 +255,46 @@ TEST(Contributors, AJoinTokenLetsAnotherDeviceJoinUntilTheSessionsDeviceLeaves) 
     code = join_refusal(d, id, "phone-c", token.token);
   }
   EXPECT_EQ(code, "Unauthorized");
+}
+
+// A contributor that follows exposure advice gets its own (issue 16 §4), in its own units: the
+// sun it sees clipped is asked of it darker than it says it took the frame at.
+TEST(Contributors, AContributorGetsItsOwnExposureAdvice) {
+  const fs::path dir = test::fresh_temp_dir("contributors_advice");
+  DaemonProcess d(dir / "daemon");
+  Phone a;
+  const std::string id =
+      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
+  a.client.send_intrinsics(kCamera);
+  for (double pitch : {-15.0, 25.0, 55.0})
+    for (double yaw = 0.0; yaw < 360.0; yaw += 30.0) a.look("park", yaw, pitch);
+  for (const bool follows : {true, false}) {
+    Phone b;
+    b.heading = 60.0, b.sensitivity = 1.5;
+    if (follows) b.client.add_capability(wire::kCapabilityExposureAdvice);
+    std::vector<wire::ExposureAdvice> advice;
+    std::mutex m;
+    b.client.on_exposure_advice = [&](const wire::ExposureAdvice& e) {
+      std::lock_guard lock(m);
+      advice.push_back(e);
+    };
+    b.client.join(id);
+    b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b");
+    b.client.send_intrinsics(kCamera);
+    for (double pitch : {-15.0, 25.0, 55.0})
+      for (double yaw = 0.0; yaw < 360.0; yaw += 30.0) b.look("park", yaw + 5.0, pitch);
+    std::lock_guard lock(m);
+    if (!follows) {
+      EXPECT_TRUE(advice.empty()) << advice.size() << " advices to a contributor that did not ask";
+      continue;
+    }
+    ASSERT_FALSE(advice.empty()) << "no advice for the clipped sun";
+    // Darker than the 0.02 s its frames said, and in its units (it is 1.5x as sensitive as it
+    // says: the map's exposure x 1.5).
+    EXPECT_LT(advice.front().exposure, 0.02);
+    EXPECT_GT(advice.front().clipped, 0.0f);
+    b.client.bye();
+  }
 }
 
 TEST(Contributors, TheCheckpointKeepsTheContributorsRegistration) {

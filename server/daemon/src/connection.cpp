@@ -250,6 +250,8 @@ void ClientConnection::join(const wire::Hello& m) {
   std::weak_ptr<ClientConnection> weak_self = shared_from_this();
   Session::ContributorLink link;
   link.device_id = m.device_id;
+  link.exposure_advice = wire::has_capability(m.capabilities, wire::kCapabilityExposureAdvice) &&
+                         !exposure_unknown_;
   link.send = [weak](EncodedMessage envelope, std::optional<BulkGroup> bulk) {
     if (auto stream = weak.lock()) send_on(*stream, std::move(envelope), bulk);
   };

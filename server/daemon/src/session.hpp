@@ -132,6 +132,7 @@ class Session : public std::enable_shared_from_this<Session> {
     std::string device_id;
     Sink send;
     WatcherSet::Watcher watcher;
+    bool exposure_advice = false;  // its Hello's exposure:advice (its own advice, in its units)
   };
   std::uint64_t join(ContributorLink link, const EncodedMessage& welcome);
   void leave(std::uint64_t contributor);
@@ -246,6 +247,7 @@ class Session : public std::enable_shared_from_this<Session> {
     std::optional<std::uint64_t> newest_sequence;
     std::uint64_t received = 0, processed = 0, dropped = 0, skipped = 0, merged = 0;
     bool registered = false;
+    std::optional<capture::ExposureAdvisor> advisor;  // when it follows advice
     explicit Contributor(int depth) : frames(depth) {}
   };
   // With mutex_ held: the next frame of this turn, round robin over the session's own queue

@@ -29,6 +29,7 @@ std::uint64_t Session::join(ContributorLink link, const EncodedMessage& welcome)
   c.device_id = std::move(link.device_id);
   c.send = std::move(link.send);
   c.watcher = watcher;
+  if (link.exposure_advice) c.advisor.emplace();
   const std::uint64_t id = ++contributors_joined_;
   contributors_.emplace(id, std::move(c));
   last_activity_ = Clock::now();
@@ -149,7 +150,10 @@ void Session::submit_contributed(std::uint64_t contributor, FrameJob job) {
   ++c.received;
   last_activity_ = Clock::now();
   maps_.frame_arrived(last_activity_);
-  const std::size_t dropped = c.frames.push(std::move(job));
+  // The darker frame its advice asked for stays (as the session's own device's).
+  const std::size_t dropped = c.frames.push(std::move(job), [&c](const FrameJob& waiting) {
+    return c.advisor && c.advisor->is_advised(waiting.frame.info.exposure * waiting.frame.info.gain);
+  });
   c.dropped += dropped;
   if (dropped) env_.frames_dropped->inc(double(dropped));
   if (frames_.begin_turn()) {  // the session's turn on the pool, whoever's frame it is
@@ -205,6 +209,7 @@ void Session::process_contributed(std::uint64_t contributor, FrameJob job) {
   }
   env_.processing_seconds->observe(std::chrono::duration<double>(Clock::now() - t0).count());
   wire::LightingUpdate update;
+  std::optional<wire::ExposureAdvice> advice;
   Sink sink;
   {
     std::lock_guard lock(mutex_);
@@ -242,8 +247,16 @@ void Session::process_contributed(std::uint64_t contributor, FrameJob job) {
         update.advised_height = std::uint16_t(c.camera->height / k);
       }
       sink = c.send;
+      // Its exposure advice (issue 16 §4) in its own units: the map's times its sensitivity.
+      if (c.advisor && !c.exposure_unknown && r.registered)
+        if (const auto e = c.advisor->after_frame(r))
+          advice = wire::ExposureAdvice{frame.sequence,
+                                        *e * capture_->registration(device).radiance_scale,
+                                        float(r.clipped_unmeasured)};
     }
   }
+  if (advice && sink)  // first: its next frame should already follow it
+    sink(std::make_shared<const std::vector<std::uint8_t>>(wire::encode(*advice)), std::nullopt);
   const auto bytes = std::make_shared<const std::vector<std::uint8_t>>(wire::encode(update));
   if (sink) sink(bytes, std::nullopt);
   watchers_.publish(update, bytes);  // watchers see the map grow; contributors take sets only
