@@ -59,6 +59,7 @@ struct Phone {
   client::Client client;
   std::uint64_t sequence = 0;
   double heading = 0.0, sensitivity = 1.0;
+  double drift = 0.0;  // degrees a second its heading drifts (a gyro's bias)
 
   // Its view of `name` at world yaw and pitch, answered: the update.
   client::LightingUpdate look(const std::string& name, double yaw, double pitch) {
@@ -67,10 +68,12 @@ struct Phone {
         sim::ideal_view(room(name), kCamera, view(yaw, pitch), exposure * sensitivity);
     std::vector<std::uint8_t> jpeg;
     cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 92});
-    const glm::dquat sensor = glm::normalize(
-        glm::angleAxis(glm::radians(-heading), glm::dvec3(0, 1, 0)) * view(yaw, pitch));
     const std::uint64_t seq = ++sequence;
-    client.send_jpeg_frame(seq, {0.05 * double(seq), exposure, 1.0, sensor}, kCamera.width,
+    const double time = 0.05 * double(seq);
+    const glm::dquat sensor = glm::normalize(
+        glm::angleAxis(glm::radians(-heading - drift * time), glm::dvec3(0, 1, 0)) *
+        view(yaw, pitch));
+    client.send_jpeg_frame(seq, {time, exposure, 1.0, sensor}, kCamera.width,
                            kCamera.height, jpeg);
     EXPECT_TRUE(client.wait_for(
         [&] {
@@ -149,10 +152,10 @@ TEST(Contributors, TwoPhonesCaptureOneRoomAndAThirdInAnotherIsNeverMerged) {
   EXPECT_EQ(half.registration, wire::Registration::Own);
   EXPECT_LT(half.coverage, whole.coverage - 0.05);
 
-  // The second joins with the session's token under its own name: 123 degrees off in heading,
-  // 1.5x as sensitive as it says.
+  // The second joins with the session's token under its own name: 123 degrees off in heading
+  // and drifting 2 degrees a second, 1.5x as sensitive as it says.
   Phone b;
-  b.heading = 123.0, b.sensitivity = 1.5;
+  b.heading = 123.0, b.sensitivity = 1.5, b.drift = 2.0;
   b.client.join(id);
   EXPECT_EQ(b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b").session_id,
             id);
