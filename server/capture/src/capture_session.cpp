@@ -69,7 +69,8 @@ struct AlignmentMeasurement {
 struct WaitingFrame {
   LinearFrame frame;
   glm::dquat sensor{1, 0, 0, 0};
-  double exposure_gain = 0.0;  // it was linearised at
+  double exposure_gain = 0.0;   // it was linearised at
+  double radiance_scale = 1.0;  // its device's then
 };
 
 // One camera frames come from (issue 49 §1): the session's own, device 0, or a contributor's,
@@ -378,6 +379,10 @@ struct CaptureSession::Impl {
       const std::size_t texel = ti.texel[k];
       if (sw < 0.5f || weight[texel] < 1.0f) return;
       const float* acc = &weighted_radiance[3 * texel];
+      // A texel that holds only clipping's lower bound (check_clipped's test) is no measure.
+      if (const float floor = clip_floor[texel];
+          floor > 0.0f && std::max({acc[0], acc[1], acc[2]}) < kMeasuredShare * floor * weight[texel])
+        return;
       const float map = luminance(acc[0], acc[1], acc[2]) / weight[texel];
       const float seen = luminance(r, g, b) / sw;
       if (map > 0.0f && seen > 0.0f) ratio_scratch.push_back(seen / map);
@@ -557,22 +562,31 @@ struct CaptureSession::Impl {
   }
 
   // Brings a frame to the map's exposure where it overlaps what the map holds (issue 16 §4's
-  // median ratio): returns the exposure x gain it then has. A contributor's sensitivity
-  // follows each measurement by kScaleFollow of it (in log), so a frame that overlaps too
-  // little still comes close.
-  static constexpr double kScaleFollow = 0.25;
+  // median ratio) when its exposure is unknown: returns the exposure x gain it then has. A
+  // contributor that reports its exposure is not corrected frame by frame — a darker frame the
+  // exposure advice asked for overlaps the map only at its lamps, which the map may hold only
+  // as clipping's lower bound (a per-frame ratio there dimmed hall's lamps: 8.3 % irradiance
+  // error against 3.7 %) — but its sensitivity, radiance_scale, follows each frame's ratio by
+  // `follow` of it (in log); `follow` 1 (the frame that registers it) also corrects the frame.
+  static constexpr double kScaleFollow = 0.1;
   double match_exposure(Device& d, LinearFrame& frame, const glm::dquat& orientation,
                         double exposure_gain, double follow, FrameResult& result) {
     const bool contributor = &d != devices.front().get();
     if (!d.estimate_exposure && !contributor) return exposure_gain;
     const auto t0 = Clock::now();
-    if (const auto ratio = exposure_ratio(d, frame, orientation, result.exposure_samples)) {
-      // The frame is `ratio` times brighter than the map where they overlap: its exposure was
-      // that much longer than assumed (or its camera that much more sensitive).
-      const auto inverse = float(1.0 / *ratio);
-      for (float& v : frame.weighted_radiance) v *= inverse;
-      exposure_gain *= *ratio;
-      result.exposure_estimated = true;
+    const bool correct = d.estimate_exposure || follow >= 1.0;
+    // Frames with clipped blocks are the advice's: their overlap is the lamps'.
+    const bool measure = correct || frame.clipped_blocks == 0;
+    if (const auto ratio =
+            measure ? exposure_ratio(d, frame, orientation, result.exposure_samples) : std::nullopt) {
+      if (correct) {
+        // The frame is `ratio` times brighter than the map where they overlap: its exposure was
+        // that much longer than assumed (or its camera that much more sensitive).
+        const auto inverse = float(1.0 / *ratio);
+        for (float& v : frame.weighted_radiance) v *= inverse;
+        exposure_gain *= *ratio;
+        result.exposure_estimated = true;
+      }
       if (contributor && !d.estimate_exposure) d.radiance_scale /= std::pow(*ratio, follow);
     }
     if (d.estimate_exposure) d.last_exposure_gain = exposure_gain;
@@ -606,7 +620,7 @@ struct CaptureSession::Impl {
     d.agreeing = agrees ? d.agreeing + 1 : fit.ok ? 1 : 0;
     d.last_heading = fit.ok ? std::optional<double>(fit.heading) : std::nullopt;
     if (d.agreeing < kAgreeingFrames) {
-      d.waiting.push_back({std::move(frame), sensor, exposure_gain});
+      d.waiting.push_back({std::move(frame), sensor, exposure_gain, d.radiance_scale});
       if (d.waiting.size() > kMaxWaiting) d.waiting.pop_front();
       result.skipped_reason =
           fit.ok ? "registering with the map: this view fits it turned by " +
@@ -626,7 +640,14 @@ struct CaptureSession::Impl {
     for (WaitingFrame& w : d.waiting) {
       FrameResult merged;
       const glm::dquat o = glm::normalize(turn * w.sensor);
-      const double e = match_exposure(d, w.frame, o, w.exposure_gain, kScaleFollow, merged);
+      double e = w.exposure_gain;
+      if (d.estimate_exposure) {
+        e = match_exposure(d, w.frame, o, e, 1.0, merged);
+      } else {  // to the sensitivity the registering frame measured
+        const auto k = float(d.radiance_scale / w.radiance_scale);
+        for (float& v : w.frame.weighted_radiance) v *= k;
+        e /= k;
+      }
       project(d, w.frame, o, merged);
       check_clipped(d, w.frame, o, e, merged);
       result.texels_changed += merged.texels_changed;
