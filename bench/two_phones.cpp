@@ -1,13 +1,14 @@
 // arlight-bench-two-phones: how much sooner a room is captured by two phones than by one (issue
 // 49 §3). One simulated phone (30 fps, 640x480) follows the whole sweep; two share it: the first
-// sweeps from the start, the second — its sensor's heading origin `--heading` degrees off, its
-// camera `--sensitivity` times as sensitive as its exposure says — first looks where the first phone starts (for `--meet` seconds, to be
-// registered), then sweeps the second half. Both phones' frames go into one capture session as
-// arlightd's (CaptureSession::add_device), in turn. Every phone's heading drifts at `--drift`
-// deg/s (the one phone's too: the same gyro). Every half second the filled map is scored
-// against the truth (thesis eq. 6.1, mean irradiance error) and its coverage taken: reported are
-// the seconds to 95 % coverage and to an error within 5 % (and staying), one phone against two.
-// Each phone follows arlightd's exposure advice (so the lights are measured unclipped).
+// sweeps from the start (for as long as the second), the second — its sensor's heading origin
+// `--heading` degrees off, its camera `--sensitivity` times as sensitive as its exposure says —
+// first looks where the first phone starts (for `--meet` seconds, to be registered), then sweeps
+// the second half. Both phones' frames go into one capture session as arlightd's
+// (CaptureSession::add_device), in turn. Every phone's heading drifts at `--drift` deg/s (the one
+// phone's too: the same gyro). Every half second the filled map is scored against the truth
+// (thesis eq. 6.1, mean irradiance error) and its coverage taken: reported are the seconds to
+// 95 % coverage and to an error within 5 % (and staying), one phone against two. Each phone
+// follows arlightd's exposure advice (so the lights are measured unclipped).
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
@@ -125,10 +126,11 @@ Run two_phones(const fs::path& probe, const sim::LiveCameraOptions& camera, int 
   capture::ExposureAdvisor advisor, second_advisor;  // each phone its own, as arlightd gives
   Run run;
   double next = kScoreEvery;
-  // Until both are done: the first over the first half, the second meeting it, then its half.
+  // Until both are done: the second meeting the first, then its half; the first sweeping on for
+  // as long.
   for (int k = 0; k < meet + frames - frames / 2; ++k) {
     const double t = k / camera.fps;
-    if (k < frames / 2 + 1)
+    if (k < frames / 2 + meet)
       if (auto f = first.next())
         if (const auto e =
                 advisor.after_frame(s.add_encoded(f->jpeg, info_of(*f, second.drift_deg_s))))

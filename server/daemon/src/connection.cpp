@@ -160,7 +160,8 @@ void ClientConnection::handle(wire::Message&& message) {
     return handle_calibration(std::move(*c));
   if (auto* p = std::get_if<wire::Ping>(&message)) return stream_->send(wire::Pong{p->nonce});
   if (bye) {
-    if (!watching_ && !contributing_) env_.checkpoint_soon(session_);  // a failure is logged; the next retries
+    // A failure is logged; the next retries. A contributor's Bye leaves the session as it is.
+    if (!watching_ && !contributing_) env_.checkpoint_soon(session_);
     closing_ = true;
     detach();
     stream_->close_after_sending();
@@ -200,7 +201,6 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
       return stream->bulk_begun(lane, std::chrono::milliseconds(500));
     };
   attachment_ = session_->attach(std::move(client));
-  exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   stream_->send(welcome(!m.resume_session.empty()));
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));  // from the Hello deadline to the idle one
@@ -269,7 +269,6 @@ void ClientConnection::join(const wire::Hello& m) {
   if (!contributor_)
     return fail(wire::ErrorCode::Busy, "session " + session_->id() +
                                            " has its maximum of contributors; try again later");
-  watcher_ = 0;
   authenticated_ = true;
   arm_deadline(to_clock(env_.idle_timeout));
 }
