@@ -36,14 +36,17 @@ struct RegistrationOptions {
   // and the frame into blocks of about that size, every `coarse_step_deg` of heading.
   int coarse_face = 32;
   double coarse_step_deg = 1.0;
-  // The fine search: every `fine_step_deg` within `fine_span_deg` of the coarse best, on the
-  // map's own texels and the frame's pixels.
+  // The fine search: every `fine_step_deg` within `fine_span_deg` of each of the best four
+  // coarse peaks (each over `distinct_deg` from the better ones), on the map's own texels and
+  // the frame's pixels.
   double fine_span_deg = 2.0;
   double fine_step_deg = 0.25;
-  // A heading is taken when its correlation is at least `min_score` and exceeds that of every
-  // heading more than `distinct_deg` away by `min_margin`, with at least `min_overlap` of the
+  // A heading is taken when its fine correlation (less the elevation trend) is at least
+  // `min_score` and exceeds every other peak's by `min_margin`, with at least `min_overlap` of the
   // frame's well-exposed blocks (and `min_blocks` of them) on measured map texels whose log
   // luminance varies by at least `min_contrast` (standard deviation: a blank wall fits anywhere).
+  // Set on simulated views (tests/capture/test_registration.cpp, bench/RESULTS.md "Issue 49"):
+  // the right room 0.96-1.00, another room's best 0.77.
   double min_score = 0.85;
   double min_margin = 0.1;
   double distinct_deg = 15.0;
@@ -209,9 +212,11 @@ class CaptureSession {
   // camera, response and exposure (`estimate_exposure`: it cannot report it). Its orientation
   // sensor shares gravity with the map's but not heading, and its camera's sensitivity is its
   // own: its first frames are registered against the map (RegistrationOptions) and wait until
-  // they are; from then its heading drift is followed like the session camera's and its
-  // sensitivity from every frame's overlap. Returns its device number (1, 2, ...). Throws
-  // std::invalid_argument for unusable intrinsics.
+  // they are; from then its heading drift is followed like the session camera's. Its
+  // sensitivity is measured from the overlap of the frame that registers it and the next few,
+  // then kept (an unknown exposure is estimated frame by frame, as the session camera's). Its
+  // frames are not glanced at (CaptureOptions::glance). Returns its device number (1, 2, ...).
+  // Throws std::invalid_argument for unusable intrinsics.
   int add_device(const CameraIntrinsics& camera, CameraResponse response, bool estimate_exposure);
   // A device's camera with refined optics (a browser's focal length) or exposure reporting;
   // the map, its registration and its drift stay.
