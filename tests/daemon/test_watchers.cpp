@@ -232,4 +232,7 @@ TEST(WatcherSet, AContributorGetsTheSetsButNotTheSessionsUpdates) {
   publish_set(set, 2, 3.0f);
   EXPECT_TRUE(a.all<wire::LightingUpdate>().empty());
   EXPECT_EQ(a.all<wire::MapSetComplete>().size(), 2u);
+  // The session ending closes it too, but it is not counted among the watchers.
+  EXPECT_EQ(set.disconnect_all(), 0u);
+  EXPECT_TRUE(a.disconnected);
 }

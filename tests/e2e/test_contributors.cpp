@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -258,6 +259,41 @@ TEST(Contributors, AJoinTokenLetsAnotherDeviceJoinUntilTheSessionsDeviceLeaves) 
     code = join_refusal(d, id, "phone-c", token.token);
   }
   EXPECT_EQ(code, "Unauthorized");
+}
+
+// A contributor's bad input closes it alone: a frame before its camera, another camera size, a
+// Hello that names no device; the session's own phone carries on.
+TEST(Contributors, AContributorsBadInputClosesOnlyIt) {
+  const fs::path dir = test::fresh_temp_dir("contributors_bad");
+  DaemonProcess d(dir / "daemon");
+  Phone a;
+  const std::string id =
+      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
+  a.client.send_intrinsics(kCamera);
+  sweep(a, "venice", 0.0, 90.0);
+  const auto closed_with = [&](const std::function<void(client::Client&)>& misbehave) {
+    client::Client c;
+    c.join(id);
+    c.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b");
+    misbehave(c);
+    EXPECT_TRUE(c.wait_for([&] { return c.server_error().has_value(); }, 10s));
+    return c.server_error().value_or(std::pair<std::string, std::string>{}).first;
+  };
+  const cv::Mat image = sim::ideal_view(room("venice"), kCamera, view(10.0, 0.0), 0.02);
+  std::vector<std::uint8_t> jpeg;
+  cv::imencode(".jpg", image, jpeg);
+  EXPECT_EQ(closed_with([&](client::Client& c) {
+              c.send_jpeg_frame(1, {0.0, 0.02, 1.0, view(10.0, 0.0)}, kCamera.width,
+                                kCamera.height, jpeg);
+            }),
+            "OutOfOrder");
+  EXPECT_EQ(closed_with([&](client::Client& c) {
+              c.send_intrinsics(kCamera);
+              c.send_intrinsics(CameraIntrinsics::from_fov(640, 480, 60));
+            }),
+            "BadMessage");
+  EXPECT_EQ(join_refusal(d, id, "", test::kToken), "BadMessage");
+  EXPECT_TRUE(a.look("venice", 30.0, -15.0).frame_used);
 }
 
 // A contributor that follows exposure advice gets its own (issue 16 §4), in its own units: the

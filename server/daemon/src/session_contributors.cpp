@@ -24,7 +24,6 @@ std::uint64_t Session::join(ContributorLink link, const EncodedMessage& welcome)
   link.watcher.updates = false;  // its own frames' updates come through link.send
   const std::uint64_t watcher = watchers_.add(std::move(link.watcher), welcome);
   if (!watcher) return 0;
-  if (env_.watchers) env_.watchers->add(1);  // it watches the sets (disconnect_all counts it)
   Contributor c(env_.queue_depth);
   c.device_id = std::move(link.device_id);
   c.send = std::move(link.send);
@@ -44,7 +43,7 @@ void Session::leave(std::uint64_t contributor) {
   std::lock_guard lock(mutex_);
   const auto it = contributors_.find(contributor);
   if (it == contributors_.end()) return;
-  if (watchers_.remove(it->second.watcher) && env_.watchers) env_.watchers->add(-1);
+  watchers_.remove(it->second.watcher);
   contributors_.erase(it);  // its waiting frames go; its device and registration stay
   last_activity_ = Clock::now();
 }

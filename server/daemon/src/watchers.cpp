@@ -127,9 +127,12 @@ std::size_t WatcherSet::disconnect_all() {
     std::lock_guard lock(mutex_);
     gone.swap(watchers_);
   }
-  for (auto& [id, e] : gone)
+  std::size_t watching = 0;
+  for (auto& [id, e] : gone) {
     if (e.watcher.disconnect) e.watcher.disconnect();
-  return gone.size();
+    watching += e.watcher.updates;
+  }
+  return watching;
 }
 
 }  // namespace arlight::daemon

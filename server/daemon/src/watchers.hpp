@@ -63,8 +63,8 @@ class WatcherSet {
                std::optional<BulkGroup> bulk = std::nullopt);
   // A watcher's connection wrote a message: it gets what it skipped once it has caught up.
   void drained(std::uint64_t id);
-  // The session ended here (closed, handed over): every watcher's connection closes. Returns
-  // how many there were.
+  // The session ended here (closed, handed over): every watcher's connection closes (the
+  // contributors' too). Returns how many watchers there were (not counting contributors).
   std::size_t disconnect_all();
 
  private:
