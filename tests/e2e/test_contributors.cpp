@@ -87,12 +87,22 @@ struct Phone {
   }
 };
 
-// Sweeps yaw [from, to) in two bands; the last update.
-client::LightingUpdate sweep(Phone& p, const std::string& name, double from, double to) {
+// Sweeps yaw [from, to) every `step` degrees in each band of `pitches`; the last update.
+client::LightingUpdate sweep(Phone& p, const std::string& name, double from, double to,
+                             const std::vector<double>& pitches = {-15.0, 25.0},
+                             double step = 15.0) {
   client::LightingUpdate last;
-  for (double pitch : {-15.0, 25.0})
-    for (double yaw = from; yaw < to; yaw += 15.0) last = p.look(name, yaw, pitch);
+  for (double pitch : pitches)
+    for (double yaw = from; yaw < to; yaw += step) last = p.look(name, yaw, pitch);
   return last;
+}
+
+// Phone `a` starts a session on `d` as its own device: the session's id.
+std::string start_session(const DaemonProcess& d, Phone& a) {
+  const std::string id =
+      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
+  a.client.send_intrinsics(kCamera);
+  return id;
 }
 
 // Relative difference of the irradiance (SH bands 0-2) of two updates.
@@ -145,9 +155,7 @@ TEST(Contributors, TwoPhonesCaptureOneRoomAndAThirdInAnotherIsNeverMerged) {
 
   // Two: the session's own phone sweeps the first half and a bit.
   Phone a;
-  const std::string id =
-      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
-  a.client.send_intrinsics(kCamera);
+  const std::string id = start_session(d, a);
   a.client.request_maps(client::ggx_request(32, 3));
   const client::LightingUpdate half = sweep(a, "venice", 0.0, 200.0);
   EXPECT_EQ(half.registration, wire::Registration::Own);
@@ -267,9 +275,7 @@ TEST(Contributors, AContributorsBadInputClosesOnlyIt) {
   const fs::path dir = test::fresh_temp_dir("contributors_bad");
   DaemonProcess d(dir / "daemon");
   Phone a;
-  const std::string id =
-      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
-  a.client.send_intrinsics(kCamera);
+  const std::string id = start_session(d, a);
   sweep(a, "venice", 0.0, 90.0);
   const auto closed_with = [&](const std::function<void(client::Client&)>& misbehave) {
     client::Client c;
@@ -302,11 +308,8 @@ TEST(Contributors, AContributorGetsItsOwnExposureAdvice) {
   const fs::path dir = test::fresh_temp_dir("contributors_advice");
   DaemonProcess d(dir / "daemon");
   Phone a;
-  const std::string id =
-      a.client.connect("127.0.0.1", d.port(), "arlight-sim", test::kToken, "phone a").session_id;
-  a.client.send_intrinsics(kCamera);
-  for (double pitch : {-15.0, 25.0, 55.0})
-    for (double yaw = 0.0; yaw < 360.0; yaw += 30.0) a.look("park", yaw, pitch);
+  const std::string id = start_session(d, a);
+  sweep(a, "park", 0.0, 360.0, {-15.0, 25.0, 55.0}, 30.0);
   for (const bool follows : {true, false}) {
     Phone b;
     b.heading = 60.0, b.sensitivity = 1.5;
@@ -320,8 +323,7 @@ TEST(Contributors, AContributorGetsItsOwnExposureAdvice) {
     b.client.join(id);
     b.client.connect("127.0.0.1", d.port(), "phone-b", test::kToken, "phone b");
     b.client.send_intrinsics(kCamera);
-    for (double pitch : {-15.0, 25.0, 55.0})
-      for (double yaw = 0.0; yaw < 360.0; yaw += 30.0) b.look("park", yaw + 5.0, pitch);
+    sweep(b, "park", 5.0, 365.0, {-15.0, 25.0, 55.0}, 30.0);
     std::lock_guard lock(m);
     if (!follows) {
       EXPECT_TRUE(advice.empty()) << advice.size() << " advices to a contributor that did not ask";

@@ -387,6 +387,28 @@ struct Daemon::Impl {
     }
   }
 
+  // The session `id` (a Hello's `field`) when it is live on this daemon; else nullptr with
+  // BadMessage (not a session id) or SessionNotFound.
+  std::shared_ptr<Session> live_session(const std::string& id, const char* field,
+                                        wire::ErrorCode& code, std::string& why) {
+    if (!valid_session_id(id)) {
+      code = wire::ErrorCode::BadMessage;
+      why = std::string(field) + ": not a session id";
+      return nullptr;
+    }
+    std::shared_ptr<Session> s;
+    {
+      std::lock_guard lock(sessions_mutex);
+      if (const auto it = sessions.find(id); it != sessions.end()) s = it->second;
+    }
+    if (!s || !s->holds_lease()) {
+      code = wire::ErrorCode::SessionNotFound;
+      why = "no live session " + id + " on this server";
+      return nullptr;
+    }
+    return s;
+  }
+
   // A live session of this daemon for a Hello that asks to watch it: a watch-only token may
   // watch any, a device's own token that device's sessions.
   std::shared_ptr<Session> watched_session(const wire::Hello& h, wire::ErrorCode& code,
@@ -397,21 +419,8 @@ struct Daemon::Impl {
       why = "unauthorized: unknown device or wrong token";
       return nullptr;
     }
-    if (!valid_session_id(h.watch_session)) {
-      code = wire::ErrorCode::BadMessage;
-      why = "watch_session: not a session id";
-      return nullptr;
-    }
-    std::shared_ptr<Session> s;
-    {
-      std::lock_guard lock(sessions_mutex);
-      if (const auto it = sessions.find(h.watch_session); it != sessions.end()) s = it->second;
-    }
-    if (!s || !s->holds_lease()) {
-      code = wire::ErrorCode::SessionNotFound;
-      why = "no live session " + h.watch_session + " on this server";
-      return nullptr;
-    }
+    const std::shared_ptr<Session> s = live_session(h.watch_session, "watch_session", code, why);
+    if (!s) return nullptr;
     if (access == TokenStore::Access::Device && s->device_id() != h.device_id) {
       code = wire::ErrorCode::Unauthorized;
       why = "device " + h.device_id + " may watch only its own sessions (or use a watch token)";
@@ -425,26 +434,13 @@ struct Daemon::Impl {
   // names for itself: its camera response is that id's), or a join token its device asked for.
   std::shared_ptr<Session> joined_session(const wire::Hello& h, wire::ErrorCode& code,
                                           std::string& why) {
-    if (!valid_session_id(h.join_session)) {
-      code = wire::ErrorCode::BadMessage;
-      why = "join_session: not a session id";
-      return nullptr;
-    }
     if (h.device_id.empty()) {
       code = wire::ErrorCode::BadMessage;
       why = "join_session: the contributor names its own device_id";
       return nullptr;
     }
-    std::shared_ptr<Session> s;
-    {
-      std::lock_guard lock(sessions_mutex);
-      if (const auto it = sessions.find(h.join_session); it != sessions.end()) s = it->second;
-    }
-    if (!s || !s->holds_lease()) {
-      code = wire::ErrorCode::SessionNotFound;
-      why = "no live session " + h.join_session + " on this server";
-      return nullptr;
-    }
+    const std::shared_ptr<Session> s = live_session(h.join_session, "join_session", code, why);
+    if (!s) return nullptr;
     if (!tokens.check(s->device_id(), h.auth_token)) {
       const Session::JoinTokenState t = s->join_token_state(h.auth_token);
       if (t == Session::JoinTokenState::Expired) {

@@ -33,6 +33,8 @@ bool same_camera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
          a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
 }
 
+}  // namespace
+
 CameraResponse device_response(const SessionEnv& env, const std::string& device) {
   try {
     if (auto r = capture::ResponseStore(env.data_dir / "responses").find(device)) return *r;
@@ -40,8 +42,6 @@ CameraResponse device_response(const SessionEnv& env, const std::string& device)
   }
   return CameraResponse::srgb();
 }
-
-}  // namespace
 
 fs::path session_dir(const SessionEnv& env, const std::string& id) {
   return env.data_dir / "sessions" / id;

@@ -70,6 +70,9 @@ struct SessionEnv {
 
 // Where a session lives on disk: DATA/sessions/<id>/ (checkpoint, lease).
 std::filesystem::path session_dir(const SessionEnv& env, const std::string& id);
+// A device's calibrated camera response (DATA/responses/<device>.json), or sRGB when it has
+// none or it cannot be read.
+CameraResponse device_response(const SessionEnv& env, const std::string& device);
 
 class Session : public std::enable_shared_from_this<Session> {
  public:

@@ -11,8 +11,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arlight/capture/calibration.hpp"
-#include "arlight/common/error.hpp"
 #include "session.hpp"
 
 namespace arlight::daemon {
@@ -89,11 +87,7 @@ std::string Session::set_contributor_camera(std::uint64_t contributor,
     if (it == contributors_.end()) return "not a contributor of session " + id_;
     device_id = it->second.device_id;
   }
-  CameraResponse response = CameraResponse::srgb();
-  try {
-    if (auto r = capture::ResponseStore(env_.data_dir / "responses").find(device_id)) response = *r;
-  } catch (const InputError&) {
-  }
+  const CameraResponse response = device_response(env_, device_id);
   std::lock_guard serial(process_mutex_);
   std::lock_guard lock(mutex_);
   const auto it = contributors_.find(contributor);
