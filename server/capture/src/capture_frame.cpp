@@ -149,6 +149,8 @@ void CaptureSession::Impl::project(const Device& d, const LinearFrame& frame,
   std::vector<glm::dvec3>&changed_dirs = sh_dirs, &changed_values = sh_values;
   changed_dirs.clear(), changed_values.clear(), newly_seen.clear();
   double newly_seen_omega = 0.0;
+  // Only the session's own camera glances (contributors take the full path: add_device()).
+  std::optional<Glancer>& glancer = devices.front()->glancer;
   for (const Sample& m : samples) {
     const std::size_t texel = ti.texel[m.k];
     const glm::vec3 before = texel_radiance(texel);
@@ -157,8 +159,7 @@ void CaptureSession::Impl::project(const Device& d, const LinearFrame& frame,
       newly_seen.push_back(std::uint32_t(texel));
     }
     merge(m, texel);
-    for (const auto& device : devices)
-      if (device->glancer) device->glancer->touch(texel);
+    if (glancer) glancer->touch(texel);
     const glm::vec3 delta = texel_radiance(texel) - before;
     if (delta != glm::vec3(0.0f)) {
       changed_dirs.emplace_back(ti.dir_x[m.k], ti.dir_y[m.k], ti.dir_z[m.k]);

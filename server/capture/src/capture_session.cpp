@@ -192,8 +192,7 @@ void CaptureSession::restore(const Accumulators& acc) {
     if (s.weight[s.table->index[i]] > 0.0f) s.covered_solid_angle += s.table->solid_angle[i];
   s.sh = sh_project(measured_environment(), s.options.sh_order);
   s.unseen_stale = true;
-  for (const auto& d : s.devices)
-    if (d->glancer) d->glancer->touch_all();
+  if (s.devices.front()->glancer) s.devices.front()->glancer->touch_all();  // its only one
 }
 
 EnvLayout capture_layout_for(int n) {

@@ -156,6 +156,12 @@ void Session::submit_contributed(std::uint64_t contributor, FrameJob job) {
 }
 
 std::optional<std::pair<std::uint64_t, FrameJob>> Session::take_frame() {
+  if (contributors_.empty()) {  // every session's path: nothing to take turns with
+    std::optional<FrameJob> job = frames_.take();
+    if (!job) return std::nullopt;
+    take_turn_ = 0;
+    return std::pair{std::uint64_t(0), std::move(*job)};
+  }
   std::vector<std::uint64_t> order{0};  // the session's own first, then by joining
   for (const auto& [id, c] : contributors_) order.push_back(id);
   std::size_t start = 0;  // the first after the one taken last, round robin
