@@ -165,7 +165,8 @@ Offset<void> build(FlatBufferBuilder& b, const Progress& m) {
 }
 
 Offset<void> build(FlatBufferBuilder& b, const Error& m) {
-  return fb::CreateError(b, fb::ErrorCode(m.code), text(b, m.message)).Union();
+  return fb::CreateError(b, fb::ErrorCode(m.code), text(b, m.message), text(b, m.address))
+      .Union();
 }
 
 Offset<void> build(FlatBufferBuilder& b, const ExposureAdvice& m) {
@@ -538,9 +539,26 @@ Progress read(const fb::Progress& m, const WireLimits&) {
 
 Error read(const fb::Error& m, const WireLimits&) {
   const int code = int(m.code());
-  if (code > int(ErrorCode::Timeout))
+  if (code > int(ErrorCode::Moved))
     refuse(Fault::OutOfRange, "Error", "code", "unknown error code " + std::to_string(code));
-  return {ErrorCode(code), text(m.message(), "Error", "message")};
+  Error e{ErrorCode(code), text(m.message(), "Error", "message"),
+          text(m.address(), "Error", "address")};
+  // Moved names where to go, as HOST:PORT; nothing else names an address.
+  if (e.code == ErrorCode::Moved) {
+    std::string host;
+    std::uint16_t port = 0;
+    try {
+      parse_endpoint(e.address, host, port);
+    } catch (const InputError&) {
+      port = 0;
+    }
+    if (host.empty() || port == 0)
+      refuse(Fault::OutOfRange, "Error", "address",
+             "Moved needs the HOST:PORT of the session's arlightd, not '" + e.address + "'");
+  } else if (!e.address.empty()) {
+    refuse(Fault::OutOfRange, "Error", "address", "only a Moved error names an address");
+  }
+  return e;
 }
 
 CalibrationResult read(const fb::CalibrationResult& m, const WireLimits&) {

@@ -17,7 +17,7 @@ const char* error_code_name(ErrorCode code) {
   static constexpr const char* kNames[] = {"Unknown",  "Unauthorized",    "BadMessage",
                                            "TooLarge", "OutOfOrder",      "Unsupported",
                                            "Busy",     "SessionNotFound", "Internal",
-                                           "Timeout"};
+                                           "Timeout",  "Moved"};
   const auto i = std::size_t(code);
   return i < std::size(kNames) ? kNames[i] : "Unknown";
 }

@@ -115,3 +115,19 @@ TEST(DaemonOptions, BadValuesNameTheirFlagOrKey) {
   EXPECT_NE(error_of({"--config", (dir / "d.json").string()}).find("colour: unknown key"),
             std::string::npos);
 }
+
+// Where clients reach the daemon (issue 49 §2): auto by default, a HOST:PORT clients can use,
+// or none.
+TEST(DaemonOptions, AdvertisedAddressesAreAutoAReachableHostPortOrNone) {
+  const DaemonConfig d = parse({"--tokens", "/etc/t"});
+  EXPECT_EQ(d.advertise, "auto");
+  EXPECT_EQ(d.advertise_web, "auto");
+  const DaemonConfig c = parse(
+      {"--tokens", "/etc/t", "--advertise", "10.0.0.2:7880", "--advertise-web", ""});
+  EXPECT_EQ(c.advertise, "10.0.0.2:7880");
+  EXPECT_EQ(c.advertise_web, "");
+  EXPECT_NE(error_of({"--tokens", "/etc/t", "--advertise", "10.0.0.2"}).find("--advertise"),
+            std::string::npos);
+  EXPECT_NE(error_of({"--tokens", "/etc/t", "--advertise-web", "h:0"}).find("port 0"),
+            std::string::npos);
+}

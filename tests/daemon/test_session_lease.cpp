@@ -34,17 +34,17 @@ fs::path fresh_dir(const std::string& name) {
 
 TEST(SessionLease, OneOwnerAtATimeAndFreeOnceLetGo) {
   const fs::path dir = fresh_dir("one") / "sessions" / "abc";
-  auto first = SessionLease::try_acquire(dir, "host-a pid=1");
+  auto first = SessionLease::try_acquire(dir, {"host-a pid=1"});
   ASSERT_TRUE(first.has_value());
   EXPECT_EQ(SessionLease::owner_of(dir), "host-a pid=1");
   // flock is per open file: even this process cannot take it twice.
-  EXPECT_FALSE(SessionLease::try_acquire(dir, "host-b pid=2").has_value());
+  EXPECT_FALSE(SessionLease::try_acquire(dir, {"host-b pid=2"}).has_value());
   EXPECT_EQ(SessionLease::owner_of(dir), "host-a pid=1") << "a refused taker wrote the owner";
   SessionLease moved = std::move(*first);
   first.reset();  // the moved-from lease holds nothing
-  EXPECT_FALSE(SessionLease::try_acquire(dir, "host-b pid=2").has_value());
+  EXPECT_FALSE(SessionLease::try_acquire(dir, {"host-b pid=2"}).has_value());
   { SessionLease gone = std::move(moved); }
-  const auto second = SessionLease::try_acquire(dir, "host-b pid=2");
+  const auto second = SessionLease::try_acquire(dir, {"host-b pid=2"});
   ASSERT_TRUE(second.has_value());
   EXPECT_EQ(SessionLease::owner_of(dir), "host-b pid=2");
 }
@@ -56,7 +56,7 @@ pid_t lease_owner_process(const fs::path& dir, const std::function<void(SessionL
   if (pipe(ready) != 0) return -1;
   const pid_t child = fork();
   if (child == 0) {
-    auto lease = SessionLease::try_acquire(dir, "child");
+    auto lease = SessionLease::try_acquire(dir, {"child"});
     const char ok = lease ? '1' : '0';
     [[maybe_unused]] const ssize_t n = write(ready[1], &ok, 1);
     if (lease) then(*lease);
@@ -75,10 +75,10 @@ TEST(SessionLease, TheKernelLetsGoWhenTheOwnerIsKilled) {
     for (;;) pause();
   });
   ASSERT_GT(child, 0);
-  EXPECT_FALSE(SessionLease::try_acquire(dir, "parent").has_value());
+  EXPECT_FALSE(SessionLease::try_acquire(dir, {"parent"}).has_value());
   kill(child, SIGKILL);
   waitpid(child, nullptr, 0);
-  EXPECT_TRUE(SessionLease::try_acquire(dir, "parent").has_value());
+  EXPECT_TRUE(SessionLease::try_acquire(dir, {"parent"}).has_value());
 }
 
 // A stopped owner (SIGSTOP) keeps its flock but stops renewing: its lease is taken over once
@@ -92,12 +92,12 @@ TEST(SessionLease, AStoppedOwnersLeaseIsTakenOverOnceItExpires) {
   });
   ASSERT_GT(child, 0);
   std::this_thread::sleep_for(SessionLease::kExpiry + 500ms);  // renewed all along
-  EXPECT_FALSE(SessionLease::try_acquire(dir, "parent").has_value());
+  EXPECT_FALSE(SessionLease::try_acquire(dir, {"parent"}).has_value());
   kill(child, SIGSTOP);
   const auto stopped = std::chrono::steady_clock::now();
   std::optional<SessionLease> taken;
   while (!taken && std::chrono::steady_clock::now() - stopped < SessionLease::kExpiry + 2s) {
-    taken = SessionLease::try_acquire(dir, "parent");
+    taken = SessionLease::try_acquire(dir, {"parent"});
     if (!taken) std::this_thread::sleep_for(100ms);
   }
   const auto waited = std::chrono::steady_clock::now() - stopped;
@@ -110,12 +110,56 @@ TEST(SessionLease, AStoppedOwnersLeaseIsTakenOverOnceItExpires) {
   waitpid(child, &status, 0);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 3) << "the owner never saw it lost";
   EXPECT_TRUE(taken->renew());  // the new owner keeps it
-  EXPECT_FALSE(SessionLease::try_acquire(dir, "third").has_value());
+  EXPECT_FALSE(SessionLease::try_acquire(dir, {"third"}).has_value());
+}
+
+// Where a session's owner is reached (issue 49 §2): read from a live lease only — held and
+// renewed — so a redirect never sends a client to a daemon that died or stopped.
+TEST(SessionLease, ALiveHoldersAddressesAreReadFromItsLeaseAndOnlyWhileItLives) {
+  const fs::path dir = fresh_dir("holder") / "s";
+  EXPECT_FALSE(SessionLease::live_holder(dir).has_value());  // no lease at all
+  const LeaseHolder owner{"host-a pid=1", "10.0.0.1:7880", "10.0.0.1:8443"};
+  EXPECT_EQ(LeaseHolder::parse(owner.text()).web_address, "10.0.0.1:8443");
+  {
+    const auto lease = SessionLease::try_acquire(dir, owner);
+    ASSERT_TRUE(lease.has_value());
+    const auto held = SessionLease::live_holder(dir);
+    ASSERT_TRUE(held.has_value());
+    EXPECT_EQ(held->name, "host-a pid=1");
+    EXPECT_EQ(held->address, "10.0.0.1:7880");
+    EXPECT_EQ(held->web_address, "10.0.0.1:8443");
+    EXPECT_EQ(SessionLease::owner_of(dir), "host-a pid=1");  // the line for people, as before
+    // The probe took nothing: the lease is still its owner's alone.
+    EXPECT_TRUE(lease->held());
+    EXPECT_FALSE(SessionLease::try_acquire(dir, {"host-b pid=2"}).has_value());
+  }
+  EXPECT_FALSE(SessionLease::live_holder(dir).has_value()) << "a lease let go still names its owner";
+
+  // A killed owner: at once; a stopped one: once its lease expired.
+  pid_t child = lease_owner_process(dir, [](SessionLease&) {
+    for (;;) pause();
+  });
+  ASSERT_GT(child, 0);
+  EXPECT_TRUE(SessionLease::live_holder(dir).has_value());
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  EXPECT_FALSE(SessionLease::live_holder(dir).has_value());
+  child = lease_owner_process(dir, [](SessionLease& lease) {
+    while (lease.renew()) std::this_thread::sleep_for(100ms);
+    _exit(3);
+  });
+  ASSERT_GT(child, 0);
+  EXPECT_TRUE(SessionLease::live_holder(dir).has_value());
+  kill(child, SIGSTOP);
+  std::this_thread::sleep_for(SessionLease::kExpiry + 300ms);
+  EXPECT_FALSE(SessionLease::live_holder(dir).has_value()) << "a stopped owner counted as live";
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
 }
 
 TEST(SessionLease, HandOverRequestsComeAndGo) {
   const fs::path dir = fresh_dir("request") / "s";
-  const auto lease = SessionLease::try_acquire(dir, "owner");
+  const auto lease = SessionLease::try_acquire(dir, {"owner"});
   ASSERT_TRUE(lease);
   EXPECT_FALSE(SessionLease::release_requested(dir));
   SessionLease::request_release(dir, "other pid=9");
@@ -129,7 +173,7 @@ TEST(SessionLease, AFolderThatCannotHoldALeaseThrows) {
   const fs::path base = fresh_dir("bad");
   fs::create_directories(base);
   std::ofstream(base / "file") << "x";
-  EXPECT_ANY_THROW(SessionLease::try_acquire(base / "file", "me"));  // not a folder
+  EXPECT_ANY_THROW(SessionLease::try_acquire(base / "file", {"me"}));  // not a folder
 }
 
 SessionCheckpoint small_checkpoint() {
@@ -196,7 +240,7 @@ TEST(SessionCheckpoint, AnAngleMapCheckpointFromBeforeResumesInTheCubeLayout) {
   nlohmann::json meta =
       nlohmann::json::parse(std::ifstream(session_dir(env, c.id) / "session.json"));
   ASSERT_FALSE(meta.contains("layout"));
-  auto lease = SessionLease::try_acquire(session_dir(env, c.id), "test");
+  auto lease = SessionLease::try_acquire(session_dir(env, c.id), {"test"});
   ASSERT_TRUE(lease);
   const auto s = Session::load(c.id, env, std::move(*lease));
   ASSERT_TRUE(s);

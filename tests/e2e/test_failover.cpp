@@ -4,7 +4,10 @@
 // whole thing behind the real HAProxy with
 // deploy/haproxy/haproxy.cfg, a client replaying in real time and the serving daemon killed
 // with SIGKILL mid-session.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -98,6 +101,37 @@ struct TwoDaemons {
   recording::Recording rec;
 };
 
+// The number a daemon's /metrics gives `name` (0 when it has none).
+double metric(const DaemonProcess& d, const std::string& name) {
+  std::istringstream in(d.admin_get("/metrics").second);
+  for (std::string line; std::getline(in, line);)
+    if (line.starts_with(name + " ")) return std::stod(line.substr(name.size() + 1));
+  return 0;
+}
+
+// A watcher (a watch token) or a second phone (`join`: its own id, the session's token) of the
+// session `id` through the balancer at `front`, tried every 0.1 s while the session is between
+// daemons (SessionNotFound, a dead daemon's Network error) for up to `within`; nullptr then,
+// with the last refusal in `why`.
+std::unique_ptr<client::Client> follow_session(std::uint16_t front, const std::string& id,
+                                               bool join, std::chrono::seconds within,
+                                               std::string& why) {
+  const auto end = std::chrono::steady_clock::now() + within;
+  while (std::chrono::steady_clock::now() < end) {
+    auto c = std::make_unique<client::Client>();
+    join ? c->join(id) : c->watch(id);
+    try {
+      c->connect("127.0.0.1", front, join ? "phone-b" : test::kWatchName,
+                 join ? kToken : test::kWatchToken, join ? "joiner" : "watcher");
+      return c;
+    } catch (const client::ClientError& e) {
+      why = e.what();
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 // A client resumes on daemon B a session that daemon A still holds (a balancer moved it): B
@@ -179,6 +213,90 @@ TEST(Failover, ALiveOwnerHandsASessionOverWhenItIsResumedElsewhere) {
       << "the lease does not name B";
 }
 
+// A watcher and a second phone that come to a daemon without their session are sent to the one
+// that holds it (issue 49 §2): Error{Moved} with the address the owner wrote into the session's
+// lease, which client::Client::connect follows. An owner that advertises no address leaves
+// them SessionNotFound, told why.
+TEST(Failover, WatchersAndSecondPhonesAreSentToTheDaemonThatHoldsTheSession) {
+  TwoDaemons two("failover_redirect");
+  DaemonProcess &a = two.a, &b = two.b;
+  client::Client owner;
+  const std::string id = owner.connect("127.0.0.1", a.port(), "arlight-sim", kToken).session_id;
+  owner.send_intrinsics(two.rec.camera);
+  two.frame(owner, 1);
+  ASSERT_TRUE(owner.wait_for([&] { return owner.updates_received() > 0; }, 20s));
+
+  client::Client watcher;
+  watcher.watch(id);
+  watcher.connect("127.0.0.1", b.port(), test::kWatchName, test::kWatchToken);
+  EXPECT_EQ(watcher.connected_to(), a.server());
+  client::Client joiner;
+  joiner.join(id);
+  joiner.connect("127.0.0.1", b.port(), "phone-b", kToken);
+  EXPECT_EQ(joiner.connected_to(), a.server());
+  EXPECT_EQ(metric(b, "arlight_sessions_redirected_total"), 2.0);
+  EXPECT_EQ(metric(a, "arlight_sessions_redirected_total"), 0.0);
+  two.frame(owner, 2);
+  EXPECT_TRUE(watcher.wait_for([&] { return watcher.updates_received() > 0; }, 20s));
+  const std::optional<json> s = session_on(a, id);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->at("watchers"), 1);
+  EXPECT_EQ(s->at("contributors"), 1);
+  EXPECT_FALSE(session_on(b, id).has_value()) << "B took the session from its live owner";
+
+  // An owner that advertises nothing: refused where the client landed, naming it.
+  DaemonProcess quiet(two.dir / "quiet", {"--advertise", ""}, 0, two.data);
+  client::Client other_owner;
+  const std::string quiet_id =
+      other_owner.connect("127.0.0.1", quiet.port(), "arlight-sim", kToken).session_id;
+  client::Client lost;
+  lost.watch(quiet_id);
+  try {
+    lost.connect("127.0.0.1", b.port(), test::kWatchName, test::kWatchToken);
+    FAIL() << "watched a session B does not hold";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "SessionNotFound") << e.what();
+    EXPECT_NE(std::string(e.what()).find("advertises no address"), std::string::npos) << e.what();
+  }
+  // A session nobody holds any more (its owner killed): no redirect to the dead daemon.
+  quiet.kill9();
+  try {
+    client::Client late;
+    late.watch(quiet_id);
+    late.connect("127.0.0.1", b.port(), test::kWatchName, test::kWatchToken);
+    FAIL() << "watched a session nobody holds";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "SessionNotFound") << e.what();
+    EXPECT_NE(std::string(e.what()).find("no live session"), std::string::npos) << e.what();
+  }
+}
+
+// A lease that sends clients round in circles (here one this test holds, naming B itself, as a
+// daemon misconfigured with another's --advertise would): the client follows at most
+// kMaxRedirects answers and then says so, instead of looping.
+TEST(Failover, AClientFollowsAtMostTwoRedirects) {
+  TwoDaemons two("failover_redirect_loop");
+  const std::string id(32, 'a');
+  const fs::path session = two.data / "sessions" / id;
+  fs::create_directories(session);
+  std::ofstream(session / "lease") << "elsewhere pid=1\naddress " << two.b.server() << "\n";
+  const int fd = ::open((session / "lease").c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  client::Client c;
+  c.watch(id);
+  try {
+    c.connect("127.0.0.1", two.b.port(), test::kWatchName, test::kWatchToken);
+    ADD_FAILURE() << "a redirect to itself was taken";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.code(), "Moved") << e.what();
+    EXPECT_NE(std::string(e.what()).find("after 2 redirects"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(metric(two.b, "arlight_sessions_redirected_total"),
+            double(client::Client::kMaxRedirects + 1));
+  ::close(fd);
+}
+
 // A stopped owner (SIGSTOP) holds its flock for ever; its lease expires instead (issue 36 §5):
 // a resume on B is answered Busy while the lease is fresh, and takes the session over within
 // 5 s of the stop. A, continued, finds its lease taken, closes the session unsaved and never
@@ -250,18 +368,20 @@ TEST(Failover, AStoppedOwnersSessionIsTakenOverWhenItsLeaseExpires) {
 }
 
 // The issue's end-to-end case: two arlightd on one data folder behind HAProxy (the committed
-// deploy/haproxy/haproxy.cfg); arlight-client replays a 10 s recording in real time through
+// deploy/haproxy/haproxy.cfg); arlight-client replays a 12 s recording in real time through
 // HAProxy; the daemon serving it is killed with SIGKILL 3 s in. The client must come back
 // through HAProxy to the other daemon, resume the same session, lose no frame (it sends the
 // frames the checkpoint lacks again, issue 36 §5), and its map's coverage must never fall below
-// the last checkpoint's.
+// the last checkpoint's. A watcher and a second phone come through HAProxy too (issue 49 §2):
+// whichever daemon the balancer gives them, they end on the session's (Error{Moved}, from its
+// lease), before the kill and after it.
 TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
   const fs::path dir = test::fresh_temp_dir("failover_haproxy");
   const fs::path data = dir / "data", rec = dir / "rec";
   const auto sim =
       test::run_tool(ARLIGHT_SIM_EXE, "--env " + std::string(ARLIGHT_SOURCE_DIR) +
                                           "/data/probes/venice.exr --out " + rec.string() +
-                                          " --frames 300 --fps 30 --size 320x240 --seed 11");
+                                          " --frames 360 --fps 30 --size 320x240 --seed 11");
   ASSERT_EQ(sim.status, 0) << sim.output;
   // One checkpoint a second: the deployment's setting (deploy/haproxy/README.md).
   const std::vector<std::string> args = {"--checkpoint-interval", "1"};
@@ -324,11 +444,54 @@ TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
       30s))
       << "no daemon got 3 s of the session:\n"
       << client.output();
-  const pid_t killed = serving->pid();
   DaemonProcess* other = serving == a.get() ? b.get() : a.get();
+
+  // The watcher and the second phone. HAProxy counts the client's connection against the
+  // serving daemon, so the first of them it sends to the other one, which redirects it.
+  const recording::Recording joined_rec = recording::read_recording(rec);
+  const auto join_frame = [&](client::Client& c, std::uint64_t seq) {
+    c.send_jpeg_frame(seq, joined_rec.frames[seq], joined_rec.camera.width,
+                      joined_rec.camera.height, recording::read_frame_bytes(joined_rec, seq));
+  };
+  std::string why;
+  std::unique_ptr<client::Client> watcher = follow_session(front, id, false, 10s, why);
+  ASSERT_TRUE(watcher) << why;
+  std::unique_ptr<client::Client> joiner = follow_session(front, id, true, 10s, why);
+  ASSERT_TRUE(joiner) << why;
+  EXPECT_EQ(watcher->connected_to(), serving->server());
+  EXPECT_EQ(joiner->connected_to(), serving->server());
+  EXPECT_GE(metric(*other, "arlight_sessions_redirected_total"), 1.0)
+      << "HAProxy sent neither to the other daemon: nothing was redirected";
+  joiner->send_intrinsics(joined_rec.camera);
+  join_frame(*joiner, 1);
+  EXPECT_TRUE(joiner->wait_for([&] { return joiner->updates_received() > 0; }, 20s))
+      << "the second phone's frame was not answered";
+  const std::optional<json> before = session_on(*serving, id);
+  ASSERT_TRUE(before.has_value());
+  EXPECT_EQ(before->at("watchers"), 1) << before->dump();
+  EXPECT_EQ(before->at("contributors"), 1) << before->dump();
+
+  const pid_t killed = serving->pid();
   serving->kill9();
   // What the dead daemon left on disk: the checkpoint the other one must continue from.
   const json checkpoint = read_json(data / "sessions" / id / "session.json");
+
+  // The watcher and the second phone come back through HAProxy to wherever the session resumed
+  // (SessionNotFound until the client's resume, then straight there or by a redirect).
+  EXPECT_TRUE(watcher->wait_for([&] { return !watcher->connected(); }, 5s));
+  watcher = follow_session(front, id, false, 30s, why);
+  ASSERT_TRUE(watcher) << "the watcher never came back: " << why << "\n" << client.output();
+  joiner = follow_session(front, id, true, 30s, why);
+  ASSERT_TRUE(joiner) << "the second phone never came back: " << why;
+  // (Through HAProxy to the only daemon left, or redirected to it: /sessions says which has them.)
+  joiner->send_intrinsics(joined_rec.camera);
+  join_frame(*joiner, 2);
+  EXPECT_TRUE(joiner->wait_for([&] { return joiner->updates_received() > 0; }, 20s))
+      << "the second phone's frame after the fail-over was not answered";
+  const std::optional<json> after = session_on(*other, id);
+  ASSERT_TRUE(after.has_value());
+  EXPECT_EQ(after->at("watchers"), 1) << after->dump();
+  EXPECT_EQ(after->at("contributors"), 1) << after->dump();
 
   const std::optional<int> status = client.wait_for(60s);
   ASSERT_TRUE(status.has_value()) << "the client hung:\n" << client.output();

@@ -176,6 +176,17 @@ TEST(WireCodec, OutOfRangeEnumsNameTheirField) {
   e = refusal(wire::encode(wire::Error{wire::ErrorCode(99), "?"}));
   EXPECT_EQ(e.fault(), Fault::OutOfRange);
   EXPECT_EQ(e.field(), "code");
+  // Moved says where to (issue 49 §2), as HOST:PORT; no other error names an address.
+  for (const char* address : {"", "10.0.0.2", "10.0.0.2:0", ":7878", "10.0.0.2:99999"}) {
+    e = refusal(wire::encode(wire::Error{wire::ErrorCode::Moved, "elsewhere", address}));
+    EXPECT_EQ(e.field(), "address") << address;
+  }
+  e = refusal(wire::encode(wire::Error{wire::ErrorCode::Busy, "full", "10.0.0.2:7878"}));
+  EXPECT_EQ(e.field(), "address");
+  EXPECT_EQ(std::get<wire::Error>(wire::decode(wire::encode(
+                wire::Error{wire::ErrorCode::Moved, "elsewhere", "[fd00::2]:7890"})))
+                .address,
+            "[fd00::2]:7890");
 
   e = refusal(
       wire::encode(wire::MapTile{1, 0, 1.0f, Projection::AngleMap, 64, 64, 0, 32, 0, 64, 8, {1}}));

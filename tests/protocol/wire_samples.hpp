@@ -73,7 +73,7 @@ inline std::vector<wire::Message> messages_with_every_field() {
                            {{{0.0f, 0.6f, -0.8f}, {40.0f, 36.0f, 28.0f}, 0.0125f},
                             {{1.0f, 0.0f, 0.0f}, {0.5f, 0.5f, 0.5f}, 0.25f}}},
       wire::Progress{3, 5, 10},
-      wire::Error{wire::ErrorCode::SessionNotFound, "no session 42 for this device"},
+      wire::Error{wire::ErrorCode::Moved, "session 42 is live on another arlightd", "10.0.0.2:7878"},
       wire::Pong{42},
       wire::CalibrationResult{true, "robertson", 7, "stored for device phone-1"},
       wire::ExposureAdvice{41, 0.000625, 0.0125f},

@@ -5,7 +5,8 @@
 // its orientation sensor 130 degrees off in heading as a second phone's own yaw origin is — opens
 // that link, is registered with the first phone's map and captures into it: the shared map grows
 // past what the first phone can see, on both pages. Each page's sensor reports the true pose of
-// the very frame it shows (phone_session.mjs, frameSyncedSensor).
+// the very frame it shows (phone_session.mjs, frameSyncedSensor). A third device, the first
+// page's watch link in another tab, follows the shared session.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -91,6 +92,25 @@ test('a second phone joins by the first one\'s link, is registered and captures 
     const listed = (sessions.sessions || sessions).find((s) => s.id === a.session_id);
     assert.ok(listed, JSON.stringify(sessions));
     assert.equal(listed.contributors, 1);
+    // A third device watches (issue 49 §3): the first page's "watch this room" link, opened in
+    // another tab, is a three.js page that follows the shared session as its phones capture.
+    const watchHref = await first.page.$eval('#s-watch', (e) => e.getAttribute('href'));
+    assert.ok(watchHref.startsWith(`three.html#session=${a.session_id}&`), watchHref);
+    const third = await first.context.newPage();
+    third.on('pageerror', (e) => errors.push(`third: ${e.message}`));
+    await third.goto(`${new URL(d.url).origin}/${watchHref}`);
+    await third.waitForFunction(() => {
+      const s = window.arlightThree && window.arlightThree.status();
+      return s && s.watching && s.updates >= 2;
+    }, null, { timeout: 90000 });
+    const w = await third.evaluate(() => window.arlightThree.status());
+    assert.equal(w.session_id, a.session_id);
+    assert.equal(w.last_error, '');
+    const watched = (await d.adminGet('/sessions'));
+    const now = (watched.sessions || watched).find((s) => s.id === a.session_id);
+    assert.equal(now.watchers, 1, JSON.stringify(now));
+    assert.equal(now.contributors, 1, JSON.stringify(now));
+    await third.close();
     console.log(`two phones: the first alone ${(a.coverage * 100).toFixed(0)} %, together ${(b.coverage * 100).toFixed(0)} %`);
     assert.deepEqual(errors, []);
   } finally {

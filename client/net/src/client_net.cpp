@@ -61,6 +61,7 @@ struct Client::Impl {
   std::optional<Clock::time_point> unanswered_since;
   // The server's Error, or why the connection failed (Network, Protocol).
   std::optional<std::pair<std::string, std::string>> error;
+  std::string server;  // HOST:PORT this connection reached
   Client* owner = nullptr;
 
   // From any thread: queues the message (waits while too much is queued).
@@ -230,6 +231,40 @@ boost::system::error_code connect_by(asio::io_context& io, tcp::socket& socket,
 Welcome Client::connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                         const std::string& token, const std::string& client_name,
                         const std::string& resume_session, std::chrono::milliseconds timeout) {
+  std::string to_host = host;
+  std::uint16_t to_port = port;
+  for (int redirects = 0;; ++redirects) {
+    try {
+      return connect_once(to_host, to_port, device_id, token, client_name, resume_session,
+                          timeout);
+    } catch (const ClientError& e) {
+      std::string moved_to;
+      {
+        std::lock_guard lock(impl_->mutex);
+        moved_to = impl_->state.moved_to();
+        impl_->state.clear_error();
+        impl_->error.reset();
+      }
+      if (e.code() != "Moved" || moved_to.empty()) throw;
+      if (redirects == kMaxRedirects)
+        throw ClientError("Moved", std::string(e.what()) + " (after " +
+                                       std::to_string(kMaxRedirects) + " redirects already)");
+      wire::parse_endpoint(moved_to, to_host, to_port);  // the codec checked it
+      if (to_host.size() > 2 && to_host.front() == '[' && to_host.back() == ']')
+        to_host = to_host.substr(1, to_host.size() - 2);  // [v6]:port
+    }
+  }
+}
+
+std::string Client::connected_to() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->server;
+}
+
+Welcome Client::connect_once(const std::string& host, std::uint16_t port,
+                             const std::string& device_id, const std::string& token,
+                             const std::string& client_name, const std::string& resume_session,
+                             std::chrono::milliseconds timeout) {
   Impl& d = *impl_;
   if (d.io_thread.joinable()) throw ClientError("Network", "already connected");
   boost::system::error_code ec;
@@ -294,6 +329,7 @@ Welcome Client::connect(const std::string& host, std::uint16_t port, const std::
   {
     std::lock_guard lock(d.mutex);
     d.open = true;
+    d.server = where;
   }
   if (!d.watch_session.empty() || !d.join_session.empty()) {
     std::lock_guard lock(d.mutex);

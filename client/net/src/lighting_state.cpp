@@ -38,6 +38,7 @@ LightingState::Change LightingState::receive(wire::Message&& message) {
   }
   if (auto* e = std::get_if<wire::Error>(&message)) {
     error_ = {wire::error_code_name(e->code), e->message};
+    moved_to_ = e->address;
     return Change::Error;
   }
   if (auto* u = std::get_if<wire::LightingUpdate>(&message)) {

@@ -105,10 +105,12 @@ void ClientConnection::detach() {
   watcher_ = 0;
 }
 
-void ClientConnection::fail(wire::ErrorCode code, const std::string& message) {
+void ClientConnection::fail(wire::ErrorCode code, const std::string& message,
+                            const std::string& address) {
   if (closing_) return;
-  if (env_.log) env_.log(stream_->peer() + ": " + message);
-  stream_->send(wire::Error{code, message});
+  // A redirect is the fleet working, not bad input: counted on /metrics, not logged.
+  if (env_.log && code != wire::ErrorCode::Moved) env_.log(stream_->peer() + ": " + message);
+  stream_->send(wire::Error{code, message, address});
   closing_ = true;
   stream_->close_after_sending();  // once the Error is out
   detach();
@@ -177,9 +179,9 @@ void ClientConnection::handle_hello(const wire::Hello& m) {
                                                   " is not supported (this server speaks " +
                                                   std::to_string(wire::kProtocolVersion) + ")");
   wire::ErrorCode code = wire::ErrorCode::Unknown;
-  std::string why;
-  session_ = env_.open_session(m, code, why);
-  if (!session_) return fail(code, why);
+  std::string why, address;
+  session_ = env_.open_session(m, env_.web, code, why, address);
+  if (!session_) return fail(code, why, address);
   if (!m.watch_session.empty()) return watch(m);
   exposure_unknown_ = wire::has_capability(m.capabilities, wire::kCapabilityExposureUnknown);
   if (!m.join_session.empty()) return join(m);

@@ -23,9 +23,12 @@ struct ConnectionEnv {
   std::size_t max_send_queue_bytes = 64u << 20;
   std::string server_version;
   // Authenticates and returns the session for a Hello (new, resumed, or the one its
-  // watch_session names), or an error to send.
-  std::function<std::shared_ptr<Session>(const wire::Hello&, wire::ErrorCode&, std::string&)>
+  // watch_session or join_session names), or an error to send (code, message, and for Moved
+  // the address of the daemon that has the session; `web`: for a connection of the web port).
+  std::function<std::shared_ptr<Session>(const wire::Hello&, bool web, wire::ErrorCode&,
+                                         std::string&, std::string&)>
       open_session;
+  bool web = false;  // this connection came to the web port (a WebSocket)
   std::function<void(const std::string&)> log;  // rate-limited by the daemon
   // Checkpoints a session on the daemon's disk thread (at Bye): a network thread never waits
   // for a write and its fsync.
@@ -62,7 +65,8 @@ class ClientConnection : public std::enable_shared_from_this<ClientConnection> {
   void handle_intrinsics(const CameraIntrinsics& k);
   void handle_calibration(wire::CalibrationSet&& set);
   void handle_frame(wire::CameraFrame&& m);
-  void fail(wire::ErrorCode code, const std::string& message);  // Error, then close
+  // Error, then close (`address`: a Moved error's).
+  void fail(wire::ErrorCode code, const std::string& message, const std::string& address = {});
   void detach();
   // The Hello deadline, then the idle deadline, on the stream's strand.
   void arm_deadline(std::chrono::steady_clock::duration after);

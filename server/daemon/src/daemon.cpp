@@ -140,7 +140,10 @@ struct Daemon::Impl {
   admin::Counter* sessions_handed_over = nullptr;
   admin::Counter* sessions_lost = nullptr;
   admin::Counter* sessions_takeover_waits = nullptr;
-  const std::string lease_owner = lease_owner_name();
+  admin::Counter* sessions_redirected = nullptr;
+  // Written into every lease this daemon takes: who, and where clients reach it (its
+  // addresses once its ports are bound: advertise()).
+  LeaseHolder lease_holder{lease_owner_name()};
 
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
@@ -195,8 +198,10 @@ struct Daemon::Impl {
     connection_env.limits = config.limits;
     connection_env.max_send_queue_bytes = config.max_send_queue_bytes;
     connection_env.server_version = kServerVersion;
-    connection_env.open_session = [this](const wire::Hello& h, wire::ErrorCode& code,
-                                         std::string& why) { return open_session(h, code, why); };
+    connection_env.open_session = [this](const wire::Hello& h, bool web, wire::ErrorCode& code,
+                                         std::string& why, std::string& address) {
+      return open_session(h, web, code, why, address);
+    };
     connection_env.log = [this](const std::string& line) { log(line); };
     connection_env.checkpoint_soon = [this](std::shared_ptr<Session> s) {
       asio::post(disk, [this, s = std::move(s)] { save(*s); });
@@ -225,6 +230,10 @@ struct Daemon::Impl {
         "arlight_sessions_lost_total",
         "sessions closed here unsaved: this daemon stopped past the lease's expiry and another "
         "took them over");
+    sessions_redirected = &metrics.counter(
+        "arlight_sessions_redirected_total",
+        "watchers and contributors told where the session they asked for lives (another "
+        "daemon's lease)");
     sessions_takeover_waits = &metrics.counter(
         "arlight_session_takeover_waits_total",
         "resumes answered Busy while another daemon still held the session's lease");
@@ -241,6 +250,7 @@ struct Daemon::Impl {
     bound_port = acceptor.local_endpoint().port();
 
     if (config.web_enabled) start_web();
+    advertise();
 
     if (config.admin_enabled) {
       admin::AdminHandlers h;
@@ -300,13 +310,29 @@ struct Daemon::Impl {
     o.host = config.web_host;
     o.port = config.web_port;
     o.root = config.web_root.empty() ? default_web_root() : config.web_root;
-    o.on_websocket = [this](std::unique_ptr<wire::Transport> t) { adopt(std::move(t)); };
+    o.on_websocket = [this](std::unique_ptr<wire::Transport> t) { adopt(std::move(t), true); };
     o.admit = [this](const std::string& address) { return admit_web_connection(address); };
     o.log = [this](const std::string& line) { log(line); };
     web_server = std::make_unique<WebServer>(io, *web_tls, std::move(o));
     phone_url = daemon::phone_url(
         config.web_url_host.empty() ? reachable_host(config.web_host) : config.web_url_host,
         web_server->port(), device, *token);
+  }
+
+  // The addresses the leases name (DaemonConfig::advertise): "auto" is the bound port at the
+  // address a client on another machine would use.
+  void advertise() {
+    const auto choose = [](const std::string& configured, const std::string& host,
+                           std::uint16_t port) {
+      return configured == "auto" ? host + ":" + std::to_string(port) : configured;
+    };
+    lease_holder.address = choose(config.advertise, reachable_host(config.listen_host), bound_port);
+    if (web_server)
+      lease_holder.web_address =
+          choose(config.advertise_web,
+                 config.web_url_host.empty() ? reachable_host(config.web_host)
+                                             : config.web_url_host,
+                 web_server->port());
   }
 
   void log(const std::string& line) {
@@ -388,9 +414,12 @@ struct Daemon::Impl {
   }
 
   // The session `id` (a Hello's `field`) when it is live on this daemon; else nullptr with
-  // BadMessage (not a session id) or SessionNotFound.
-  std::shared_ptr<Session> live_session(const std::string& id, const char* field,
-                                        wire::ErrorCode& code, std::string& why) {
+  // BadMessage (not a session id), Moved (live on another daemon of this data folder, whose
+  // address for a connection like this one — `web`: a WebSocket — is `address`; issue 49 §2)
+  // or SessionNotFound.
+  std::shared_ptr<Session> live_session(const std::string& id, const char* field, bool web,
+                                        wire::ErrorCode& code, std::string& why,
+                                        std::string& address) {
     if (!valid_session_id(id)) {
       code = wire::ErrorCode::BadMessage;
       why = std::string(field) + ": not a session id";
@@ -404,6 +433,20 @@ struct Daemon::Impl {
     if (!s || !s->holds_lease()) {
       code = wire::ErrorCode::SessionNotFound;
       why = "no live session " + id + " on this server";
+      // A balancer may have brought the client here: the lease says where the session is.
+      const auto holder = SessionLease::live_holder(session_dir(session_env, id));
+      if (holder && holder->name != lease_holder.name) {
+        address = web ? holder->web_address : holder->address;
+        if (!address.empty()) {
+          code = wire::ErrorCode::Moved;
+          why = "session " + id + " is live on another arlightd (" + holder->name + ") at " +
+                address + ": connect there";
+          sessions_redirected->inc();
+        } else {
+          why = "session " + id + " is live on another arlightd (" + holder->name +
+                "), which advertises no address for " + (web ? "its web port" : "clients");
+        }
+      }
       return nullptr;
     }
     return s;
@@ -411,15 +454,15 @@ struct Daemon::Impl {
 
   // A live session of this daemon for a Hello that asks to watch it: a watch-only token may
   // watch any, a device's own token that device's sessions.
-  std::shared_ptr<Session> watched_session(const wire::Hello& h, wire::ErrorCode& code,
-                                           std::string& why) {
+  std::shared_ptr<Session> watched_session(const wire::Hello& h, bool web, wire::ErrorCode& code,
+                                           std::string& why, std::string& address) {
     const TokenStore::Access access = tokens.access(h.device_id, h.auth_token);
     if (access == TokenStore::Access::None) {
       code = wire::ErrorCode::Unauthorized;
       why = "unauthorized: unknown device or wrong token";
       return nullptr;
     }
-    const std::shared_ptr<Session> s = live_session(h.watch_session, "watch_session", code, why);
+    const std::shared_ptr<Session> s = live_session(h.watch_session, "watch_session", web, code, why, address);
     if (!s) return nullptr;
     if (access == TokenStore::Access::Device && s->device_id() != h.device_id) {
       code = wire::ErrorCode::Unauthorized;
@@ -432,14 +475,14 @@ struct Daemon::Impl {
   // A live session of this daemon for a Hello that joins it as a contributor (issue 49 §1):
   // with the session's own token (the session's device's, whatever device id the contributor
   // names for itself: its camera response is that id's), or a join token its device asked for.
-  std::shared_ptr<Session> joined_session(const wire::Hello& h, wire::ErrorCode& code,
-                                          std::string& why) {
+  std::shared_ptr<Session> joined_session(const wire::Hello& h, bool web, wire::ErrorCode& code,
+                                          std::string& why, std::string& address) {
     if (h.device_id.empty()) {
       code = wire::ErrorCode::BadMessage;
       why = "join_session: the contributor names its own device_id";
       return nullptr;
     }
-    const std::shared_ptr<Session> s = live_session(h.join_session, "join_session", code, why);
+    const std::shared_ptr<Session> s = live_session(h.join_session, "join_session", web, code, why, address);
     if (!s) return nullptr;
     if (!tokens.check(s->device_id(), h.auth_token)) {
       const Session::JoinTokenState t = s->join_token_state(h.auth_token);
@@ -458,10 +501,10 @@ struct Daemon::Impl {
     return s;
   }
 
-  std::shared_ptr<Session> open_session(const wire::Hello& h, wire::ErrorCode& code,
-                                        std::string& why) {
-    if (!h.watch_session.empty()) return watched_session(h, code, why);
-    if (!h.join_session.empty()) return joined_session(h, code, why);
+  std::shared_ptr<Session> open_session(const wire::Hello& h, bool web, wire::ErrorCode& code,
+                                        std::string& why, std::string& address) {
+    if (!h.watch_session.empty()) return watched_session(h, web, code, why, address);
+    if (!h.join_session.empty()) return joined_session(h, web, code, why, address);
     const std::string& device = h.device_id;
     const std::string& token = h.auth_token;
     if (!tokens.check(device, token)) {
@@ -497,14 +540,14 @@ struct Daemon::Impl {
           // Another daemon on this data folder may have it: its lease says (session_lease.hpp).
           std::optional<SessionLease> lease;
           try {
-            lease = SessionLease::try_acquire(dir, lease_owner);
+            lease = SessionLease::try_acquire(dir, lease_holder);
           } catch (const std::exception& e) {
             code = wire::ErrorCode::Internal;
             why = e.what();
             return nullptr;
           }
           if (!lease) {
-            SessionLease::request_release(dir, lease_owner);
+            SessionLease::request_release(dir, lease_holder.name);
             sessions_takeover_waits->inc();
             code = wire::ErrorCode::Busy;
             why = "session " + resume + " is open on another arlightd (" +
@@ -543,7 +586,7 @@ struct Daemon::Impl {
     const std::string id = new_session_id();
     std::optional<SessionLease> lease;
     try {
-      lease = SessionLease::try_acquire(session_dir(session_env, id), lease_owner);
+      lease = SessionLease::try_acquire(session_dir(session_env, id), lease_holder);
     } catch (const std::exception& e) {
       code = wire::ErrorCode::Internal;
       why = e.what();
@@ -576,7 +619,8 @@ struct Daemon::Impl {
 
   // A client connection from any transport (TCP, TLS, WebSocket): one code path from here on.
   // Over a connection limit it is closed before anything is read from it.
-  void adopt(std::unique_ptr<wire::Transport> transport) {
+  // `web`: a WebSocket of the web port (a redirect names the other daemon's web port).
+  void adopt(std::unique_ptr<wire::Transport> transport, bool web = false) {
     const std::string address = peer_address(transport->peer());
     std::shared_ptr<ClientConnection> c;
     std::string refused;
@@ -584,7 +628,9 @@ struct Daemon::Impl {
       std::lock_guard lock(connections_mutex);
       refused = over_a_limit(address);
       if (refused.empty()) {
-        c = std::make_shared<ClientConnection>(std::move(transport), connection_env);
+        ConnectionEnv env = connection_env;
+        env.web = web;
+        c = std::make_shared<ClientConnection>(std::move(transport), env);
         connections.push_back(c);
       }
     }

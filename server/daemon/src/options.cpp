@@ -20,6 +20,21 @@ void set_endpoint(const json& v, bool& enabled, std::string& host, std::uint16_t
   if (enabled) wire::parse_endpoint(text, host, port);
 }
 
+// An --advertise value: "auto", '' or a HOST:PORT with both (InputError naming the flag).
+std::string advertised_endpoint(const json& v, const char* flag) {
+  const std::string text = v.get<std::string>();
+  if (text.empty() || text == "auto") return text;
+  std::string host;
+  std::uint16_t port = 0;
+  try {
+    wire::parse_endpoint(text, host, port);
+  } catch (const InputError& e) {
+    throw InputError(std::string(flag) + ": " + e.what());
+  }
+  if (port == 0) throw InputError(std::string(flag) + " '" + text + "': port 0 cannot be reached");
+  return text;
+}
+
 // The table. Flags first as --help lists them; map_size is the config file's alone.
 const DaemonOption kOptions[] = {
     {"--listen", "listen", Value::Text, "HOST:PORT for clients (default 127.0.0.1:7878)",
@@ -111,6 +126,15 @@ const DaemonOption kOptions[] = {
     {"--web-url-host", "web_url_host", Value::Text,
      "the host name or address in the phone URL (default: this machine's LAN address)",
      [](DaemonConfig& c, const json& v) { c.web_url_host = v.get<std::string>(); }},
+    {"--advertise", "advertise", Value::Text,
+     "HOST:PORT clients reach this daemon's client port at, for daemons sharing its data folder "
+     "to send them here (default auto: the port's own address; '' none)",
+     [](DaemonConfig& c, const json& v) { c.advertise = advertised_endpoint(v, "--advertise"); }},
+    {"--advertise-web", "advertise_web", Value::Text,
+     "the same for the web port (default auto: the phone URL's host and the port; '' none)",
+     [](DaemonConfig& c, const json& v) {
+       c.advertise_web = advertised_endpoint(v, "--advertise-web");
+     }},
 };
 
 // A flag's text as the JSON value its option takes.
@@ -220,14 +244,15 @@ DaemonConfig CommandLine::config() const {
   DaemonConfig c;
   if (!config_file_.empty()) load_config_file(config_file_, c);
   // Flags override the file. A flag given as '' leaves its option as the file (or the default)
-  // has it, but for the two whose '' means something: --admin '' turns the admin port off, and
-  // --fill '' is refused.
+  // has it, but for those whose '' means something: --admin '' turns the admin port off,
+  // --advertise(-web) '' advertises nothing, and --fill '' is refused.
   for (std::size_t i = 0; i < std::size(kOptions); ++i) {
     const DaemonOption& o = kOptions[i];
     const std::string flag(o.flag);
     if (o.flag.empty() || app_.count(flag) == 0) continue;
-    if (o.value == Value::Text && texts_[i].empty() && o.flag != "--admin" && o.flag != "--fill")
-      continue;
+    const bool empty_counts = o.flag == "--admin" || o.flag == "--fill" ||
+                              o.flag == "--advertise" || o.flag == "--advertise-web";
+    if (o.value == Value::Text && texts_[i].empty() && !empty_counts) continue;
     json value;
     try {
       value = flag_value(o, texts_[i]);

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace arlight::daemon {
@@ -57,8 +58,26 @@ bool expired(const fs::path& path) {
 
 }  // namespace
 
+std::string LeaseHolder::text() const {
+  std::string t = name + "\n";
+  if (!address.empty()) t += "address " + address + "\n";
+  if (!web_address.empty()) t += "web " + web_address + "\n";
+  return t;
+}
+
+LeaseHolder LeaseHolder::parse(const std::string& text) {
+  LeaseHolder h;
+  std::istringstream in(text);
+  std::getline(in, h.name);
+  for (std::string line; std::getline(in, line);) {
+    if (line.starts_with("address ")) h.address = line.substr(8);
+    if (line.starts_with("web ")) h.web_address = line.substr(4);
+  }
+  return h;
+}
+
 std::optional<SessionLease> SessionLease::try_acquire(const fs::path& dir,
-                                                      const std::string& owner) {
+                                                      const LeaseHolder& holder) {
   fs::create_directories(dir);
   const fs::path path = dir / kLeaseFile;
   int fd = open_locked(path, 0);
@@ -77,8 +96,9 @@ std::optional<SessionLease> SessionLease::try_acquire(const fs::path& dir,
     }
   }
   if (fd < 0) return std::nullopt;
-  // The owner line is for people; the lock is what counts, so a failed write changes nothing.
-  const std::string line = owner + "\n";
+  // The holder's lines are for people and redirects; the lock is what counts, so a failed
+  // write changes nothing here (a redirect then finds no address and refuses instead).
+  const std::string line = holder.text();
   if (::ftruncate(fd, 0) == 0) {
     [[maybe_unused]] const ssize_t n = ::pwrite(fd, line.data(), line.size(), 0);
   }
@@ -105,6 +125,23 @@ std::string SessionLease::owner_of(const fs::path& dir) {
   std::string line;
   std::getline(in, line);
   return line;
+}
+
+std::optional<LeaseHolder> SessionLease::live_holder(const fs::path& dir) {
+  const fs::path path = dir / kLeaseFile;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  std::optional<LeaseHolder> holder;
+  if (::flock(fd, LOCK_SH | LOCK_NB) == 0) {
+    ::flock(fd, LOCK_UN);  // nobody holds it: its owner is gone
+  } else if (errno == EWOULDBLOCK && !expired(path)) {
+    std::string text(4096, '\0');
+    const ssize_t n = ::pread(fd, text.data(), text.size(), 0);
+    text.resize(n > 0 ? std::size_t(n) : 0);
+    holder = LeaseHolder::parse(text);
+  }
+  ::close(fd);
+  return holder;
 }
 
 void SessionLease::request_release(const fs::path& dir, const std::string& who) {

@@ -15,6 +15,10 @@
 // A live owner hands a session over when asked: the daemon a client resumed on writes
 // DATA/sessions/<id>/release-request; the owner notices it (its housekeeping), checkpoints the
 // session, closes it and lets go, and the client's next attempt gets it wherever it lands.
+//
+// The lease also says where its owner is reached (issue 49 §2): a watcher or a contributor that
+// a balancer sent to another daemon is told to go there (Error{Moved}); live_holder() is what
+// that daemon reads.
 #pragma once
 
 #include <chrono>
@@ -24,16 +28,32 @@
 
 namespace arlight::daemon {
 
+// Who holds a lease, as its file says: a line for people and logs ("host pid=N"), then the
+// addresses clients reach that daemon at ("address HOST:PORT", "web HOST:PORT"; empty: it
+// advertises none).
+struct LeaseHolder {
+  std::string name;
+  std::string address;      // its client port (TCP or TLS)
+  std::string web_address;  // its web port (the page's WebSocket, wss://HOST:PORT/ws)
+  std::string text() const;                           // the file's contents
+  static LeaseHolder parse(const std::string& text);  // what it could read of them
+};
+
 class SessionLease {
  public:
-  // The lease of the session folder `dir` (created if needed) for `owner` (a line saying who:
-  // host, pid), or std::nullopt while another process holds it. The owner line is written into
-  // the lease file for people and logs. std::runtime_error naming the file when it cannot be
+  // The lease of the session folder `dir` (created if needed) for `holder`, or std::nullopt
+  // while another process holds it. The holder is written into the lease file (for people, and
+  // for daemons redirecting clients to it). std::runtime_error naming the file when it cannot be
   // opened at all (permissions, a full disk).
   static std::optional<SessionLease> try_acquire(const std::filesystem::path& dir,
-                                                 const std::string& owner);
+                                                 const LeaseHolder& holder);
   // Who holds (or last held) the lease of `dir`, as its file says; empty when unknown.
   static std::string owner_of(const std::filesystem::path& dir);
+  // The holder of `dir`'s lease while a live process holds it — locked, and renewed within
+  // kExpiry — else std::nullopt (no lease, its owner died, or it stopped renewing). The lock is
+  // probed with a shared flock taken and let go at once: a try_acquire at that very instant
+  // fails as if the lease were held, and its client retries (a resume is answered Busy).
+  static std::optional<LeaseHolder> live_holder(const std::filesystem::path& dir);
 
   // A lease whose owner has not renewed it for this long is taken over by the next try_acquire.
   static constexpr std::chrono::seconds kExpiry{3};

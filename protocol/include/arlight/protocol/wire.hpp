@@ -59,7 +59,8 @@ enum class ErrorCode : std::uint16_t {
   Busy,             // session limit reached, or a client that does not read
   SessionNotFound,  // resume of an unknown session id
   Internal,
-  Timeout  // no Hello in time after connecting, or no message for the idle timeout
+  Timeout,  // no Hello in time after connecting, or no message for the idle timeout
+  Moved     // the session is live on another arlightd: Error.address says where (issue 49 §2)
 };
 const char* error_code_name(ErrorCode code);  // "Unauthorized", ...
 
@@ -281,6 +282,9 @@ struct Progress {
 struct Error {
   ErrorCode code = ErrorCode::Unknown;
   std::string message;
+  // Moved: HOST:PORT of the arlightd that holds the session, on the same kind of port as the
+  // one this connection came to (client port, or web port for a WebSocket); empty otherwise.
+  std::string address;
   bool operator==(const Error&) const = default;
 };
 

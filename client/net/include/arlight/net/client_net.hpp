@@ -93,6 +93,11 @@ class Client {
 
   // Connects and handshakes (TCP, TLS, WebSocket, Hello and Welcome) within `timeout`; throws
   // ClientError (e.g. code "Unauthorized", "TLS", "Network" when nothing answered in time).
+  // A server that answers Moved (the watched or joined session lives on another arlightd of its
+  // fleet, PROTOCOL.md "A fleet") is left for the one it names, at most kMaxRedirects times;
+  // connected_to() says where the connection ended up. Reconnect through `host` as before: after
+  // a fail-over the session lives wherever its device resumed it.
+  static constexpr int kMaxRedirects = 2;
   Welcome connect(const std::string& host, std::uint16_t port, const std::string& device_id,
                   const std::string& token, const std::string& client_name = "arlight-client-net",
                   const std::string& resume_session = {},
@@ -137,6 +142,7 @@ class Client {
   std::optional<CalibrationResult> calibration_result() const;
   std::optional<wire::JoinToken> join_token() const;
   bool connected() const;
+  std::string connected_to() const;  // "HOST:PORT" of the server the last connect() reached
   std::uint64_t updates_received() const;
   std::uint64_t map_sets_completed() const;
   // What the server sent on this connection so far, in bytes (its messages and their framing).
@@ -148,6 +154,9 @@ class Client {
   bool stalled() const;
 
  private:
+  Welcome connect_once(const std::string& host, std::uint16_t port, const std::string& device_id,
+                       const std::string& token, const std::string& client_name,
+                       const std::string& resume_session, std::chrono::milliseconds timeout);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -68,6 +68,9 @@ class LightingState {
   const std::optional<wire::Welcome>& welcome() const { return welcome_; }
   // The server's Error: (its code's name, its message).
   const std::optional<std::pair<std::string, std::string>>& error() const { return error_; }
+  // A Moved error's address (HOST:PORT of the daemon that has the session); empty otherwise.
+  const std::string& moved_to() const { return moved_to_; }
+  void clear_error() { error_.reset(), moved_to_.clear(); }  // before connecting again
   const std::optional<wire::LightingUpdate>& last_update() const { return last_update_; }
   const std::optional<wire::CalibrationResult>& calibration() const { return calibration_; }
   const std::optional<wire::ExposureAdvice>& exposure_advice() const { return advice_; }
@@ -84,6 +87,7 @@ class LightingState {
   std::shared_ptr<const ReceivedMapSet> newest_set_;
   std::optional<wire::Welcome> welcome_;
   std::optional<std::pair<std::string, std::string>> error_;
+  std::string moved_to_;
   std::optional<wire::LightingUpdate> last_update_;
   std::optional<wire::CalibrationResult> calibration_;
   std::optional<wire::ExposureAdvice> advice_;

@@ -39,6 +39,13 @@ struct DaemonConfig {
   std::filesystem::path web_root;  // the client's files; empty: beside the executable
   std::string web_device;          // the device whose token the phone URL carries; empty: first
   std::string web_url_host;        // the host in that URL; empty: this machine's LAN address
+  // Where clients reach this daemon (HOST:PORT), written into the lease of every session it
+  // holds, so that another daemon on the same data folder sends a watcher or a contributor that
+  // a balancer brought it here (Error{Moved}, issue 49 §2). "auto": the client port's own
+  // address (a LAN address when it listens on all), and the web port's as the phone URL names
+  // it; empty: none (such a client is told SessionNotFound).
+  std::string advertise = "auto";
+  std::string advertise_web = "auto";
   int threads = 0;                    // network threads; 0: hardware concurrency
   int workers = 0;                    // frame-processing threads; 0: hardware concurrency
   int max_sessions = 32;              // live sessions at once
