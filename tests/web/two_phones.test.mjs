@@ -6,7 +6,9 @@
 // that link, is registered with the first phone's map and captures into it: the shared map grows
 // past what the first phone can see, on both pages. Each page's sensor reports the true pose of
 // the very frame it shows (phone_session.mjs, frameSyncedSensor). A third device, the first
-// page's watch link in another tab, follows the shared session.
+// page's watch link in another tab, follows the shared session. The second phone and the third
+// device open their links on another arlightd of the same data folder (a fleet's other daemon,
+// issue 49 §2): it sends both to the session's (Error{Moved} with its web port).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -48,6 +50,9 @@ test('a second phone joins by the first one\'s link, is registered and captures 
   stampFrameIndices(room);
   const half = firstFrames(room, 20, dir);
   const d = await startDaemon({ bin: BIN, dir: path.join(dir, 'daemon'), webRoot: path.join(BIN, 'web'), token: TOKEN });
+  // The fleet's other daemon: the same data folder (and certificate), its own ports.
+  const other = await startDaemon({ bin: BIN, dir: path.join(dir, 'daemon'), webRoot: path.join(BIN, 'web'), token: TOKEN });
+  const otherOrigin = new URL(other.url).origin;
   const first = await launchChromium({ y4m: half.y4m });
   let second = null;
   try {
@@ -76,13 +81,20 @@ test('a second phone joins by the first one\'s link, is registered and captures 
     second = await launchChromium({ y4m: room.y4m });
     second.page.on('pageerror', (e) => errors.push(`second: ${e.message}`));
     await frameSyncedSensor(second.page, turnedHeading(room, kHeadingDeg));
-    await second.page.goto(`${new URL(d.url).origin}/${href.slice(href.indexOf('#'))}&autostart=1&fov=${room.vfovDeg}`);
-    await second.page.waitForFunction(() => window.arlight.status().registration === 2, null, { timeout: 90000 });
+    await second.page.goto(`${otherOrigin}/${href.slice(href.indexOf('#'))}&autostart=1&fov=${room.vfovDeg}`);
+    await second.page.waitForFunction(() => window.arlight.status().registration === 2, null, { timeout: 90000 })
+      .catch(async (e) => {
+        const s = await status(second.page);
+        throw new Error(`${e.message}; the second phone: connected ${s.connected}, registration ${s.registration}, ` +
+          `last_error '${s.last_error}', moved_to '${s.moved_to}', frames_sent ${s.frames_sent}\n` +
+          `the other daemon's log:\n${other.log().slice(-2000)}\nthe session's daemon's log:\n${d.log().slice(-2000)}`);
+      });
     await second.page.waitForFunction((c) => window.arlight.status().coverage > c + 0.15, a.coverage, { timeout: 90000 });
     const b = await status(second.page);
     assert.equal(b.joining, true);
     assert.equal(b.session_id, a.session_id);
     assert.equal(b.last_error, '');
+    assert.equal(b.moved_to, `127.0.0.1:${d.web}`, 'the other daemon did not send it on');
     assert.match(await second.page.$eval('#s-join', (e) => e.textContent), /^registered/);
     // The first phone sees the shared map grow too (its own frames' updates carry it), and the
     // second gets the session's map sets.
@@ -98,7 +110,7 @@ test('a second phone joins by the first one\'s link, is registered and captures 
     assert.ok(watchHref.startsWith(`three.html#session=${a.session_id}&`), watchHref);
     const third = await first.context.newPage();
     third.on('pageerror', (e) => errors.push(`third: ${e.message}`));
-    await third.goto(`${new URL(d.url).origin}/${watchHref}`);
+    await third.goto(`${otherOrigin}/${watchHref}`);
     await third.waitForFunction(() => {
       const s = window.arlightThree && window.arlightThree.status();
       return s && s.watching && s.updates >= 2;
@@ -110,6 +122,10 @@ test('a second phone joins by the first one\'s link, is registered and captures 
     const now = (watched.sessions || watched).find((s) => s.id === a.session_id);
     assert.equal(now.watchers, 1, JSON.stringify(now));
     assert.equal(now.contributors, 1, JSON.stringify(now));
+    const elsewhere = await other.adminGet('/sessions');
+    assert.equal((elsewhere.sessions || elsewhere).length, 0, JSON.stringify(elsewhere));
+    const metrics = await (await other.adminFetch('/metrics')).text();
+    assert.match(metrics, /^arlight_sessions_redirected_total 2$/m);
     await third.close();
     console.log(`two phones: the first alone ${(a.coverage * 100).toFixed(0)} %, together ${(b.coverage * 100).toFixed(0)} %`);
     assert.deepEqual(errors, []);
@@ -117,5 +133,6 @@ test('a second phone joins by the first one\'s link, is registered and captures 
     if (second) await second.browser.close();
     await first.browser.close();
     await d.stop();
+    await other.stop();
   }
 });

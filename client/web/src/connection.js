@@ -19,6 +19,9 @@ const kReconnectMs = 1000;
 const kStallMs = 1500;
 const kOpenTimeoutMs = 1500;
 const kLatenciesKept = 2000;
+// A watched or joined session on another arlightd of a fleet: at most this many Moved answers
+// are followed in a row (PROTOCOL.md "A fleet"), then the page says so and stops.
+const kMaxRedirects = 2;
 const kSentKept = 1000;  // state.sent
 
 export class Connection {
@@ -34,6 +37,8 @@ export class Connection {
     this.join = join || '';
     this.ws = null;
     this.refused = false;     // for good: no reconnecting
+    this.movedTo = '';        // the next connection goes there (a Moved answer's web port) ...
+    this.redirects = 0;       // ... the how-manieth in a row; back to the page's origin after
     this.sequence = 0;        // the last frame's
     this.sentAt = new Map();  // frame sequence -> performance.now() when it went
     this.encoding = false;    // a frame on its way
@@ -44,7 +49,8 @@ export class Connection {
 
   /** Connects (and reconnects after a drop, until refused). */
   open() {
-    const ws = new WebSocket(`wss://${location.host}/ws`);
+    const ws = new WebSocket(`wss://${this.movedTo || location.host}/ws`);
+    this.movedTo = '';
     this.ws = ws;
     this.lastReceived = performance.now();
     this.unansweredSince = null;  // when the oldest frame no update has answered yet went
@@ -63,7 +69,7 @@ export class Connection {
     ws.onclose = () => {
       clearTimeout(opening);
       state.connected = false;
-      if (!this.refused) setTimeout(() => this.open(), kReconnectMs);
+      if (!this.refused) setTimeout(() => this.open(), this.movedTo ? 0 : kReconnectMs);
     };
     if (!this.watchdog) this.watchdog = setInterval(() => this.checkStalled(), 250);
   }
@@ -162,6 +168,7 @@ export class Connection {
     const name = this.client.receive(bytes);
     if (name === 'Welcome') {
       state.connected = true;
+      this.redirects = 0;
       const status = this.client.status();
       state.sessionId = status.session_id;
       // A resumed session (a reloaded page) has frames up to this one: a frame numbered at or
@@ -177,7 +184,13 @@ export class Connection {
       if (this.client.lastSequence() >= this.sequence) this.unansweredSince = null;
       this.resendKept();
     } else if (name === 'Error') {
-      const error = this.client.status().last_error;
+      const { last_error: error, moved_to: movedTo } = this.client.status();
+      // The session lives on another arlightd of the fleet: go there (not an error).
+      if (error.startsWith('Moved') && movedTo && this.redirects < kMaxRedirects) {
+        this.redirects += 1;
+        this.movedTo = movedTo;
+        return;
+      }
       showError(`refused: ${error}`);
       if (/^(Unauthorized|Unsupported|SessionNotFound)/.test(error)) this.refused = true;
     } else if (name.startsWith('refused')) {

@@ -71,6 +71,8 @@ class LightClient {
     return state_.welcome() ? state_.welcome()->session_id : std::string();
   }
   std::string error() const { return error_; }
+  // A Moved error's HOST:PORT: the web port of the arlightd that has the session (issue 49 §2).
+  std::string moved_to() const { return state_.moved_to(); }
   double updates() const { return double(state_.updates()); }
   double map_sets() const { return double(state_.map_sets()); }
   double frame_sequence() const { return double(state_.lighting().frame_sequence); }
@@ -151,6 +153,7 @@ EMSCRIPTEN_BINDINGS(arlight_light) {
       .function("receive", &LightClient::receive)
       .function("sessionId", &LightClient::session_id)
       .function("error", &LightClient::error)
+      .function("movedTo", &LightClient::moved_to)
       .function("updates", &LightClient::updates)
       .function("mapSets", &LightClient::map_sets)
       .function("frameSequence", &LightClient::frame_sequence)

@@ -150,6 +150,8 @@ export function report() {
     tracking: state.tracking,
     fps: state.fps,
     last_error: state.lastError,
+    // Where a Moved answer sent this page last (HOST:PORT of the session's arlightd; issue 49 §2).
+    moved_to: object.moved_to,
     lighting: object.lighting,
     coverage: object.coverage,
     estimated: object.estimated,

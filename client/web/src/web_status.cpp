@@ -65,6 +65,7 @@ val WebClient::status() const {
   s.set("sun", std::string(sun_state_name(l.sun_state)));
   s.set("sun_direction", vector_to_js(l.sun_direction));
   s.set("last_error", last_error_);
+  s.set("moved_to", state_.moved_to());  // a Moved error's web port (issue 49 §2)
   // Two phones, one room (issue 49 §1): this page's frames against the session's map (0 its own
   // session, 1 waiting to be registered, 2 registered), and the token another phone joins with.
   s.set("joining", !join_.empty());

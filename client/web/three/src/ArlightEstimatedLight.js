@@ -42,6 +42,7 @@ const kReconnectMs = 1000;
 const kPingMs = 60000;  // well inside arlightd's idle timeout (300 s by default)
 // Refusals that another attempt would get again.
 const kFinalErrors = ['Unauthorized', 'SessionNotFound', 'BadMessage', 'Unsupported'];
+const kMaxRedirects = 2;  // Moved answers followed in a row
 
 // A cube render target three uses as a PMREM texture as it is: `levels` mip levels from `face`.
 function chainTarget(face, levels) {
@@ -208,6 +209,8 @@ export class ArlightEstimatedLight extends Group {
     this._started = false;
     this._disposed = false;
     this._refused = false;
+    this._movedTo = '';  // a Moved answer's web port: where the next connection goes
+    this._redirects = 0;  // Moved answers followed in a row
     this._ws = null;
     this._ticking = false;
     this._core = this._loadCore();
@@ -268,7 +271,9 @@ export class ArlightEstimatedLight extends Group {
       return;
     }
     if (this._disposed) return;
-    const ws = new WebSocket(this._options.server);
+    // After a Moved answer, once to the arlightd that has the session (PROTOCOL.md "A fleet").
+    const ws = new WebSocket(this._movedTo ? `wss://${this._movedTo}/ws` : this._options.server);
+    this._movedTo = '';
     this._ws = ws;
     ws.binaryType = 'arraybuffer';
     ws.onopen = () => {
@@ -287,7 +292,8 @@ export class ArlightEstimatedLight extends Group {
         this._started = false;
         this.dispatchEvent({ type: 'estimationend' });
       }
-      if (!this._disposed && !this._refused) setTimeout(() => this._connect(), kReconnectMs);
+      if (!this._disposed && !this._refused)
+        setTimeout(() => this._connect(), this._movedTo ? 0 : kReconnectMs);
     };
   }
 
@@ -296,11 +302,17 @@ export class ArlightEstimatedLight extends Group {
     this._status.updates = client.updates();
     this._status.map_sets = client.mapSets();
     if (kind === 'welcome') {
+      this._redirects = 0;
       this._status.connected = true;
       this._status.watching = true;
       this._status.session_id = client.sessionId();
     } else if (kind === 'error') {
       const error = client.error();
+      if (error.startsWith('Moved:') && client.movedTo() && this._redirects < kMaxRedirects) {
+        this._redirects += 1;
+        this._movedTo = client.movedTo();
+        return;
+      }
       this._status.last_error = error;
       if (kFinalErrors.some((code) => error.startsWith(`${code}:`))) this._refused = true;
     } else if (kind === 'update') {
