@@ -453,6 +453,17 @@ TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
     c.send_jpeg_frame(seq, joined_rec.frames[seq], joined_rec.camera.width,
                       joined_rec.camera.height, recording::read_frame_bytes(joined_rec, seq));
   };
+  // The second phone's frame `seq` answered, and `d` carrying it and the watcher.
+  const auto both_on = [&](client::Client& joiner, std::uint64_t seq, const DaemonProcess& d) {
+    joiner.send_intrinsics(joined_rec.camera);
+    join_frame(joiner, seq);
+    EXPECT_TRUE(joiner.wait_for([&] { return joiner.updates_received() > 0; }, 20s))
+        << "the second phone's frame " << seq << " was not answered";
+    const std::optional<json> s = session_on(d, id);
+    ASSERT_TRUE(s.has_value());
+    EXPECT_EQ(s->at("watchers"), 1) << s->dump();
+    EXPECT_EQ(s->at("contributors"), 1) << s->dump();
+  };
   std::string why;
   std::unique_ptr<client::Client> watcher = follow_session(front, id, false, 10s, why);
   ASSERT_TRUE(watcher) << why;
@@ -462,14 +473,7 @@ TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
   EXPECT_EQ(joiner->connected_to(), serving->server());
   EXPECT_GE(metric(*other, "arlight_sessions_redirected_total"), 1.0)
       << "HAProxy sent neither to the other daemon: nothing was redirected";
-  joiner->send_intrinsics(joined_rec.camera);
-  join_frame(*joiner, 1);
-  EXPECT_TRUE(joiner->wait_for([&] { return joiner->updates_received() > 0; }, 20s))
-      << "the second phone's frame was not answered";
-  const std::optional<json> before = session_on(*serving, id);
-  ASSERT_TRUE(before.has_value());
-  EXPECT_EQ(before->at("watchers"), 1) << before->dump();
-  EXPECT_EQ(before->at("contributors"), 1) << before->dump();
+  both_on(*joiner, 1, *serving);
 
   const pid_t killed = serving->pid();
   serving->kill9();
@@ -484,14 +488,7 @@ TEST(Failover, TwoDaemonsBehindHaproxyResumeASessionAfterKill9) {
   joiner = follow_session(front, id, true, 30s, why);
   ASSERT_TRUE(joiner) << "the second phone never came back: " << why;
   // (Through HAProxy to the only daemon left, or redirected to it: /sessions says which has them.)
-  joiner->send_intrinsics(joined_rec.camera);
-  join_frame(*joiner, 2);
-  EXPECT_TRUE(joiner->wait_for([&] { return joiner->updates_received() > 0; }, 20s))
-      << "the second phone's frame after the fail-over was not answered";
-  const std::optional<json> after = session_on(*other, id);
-  ASSERT_TRUE(after.has_value());
-  EXPECT_EQ(after->at("watchers"), 1) << after->dump();
-  EXPECT_EQ(after->at("contributors"), 1) << after->dump();
+  both_on(*joiner, 2, *other);
 
   const std::optional<int> status = client.wait_for(60s);
   ASSERT_TRUE(status.has_value()) << "the client hung:\n" << client.output();

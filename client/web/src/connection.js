@@ -20,7 +20,8 @@ const kStallMs = 1500;
 const kOpenTimeoutMs = 1500;
 const kLatenciesKept = 2000;
 // A watched or joined session on another arlightd of a fleet: at most this many Moved answers
-// are followed in a row (PROTOCOL.md "A fleet"), then the page says so and stops.
+// are followed in a row (PROTOCOL.md "A fleet"); then the page shows the refusal and retries
+// from its own origin, as after any drop.
 const kMaxRedirects = 2;
 const kSentKept = 1000;  // state.sent
 
@@ -186,7 +187,7 @@ export class Connection {
     } else if (name === 'Error') {
       const { last_error: error, moved_to: movedTo } = this.client.status();
       // The session lives on another arlightd of the fleet: go there (not an error).
-      if (error.startsWith('Moved') && movedTo && this.redirects < kMaxRedirects) {
+      if (error.startsWith('Moved:') && movedTo && this.redirects < kMaxRedirects) {
         this.redirects += 1;
         this.movedTo = movedTo;
         return;

@@ -1,5 +1,6 @@
 #include "options.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -20,20 +21,20 @@ void set_endpoint(const json& v, bool& enabled, std::string& host, std::uint16_t
   if (enabled) wire::parse_endpoint(text, host, port);
 }
 
-// An --advertise value: "auto", '' or a HOST:PORT with both (InputError naming the flag).
-std::string advertised_endpoint(const json& v, const char* flag) {
+// An --advertise value: "auto", '' or a HOST:PORT with both (apply() names the flag or key).
+std::string advertised_endpoint(const json& v) {
   const std::string text = v.get<std::string>();
   if (text.empty() || text == "auto") return text;
   std::string host;
   std::uint16_t port = 0;
-  try {
-    wire::parse_endpoint(text, host, port);
-  } catch (const InputError& e) {
-    throw InputError(std::string(flag) + ": " + e.what());
-  }
-  if (port == 0) throw InputError(std::string(flag) + " '" + text + "': port 0 cannot be reached");
+  wire::parse_endpoint(text, host, port);
+  if (port == 0) throw InputError("'" + text + "': port 0 cannot be reached");
   return text;
 }
+
+// The text flags whose '' means something (the others given as '' leave their option as is).
+constexpr std::string_view kFlagsWhereEmptyCounts[] = {"--admin", "--fill", "--advertise",
+                                                       "--advertise-web"};
 
 // The table. Flags first as --help lists them; map_size is the config file's alone.
 const DaemonOption kOptions[] = {
@@ -129,12 +130,10 @@ const DaemonOption kOptions[] = {
     {"--advertise", "advertise", Value::Text,
      "HOST:PORT clients reach this daemon's client port at, for daemons sharing its data folder "
      "to send them here (default auto: the port's own address; '' none)",
-     [](DaemonConfig& c, const json& v) { c.advertise = advertised_endpoint(v, "--advertise"); }},
+     [](DaemonConfig& c, const json& v) { c.advertise = advertised_endpoint(v); }},
     {"--advertise-web", "advertise_web", Value::Text,
      "the same for the web port (default auto: the phone URL's host and the port; '' none)",
-     [](DaemonConfig& c, const json& v) {
-       c.advertise_web = advertised_endpoint(v, "--advertise-web");
-     }},
+     [](DaemonConfig& c, const json& v) { c.advertise_web = advertised_endpoint(v); }},
 };
 
 // A flag's text as the JSON value its option takes.
@@ -250,9 +249,10 @@ DaemonConfig CommandLine::config() const {
     const DaemonOption& o = kOptions[i];
     const std::string flag(o.flag);
     if (o.flag.empty() || app_.count(flag) == 0) continue;
-    const bool empty_counts = o.flag == "--admin" || o.flag == "--fill" ||
-                              o.flag == "--advertise" || o.flag == "--advertise-web";
-    if (o.value == Value::Text && texts_[i].empty() && !empty_counts) continue;
+    if (o.value == Value::Text && texts_[i].empty() &&
+        std::find(std::begin(kFlagsWhereEmptyCounts), std::end(kFlagsWhereEmptyCounts), o.flag) ==
+            std::end(kFlagsWhereEmptyCounts))
+      continue;
     json value;
     try {
       value = flag_value(o, texts_[i]);

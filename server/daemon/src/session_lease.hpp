@@ -32,6 +32,8 @@ namespace arlight::daemon {
 // addresses clients reach that daemon at ("address HOST:PORT", "web HOST:PORT"; empty: it
 // advertises none).
 struct LeaseHolder {
+  LeaseHolder(std::string name = {}, std::string address = {}, std::string web_address = {})
+      : name(std::move(name)), address(std::move(address)), web_address(std::move(web_address)) {}
   std::string name;
   std::string address;      // its client port (TCP or TLS)
   std::string web_address;  // its web port (the page's WebSocket, wss://HOST:PORT/ws)
